@@ -1,0 +1,88 @@
+//! Typed library errors. Every error that concerns a file names it; the message
+//! says what is wrong and, where there is one, what to do about it.
+
+use std::path::{Path, PathBuf};
+
+/// The library's error type.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// An operating-system I/O error on a named file.
+    #[error("{}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A file whose content is corrupt, truncated or inconsistent.
+    #[error("{}: {msg}", path.display())]
+    Corrupt { path: PathBuf, msg: String },
+    /// A valid file using a variant orogen does not read (e.g. JPEG compression).
+    #[error("{}: unsupported: {msg}", path.display())]
+    Unsupported { path: PathBuf, msg: String },
+    /// A declared size beyond what orogen will allocate or the file can hold.
+    #[error("{}: {msg}", path.display())]
+    TooLarge { path: PathBuf, msg: String },
+    /// A bad parameter or combination of parameters (not tied to a file).
+    #[error("{0}")]
+    InvalidArgument(String),
+    /// A tile store problem (missing, locked, inconsistent manifest, torn tile).
+    #[error("{}: {msg}", path.display())]
+    Store { path: PathBuf, msg: String },
+}
+
+/// Result alias used throughout the library.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+impl Error {
+    /// I/O error on `path`.
+    pub fn io(path: impl AsRef<Path>, source: std::io::Error) -> Self {
+        Error::Io {
+            path: path.as_ref().to_path_buf(),
+            source,
+        }
+    }
+    /// Corrupt or truncated content in `path`.
+    pub fn corrupt(path: impl AsRef<Path>, msg: impl Into<String>) -> Self {
+        Error::Corrupt {
+            path: path.as_ref().to_path_buf(),
+            msg: msg.into(),
+        }
+    }
+    /// Unsupported variant in `path`.
+    pub fn unsupported(path: impl AsRef<Path>, msg: impl Into<String>) -> Self {
+        Error::Unsupported {
+            path: path.as_ref().to_path_buf(),
+            msg: msg.into(),
+        }
+    }
+    /// Declared size too large in `path`.
+    pub fn too_large(path: impl AsRef<Path>, msg: impl Into<String>) -> Self {
+        Error::TooLarge {
+            path: path.as_ref().to_path_buf(),
+            msg: msg.into(),
+        }
+    }
+    /// Tile-store error in `path`.
+    pub fn store(path: impl AsRef<Path>, msg: impl Into<String>) -> Self {
+        Error::Store {
+            path: path.as_ref().to_path_buf(),
+            msg: msg.into(),
+        }
+    }
+    /// Invalid argument.
+    pub fn invalid(msg: impl Into<String>) -> Self {
+        Error::InvalidArgument(msg.into())
+    }
+}
+
+/// Extension to attach a path to `std::io::Result`.
+pub trait IoContext<T> {
+    /// Map an I/O error to [`Error::Io`] naming `path`.
+    fn at(self, path: impl AsRef<Path>) -> Result<T>;
+}
+
+impl<T> IoContext<T> for std::io::Result<T> {
+    fn at(self, path: impl AsRef<Path>) -> Result<T> {
+        self.map_err(|e| Error::io(path, e))
+    }
+}

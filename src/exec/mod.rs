@@ -1,0 +1,141 @@
+//! Tiled execution: the step traits (local and global), tile sinks, and the
+//! `Engine` trait that runs steps over tiles. Steps never know which engine
+//! runs them; an engine never knows what a step computes.
+
+use crate::error::Result;
+use crate::raster::{AnyGrid, Cell, DType, Grid, IntoAny, RasterSource, TileId, TileLayout, TileView, Window};
+use serde::{de::DeserializeOwned, Serialize};
+
+/// A local step: `tile + halo -> tile`, for every tile independently.
+/// With the declared halo, the result must equal the in-memory computation
+/// on the whole grid, cell for cell.
+pub trait LocalStep: Sync {
+    /// Cell type the inputs are read as (NaN = nodata for floats).
+    type In: Cell;
+    /// Cell type of the outputs.
+    type Out: IntoAny;
+    /// Short name (provenance, progress bar).
+    fn name(&self) -> String;
+    /// Parameters, recorded as provenance in the output's manifest.
+    fn params(&self) -> serde_json::Value;
+    /// Halo in cells the step needs around each tile.
+    fn halo(&self) -> usize;
+    /// Number of output rasters (all of the core's size).
+    fn outputs(&self) -> usize {
+        1
+    }
+    /// Compute one tile. `inputs[i]` is input `i`'s view (core + halo);
+    /// `out[k]` is output `k`'s core, pre-filled with nodata (NaN or 0).
+    fn run(&self, inputs: &[TileView<Self::In>], out: &mut [Grid<Self::Out>]) -> Result<()>;
+}
+
+/// A global step in three phases (Barnes 2016, 2017; DESIGN.md): `map` solves
+/// each tile alone into a small serialisable summary; `reduce` joins all
+/// summaries into a solution; `apply` rewrites each tile with its slice of the
+/// solution. Summaries and slices are serde types so another engine (MPI) can
+/// ship them between processes.
+pub trait GlobalStep: Sync {
+    /// Cell type the inputs are read as.
+    type In: Cell;
+    /// Cell type of the outputs written by `apply`.
+    type Out: IntoAny;
+    /// Per-tile summary (should be O(perimeter)).
+    type Summary: Serialize + DeserializeOwned + Send;
+    /// The reduced global solution.
+    type Solution: Send + Sync;
+    /// What `apply` needs of the solution for one tile.
+    type Slice: Serialize + DeserializeOwned + Send + Sync;
+    /// Short name.
+    fn name(&self) -> String;
+    /// Parameters (provenance).
+    fn params(&self) -> serde_json::Value;
+    /// Halo for the views given to `map` and `apply`.
+    fn halo(&self) -> usize {
+        0
+    }
+    /// Number of outputs of `apply`.
+    fn outputs(&self) -> usize {
+        1
+    }
+    /// Solve one tile alone.
+    fn map(&self, inputs: &[TileView<Self::In>]) -> Result<Self::Summary>;
+    /// Join the summaries (`summaries[id]` belongs to tile `id`).
+    fn reduce(&self, layout: &TileLayout, summaries: Vec<Self::Summary>) -> Result<Self::Solution>;
+    /// The part of the solution tile `id` needs.
+    fn slice(&self, solution: &Self::Solution, id: TileId) -> Self::Slice;
+    /// Rewrite one tile with its slice; `out` as in [`LocalStep::run`].
+    fn apply(
+        &self,
+        inputs: &[TileView<Self::In>],
+        slice: &Self::Slice,
+        out: &mut [Grid<Self::Out>],
+    ) -> Result<()>;
+}
+
+/// Where an engine writes output tiles. The engine calls `write` from one
+/// thread, in increasing tile id order, so sinks need no reordering of their
+/// own beyond their own block layout.
+pub trait TileSink: Send {
+    /// Native type of the output.
+    fn dtype(&self) -> DType;
+    /// Nodata value written for NaN cells.
+    fn nodata(&self) -> Option<f64>;
+    /// True if the tile is already finished (resume): the engine skips it.
+    fn is_done(&self, _id: TileId) -> bool {
+        false
+    }
+    /// Write one finished tile whose core is `core`.
+    fn write(&mut self, id: TileId, core: Window, data: AnyGrid) -> Result<()>;
+    /// Finish the output (flush, write directories/manifest, rename into place).
+    fn finish(self: Box<Self>) -> Result<()>;
+}
+
+/// Convert a step's typed output tile into the sink's native type.
+pub fn to_sink_type<T: Cell>(g: &Grid<T>, sink: &dyn TileSink) -> AnyGrid {
+    AnyGrid::from_typed(g, sink.dtype(), sink.nodata())
+}
+
+/// Engine settings shared by all engines.
+#[derive(Debug, Clone)]
+pub struct EngineConfig {
+    /// Worker threads (0 = all cores).
+    pub threads: usize,
+    /// Memory budget in bytes for tiles in flight (inputs + outputs + buffers).
+    pub memory_budget: u64,
+    /// Show a progress bar on stderr.
+    pub progress: bool,
+}
+
+impl Default for EngineConfig {
+    fn default() -> Self {
+        EngineConfig {
+            threads: 0,
+            memory_budget: 1 << 30,
+            progress: false,
+        }
+    }
+}
+
+/// Runs steps over tiles. Implemented by the in-process engine (rayon) and,
+/// later, a distributed one; steps are written once against this trait.
+pub trait Engine {
+    /// Run a local step over every tile of `layout`, reading `inputs` (all of
+    /// the layout's size) and writing output `k` to `sinks[k]`.
+    fn run_local<S: LocalStep>(
+        &self,
+        step: &S,
+        inputs: &[&dyn RasterSource],
+        layout: TileLayout,
+        sinks: Vec<Box<dyn TileSink>>,
+    ) -> Result<()>;
+
+    /// Run a global step: map every tile, reduce, then (if `sinks` is not
+    /// empty) apply every tile and write it. Returns the solution.
+    fn run_global<S: GlobalStep>(
+        &self,
+        step: &S,
+        inputs: &[&dyn RasterSource],
+        layout: TileLayout,
+        sinks: Vec<Box<dyn TileSink>>,
+    ) -> Result<S::Solution>;
+}

@@ -1,0 +1,18 @@
+//! orogen: an out-of-core engine for digital elevation models.
+//!
+//! Large DEMs are cut into tiles (`store`), steps run over tiles (`exec`):
+//! local steps with halos, global steps as map/reduce/apply over small
+//! per-tile summaries. See `ARCHITECTURE.md` for the map of the crate.
+
+#[cfg(not(target_endian = "little"))]
+compile_error!("orogen stores tiles as little-endian raw arrays and builds only on little-endian targets");
+
+pub mod error;
+pub mod exec;
+pub mod io;
+pub mod metrics;
+pub mod raster;
+pub mod store;
+pub mod synth;
+
+pub use error::{Error, Result};

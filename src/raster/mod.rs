@@ -1,0 +1,16 @@
+//! Raster core: cell types, grids, windows, georeferencing, tile layouts and
+//! the `RasterSource` abstraction every reader and the tile store implement.
+
+mod dtype;
+mod georef;
+mod grid;
+mod source;
+mod tiling;
+mod window;
+
+pub use dtype::{Cell, DType};
+pub use georef::{Crs, GeoKeys, GeoRef, RasterType};
+pub use grid::{AnyGrid, Grid, IntoAny};
+pub use source::{read_view, read_window, read_window_native, MemRaster, RasterInfo, RasterSource};
+pub use tiling::{TileId, TileLayout, TileView};
+pub use window::Window;

@@ -1,0 +1,136 @@
+//! `RasterSource`: anything a step can read windows from (a tile store, a
+//! GeoTIFF read block by block, an in-memory grid, a mosaic of files).
+
+use super::dtype::{Cell, DType};
+use super::georef::GeoRef;
+use super::grid::{AnyGrid, Grid, IntoAny};
+use super::tiling::{TileId, TileLayout, TileView};
+use super::window::Window;
+use crate::error::Result;
+use std::path::PathBuf;
+
+/// What every raster source describes about itself.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RasterInfo {
+    pub width: usize,
+    pub height: usize,
+    pub dtype: DType,
+    pub georef: GeoRef,
+    /// Natural block size (width, height) for efficient reads (a TIFF's strip
+    /// or tile, a store's tile); readers should prefer windows aligned to it.
+    pub block: (usize, usize),
+    /// The file or directory the data comes from (for error messages).
+    pub path: PathBuf,
+}
+
+/// A readable raster. Implementations only read windows that lie fully inside
+/// the raster, in the native data type; [`read_window`] adds padding and
+/// conversion on top, once for all sources.
+pub trait RasterSource: Send + Sync {
+    /// Size, type, georeference.
+    fn info(&self) -> &RasterInfo;
+    /// Read `win` (inside the raster) in the native type.
+    fn read_native(&self, win: Window) -> Result<AnyGrid>;
+}
+
+/// Read any window of `src` converted to `T`. Cells outside the raster are
+/// nodata: NaN for float `T`; for integer `T`, the source's nodata value (or 0).
+/// For float `T`, cells equal to the source's nodata value become NaN.
+pub fn read_window<T: Cell>(src: &dyn RasterSource, win: Window) -> Result<Grid<T>> {
+    let info = src.info();
+    let nodata = info.georef.nodata;
+    let outside = if T::DTYPE.is_float() {
+        T::from_f64(f64::NAN)
+    } else {
+        T::from_f64(nodata.unwrap_or(0.0))
+    };
+    let full = Window::full(info.width, info.height);
+    match win.intersect(&full) {
+        Some(inner) if inner == win => Ok(src.read_native(win)?.to_typed(nodata)),
+        Some(inner) => {
+            let mut out = Grid::new(win.w, win.h, outside);
+            let part: Grid<T> = src.read_native(inner)?.to_typed(nodata);
+            out.paste(&part, inner.x - win.x, inner.y - win.y);
+            Ok(out)
+        }
+        None => Ok(Grid::new(win.w, win.h, outside)),
+    }
+}
+
+/// Read the native window with padding outside the raster (padding = the
+/// nodata value, or 0 when there is none).
+pub fn read_window_native(src: &dyn RasterSource, win: Window) -> Result<AnyGrid> {
+    let info = src.info();
+    let full = Window::full(info.width, info.height);
+    match win.intersect(&full) {
+        Some(inner) if inner == win => src.read_native(win),
+        inner => {
+            let fill = info.georef.nodata.unwrap_or(0.0);
+            let mut out = AnyGrid::filled(info.dtype, win.w, win.h, fill);
+            if let Some(inner) = inner {
+                let part = src.read_native(inner)?;
+                out.paste(&part, inner.x - win.x, inner.y - win.y);
+            }
+            Ok(out)
+        }
+    }
+}
+
+/// Assemble the [`TileView`] of tile `id` of `layout` with `halo` cells.
+pub fn read_view<T: Cell>(
+    src: &dyn RasterSource,
+    layout: &TileLayout,
+    id: TileId,
+    halo: usize,
+) -> Result<TileView<T>> {
+    let core = layout.window(id);
+    let grid = read_window::<T>(src, core.expand(halo))?;
+    let info = src.info();
+    Ok(TileView {
+        id,
+        core,
+        halo,
+        grid,
+        georef: info.georef.clone(),
+        raster_width: info.width,
+        raster_height: info.height,
+    })
+}
+
+/// A raster held in memory (small files: .hgt, .asc, PNG; tests).
+pub struct MemRaster {
+    info: RasterInfo,
+    data: AnyGrid,
+}
+
+impl MemRaster {
+    /// Wrap a native grid with its georeference.
+    pub fn new(data: AnyGrid, georef: GeoRef, path: impl Into<PathBuf>) -> Self {
+        let info = RasterInfo {
+            width: data.width(),
+            height: data.height(),
+            dtype: data.dtype(),
+            georef,
+            block: (data.width(), data.height().min(256)),
+            path: path.into(),
+        };
+        MemRaster { info, data }
+    }
+    /// Wrap a typed grid.
+    pub fn from_grid<T: IntoAny>(g: Grid<T>, georef: GeoRef) -> Self {
+        MemRaster::new(T::wrap(g), georef, "<memory>")
+    }
+    /// The native grid.
+    pub fn grid(&self) -> &AnyGrid {
+        &self.data
+    }
+}
+
+impl RasterSource for MemRaster {
+    fn info(&self) -> &RasterInfo {
+        &self.info
+    }
+    fn read_native(&self, win: Window) -> Result<AnyGrid> {
+        Ok(self.data.crop(win))
+    }
+}
