@@ -1,0 +1,224 @@
+//! Slope, aspect and hillshade from Horn's 3x3 gradient, as `gdaldem` defines
+//! them (GDAL documentation, `gdaldem`: slope, aspect, hillshade).
+//!
+//! Source: Horn, B.K.P. (1981), "Hill shading and the reflectance map",
+//! Proc. IEEE 69(1), 14-47, eq. for the 3x3 weighted gradient:
+//! `dz/dx = ((c + 2f + i) - (a + 2d + g)) / (8 Δx)`,
+//! `dz/dy = ((a + 2b + c) - (g + 2h + i)) / (8 Δy)` (y pointing north).
+//! Unlike gdaldem, cell sizes are the true metric sizes of each row (so slopes
+//! on geographic DEMs need no `-s` scale) and aspect uses them too (gdaldem's
+//! aspect assumes square cells; for square cells both agree).
+
+use super::neighbourhood::{walk_3x3, EdgeMode};
+use crate::error::Result;
+use crate::exec::LocalStep;
+use crate::raster::{Grid, TileView};
+use serde::{Deserialize, Serialize};
+use serde_json::json;
+
+/// Horn's gradient (dz/dx east, dz/dy north) of a 3x3 window, in z units per metre.
+#[inline]
+pub fn horn_gradient(w: &[f64; 9], ew: f64, ns: f64) -> (f64, f64) {
+    let dzdx = ((w[2] + 2.0 * w[5] + w[8]) - (w[0] + 2.0 * w[3] + w[6])) / (8.0 * ew);
+    let dzdy = ((w[0] + 2.0 * w[1] + w[2]) - (w[6] + 2.0 * w[7] + w[8])) / (8.0 * ns);
+    (dzdx, dzdy)
+}
+
+/// Slope units.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SlopeUnits {
+    /// Degrees from horizontal.
+    #[default]
+    Degrees,
+    /// Percent rise (100 tan θ).
+    Percent,
+}
+
+/// Nodata written by slope and aspect (gdaldem's value).
+pub const SLOPE_NODATA: f64 = -9999.0;
+
+/// Slope (Horn 1981) as a local step: f32 output, NaN = nodata.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Slope {
+    pub units: SlopeUnits,
+    /// Vertical exaggeration (gdaldem `-s` is a horizontal scale; here cell sizes are already metres).
+    pub z_factor: f64,
+    pub edge: EdgeMode,
+}
+
+impl Default for Slope {
+    fn default() -> Self {
+        Slope {
+            units: SlopeUnits::Degrees,
+            z_factor: 1.0,
+            edge: EdgeMode::Nodata,
+        }
+    }
+}
+
+impl LocalStep for Slope {
+    type In = f32;
+    type Out = f32;
+    fn name(&self) -> String {
+        "slope".into()
+    }
+    fn params(&self) -> serde_json::Value {
+        json!(self)
+    }
+    fn halo(&self) -> usize {
+        1
+    }
+    fn run(&self, inputs: &[TileView<f32>], out: &mut [Grid<f32>]) -> Result<()> {
+        let z = self.z_factor;
+        let pct = self.units == SlopeUnits::Percent;
+        walk_3x3(&inputs[0], &mut out[0], self.edge, f32::NAN, |w, ew, ns| {
+            let (dx, dy) = horn_gradient(w, ew, ns);
+            let g = z * (dx * dx + dy * dy).sqrt();
+            (if pct {
+                100.0 * g
+            } else {
+                g.atan().to_degrees()
+            }) as f32
+        });
+        Ok(())
+    }
+}
+
+/// Aspect (Horn 1981): azimuth of the downslope direction, degrees clockwise
+/// from north in [0, 360). Flat cells (zero gradient) are nodata, or 0 with
+/// `zero_for_flat` (gdaldem `-zero_for_flat`).
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct Aspect {
+    pub edge: EdgeMode,
+    pub zero_for_flat: bool,
+}
+
+/// Azimuth of steepest descent for a gradient (east, north components).
+#[inline]
+pub fn aspect_deg(dzdx: f64, dzdy: f64) -> f64 {
+    let a = (-dzdx).atan2(-dzdy).to_degrees();
+    let a = if a < 0.0 { a + 360.0 } else { a };
+    if a >= 360.0 {
+        0.0
+    } else {
+        a
+    }
+}
+
+impl LocalStep for Aspect {
+    type In = f32;
+    type Out = f32;
+    fn name(&self) -> String {
+        "aspect".into()
+    }
+    fn params(&self) -> serde_json::Value {
+        json!(self)
+    }
+    fn halo(&self) -> usize {
+        1
+    }
+    fn run(&self, inputs: &[TileView<f32>], out: &mut [Grid<f32>]) -> Result<()> {
+        let zf = self.zero_for_flat;
+        walk_3x3(&inputs[0], &mut out[0], self.edge, f32::NAN, |w, ew, ns| {
+            let (dx, dy) = horn_gradient(w, ew, ns);
+            if dx == 0.0 && dy == 0.0 {
+                if zf {
+                    0.0
+                } else {
+                    f32::NAN
+                }
+            } else {
+                aspect_deg(dx, dy) as f32
+            }
+        });
+        Ok(())
+    }
+}
+
+/// Hillshade (Horn gradient, Lambertian reflectance for a light at `azimuth`
+/// degrees clockwise from north and `altitude` degrees above the horizon), on
+/// gdaldem's scale: `1 + 254·cos(i)` rounded, 1 where the cell faces away from
+/// the light, 0 = nodata. `cos(i) = (sin alt − z·p·sin az·cos alt −
+/// z·q·cos az·cos alt) / √(1 + z²(p² + q²))` with p, q = dz/dx (east), dz/dy (north).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Hillshade {
+    pub azimuth: f64,
+    pub altitude: f64,
+    pub z_factor: f64,
+    pub edge: EdgeMode,
+}
+
+impl Default for Hillshade {
+    fn default() -> Self {
+        Hillshade {
+            azimuth: 315.0,
+            altitude: 45.0,
+            z_factor: 1.0,
+            edge: EdgeMode::Nodata,
+        }
+    }
+}
+
+impl Hillshade {
+    /// Shade value of one 3x3 window (1..=255), gdaldem's scale.
+    #[inline]
+    pub fn shade(&self, w: &[f64; 9], ew: f64, ns: f64) -> u8 {
+        let (p, q) = horn_gradient(w, ew, ns);
+        let z = self.z_factor;
+        let (sa, ca) = self.altitude.to_radians().sin_cos();
+        let (sz, cz) = self.azimuth.to_radians().sin_cos();
+        let c = (sa - z * p * sz * ca - z * q * cz * ca) / (1.0 + z * z * (p * p + q * q)).sqrt();
+        if c <= 0.0 {
+            1
+        } else {
+            (1.0 + 254.0 * c).round().min(255.0) as u8
+        }
+    }
+}
+
+impl LocalStep for Hillshade {
+    type In = f32;
+    type Out = u8;
+    fn name(&self) -> String {
+        "hillshade".into()
+    }
+    fn params(&self) -> serde_json::Value {
+        json!(self)
+    }
+    fn halo(&self) -> usize {
+        1
+    }
+    fn run(&self, inputs: &[TileView<f32>], out: &mut [Grid<u8>]) -> Result<()> {
+        walk_3x3(&inputs[0], &mut out[0], self.edge, 0u8, |w, ew, ns| {
+            self.shade(w, ew, ns)
+        });
+        Ok(())
+    }
+}
+
+/// Hillshade of a whole in-memory grid (previews): same definition as [`Hillshade`].
+pub fn hillshade_grid(
+    grid: &Grid<f32>,
+    georef: &crate::raster::GeoRef,
+    hs: &Hillshade,
+) -> Grid<u8> {
+    let view = TileView {
+        id: 0,
+        core: crate::raster::Window::full(grid.width(), grid.height()),
+        halo: 1,
+        grid: {
+            let mut g = Grid::new(grid.width() + 2, grid.height() + 2, f32::NAN);
+            g.paste(grid, 1, 1);
+            g
+        },
+        georef: georef.clone(),
+        raster_width: grid.width(),
+        raster_height: grid.height(),
+    };
+    let mut out = Grid::new(grid.width(), grid.height(), 0u8);
+    walk_3x3(&view, &mut out, hs.edge, 0u8, |w, ew, ns| {
+        hs.shade(w, ew, ns)
+    });
+    out
+}
