@@ -13,6 +13,7 @@ pub mod error;
 pub mod exec;
 pub mod io;
 pub mod metrics;
+pub mod ops;
 pub mod raster;
 pub mod store;
 pub mod synth;

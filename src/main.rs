@@ -1,1 +1,519 @@
-fn main() {}
+//! The `orogen` command line: parses arguments and calls the library.
+
+use anyhow::{bail, Context, Result};
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use orogen::exec::EngineConfig;
+use orogen::io::geotiff::{Compression, WriteOptions};
+use orogen::io::{self, OpenOptions, OutputOptions};
+use orogen::metrics::{Aspect, EdgeMode, Hillshade, Slope, SlopeUnits};
+use orogen::ops;
+use orogen::raster::{DType, RasterSource};
+use std::path::{Path, PathBuf};
+
+#[derive(Parser)]
+#[command(name = "orogen", version, about = "Out-of-core engine for digital elevation models", long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Args, Clone)]
+struct Run {
+    /// Worker threads (0 = all cores).
+    #[arg(long, default_value_t = 0, global = true)]
+    threads: usize,
+    /// Memory budget for tiles in flight, e.g. 512MiB, 2GiB.
+    #[arg(long, default_value = "1GiB", global = true)]
+    memory: String,
+    /// Work-tile size in cells (default: the input store's, else 1024).
+    #[arg(long, global = true)]
+    tile: Option<usize>,
+    /// No progress bar.
+    #[arg(long, short, global = true)]
+    quiet: bool,
+}
+
+#[derive(Args, Clone)]
+struct Out {
+    /// Output: .tif (GeoTIFF), .tiles (tile store), .png (16-bit), .asc.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// GeoTIFF compression.
+    #[arg(long, value_enum, default_value_t = Compress::Deflate)]
+    compress: Compress,
+    /// GeoTIFF predictor (1 none, 2 horizontal, 3 floating point; default: automatic).
+    #[arg(long)]
+    predictor: Option<u16>,
+    /// GeoTIFF block (tile) size.
+    #[arg(long, default_value_t = 256)]
+    block: usize,
+    /// BigTIFF: yes, no or auto (auto: when the file could pass 4 GiB).
+    #[arg(long, default_value = "auto")]
+    bigtiff: String,
+    /// Tile-store tile size (for .tiles outputs).
+    #[arg(long, default_value_t = 1024)]
+    store_tile: usize,
+    /// Compress tile-store tiles with zstd.
+    #[arg(long)]
+    zstd: bool,
+    /// Replace an existing output tile store instead of resuming it.
+    #[arg(long)]
+    overwrite: bool,
+}
+
+#[derive(Args, Clone)]
+struct In {
+    /// Input raster: GeoTIFF, .hgt, .asc, PNG heightmap or tile store.
+    input: PathBuf,
+    #[command(flatten)]
+    png: PngArgs,
+}
+
+#[derive(Args, Clone)]
+struct PngArgs {
+    /// PNG heightmaps: metres per PNG unit.
+    #[arg(long, default_value_t = 1.0)]
+    png_scale: f64,
+    /// PNG heightmaps: elevation of PNG value 0.
+    #[arg(long, default_value_t = 0.0)]
+    png_offset: f64,
+}
+
+#[derive(Copy, Clone, ValueEnum)]
+enum Compress {
+    None,
+    Deflate,
+    Lzw,
+    Zstd,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Describe a raster: size, type, georeference, nodata, statistics.
+    #[command(
+        after_help = "Example:\n  orogen info ../shared/data/srtm3_N46E008.tif\n  orogen info dem.tiles --json"
+    )]
+    Info {
+        #[command(flatten)]
+        input: In,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+        /// Also compute min/max/mean (reads every cell).
+        #[arg(long)]
+        stats: bool,
+        #[command(flatten)]
+        run: Run,
+    },
+    /// Ingest one or more rasters (a mosaic) into a tile store.
+    #[command(
+        after_help = "Examples:\n  orogen ingest ../shared/data/poland_N49-55_E014-025.tif -o poland.tiles --memory 256MiB\n  orogen ingest N43E006.hgt N43E007.hgt -o alps.tiles --tile 512\n  orogen ingest srtm_folder/ -o mosaic.tiles\nRerunning an interrupted ingest resumes it."
+    )]
+    Ingest {
+        /// Input rasters or folders (several = one mosaic).
+        #[arg(required = true)]
+        inputs: Vec<PathBuf>,
+        #[command(flatten)]
+        png: PngArgs,
+        #[command(flatten)]
+        out: Out,
+        #[command(flatten)]
+        run: Run,
+    },
+    /// Export a raster or tile store to GeoTIFF (or .png/.asc).
+    #[command(
+        after_help = "Example:\n  orogen export dem.tiles -o dem.tif --compress zstd --predictor 2"
+    )]
+    Export {
+        #[command(flatten)]
+        input: In,
+        #[command(flatten)]
+        out: Out,
+        #[command(flatten)]
+        run: Run,
+    },
+    /// Slope (Horn 1981, as gdaldem slope), in degrees or percent.
+    #[command(
+        after_help = "Example:\n  orogen slope dem.tif -o slope.tif\n  orogen slope dem.tiles -o slope.tiles --units percent"
+    )]
+    Slope {
+        #[command(flatten)]
+        input: In,
+        #[arg(long, value_enum, default_value_t = UnitsArg::Degrees)]
+        units: UnitsArg,
+        /// Vertical exaggeration.
+        #[arg(long, default_value_t = 1.0)]
+        z_factor: f64,
+        /// Compute edge cells with missing neighbours (gdaldem -compute_edges).
+        #[arg(long)]
+        compute_edges: bool,
+        #[command(flatten)]
+        out: Out,
+        #[command(flatten)]
+        run: Run,
+    },
+    /// Aspect (Horn 1981, as gdaldem aspect): azimuth of downslope, degrees from north.
+    #[command(after_help = "Example:\n  orogen aspect dem.tif -o aspect.tif --zero-for-flat")]
+    Aspect {
+        #[command(flatten)]
+        input: In,
+        /// Flat cells get 0 instead of nodata.
+        #[arg(long)]
+        zero_for_flat: bool,
+        #[arg(long)]
+        compute_edges: bool,
+        #[command(flatten)]
+        out: Out,
+        #[command(flatten)]
+        run: Run,
+    },
+    /// Hillshade (Horn 1981, as gdaldem hillshade), byte values 1-255, 0 = nodata.
+    #[command(
+        after_help = "Example:\n  orogen hillshade dem.tif -o shade.tif --azimuth 315 --altitude 45"
+    )]
+    Hillshade {
+        #[command(flatten)]
+        input: In,
+        #[arg(long, default_value_t = 315.0)]
+        azimuth: f64,
+        #[arg(long, default_value_t = 45.0)]
+        altitude: f64,
+        #[arg(long, default_value_t = 1.0)]
+        z_factor: f64,
+        #[arg(long)]
+        compute_edges: bool,
+        #[command(flatten)]
+        out: Out,
+        #[command(flatten)]
+        run: Run,
+    },
+    /// Render a preview PNG: hillshade blended with a hypsometric colour ramp.
+    #[command(
+        after_help = "Example:\n  orogen render dem.tiles -o preview.png --legend\n  orogen render slope.tif -o slope.png --grey"
+    )]
+    Render {
+        #[command(flatten)]
+        input: In,
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Longest side of the preview in pixels.
+        #[arg(long, default_value_t = 2048)]
+        max_size: usize,
+        /// Draw a colour legend.
+        #[arg(long)]
+        legend: bool,
+        /// Greyscale, no hillshade (for non-elevation rasters).
+        #[arg(long)]
+        grey: bool,
+        #[command(flatten)]
+        run: Run,
+    },
+    /// Generate a seeded terrain and run the pipeline on it into ./orogen-demo/.
+    #[command(
+        after_help = "Example:\n  orogen demo\n  orogen demo --size 4096 --seed 7 -o /tmp/demo"
+    )]
+    Demo {
+        /// Output folder.
+        #[arg(short, long, default_value = "orogen-demo")]
+        output: PathBuf,
+        /// Size in cells (square).
+        #[arg(long, default_value_t = 1024)]
+        size: usize,
+        /// Random seed.
+        #[arg(long, default_value_t = 42)]
+        seed: u64,
+        #[command(flatten)]
+        run: Run,
+    },
+}
+
+#[derive(Copy, Clone, ValueEnum)]
+enum UnitsArg {
+    Degrees,
+    Percent,
+}
+
+fn parse_bytes(s: &str) -> Result<u64> {
+    let t = s.trim();
+    let split = t
+        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .unwrap_or(t.len());
+    let (num, unit) = t.split_at(split);
+    let v: f64 = num
+        .parse()
+        .with_context(|| format!("--memory {s:?}: expected a size like 512MiB or 2GiB"))?;
+    let mult = match unit.trim().to_ascii_lowercase().as_str() {
+        "" | "b" => 1.0,
+        "k" | "kb" | "kib" => 1024.0,
+        "m" | "mb" | "mib" => 1024.0 * 1024.0,
+        "g" | "gb" | "gib" => 1024.0 * 1024.0 * 1024.0,
+        "t" | "tb" | "tib" => 1024.0f64.powi(4),
+        u => bail!("--memory {s:?}: unknown unit {u:?} (use KiB, MiB, GiB)"),
+    };
+    let b = v * mult;
+    if !(b >= 16.0 * 1024.0 * 1024.0) {
+        bail!("--memory {s:?} is too small: give at least 16MiB");
+    }
+    Ok(b as u64)
+}
+
+fn engine(run: &Run) -> Result<EngineConfig> {
+    use std::io::IsTerminal;
+    Ok(EngineConfig {
+        threads: run.threads,
+        memory_budget: parse_bytes(&run.memory)?,
+        progress: !run.quiet && std::io::stderr().is_terminal(),
+    })
+}
+
+fn output_options(o: &Out) -> Result<OutputOptions> {
+    let compression = match o.compress {
+        Compress::None => Compression::None,
+        Compress::Deflate => Compression::Deflate { level: 6 },
+        Compress::Lzw => Compression::Lzw,
+        Compress::Zstd => Compression::Zstd { level: 9 },
+    };
+    let bigtiff = match o.bigtiff.as_str() {
+        "auto" => None,
+        "yes" | "true" => Some(true),
+        "no" | "false" => Some(false),
+        b => bail!("--bigtiff {b:?}: use yes, no or auto"),
+    };
+    if let Some(p) = o.predictor {
+        if !(1..=3).contains(&p) {
+            bail!("--predictor {p}: use 1 (none), 2 (horizontal) or 3 (floating point)");
+        }
+    }
+    if o.block < 16 || o.block % 16 != 0 {
+        bail!(
+            "--block {}: GeoTIFF tiles must be a multiple of 16 (e.g. 256, 512)",
+            o.block
+        );
+    }
+    if o.store_tile < 16 {
+        bail!("--store-tile {}: use at least 16 (e.g. 1024)", o.store_tile);
+    }
+    let tiff = WriteOptions {
+        compression,
+        predictor: o.predictor,
+        block: o.block,
+        bigtiff,
+    };
+    let mut store = orogen::store::StoreOptions::default();
+    store.tile = o.store_tile;
+    store.compression = if o.zstd {
+        orogen::store::Compression::Zstd { level: 3 }
+    } else {
+        orogen::store::Compression::None
+    };
+    store.overwrite = o.overwrite;
+    Ok(OutputOptions { tiff, store })
+}
+
+fn open(i: &In) -> Result<Box<dyn RasterSource>> {
+    let src = io::open_raster(
+        &i.input,
+        &OpenOptions {
+            png_scale: i.png.png_scale,
+            png_offset: i.png.png_offset,
+        },
+    )?;
+    warn_georef(src.as_ref());
+    Ok(src)
+}
+
+fn warn_georef(src: &dyn RasterSource) {
+    let info = src.info();
+    if !info.georef.georeferenced {
+        eprintln!(
+            "warning: {} has no georeferencing; using pixel coordinates with 1 x 1 cells (slopes assume cells of 1 elevation unit)",
+            info.path.display()
+        );
+    }
+}
+
+fn edge(compute: bool) -> EdgeMode {
+    if compute {
+        EdgeMode::Compute
+    } else {
+        EdgeMode::Nodata
+    }
+}
+
+fn wrote(p: &Path) {
+    eprintln!("wrote {}", p.display());
+}
+
+fn main() {
+    let cli = Cli::parse();
+    if let Err(e) = run(cli) {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match cli.cmd {
+        Cmd::Info {
+            input,
+            json,
+            stats,
+            run,
+        } => {
+            let src = open(&input)?;
+            let cfg = engine(&run)?;
+            let report = orogen::ops::describe(src.as_ref(), stats, &cfg)?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&report)?);
+            } else {
+                print!("{}", orogen::ops::describe_text(&report));
+            }
+        }
+        Cmd::Ingest {
+            inputs,
+            png,
+            out,
+            run,
+        } => {
+            let src = io::open_inputs(
+                &inputs,
+                &OpenOptions {
+                    png_scale: png.png_scale,
+                    png_offset: png.png_offset,
+                },
+            )?;
+            warn_georef(src.as_ref());
+            let oo = output_options(&out)?;
+            ops::convert(src.as_ref(), &out.output, &oo, run.tile, &engine(&run)?)?;
+            wrote(&out.output);
+        }
+        Cmd::Export { input, out, run } => {
+            let src = open(&input)?;
+            let oo = output_options(&out)?;
+            ops::convert(src.as_ref(), &out.output, &oo, run.tile, &engine(&run)?)?;
+            wrote(&out.output);
+        }
+        Cmd::Slope {
+            input,
+            units,
+            z_factor,
+            compute_edges,
+            out,
+            run,
+        } => {
+            let src = open(&input)?;
+            let step = Slope {
+                units: match units {
+                    UnitsArg::Degrees => SlopeUnits::Degrees,
+                    UnitsArg::Percent => SlopeUnits::Percent,
+                },
+                z_factor,
+                edge: edge(compute_edges),
+            };
+            run_f32(&step, src.as_ref(), &out, &run)?;
+        }
+        Cmd::Aspect {
+            input,
+            zero_for_flat,
+            compute_edges,
+            out,
+            run,
+        } => {
+            let src = open(&input)?;
+            let step = Aspect {
+                edge: edge(compute_edges),
+                zero_for_flat,
+            };
+            run_f32(&step, src.as_ref(), &out, &run)?;
+        }
+        Cmd::Hillshade {
+            input,
+            azimuth,
+            altitude,
+            z_factor,
+            compute_edges,
+            out,
+            run,
+        } => {
+            if !(0.0..=90.0).contains(&altitude) {
+                bail!("--altitude {altitude}: the sun's altitude must be between 0 and 90 degrees");
+            }
+            let src = open(&input)?;
+            let step = Hillshade {
+                azimuth,
+                altitude,
+                z_factor,
+                edge: edge(compute_edges),
+            };
+            let oo = output_options(&out)?;
+            ops::run_local_to_paths(
+                &step,
+                &[src.as_ref()],
+                std::slice::from_ref(&out.output),
+                &[(DType::U8, Some(0.0))],
+                &oo,
+                run.tile,
+                &engine(&run)?,
+            )?;
+            wrote(&out.output);
+        }
+        Cmd::Render {
+            input,
+            output,
+            max_size,
+            legend,
+            grey,
+            run: _,
+        } => {
+            let src = open(&input)?;
+            let opts = orogen::io::render::RenderOptions {
+                max_size,
+                legend,
+                kind: if grey {
+                    orogen::io::render::RenderKind::Grey
+                } else {
+                    orogen::io::render::RenderKind::Elevation
+                },
+                ..Default::default()
+            };
+            orogen::io::render::render_preview(src.as_ref(), &output, &opts)?;
+            wrote(&output);
+        }
+        Cmd::Demo {
+            output,
+            size,
+            seed,
+            run,
+        } => {
+            let files = ops::demo(&output, size, seed, &engine(&run)?)?;
+            println!(
+                "orogen demo: a {size}x{size} seeded terrain (seed {seed}) and its analysis in {}:",
+                output.display()
+            );
+            for (f, what) in files {
+                println!("  {:<28} {what}", f.display());
+            }
+        }
+    }
+    Ok(())
+}
+
+fn run_f32<S: orogen::exec::LocalStep<In = f32, Out = f32>>(
+    step: &S,
+    src: &dyn RasterSource,
+    out: &Out,
+    run: &Run,
+) -> Result<()> {
+    let oo = output_options(out)?;
+    ops::run_local_to_paths(
+        step,
+        &[src],
+        std::slice::from_ref(&out.output),
+        &[(DType::F32, Some(orogen::metrics::terrain::SLOPE_NODATA))],
+        &oo,
+        run.tile,
+        &engine(run)?,
+    )?;
+    wrote(&out.output);
+    Ok(())
+}

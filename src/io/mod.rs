@@ -1,1 +1,11 @@
-//! Readers and writers.
+//! Readers and writers: GeoTIFF (streamed, no GDAL), SRTM .hgt, ESRI ASCII,
+//! PNG heightmaps, mosaics of several files, previews; plus opening any of
+//! them by path.
+
+pub mod memsink;
+pub mod open;
+
+pub use open::{
+    create_sink, detect, is_store_path, open_inputs, open_raster, Format, OpenOptions,
+    OutputOptions,
+};

@@ -1,1 +1,5 @@
-//! Terrain synthesis.
+//! Terrain synthesis. For now: seeded, tileable fBm (the demo terrain).
+
+pub mod noise;
+
+pub use noise::{Fbm, FbmSource};

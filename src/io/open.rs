@@ -1,0 +1,193 @@
+//! Opening any supported raster by path, and creating an output sink by the
+//! output path's extension.
+
+use super::memsink::MemSink;
+use crate::error::{Error, IoContext, Result};
+use crate::exec::TileSink;
+use crate::io::geotiff::{GeoTiffReader, GeoTiffWriter, WriteOptions};
+use crate::raster::{DType, GeoRef, RasterSource};
+use crate::store::{StoreOptions, StoreWriter, TileStore};
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+/// How to interpret inputs that carry no elevation units of their own.
+#[derive(Debug, Clone)]
+pub struct OpenOptions {
+    /// PNG heightmaps: elevation = offset + value * scale.
+    pub png_scale: f64,
+    /// PNG heightmaps: elevation offset.
+    pub png_offset: f64,
+}
+
+impl Default for OpenOptions {
+    fn default() -> Self {
+        OpenOptions {
+            png_scale: 1.0,
+            png_offset: 0.0,
+        }
+    }
+}
+
+/// The kinds of raster orogen reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Format {
+    GeoTiff,
+    Hgt,
+    Ascii,
+    Png,
+    Store,
+}
+
+/// Detect a file's format from its magic bytes, then its extension.
+pub fn detect(path: &Path) -> Result<Format> {
+    if path.is_dir() {
+        if path.join("manifest.json").is_file() {
+            return Ok(Format::Store);
+        }
+        return Err(Error::unsupported(
+            path,
+            "a directory that is not a tile store (no manifest.json); to mosaic the files in a folder, use `orogen ingest DIR -o OUT.tiles`",
+        ));
+    }
+    let mut magic = [0u8; 8];
+    let n = std::fs::File::open(path)
+        .and_then(|mut f| f.read(&mut magic))
+        .at(path)?;
+    let m = &magic[..n];
+    if m.starts_with(b"II*\0")
+        || m.starts_with(b"MM\0*")
+        || m.starts_with(b"II+\0")
+        || m.starts_with(b"MM\0+")
+    {
+        return Ok(Format::GeoTiff);
+    }
+    if m.starts_with(b"\x89PNG\r\n\x1a\n") {
+        return Ok(Format::Png);
+    }
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    match ext.as_str() {
+        "hgt" => Ok(Format::Hgt),
+        "asc" => Ok(Format::Ascii),
+        "tif" | "tiff" => Err(Error::corrupt(path, "not a TIFF file (wrong magic bytes)")),
+        "png" => Err(Error::corrupt(path, "not a PNG file (wrong signature)")),
+        _ => Err(Error::unsupported(
+            path,
+            "unknown raster format; orogen reads GeoTIFF (.tif), SRTM .hgt, ESRI ASCII (.asc), 16-bit PNG heightmaps and tile stores (.tiles)",
+        )),
+    }
+}
+
+/// Open one raster of any supported format.
+pub fn open_raster(path: &Path, opts: &OpenOptions) -> Result<Box<dyn RasterSource>> {
+    Ok(match detect(path)? {
+        Format::GeoTiff => Box::new(GeoTiffReader::open(path)?),
+        Format::Hgt => Box::new(super::hgt::read_hgt(path)?),
+        Format::Ascii => Box::new(super::ascii::read_ascii(path)?),
+        Format::Png => Box::new(super::png::read_png_heightmap(
+            path,
+            opts.png_scale,
+            opts.png_offset,
+        )?),
+        Format::Store => Box::new(TileStore::open(path)?),
+    })
+}
+
+/// Open one input or a mosaic of several (directories expand to the rasters
+/// they contain, sorted by name).
+pub fn open_inputs(paths: &[PathBuf], opts: &OpenOptions) -> Result<Box<dyn RasterSource>> {
+    let files = super::mosaic::expand_inputs(paths)?;
+    if files.is_empty() {
+        return Err(Error::invalid(
+            "no input rasters given (or the folder holds none)",
+        ));
+    }
+    if files.len() == 1 {
+        return open_raster(&files[0], opts);
+    }
+    let mut sources = Vec::with_capacity(files.len());
+    for f in &files {
+        sources.push(open_raster(f, opts)?);
+    }
+    Ok(Box::new(super::mosaic::Mosaic::new(sources)?))
+}
+
+/// Output settings shared by all commands that write rasters.
+#[derive(Debug, Clone, Default)]
+pub struct OutputOptions {
+    /// GeoTIFF options (compression, predictor, block, BigTIFF).
+    pub tiff: WriteOptions,
+    /// Tile-store options (tile size, zstd, overwrite).
+    pub store: StoreOptions,
+}
+
+/// True if `path` names a tile store output (`*.tiles`).
+pub fn is_store_path(path: &Path) -> bool {
+    path.extension().and_then(|e| e.to_str()) == Some("tiles")
+}
+
+/// Create the sink for an output path: `.tif`/`.tiff` GeoTIFF (streamed),
+/// `.tiles` tile store (streamed, resumable), `.png` 16-bit heightmap or
+/// `.asc` ESRI ASCII (assembled in memory, small rasters only).
+pub fn create_sink(
+    path: &Path,
+    width: usize,
+    height: usize,
+    dtype: DType,
+    georef: &GeoRef,
+    oo: &OutputOptions,
+    provenance: serde_json::Value,
+) -> Result<Box<dyn TileSink>> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    Ok(match ext.as_str() {
+        "tif" | "tiff" => Box::new(GeoTiffWriter::create(
+            path, width, height, dtype, georef, &oo.tiff,
+        )?),
+        "tiles" => Box::new(StoreWriter::create(
+            path,
+            width,
+            height,
+            dtype,
+            georef,
+            oo.store.clone(),
+            provenance,
+        )?),
+        "png" => {
+            let p = path.to_path_buf();
+            Box::new(MemSink::new(
+                width,
+                height,
+                DType::F32,
+                georef.clone(),
+                Box::new(move |g, _geo| {
+                    let g = g.to_typed::<f32>(None);
+                    let (lo, hi) = crate::io::png::finite_range(&g);
+                    crate::io::png::write_png16(&p, &g, lo, hi).map(|_| ())
+                }),
+            )?)
+        }
+        "asc" => {
+            let p = path.to_path_buf();
+            Box::new(MemSink::new(
+                width,
+                height,
+                dtype,
+                georef.clone(),
+                Box::new(move |g, geo| crate::io::ascii::write_ascii(&p, &g, geo)),
+            )?)
+        }
+        _ => {
+            return Err(Error::unsupported(
+                path,
+                "unknown output format; use .tif (GeoTIFF), .tiles (tile store), .png (16-bit heightmap) or .asc (ESRI ASCII)",
+            ))
+        }
+    })
+}

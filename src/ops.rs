@@ -1,0 +1,297 @@
+//! Whole operations as the CLI (and later job files) run them: open inputs,
+//! pick the tile layout, create sinks by output path, run a step on an engine.
+
+use crate::error::{Error, Result};
+use crate::exec::{Engine, EngineConfig, LocalEngine, LocalStep};
+use crate::io::{self, OutputOptions};
+use crate::raster::{DType, RasterSource, TileLayout};
+use std::path::{Path, PathBuf};
+
+/// Default work-tile size when neither input nor output is a tile store.
+pub const DEFAULT_TILE: usize = 1024;
+
+/// The tile layout for a run: an output store's tile size wins, then an input
+/// store's (reads stay aligned), then `tile`.
+pub fn choose_layout(
+    src: &dyn RasterSource,
+    outputs: &[PathBuf],
+    oo: &OutputOptions,
+    tile: Option<usize>,
+) -> TileLayout {
+    let info = src.info();
+    let t = if outputs.iter().any(|p| io::is_store_path(p)) {
+        oo.store.tile
+    } else if let Some(t) = tile {
+        t
+    } else if io::detect(&info.path).ok() == Some(io::Format::Store) {
+        info.block.0
+    } else {
+        DEFAULT_TILE
+    };
+    TileLayout::new(info.width, info.height, t.max(1))
+}
+
+/// Run a local step on `inputs` and write output `k` to `outputs[k]` as
+/// `(dtype, nodata)` of `out_types[k]`.
+pub fn run_local_to_paths<S: LocalStep>(
+    step: &S,
+    inputs: &[&dyn RasterSource],
+    outputs: &[PathBuf],
+    out_types: &[(DType, Option<f64>)],
+    oo: &OutputOptions,
+    tile: Option<usize>,
+    cfg: &EngineConfig,
+) -> Result<()> {
+    let first = *inputs
+        .first()
+        .ok_or_else(|| Error::invalid("a step needs at least one input"))?;
+    let info = first.info();
+    for i in &inputs[1..] {
+        let o = i.info();
+        if (o.width, o.height) != (info.width, info.height) {
+            return Err(Error::invalid(format!(
+                "{} is {}x{} but {} is {}x{}: inputs of one step must have the same size",
+                o.path.display(),
+                o.width,
+                o.height,
+                info.path.display(),
+                info.width,
+                info.height
+            )));
+        }
+    }
+    if outputs.len() != step.outputs() || out_types.len() != outputs.len() {
+        return Err(Error::invalid(format!(
+            "{} writes {} output(s), {} path(s) given",
+            step.name(),
+            step.outputs(),
+            outputs.len()
+        )));
+    }
+    let layout = choose_layout(first, outputs, oo, tile);
+    let mut sinks = Vec::with_capacity(outputs.len());
+    for (p, (dt, nd)) in outputs.iter().zip(out_types) {
+        let georef = info.georef.clone().with_nodata(*nd);
+        let prov = serde_json::json!({
+            "step": step.name(),
+            "params": step.params(),
+            "inputs": inputs.iter().map(|i| i.info().path.display().to_string()).collect::<Vec<_>>(),
+            "orogen": env!("CARGO_PKG_VERSION"),
+        });
+        sinks.push(io::create_sink(
+            p,
+            info.width,
+            info.height,
+            *dt,
+            &georef,
+            oo,
+            prov,
+        )?);
+    }
+    LocalEngine::new(cfg.clone()).run_local(step, inputs, layout, sinks)
+}
+
+/// Copy any raster (or mosaic) into `out` (a tile store, GeoTIFF, PNG or ASCII
+/// file) in its native type, tile by tile.
+pub fn convert(
+    src: &dyn RasterSource,
+    out: &Path,
+    oo: &OutputOptions,
+    tile: Option<usize>,
+    cfg: &EngineConfig,
+) -> Result<()> {
+    let info = src.info();
+    let layout = choose_layout(src, &[out.to_path_buf()], oo, tile);
+    let prov = serde_json::json!({
+        "step": "ingest",
+        "inputs": [info.path.display().to_string()],
+        "orogen": env!("CARGO_PKG_VERSION"),
+    });
+    let sink = io::create_sink(
+        out,
+        info.width,
+        info.height,
+        info.dtype,
+        &info.georef,
+        oo,
+        prov,
+    )?;
+    crate::exec::copy(src, sink, layout, cfg)
+}
+
+/// What `orogen info` reports.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Description {
+    pub path: String,
+    pub format: String,
+    pub width: usize,
+    pub height: usize,
+    pub dtype: DType,
+    pub transform: [f64; 6],
+    pub epsg: Option<u32>,
+    pub geographic: bool,
+    pub nodata: Option<f64>,
+    pub raster_type: crate::raster::RasterType,
+    pub georeferenced: bool,
+    pub block: (usize, usize),
+    /// Cell size in metres at the middle row (east-west, north-south).
+    pub cell_size_m: (f64, f64),
+    pub stats: Option<crate::exec::stats::Summary>,
+}
+
+/// Describe a raster (and compute its statistics with a global pass if asked).
+pub fn describe(src: &dyn RasterSource, stats: bool, cfg: &EngineConfig) -> Result<Description> {
+    let info = src.info();
+    let g = &info.georef;
+    let stats = if stats {
+        Some(crate::exec::stats::compute(src, cfg)?)
+    } else {
+        None
+    };
+    Ok(Description {
+        path: info.path.display().to_string(),
+        format: format!("{:?}", io::detect(&info.path).ok()),
+        width: info.width,
+        height: info.height,
+        dtype: info.dtype,
+        transform: g.transform,
+        epsg: g.crs.epsg,
+        geographic: g.crs.geographic,
+        nodata: g.nodata,
+        raster_type: g.raster_type,
+        georeferenced: g.georeferenced,
+        block: info.block,
+        cell_size_m: g.cell_size_m(info.height as i64 / 2),
+        stats,
+    })
+}
+
+/// Human-readable form of a [`Description`].
+pub fn describe_text(d: &Description) -> String {
+    use std::fmt::Write;
+    let mut s = String::new();
+    let _ = writeln!(s, "{}", d.path);
+    let _ = writeln!(
+        s,
+        "  size        {} x {} cells, {}",
+        d.width, d.height, d.dtype
+    );
+    let _ = writeln!(s, "  block       {} x {}", d.block.0, d.block.1);
+    if d.georeferenced {
+        let crs = match d.epsg {
+            Some(e) => format!("EPSG:{e}"),
+            None => "unknown CRS".into(),
+        };
+        let _ = writeln!(
+            s,
+            "  crs         {crs}{}",
+            if d.geographic { " (geographic)" } else { "" }
+        );
+        let t = d.transform;
+        let _ = writeln!(s, "  origin      ({}, {})", t[0], t[3]);
+        let _ = writeln!(
+            s,
+            "  pixel size  ({}, {}), rotation ({}, {})",
+            t[1], t[5], t[2], t[4]
+        );
+        let _ = writeln!(
+            s,
+            "  cell (m)    {:.3} x {:.3} at the middle row",
+            d.cell_size_m.0, d.cell_size_m.1
+        );
+        let _ = writeln!(s, "  raster type {:?}", d.raster_type);
+    } else {
+        let _ = writeln!(s, "  no georeferencing (pixel coordinates)");
+    }
+    match d.nodata {
+        Some(v) => {
+            let _ = writeln!(s, "  nodata      {v}");
+        }
+        None => {
+            let _ = writeln!(s, "  nodata      none");
+        }
+    }
+    if let Some(st) = &d.stats {
+        let _ = writeln!(s, "  stats       {st}");
+    }
+    s
+}
+
+/// `orogen demo`: generate a seeded fBm terrain, ingest it into a tile store,
+/// export it, derive slope, aspect and hillshade, render a preview. Returns the
+/// files written with a description of each.
+pub fn demo(
+    dir: &Path,
+    size: usize,
+    seed: u64,
+    cfg: &EngineConfig,
+) -> Result<Vec<(PathBuf, &'static str)>> {
+    if !(64..=65536).contains(&size) {
+        return Err(Error::invalid(
+            "demo --size must be between 64 and 65536 cells",
+        ));
+    }
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let fbm = crate::synth::Fbm {
+        seed,
+        wavelength: (size as f64 / 2.0).max(64.0),
+        ..Default::default()
+    };
+    let src = crate::synth::FbmSource::new(fbm, size, size, 30.0)?;
+    let mut oo = OutputOptions::default();
+    oo.store.tile = 256.min(size);
+    oo.store.overwrite = true;
+    let mut files = Vec::new();
+    let store = dir.join("terrain.tiles");
+    convert(&src, &store, &oo, None, cfg)?;
+    files.push((store.clone(), "tile store of the terrain (f32, 30 m cells)"));
+    let dem = io::open_raster(&store, &io::OpenOptions::default())?;
+    let tif = dir.join("terrain.tif");
+    convert(dem.as_ref(), &tif, &oo, None, cfg)?;
+    files.push((tif, "the terrain as a GeoTIFF (DEFLATE, tiled)"));
+    let slope = dir.join("slope.tif");
+    let f32_nd = (DType::F32, Some(crate::metrics::terrain::SLOPE_NODATA));
+    run_local_to_paths(
+        &crate::metrics::Slope::default(),
+        &[dem.as_ref()],
+        std::slice::from_ref(&slope),
+        &[f32_nd],
+        &oo,
+        None,
+        cfg,
+    )?;
+    files.push((slope, "slope in degrees (Horn)"));
+    let aspect = dir.join("aspect.tif");
+    run_local_to_paths(
+        &crate::metrics::Aspect::default(),
+        &[dem.as_ref()],
+        std::slice::from_ref(&aspect),
+        &[f32_nd],
+        &oo,
+        None,
+        cfg,
+    )?;
+    files.push((aspect, "aspect, degrees clockwise from north"));
+    let shade = dir.join("hillshade.tif");
+    run_local_to_paths(
+        &crate::metrics::Hillshade::default(),
+        &[dem.as_ref()],
+        std::slice::from_ref(&shade),
+        &[(DType::U8, Some(0.0))],
+        &oo,
+        None,
+        cfg,
+    )?;
+    files.push((shade, "hillshade, light from 315 degrees at 45 degrees"));
+    let preview = dir.join("preview.png");
+    let ropts = io::render::RenderOptions {
+        legend: true,
+        ..Default::default()
+    };
+    io::render::render_preview(dem.as_ref(), &preview, &ropts)?;
+    files.push((
+        preview,
+        "preview: hillshade over a hypsometric tint, with legend",
+    ));
+    Ok(files)
+}
