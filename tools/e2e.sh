@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# Slower end-to-end checks run by .ci/run after the test suite: the demo as a
+# user runs it, GDAL cross-checks of every GeoTIFF variant, gdaldem agreement.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash tools/install_gdal.sh
+cargo build --release
+export OROGEN="$PWD/target/release/orogen"
+tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
+
+echo "== demo"
+"$OROGEN" demo -o "$tmp/demo" --quiet
+for f in terrain.tif slope.tif aspect.tif hillshade.tif preview.png; do
+  test -s "$tmp/demo/$f" || { echo "demo did not write $f"; exit 1; }
+done
+/usr/bin/python3 - "$tmp/demo" <<'PY'
+import sys
+from osgeo import gdal
+d = sys.argv[1]
+for f in ("terrain.tif", "slope.tif", "hillshade.tif"):
+    ds = gdal.Open(f"{d}/{f}")
+    assert ds is not None and ds.RasterXSize == 1024, f
+print("demo outputs open in GDAL")
+PY
+
+echo "== GeoTIFF variants read and written, against GDAL"
+bash tools/gdal_variants.sh
+
+echo "== slope/aspect/hillshade against gdaldem"
+bash tools/gdaldem_compare.sh
