@@ -19,8 +19,8 @@ fn grid(w: usize, h: usize, seed: u64) -> Vec<f64> {
             z ^= z >> 31;
             match z % 50 {
                 0 => f64::NAN,
-                1 => -120.0, // below the histogram range
-                2 => 250.0,  // above it
+                1 => -120.0,                  // below the histogram range
+                2 => 250.0,                   // above it
                 _ => ((z >> 8) % 101) as f64, // 0..=100, integers: exact sums
             }
         })
@@ -72,10 +72,18 @@ fn stats_tiled_equal_brute_force() {
     for tile in [1, 7, 64, 1024] {
         for threads in [1, 2] {
             let s: StatsSummary = engine(threads)
-                .run_global(&step, &[&src as &dyn RasterSource], TileLayout::new(w, h, tile), vec![])
+                .run_global(
+                    &step,
+                    &[&src as &dyn RasterSource],
+                    TileLayout::new(w, h, tile),
+                    vec![],
+                )
                 .unwrap();
             assert_eq!(s.hist, hist, "tile {tile}");
-            assert_eq!((s.below, s.above, s.nodata, s.count), (below, above, nodata, count));
+            assert_eq!(
+                (s.below, s.above, s.nodata, s.count),
+                (below, above, nodata, count)
+            );
             assert_eq!((s.min, s.max), (Some(min), Some(max)));
             assert_eq!(s.sum, sum);
             assert_eq!(s.mean(), Some(sum / count as f64));
@@ -99,7 +107,13 @@ impl GlobalStep for MinusMin {
         serde_json::Value::Null
     }
     fn map(&self, inputs: &[TileView<f32>]) -> Result<Option<f32>> {
-        Ok(inputs[0].grid.data().iter().copied().filter(|v| !v.is_nan()).reduce(f32::min))
+        Ok(inputs[0]
+            .grid
+            .data()
+            .iter()
+            .copied()
+            .filter(|v| !v.is_nan())
+            .reduce(f32::min))
     }
     fn reduce(&self, layout: &TileLayout, summaries: Vec<Option<f32>>) -> Result<f32> {
         assert_eq!(summaries.len(), layout.count());
@@ -123,16 +137,28 @@ fn map_reduce_apply_equals_whole_grid() {
     let (w, h) = (90, 61);
     let data: Vec<f32> = grid(w, h, 9).iter().map(|&v| v as f32).collect();
     let src = MemRaster::from_grid(Grid::from_vec(w, h, data.clone()).unwrap(), GeoRef::pixel());
-    let min = data.iter().copied().filter(|v| !v.is_nan()).fold(f32::INFINITY, f32::min);
+    let min = data
+        .iter()
+        .copied()
+        .filter(|v| !v.is_nan())
+        .fold(f32::INFINITY, f32::min);
     let want: Vec<u8> = data.iter().flat_map(|v| (v - min).to_le_bytes()).collect();
     for tile in [1, 7, 64] {
         for threads in [1, 2] {
             let (sink, handle) = MemSink::new(w, h, DType::F32, None);
             let m = engine(threads)
-                .run_global(&MinusMin, &[&src as &dyn RasterSource], TileLayout::new(w, h, tile), vec![Box::new(sink)])
+                .run_global(
+                    &MinusMin,
+                    &[&src as &dyn RasterSource],
+                    TileLayout::new(w, h, tile),
+                    vec![Box::new(sink)],
+                )
                 .unwrap();
             assert_eq!(m, min);
-            assert!(handle.take().unwrap().as_le_bytes() == &want[..], "tile {tile}");
+            assert!(
+                handle.take().unwrap().as_le_bytes() == &want[..],
+                "tile {tile}"
+            );
         }
     }
 }
@@ -151,7 +177,10 @@ fn summaries_survive_serde_and_non_serialisable_ones_are_reported() {
     };
     assert_eq!(roundtrip_summary("stats", &s).unwrap(), s);
     let e = roundtrip_summary("bad", &f64::NAN).unwrap_err();
-    assert!(e.to_string().contains("bad") && e.to_string().contains("round trip"), "{e}");
+    assert!(
+        e.to_string().contains("bad") && e.to_string().contains("round trip"),
+        "{e}"
+    );
 }
 
 #[test]

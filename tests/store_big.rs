@@ -29,7 +29,10 @@ impl RasterSource for Synthetic {
 }
 
 fn side() -> usize {
-    std::env::var("OROGEN_BIG_SIDE").ok().and_then(|s| s.parse().ok()).unwrap_or(20_000)
+    std::env::var("OROGEN_BIG_SIDE")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(20_000)
 }
 
 #[test]
@@ -44,7 +47,8 @@ fn big_ingest_and_read_back() {
         block: (n, 1),
         path: "synthetic".into(),
     });
-    let base = std::env::var("OROGEN_BIG_DIR").unwrap_or_else(|_| std::env::temp_dir().display().to_string());
+    let base = std::env::var("OROGEN_BIG_DIR")
+        .unwrap_or_else(|_| std::env::temp_dir().display().to_string());
     let dir = std::path::Path::new(&base).join(format!("orogen-big-{}.tiles", std::process::id()));
     let opts = StoreOptions {
         tile: 1024,
@@ -77,6 +81,10 @@ fn big_ingest_and_read_back() {
             }
         }
     }
-    eprintln!("read back {} tiles: {:.1} s", layout.count(), t.elapsed().as_secs_f64());
+    eprintln!(
+        "read back {} tiles: {:.1} s",
+        layout.count(),
+        t.elapsed().as_secs_f64()
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }

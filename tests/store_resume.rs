@@ -3,7 +3,9 @@
 //! checks, the writer lock, compression, exact native copies.
 
 use orogen::exec::{ingest, EngineConfig};
-use orogen::raster::{AnyGrid, DType, GeoRef, Grid, MemRaster, RasterInfo, RasterSource, TileLayout, Window};
+use orogen::raster::{
+    AnyGrid, DType, GeoRef, Grid, MemRaster, RasterInfo, RasterSource, TileLayout, Window,
+};
 use orogen::store::{Compression, Provenance, StoreOptions, StoreWriter, TileStore};
 use orogen::{Error, Result};
 use std::path::Path;
@@ -20,10 +22,18 @@ fn splitmix(s: &mut u64) -> u64 {
 
 fn dem_i16(w: usize, h: usize) -> MemRaster {
     let mut s = 11;
-    let g = Grid::from_fn(w, h, |x, y| ((x * 7 + y * 3) as i16) + (splitmix(&mut s) % 5) as i16);
+    let g = Grid::from_fn(w, h, |x, y| {
+        ((x * 7 + y * 3) as i16) + (splitmix(&mut s) % 5) as i16
+    });
     MemRaster::new(
         AnyGrid::I16(g),
-        GeoRef::north_up(500000.0, 6000000.0, 25.0, orogen::raster::Crs::projected(32633)).with_nodata(Some(-32768.0)),
+        GeoRef::north_up(
+            500000.0,
+            6000000.0,
+            25.0,
+            orogen::raster::Crs::projected(32633),
+        )
+        .with_nodata(Some(-32768.0)),
         "dem.mem",
     )
 }
@@ -77,7 +87,10 @@ fn dir_bytes(dir: &Path) -> Vec<(String, Vec<u8>)> {
         .unwrap()
         .map(|e| {
             let e = e.unwrap();
-            (e.file_name().to_string_lossy().into_owned(), std::fs::read(e.path()).unwrap())
+            (
+                e.file_name().to_string_lossy().into_owned(),
+                std::fs::read(e.path()).unwrap(),
+            )
         })
         .collect();
     v.sort();
@@ -147,7 +160,12 @@ fn torn_tile_and_torn_journal_lines_are_not_trusted() {
     // Tile 3 = (tx 3, ty 0): truncate it, its journal entry stays.
     let t3 = dir.join("t_0_3.bin");
     let len = std::fs::metadata(&t3).unwrap().len();
-    std::fs::OpenOptions::new().write(true).open(&t3).unwrap().set_len(len / 2).unwrap();
+    std::fs::OpenOptions::new()
+        .write(true)
+        .open(&t3)
+        .unwrap()
+        .set_len(len / 2)
+        .unwrap();
     // Tile 5: same size, different content (a stale tile from another run).
     let t5 = dir.join("t_0_5.bin");
     let mut b = std::fs::read(&t5).unwrap();
@@ -180,7 +198,10 @@ fn resume_with_other_parameters_is_refused_unless_overwrite() {
     assert!(e.to_string().contains("compression"), "{e}");
     let other = MemRaster::new(src.grid().clone(), GeoRef::pixel(), "other.mem");
     let e = ingest(&other, &dir, opts(TILE), &cfg(2)).unwrap_err();
-    assert!(e.to_string().contains("provenance") && e.to_string().contains("georeference"), "{e}");
+    assert!(
+        e.to_string().contains("provenance") && e.to_string().contains("georeference"),
+        "{e}"
+    );
     let ow = StoreOptions {
         overwrite: true,
         ..opts(32)
@@ -197,15 +218,21 @@ fn a_second_writer_is_locked_out_and_a_stale_lock_is_taken_over() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("l.tiles");
     let g = GeoRef::pixel();
-    let first = StoreWriter::create(&dir, 10, 10, DType::U8, &g, opts(4), Provenance::default()).unwrap();
-    let e = StoreWriter::create(&dir, 10, 10, DType::U8, &g, opts(4), Provenance::default()).unwrap_err();
+    let first =
+        StoreWriter::create(&dir, 10, 10, DType::U8, &g, opts(4), Provenance::default()).unwrap();
+    let e = StoreWriter::create(&dir, 10, 10, DType::U8, &g, opts(4), Provenance::default())
+        .unwrap_err();
     let msg = e.to_string();
-    assert!(msg.contains(".lock") && msg.contains(&format!("pid {}", std::process::id())), "{msg}");
+    assert!(
+        msg.contains(".lock") && msg.contains(&format!("pid {}", std::process::id())),
+        "{msg}"
+    );
     drop(first);
     assert!(!dir.join(".lock").exists());
     // A lock left by a dead process.
     std::fs::write(dir.join(".lock"), "999999999\n").unwrap();
-    let w = StoreWriter::create(&dir, 10, 10, DType::U8, &g, opts(4), Provenance::default()).unwrap();
+    let w =
+        StoreWriter::create(&dir, 10, 10, DType::U8, &g, opts(4), Provenance::default()).unwrap();
     assert_eq!(w.done_count(), 0);
 }
 
@@ -213,8 +240,16 @@ fn a_second_writer_is_locked_out_and_a_stale_lock_is_taken_over() {
 fn a_foreign_nonempty_directory_is_not_used() {
     let tmp = tempfile::tempdir().unwrap();
     std::fs::write(tmp.path().join("notes.txt"), "mine").unwrap();
-    let e = StoreWriter::create(tmp.path(), 10, 10, DType::U8, &GeoRef::pixel(), opts(4), Provenance::default())
-        .unwrap_err();
+    let e = StoreWriter::create(
+        tmp.path(),
+        10,
+        10,
+        DType::U8,
+        &GeoRef::pixel(),
+        opts(4),
+        Provenance::default(),
+    )
+    .unwrap_err();
     assert!(e.to_string().contains("not a tile store"), "{e}");
     assert!(tmp.path().join("notes.txt").exists());
 }
@@ -230,7 +265,11 @@ fn compressed_and_raw_stores_read_identically_and_exactly() {
         1 => -9999.0,
         _ => (x as f32 * 0.37 + y as f32 * 1.1).sin() * 100.0,
     });
-    let src = MemRaster::new(AnyGrid::F32(g), GeoRef::pixel().with_nodata(Some(-9999.0)), "f.mem");
+    let src = MemRaster::new(
+        AnyGrid::F32(g),
+        GeoRef::pixel().with_nodata(Some(-9999.0)),
+        "f.mem",
+    );
     let raw_dir = tmp.path().join("raw.tiles");
     let z_dir = tmp.path().join("z.tiles");
     ingest(&src, &raw_dir, opts(32), &cfg(2)).unwrap();
@@ -244,7 +283,11 @@ fn compressed_and_raw_stores_read_identically_and_exactly() {
     assert_eq!(raw.info().georef, src.info().georef);
     assert_eq!(z.manifest().compression, Compression::Zstd { level: 9 });
     let mut state = 77;
-    let mut windows = vec![Window::full(w, h), Window::new(31, 31, 2, 2), Window::new(0, 90, 173, 1)];
+    let mut windows = vec![
+        Window::full(w, h),
+        Window::new(31, 31, 2, 2),
+        Window::new(0, 90, 173, 1),
+    ];
     for _ in 0..50 {
         let x = (splitmix(&mut state) % w as u64) as usize;
         let y = (splitmix(&mut state) % h as u64) as usize;
@@ -268,20 +311,46 @@ fn writer_checks_tiles_against_its_layout() {
     use orogen::exec::TileSink;
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("w.tiles");
-    let mut wr = StoreWriter::create(&dir, 10, 10, DType::U8, &GeoRef::pixel(), opts(4), Provenance::default()).unwrap();
+    let mut wr = StoreWriter::create(
+        &dir,
+        10,
+        10,
+        DType::U8,
+        &GeoRef::pixel(),
+        opts(4),
+        Provenance::default(),
+    )
+    .unwrap();
     let e = wr
-        .write(0, Window::new(0, 0, 5, 5), AnyGrid::filled(DType::U8, 5, 5, 1.0))
+        .write(
+            0,
+            Window::new(0, 0, 5, 5),
+            AnyGrid::filled(DType::U8, 5, 5, 1.0),
+        )
         .unwrap_err();
     assert!(e.to_string().contains("layout"), "{e}");
     let e = wr
-        .write(0, Window::new(0, 0, 4, 4), AnyGrid::filled(DType::I16, 4, 4, 1.0))
+        .write(
+            0,
+            Window::new(0, 0, 4, 4),
+            AnyGrid::filled(DType::I16, 4, 4, 1.0),
+        )
         .unwrap_err();
     assert!(e.to_string().contains("i16"), "{e}");
     let e = wr
-        .write(99, Window::new(0, 0, 4, 4), AnyGrid::filled(DType::U8, 4, 4, 1.0))
+        .write(
+            99,
+            Window::new(0, 0, 4, 4),
+            AnyGrid::filled(DType::U8, 4, 4, 1.0),
+        )
         .unwrap_err();
     assert!(e.to_string().contains("tile 99"), "{e}");
-    wr.write(8, Window::new(8, 8, 2, 2), AnyGrid::filled(DType::U8, 2, 2, 1.0)).unwrap();
+    wr.write(
+        8,
+        Window::new(8, 8, 2, 2),
+        AnyGrid::filled(DType::U8, 2, 2, 1.0),
+    )
+    .unwrap();
     assert!(wr.is_done(8) && !wr.is_done(0));
     let e = Box::new(wr).finish().unwrap_err();
     assert!(e.to_string().contains("8 tiles were never written"), "{e}");

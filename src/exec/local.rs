@@ -82,7 +82,7 @@ impl LocalEngine {
     /// order of `ids`. At most `in_flight` tiles are between dispatch and
     /// `consume`. The first error stops dispatching and is returned with the
     /// tile id and `name`.
-    pub(crate) fn pipeline<R: Send>(
+    pub fn pipeline<R: Send>(
         &self,
         name: &str,
         ids: &[TileId],

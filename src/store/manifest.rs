@@ -15,8 +15,8 @@ pub const FORMAT: &str = "orogen-tile-store";
 pub const VERSION: u32 = 1;
 /// Largest raster dimension a manifest may declare (cells per side).
 pub const MAX_DIM: usize = 1 << 24;
-/// Largest tile side a manifest may declare (cells).
-pub const MAX_TILE: usize = 1 << 14;
+/// Largest tile side a manifest may declare (cells; an f64 tile of this side is 512 MiB).
+pub const MAX_TILE: usize = 1 << 13;
 /// Largest number of tiles a manifest may declare.
 pub const MAX_TILES: usize = 1 << 24;
 /// Largest manifest file read (bytes).
