@@ -5,9 +5,7 @@
 //! per-tile summaries. See `ARCHITECTURE.md` for the map of the crate.
 
 #[cfg(not(target_endian = "little"))]
-compile_error!(
-    "orogen stores tiles as little-endian raw arrays and builds only on little-endian targets"
-);
+compile_error!("orogen stores tiles as little-endian raw arrays and builds only on little-endian targets");
 
 pub mod error;
 pub mod exec;

@@ -3,9 +3,7 @@
 //! runs them; an engine never knows what a step computes.
 
 use crate::error::Result;
-use crate::raster::{
-    AnyGrid, Cell, DType, Grid, IntoAny, RasterSource, TileId, TileLayout, TileView, Window,
-};
+use crate::raster::{AnyGrid, Cell, DType, Grid, IntoAny, RasterSource, TileId, TileLayout, TileView, Window};
 use serde::{de::DeserializeOwned, Serialize};
 
 /// A local step: `tile + halo -> tile`, for every tile independently.

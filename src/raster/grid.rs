@@ -234,12 +234,7 @@ impl AnyGrid {
         }
     }
     /// Build from little-endian bytes of `dtype` (length must match).
-    pub fn from_le_bytes(
-        dtype: DType,
-        width: usize,
-        height: usize,
-        bytes: &[u8],
-    ) -> Result<AnyGrid> {
+    pub fn from_le_bytes(dtype: DType, width: usize, height: usize, bytes: &[u8]) -> Result<AnyGrid> {
         fn mk<T: IntoAny>(w: usize, h: usize, b: &[u8]) -> Result<AnyGrid> {
             let n = w * h;
             if b.len() != n * std::mem::size_of::<T>() {
