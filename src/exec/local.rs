@@ -13,7 +13,8 @@
 //! write, so at most `budget / bytes_per_tile` tiles (at least 1) are in
 //! flight, where `bytes_per_tile` counts, per input, the view with its halo
 //! as read natively plus its typed copies, and per output the typed core
-//! plus its native copy (see [`local_tile_bytes`]). Since tiles are
+//! plus its native copy (see [`local_tile_bytes`]); independently of the
+//! budget, at most `4 x workers + 4` tiles are in flight. Since tiles are
 //! dispatched in order, the next tile to write is always in flight, so the
 //! bounded pipeline cannot deadlock.
 
@@ -94,7 +95,13 @@ impl LocalEngine {
             return Ok(());
         }
         let pool = self.pool()?;
-        let in_flight = self.tiles_in_flight(bytes_per_tile).min(ids.len());
+        // Beyond a few tiles per worker a larger window gains nothing, and
+        // the channels preallocate one slot per tile in flight.
+        let window = 4 * pool.current_num_threads() + 4;
+        let in_flight = self
+            .tiles_in_flight(bytes_per_tile)
+            .min(ids.len())
+            .min(window);
         let progress = self.progress(name, ids.len());
         let (permit_tx, permit_rx) = bounded::<()>(in_flight);
         for _ in 0..in_flight {
