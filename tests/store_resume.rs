@@ -355,3 +355,62 @@ fn writer_checks_tiles_against_its_layout() {
     let e = Box::new(wr).finish().unwrap_err();
     assert!(e.to_string().contains("8 tiles were never written"), "{e}");
 }
+
+/// A slow source, so a child process can be killed in the middle of an ingest.
+struct Slow<'a>(&'a MemRaster);
+impl RasterSource for Slow<'_> {
+    fn info(&self) -> &RasterInfo {
+        self.0.info()
+    }
+    fn read_native(&self, win: Window) -> Result<AnyGrid> {
+        std::thread::sleep(std::time::Duration::from_millis(40));
+        self.0.read_native(win)
+    }
+}
+
+/// Child half of `killed_ingest_resumes`: ingests slowly into `$OROGEN_CHILD_DIR`.
+#[test]
+#[ignore]
+fn child_ingest() {
+    let Ok(dir) = std::env::var("OROGEN_CHILD_DIR") else {
+        return;
+    };
+    let src = dem_i16(W, H);
+    ingest(&Slow(&src), Path::new(&dir), opts(TILE), &cfg(1)).unwrap();
+}
+
+#[test]
+fn killed_ingest_resumes() {
+    let tmp = tempfile::tempdir().unwrap();
+    let src = dem_i16(W, H);
+    let want = reference(tmp.path(), &src);
+    let dir = tmp.path().join("killed.tiles");
+    let mut child = std::process::Command::new(std::env::current_exe().unwrap())
+        .args(["child_ingest", "--exact", "--ignored", "--quiet"])
+        .env("OROGEN_CHILD_DIR", &dir)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let journal = dir.join("journal");
+    let t0 = std::time::Instant::now();
+    loop {
+        let n = std::fs::read_to_string(&journal)
+            .map(|j| j.lines().count())
+            .unwrap_or(0);
+        if n >= 5 {
+            break;
+        }
+        assert!(t0.elapsed().as_secs() < 60, "child made no progress");
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    child.kill().unwrap(); // SIGKILL: no destructor runs, the lock stays
+    child.wait().unwrap();
+    assert!(dir.join(".lock").exists());
+    let done = std::fs::read_to_string(&journal).unwrap().lines().count();
+    assert!((5..TILES).contains(&done), "{done}");
+    let counting = Counting::new(&src, None);
+    ingest(&counting, &dir, opts(TILE), &cfg(2)).unwrap();
+    assert_eq!(counting.reads.load(Ordering::SeqCst), TILES - done);
+    assert_eq!(dir_bytes(&dir), want);
+}
