@@ -28,6 +28,14 @@ pub enum Error {
     /// A tile store problem (missing, locked, inconsistent manifest, torn tile).
     #[error("{}: {msg}", path.display())]
     Store { path: PathBuf, msg: String },
+    /// An error while processing one tile of a step (added by the engine).
+    #[error("{step}, tile {id}: {source}")]
+    Tile {
+        step: String,
+        id: usize,
+        #[source]
+        source: Box<Error>,
+    },
 }
 
 /// Result alias used throughout the library.
@@ -67,6 +75,14 @@ impl Error {
         Error::Store {
             path: path.as_ref().to_path_buf(),
             msg: msg.into(),
+        }
+    }
+    /// `source` raised while step `step` processed tile `id`.
+    pub fn tile(step: impl Into<String>, id: usize, source: Error) -> Self {
+        Error::Tile {
+            step: step.into(),
+            id,
+            source: Box::new(source),
         }
     }
     /// Invalid argument.

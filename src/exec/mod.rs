@@ -82,6 +82,11 @@ pub trait TileSink: Send {
     fn dtype(&self) -> DType;
     /// Nodata value written for NaN cells.
     fn nodata(&self) -> Option<f64>;
+    /// The tile layout the sink is bound to, if any (a tile store's); the
+    /// engine refuses to run with a different layout.
+    fn layout(&self) -> Option<TileLayout> {
+        None
+    }
     /// True if the tile is already finished (resume): the engine skips it.
     fn is_done(&self, _id: TileId) -> bool {
         false
@@ -141,3 +146,10 @@ pub trait Engine {
         sinks: Vec<Box<dyn TileSink>>,
     ) -> Result<S::Solution>;
 }
+
+mod copy;
+mod local;
+pub mod stats;
+
+pub use copy::{copy, ingest, MemSink, MemSinkHandle};
+pub use local::{local_tile_bytes, roundtrip_summary, tiles_in_flight, LocalEngine};

@@ -1,0 +1,176 @@
+//! Native-type copies between sources and sinks (ingest, export) and an
+//! in-memory sink.
+
+use super::{local::LocalEngine, EngineConfig, TileSink};
+use crate::error::{Error, Result};
+use crate::raster::{AnyGrid, DType, RasterSource, TileId, TileLayout, Window};
+use crate::store::{Provenance, StoreOptions, StoreWriter};
+use std::path::Path;
+use std::sync::{Arc, Mutex};
+
+/// Copy `src` into `sink` tile by tile in the native type (exact bytes, no
+/// nodata conversion), running on `engine`'s pool under its memory budget.
+/// Tiles the sink reports done are skipped; the sink is finished at the end.
+pub fn copy(
+    src: &dyn RasterSource,
+    mut sink: Box<dyn TileSink>,
+    layout: TileLayout,
+    engine: &LocalEngine,
+) -> Result<()> {
+    let info = src.info();
+    if (info.width, info.height) != (layout.width, layout.height) {
+        return Err(Error::invalid(format!(
+            "copy: {} is {}x{} but the layout is {}x{}",
+            info.path.display(),
+            info.width,
+            info.height,
+            layout.width,
+            layout.height
+        )));
+    }
+    if sink.dtype() != info.dtype {
+        return Err(Error::invalid(format!(
+            "copy: {} holds {} cells but the destination holds {}",
+            info.path.display(),
+            info.dtype,
+            sink.dtype()
+        )));
+    }
+    if let Some(l) = sink.layout() {
+        if l != layout {
+            return Err(Error::invalid(format!(
+                "copy: the destination is laid out in tiles of {}, the copy in tiles of {}",
+                l.tile, layout.tile
+            )));
+        }
+    }
+    let ids: Vec<TileId> = (0..layout.count())
+        .filter(|&id| !sink.is_done(id))
+        .collect();
+    // One native tile read, and the same tile waiting to be written.
+    let cells = (layout.tile.min(layout.width) * layout.tile.min(layout.height)) as u64;
+    let bytes = 2 * cells * info.dtype.size() as u64;
+    let compute = |id: TileId| src.read_native(layout.window(id));
+    engine.pipeline("copy", &ids, bytes, &compute, |id, g| {
+        sink.write(id, layout.window(id), g)
+    })?;
+    sink.finish()
+}
+
+/// Ingest `src` into the tile store `out_path` with `opts`: a native copy
+/// with the store's layout. Rerunning after an interruption resumes: tiles
+/// already finished (and verified) are not read again.
+pub fn ingest(
+    src: &dyn RasterSource,
+    out_path: &Path,
+    opts: StoreOptions,
+    config: &EngineConfig,
+) -> Result<()> {
+    let info = src.info();
+    let provenance = Provenance::new(
+        "ingest",
+        serde_json::Value::Object(Default::default()),
+        vec![info.path.display().to_string()],
+    );
+    let writer = StoreWriter::create(
+        out_path,
+        info.width,
+        info.height,
+        info.dtype,
+        &info.georef,
+        opts,
+        provenance,
+    )?;
+    let layout = writer.layout();
+    copy(
+        src,
+        Box::new(writer),
+        layout,
+        &LocalEngine::new(config.clone()),
+    )
+}
+
+/// A sink that assembles the whole raster in memory (tests, small outputs).
+/// Its result is taken from the [`MemSinkHandle`] after `finish`.
+#[derive(Debug)]
+pub struct MemSink {
+    grid: AnyGrid,
+    nodata: Option<f64>,
+    cells_written: usize,
+    out: Arc<Mutex<Option<AnyGrid>>>,
+}
+
+/// Where a finished [`MemSink`] leaves its grid.
+#[derive(Debug, Clone)]
+pub struct MemSinkHandle(Arc<Mutex<Option<AnyGrid>>>);
+
+impl MemSinkHandle {
+    /// The assembled grid, once the sink finished (`None` before, or if the
+    /// run failed).
+    pub fn take(&self) -> Option<AnyGrid> {
+        self.0.lock().ok()?.take()
+    }
+}
+
+impl MemSink {
+    /// A `width` x `height` sink of `dtype` with `nodata`.
+    pub fn new(
+        width: usize,
+        height: usize,
+        dtype: DType,
+        nodata: Option<f64>,
+    ) -> (MemSink, MemSinkHandle) {
+        let out = Arc::new(Mutex::new(None));
+        let sink = MemSink {
+            grid: AnyGrid::filled(dtype, width, height, nodata.unwrap_or(0.0)),
+            nodata,
+            cells_written: 0,
+            out: out.clone(),
+        };
+        (sink, MemSinkHandle(out))
+    }
+}
+
+impl TileSink for MemSink {
+    fn dtype(&self) -> DType {
+        self.grid.dtype()
+    }
+    fn nodata(&self) -> Option<f64> {
+        self.nodata
+    }
+    fn write(&mut self, _id: TileId, core: Window, data: AnyGrid) -> Result<()> {
+        let full = Window::full(self.grid.width(), self.grid.height());
+        if data.dtype() != self.grid.dtype()
+            || (data.width(), data.height()) != (core.w, core.h)
+            || core.intersect(&full) != Some(core)
+        {
+            return Err(Error::invalid(format!(
+                "memory sink: a {}x{} {} tile at {core:?} does not fit a {}x{} {} raster",
+                data.width(),
+                data.height(),
+                data.dtype(),
+                full.w,
+                full.h,
+                self.grid.dtype()
+            )));
+        }
+        self.grid.paste(&data, core.x, core.y);
+        self.cells_written += core.len();
+        Ok(())
+    }
+    fn finish(self: Box<Self>) -> Result<()> {
+        let total = self.grid.width() * self.grid.height();
+        if self.cells_written != total {
+            return Err(Error::invalid(format!(
+                "memory sink: {} of {total} cells written",
+                self.cells_written
+            )));
+        }
+        let mut slot = self
+            .out
+            .lock()
+            .map_err(|_| Error::invalid("memory sink: result slot poisoned"))?;
+        *slot = Some(self.grid);
+        Ok(())
+    }
+}

@@ -1,0 +1,464 @@
+//! The in-process engine: tiles on a rayon pool, results written in tile
+//! order by the calling thread, under a memory budget.
+//!
+//! Pipeline: a dispatcher thread walks the tiles to do in row-major order
+//! and spawns one rayon task per tile (read views -> compute -> convert to
+//! the sinks' native types); tasks send results on a bounded crossbeam
+//! channel to the calling thread, which keeps them in a reorder buffer and
+//! writes them to the sinks in increasing tile id order.
+//!
+//! Memory model: a tile is "in flight" from its dispatch until its result is
+//! written (reading, computing, or waiting in the reorder buffer). The
+//! dispatcher needs a permit per tile and the writer returns it after the
+//! write, so at most `budget / bytes_per_tile` tiles (at least 1) are in
+//! flight, where `bytes_per_tile` counts, per input, the view with its halo
+//! as read natively plus its typed copies, and per output the typed core
+//! plus its native copy (see [`local_tile_bytes`]); independently of the
+//! budget, at most `4 x workers + 4` tiles are in flight. Since tiles are
+//! dispatched in order, the next tile to write is always in flight, so the
+//! bounded pipeline cannot deadlock.
+
+use super::{Engine, EngineConfig, GlobalStep, LocalStep, TileSink};
+use crate::error::{Error, Result};
+use crate::raster::{
+    read_view, AnyGrid, Cell, DType, Grid, IntoAny, RasterSource, TileId, TileLayout, TileView,
+};
+use crossbeam_channel::bounded;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use std::collections::BTreeMap;
+use std::io::IsTerminal;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// The in-process engine (rayon pool of `config.threads` workers).
+#[derive(Debug, Clone)]
+pub struct LocalEngine {
+    config: EngineConfig,
+}
+
+impl LocalEngine {
+    /// New engine; the worker pool is started for each run.
+    pub fn new(config: EngineConfig) -> Self {
+        LocalEngine { config }
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &EngineConfig {
+        &self.config
+    }
+
+    fn pool(&self) -> Result<rayon::ThreadPool> {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(self.config.threads)
+            .thread_name(|i| format!("orogen-worker-{i}"))
+            .build()
+            .map_err(|e| {
+                Error::invalid(format!(
+                    "cannot start {} worker threads: {e}",
+                    self.config.threads
+                ))
+            })
+    }
+
+    /// Tiles allowed in flight for tiles of `bytes_per_tile` (at least 1).
+    pub fn tiles_in_flight(&self, bytes_per_tile: u64) -> usize {
+        tiles_in_flight(self.config.memory_budget, bytes_per_tile)
+    }
+
+    fn progress(&self, name: &str, len: usize) -> ProgressBar {
+        if !self.config.progress || !std::io::stderr().is_terminal() {
+            return ProgressBar::hidden();
+        }
+        let pb = ProgressBar::with_draw_target(Some(len as u64), ProgressDrawTarget::stderr());
+        if let Ok(style) = ProgressStyle::with_template(
+            "{msg} [{elapsed_precise}] {wide_bar} {pos}/{len} tiles, ETA {eta}",
+        ) {
+            pb.set_style(style);
+        }
+        pb.set_message(name.to_string());
+        pb
+    }
+
+    /// Run `compute` for every tile of `ids` (in row-major order) on the
+    /// pool and hand each result to `consume` on the calling thread in the
+    /// order of `ids`. At most `in_flight` tiles are between dispatch and
+    /// `consume`. The first error stops dispatching and is returned with the
+    /// tile id and `name`.
+    pub fn pipeline<R: Send>(
+        &self,
+        name: &str,
+        ids: &[TileId],
+        bytes_per_tile: u64,
+        compute: &(dyn Fn(TileId) -> Result<R> + Sync),
+        mut consume: impl FnMut(TileId, R) -> Result<()>,
+    ) -> Result<()> {
+        if ids.is_empty() {
+            return Ok(());
+        }
+        let pool = self.pool()?;
+        // Beyond a few tiles per worker a larger window gains nothing, and
+        // the channels preallocate one slot per tile in flight.
+        let window = 4 * pool.current_num_threads() + 4;
+        let in_flight = self
+            .tiles_in_flight(bytes_per_tile)
+            .min(ids.len())
+            .min(window);
+        let progress = self.progress(name, ids.len());
+        let (permit_tx, permit_rx) = bounded::<()>(in_flight);
+        for _ in 0..in_flight {
+            // Cannot fail: the channel has room for `in_flight` permits.
+            let _ = permit_tx.send(());
+        }
+        let (res_tx, res_rx) = bounded::<(usize, Result<R>)>(in_flight);
+        let stop = AtomicBool::new(false);
+        let mut failure: Option<Error> = None;
+        std::thread::scope(|ts| {
+            let stop = &stop;
+            let dispatcher = {
+                let permit_rx = permit_rx.clone();
+                let pool = &pool;
+                ts.spawn(move || {
+                    pool.in_place_scope(|s| {
+                        for (k, &id) in ids.iter().enumerate() {
+                            if permit_rx.recv().is_err() || stop.load(Ordering::Acquire) {
+                                break;
+                            }
+                            let tx = res_tx.clone();
+                            s.spawn(move |_| {
+                                let r = if stop.load(Ordering::Acquire) {
+                                    Err(Error::invalid("cancelled"))
+                                } else {
+                                    compute(id)
+                                };
+                                let _ = tx.send((k, r));
+                            });
+                        }
+                        drop(res_tx);
+                    });
+                })
+            };
+            drop(permit_rx);
+            let mut pending: BTreeMap<usize, R> = BTreeMap::new();
+            let mut next = 0;
+            'outer: while next < ids.len() {
+                let Ok((k, r)) = res_rx.recv() else {
+                    break;
+                };
+                match r {
+                    Ok(v) => {
+                        pending.insert(k, v);
+                    }
+                    Err(e) => {
+                        failure = Some(Error::tile(name, ids[k], e));
+                        break;
+                    }
+                }
+                while let Some(v) = pending.remove(&next) {
+                    let id = ids[next];
+                    if let Err(e) = consume(id, v) {
+                        failure = Some(Error::tile(name, id, e));
+                        break 'outer;
+                    }
+                    next += 1;
+                    progress.inc(1);
+                    let _ = permit_tx.send(());
+                }
+            }
+            stop.store(true, Ordering::Release);
+            drop(permit_tx);
+            drop(res_rx);
+            drop(pending);
+            if dispatcher.join().is_err() && failure.is_none() {
+                failure = Some(Error::invalid(format!("{name}: a worker panicked")));
+            }
+            if failure.is_none() && next < ids.len() {
+                failure = Some(Error::invalid(format!(
+                    "{name}: the pipeline stopped early"
+                )));
+            }
+        });
+        match failure {
+            Some(e) => {
+                progress.abandon();
+                Err(e)
+            }
+            None => {
+                progress.finish_and_clear();
+                Ok(())
+            }
+        }
+    }
+}
+
+/// Tiles allowed in flight under `budget` bytes for tiles of
+/// `bytes_per_tile` bytes: `budget / bytes_per_tile`, at least 1.
+pub fn tiles_in_flight(budget: u64, bytes_per_tile: u64) -> usize {
+    (budget / bytes_per_tile.max(1)).clamp(1, usize::MAX as u64) as usize
+}
+
+/// Estimated bytes of one tile in flight: per input, the halo-extended view
+/// in the native type and twice in `in_size` (conversion, and padding at the
+/// raster edge); per output, the core in `out_size` and in the sink's type.
+pub fn local_tile_bytes(
+    layout: &TileLayout,
+    halo: usize,
+    inputs: &[&dyn RasterSource],
+    in_size: usize,
+    out_size: usize,
+    sink_sizes: &[usize],
+) -> u64 {
+    let cw = layout.tile.min(layout.width) as u64;
+    let ch = layout.tile.min(layout.height) as u64;
+    let h = halo as u64;
+    let view = (cw + 2 * h) * (ch + 2 * h);
+    let core = cw * ch;
+    let ins: u64 = inputs
+        .iter()
+        .map(|s| view * (s.info().dtype.size() as u64 + 2 * in_size as u64))
+        .sum();
+    let outs: u64 = sink_sizes
+        .iter()
+        .map(|&s| core * (out_size as u64 + s as u64))
+        .sum();
+    ins + outs
+}
+
+fn check_inputs(name: &str, inputs: &[&dyn RasterSource], layout: &TileLayout) -> Result<()> {
+    for src in inputs {
+        let i = src.info();
+        if (i.width, i.height) != (layout.width, layout.height) {
+            return Err(Error::invalid(format!(
+                "{name}: input {} is {}x{} but the run covers {}x{}",
+                i.path.display(),
+                i.width,
+                i.height,
+                layout.width,
+                layout.height
+            )));
+        }
+    }
+    Ok(())
+}
+
+fn check_sinks(
+    name: &str,
+    sinks: &[Box<dyn TileSink>],
+    outputs: usize,
+    layout: &TileLayout,
+) -> Result<()> {
+    if sinks.len() != outputs {
+        return Err(Error::invalid(format!(
+            "{name}: the step has {outputs} outputs but {} sinks were given",
+            sinks.len()
+        )));
+    }
+    for s in sinks {
+        if let Some(l) = s.layout() {
+            if l != *layout {
+                return Err(Error::invalid(format!(
+                    "{name}: a sink is laid out as {}x{} in tiles of {}, the run as {}x{} in tiles of {}; run with the sink's layout",
+                    l.width, l.height, l.tile, layout.width, layout.height, layout.tile
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Tiles not yet finished in every sink (all tiles when there are none).
+fn todo(layout: &TileLayout, sinks: &[Box<dyn TileSink>]) -> Vec<TileId> {
+    (0..layout.count())
+        .filter(|&id| sinks.is_empty() || !sinks.iter().all(|s| s.is_done(id)))
+        .collect()
+}
+
+fn read_views<T: Cell>(
+    inputs: &[&dyn RasterSource],
+    layout: &TileLayout,
+    id: TileId,
+    halo: usize,
+) -> Result<Vec<TileView<T>>> {
+    inputs
+        .iter()
+        .map(|src| read_view::<T>(*src, layout, id, halo))
+        .collect()
+}
+
+fn blank_outputs<T: IntoAny>(n: usize, layout: &TileLayout, id: TileId) -> Vec<Grid<T>> {
+    let core = layout.window(id);
+    (0..n)
+        .map(|_| Grid::new(core.w, core.h, T::from_f64(f64::NAN)))
+        .collect()
+}
+
+fn convert_outputs<T: IntoAny>(
+    name: &str,
+    out: &[Grid<T>],
+    layout: &TileLayout,
+    id: TileId,
+    meta: &[(DType, Option<f64>)],
+) -> Result<Vec<AnyGrid>> {
+    let core = layout.window(id);
+    out.iter()
+        .zip(meta)
+        .map(|(g, &(dt, nd))| {
+            if (g.width(), g.height()) != (core.w, core.h) {
+                return Err(Error::invalid(format!(
+                    "{name} produced a {}x{} output for a {}x{} tile",
+                    g.width(),
+                    g.height(),
+                    core.w,
+                    core.h
+                )));
+            }
+            Ok(AnyGrid::from_typed(g, dt, nd))
+        })
+        .collect()
+}
+
+fn write_outputs(
+    sinks: &mut [Box<dyn TileSink>],
+    layout: &TileLayout,
+    id: TileId,
+    grids: Vec<AnyGrid>,
+) -> Result<()> {
+    let core = layout.window(id);
+    for (s, g) in sinks.iter_mut().zip(grids) {
+        if !s.is_done(id) {
+            s.write(id, core, g)?;
+        }
+    }
+    Ok(())
+}
+
+fn finish_all(sinks: Vec<Box<dyn TileSink>>) -> Result<()> {
+    for s in sinks {
+        s.finish()?;
+    }
+    Ok(())
+}
+
+/// Serialise a summary with serde_json and read it back, proving it can be
+/// shipped between processes (used on every summary in debug builds).
+pub fn roundtrip_summary<T: serde::Serialize + serde::de::DeserializeOwned>(
+    step: &str,
+    s: &T,
+) -> Result<T> {
+    let bytes = serde_json::to_vec(s)
+        .map_err(|e| Error::invalid(format!("{step}: a tile summary does not serialise: {e}")))?;
+    serde_json::from_slice(&bytes).map_err(|e| {
+        Error::invalid(format!(
+            "{step}: a tile summary does not survive a serde_json round trip (NaN or infinity in an f64 field?): {e}"
+        ))
+    })
+}
+
+impl Engine for LocalEngine {
+    fn run_local<S: LocalStep>(
+        &self,
+        step: &S,
+        inputs: &[&dyn RasterSource],
+        layout: TileLayout,
+        mut sinks: Vec<Box<dyn TileSink>>,
+    ) -> Result<()> {
+        let name = step.name();
+        check_inputs(&name, inputs, &layout)?;
+        check_sinks(&name, &sinks, step.outputs(), &layout)?;
+        let halo = step.halo();
+        let meta: Vec<(DType, Option<f64>)> =
+            sinks.iter().map(|s| (s.dtype(), s.nodata())).collect();
+        let sizes: Vec<usize> = meta.iter().map(|m| m.0.size()).collect();
+        let bytes = local_tile_bytes(
+            &layout,
+            halo,
+            inputs,
+            std::mem::size_of::<S::In>(),
+            std::mem::size_of::<S::Out>(),
+            &sizes,
+        );
+        let ids = todo(&layout, &sinks);
+        let n_out = step.outputs();
+        let compute = |id: TileId| -> Result<Vec<AnyGrid>> {
+            let views = read_views::<S::In>(inputs, &layout, id, halo)?;
+            let mut out = blank_outputs::<S::Out>(n_out, &layout, id);
+            step.run(&views, &mut out)?;
+            convert_outputs(&name, &out, &layout, id, &meta)
+        };
+        self.pipeline(&name, &ids, bytes, &compute, |id, grids| {
+            write_outputs(&mut sinks, &layout, id, grids)
+        })?;
+        finish_all(sinks)
+    }
+
+    fn run_global<S: GlobalStep>(
+        &self,
+        step: &S,
+        inputs: &[&dyn RasterSource],
+        layout: TileLayout,
+        mut sinks: Vec<Box<dyn TileSink>>,
+    ) -> Result<S::Solution> {
+        let name = step.name();
+        check_inputs(&name, inputs, &layout)?;
+        if !sinks.is_empty() {
+            check_sinks(&name, &sinks, step.outputs(), &layout)?;
+        }
+        let halo = step.halo();
+        let in_size = std::mem::size_of::<S::In>();
+        // Map: every tile, summaries kept by tile id.
+        let all: Vec<TileId> = (0..layout.count()).collect();
+        let map_bytes = local_tile_bytes(&layout, halo, inputs, in_size, 0, &[]);
+        let map_name = format!("{name} (map)");
+        let mut summaries: Vec<Option<S::Summary>> = (0..layout.count()).map(|_| None).collect();
+        let map = |id: TileId| -> Result<S::Summary> {
+            let views = read_views::<S::In>(inputs, &layout, id, halo)?;
+            let s = step.map(&views)?;
+            if cfg!(debug_assertions) {
+                roundtrip_summary(&name, &s)
+            } else {
+                Ok(s)
+            }
+        };
+        self.pipeline(&map_name, &all, map_bytes, &map, |id, s| {
+            summaries[id] = Some(s);
+            Ok(())
+        })?;
+        let summaries: Vec<S::Summary> = summaries
+            .into_iter()
+            .enumerate()
+            .map(|(id, s)| {
+                s.ok_or_else(|| Error::invalid(format!("{name}: tile {id} has no summary")))
+            })
+            .collect::<Result<_>>()?;
+        let solution = step.reduce(&layout, summaries)?;
+        if sinks.is_empty() {
+            return Ok(solution);
+        }
+        // Apply: like a local step, with each tile's slice of the solution.
+        let meta: Vec<(DType, Option<f64>)> =
+            sinks.iter().map(|s| (s.dtype(), s.nodata())).collect();
+        let sizes: Vec<usize> = meta.iter().map(|m| m.0.size()).collect();
+        let bytes = local_tile_bytes(
+            &layout,
+            halo,
+            inputs,
+            in_size,
+            std::mem::size_of::<S::Out>(),
+            &sizes,
+        );
+        let ids = todo(&layout, &sinks);
+        let n_out = step.outputs();
+        let apply_name = format!("{name} (apply)");
+        let solution_ref = &solution;
+        let apply = |id: TileId| -> Result<Vec<AnyGrid>> {
+            let views = read_views::<S::In>(inputs, &layout, id, halo)?;
+            let slice = step.slice(solution_ref, id);
+            let mut out = blank_outputs::<S::Out>(n_out, &layout, id);
+            step.apply(&views, &slice, &mut out)?;
+            convert_outputs(&name, &out, &layout, id, &meta)
+        };
+        self.pipeline(&apply_name, &ids, bytes, &apply, |id, grids| {
+            write_outputs(&mut sinks, &layout, id, grids)
+        })?;
+        finish_all(sinks)?;
+        Ok(solution)
+    }
+}

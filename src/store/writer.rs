@@ -1,0 +1,491 @@
+//! Writing a tile store: atomic tile files, an append-only journal of
+//! finished tiles, a writer lock, resume after interruption, and the final
+//! manifest.
+//!
+//! Crash model: a tile is written to `t_Y_X.bin.tmp`, fsynced and renamed;
+//! only then is a line `id crc32 bytes` appended to `journal` and fsynced.
+//! On resume a journal line (or a `done` entry of an unfinished manifest) is
+//! trusted only if the tile file exists, has the recorded size and its
+//! content matches the recorded CRC-32, so a torn tile, a lost rename or a
+//! torn last journal line all lead to the tile being recomputed, never
+//! trusted. `finish` rewrites the manifest atomically with every tile
+//! `done` and `complete: true`, then removes the journal.
+
+use super::manifest::{
+    check_dims, Compression, Manifest, Provenance, TileEntry, TileState, FORMAT, VERSION,
+};
+use super::tile::{encode, is_intact, sync_dir, tile_file, write_atomic};
+use super::{JOURNAL, LOCK, MANIFEST};
+use crate::error::{Error, IoContext, Result};
+use crate::exec::TileSink;
+use crate::raster::{AnyGrid, DType, GeoRef, TileId, TileLayout, Window};
+use std::fs::{File, OpenOptions};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// Largest journal file read on resume (bytes).
+const MAX_JOURNAL_BYTES: u64 = 1 << 30;
+
+/// How a store is written.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct StoreOptions {
+    /// Tile side in cells.
+    pub tile: usize,
+    /// Per-tile compression.
+    pub compression: Compression,
+    /// Replace an existing store at the path instead of resuming it.
+    pub overwrite: bool,
+    /// fsync tiles, the journal and the manifest (on by default; turning it
+    /// off keeps atomic renames but loses durability on power failure).
+    pub sync: bool,
+}
+
+impl Default for StoreOptions {
+    fn default() -> Self {
+        StoreOptions {
+            tile: 1024,
+            compression: Compression::None,
+            overwrite: false,
+            sync: true,
+        }
+    }
+}
+
+/// An exclusive writer lock: a file created with `O_EXCL` holding the pid
+/// of its owner. A lock whose owner no longer runs (Linux: no `/proc/PID`)
+/// is stale and taken over, so a killed job can be resumed.
+#[derive(Debug)]
+struct Lock {
+    path: PathBuf,
+    held: bool,
+}
+
+impl Lock {
+    fn acquire(path: PathBuf) -> Result<Lock> {
+        for _ in 0..2 {
+            match OpenOptions::new().write(true).create_new(true).open(&path) {
+                Ok(mut f) => {
+                    f.write_all(format!("{}\n", std::process::id()).as_bytes())
+                        .at(&path)?;
+                    f.sync_all().at(&path)?;
+                    return Ok(Lock { path, held: true });
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
+                    let text = std::fs::read_to_string(&path).unwrap_or_default();
+                    let pid = text.trim().parse::<u32>().ok();
+                    let proc_dir = Path::new("/proc");
+                    match pid {
+                        Some(p) if proc_dir.is_dir() && !proc_dir.join(p.to_string()).exists() => {
+                            // Stale lock of a dead process: take it over.
+                            match std::fs::remove_file(&path) {
+                                Ok(()) => continue,
+                                Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
+                                Err(e) => return Err(Error::io(&path, e)),
+                            }
+                        }
+                        Some(p) => {
+                            return Err(Error::store(
+                                &path,
+                                format!(
+                                    "the store is locked by another writer (pid {p}); wait for it to finish, or delete this lock file if that process is not an orogen writer"
+                                ),
+                            ))
+                        }
+                        None => {
+                            return Err(Error::store(
+                                &path,
+                                "the store is locked by another writer (unreadable pid); delete this lock file if no orogen is writing the store",
+                            ))
+                        }
+                    }
+                }
+                Err(e) => return Err(Error::io(&path, e)),
+            }
+        }
+        Err(Error::store(
+            &path,
+            "could not take over a stale lock; delete this lock file and retry",
+        ))
+    }
+
+    fn release(&mut self) -> Result<()> {
+        if self.held {
+            self.held = false;
+            match std::fs::remove_file(&self.path) {
+                Ok(()) => {}
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+                Err(e) => return Err(Error::io(&self.path, e)),
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Drop for Lock {
+    fn drop(&mut self) {
+        let _ = self.release();
+    }
+}
+
+/// Writes a tile store; a [`TileSink`] for the engine, which must run with
+/// the store's [`StoreWriter::layout`].
+#[derive(Debug)]
+pub struct StoreWriter {
+    dir: PathBuf,
+    manifest: Manifest,
+    layout: TileLayout,
+    opts: StoreOptions,
+    journal: File,
+    lock: Lock,
+}
+
+impl StoreWriter {
+    /// Create the store `path` (a directory, conventionally `NAME.tiles`), or
+    /// resume it if an unfinished (or finished) store with the same
+    /// dimensions, type, georeference, tiling, compression and provenance is
+    /// there. With `opts.overwrite` an existing store is replaced.
+    pub fn create(
+        path: impl AsRef<Path>,
+        width: usize,
+        height: usize,
+        dtype: DType,
+        georef: &GeoRef,
+        opts: StoreOptions,
+        provenance: Provenance,
+    ) -> Result<StoreWriter> {
+        let dir = path.as_ref().to_path_buf();
+        check_dims(&dir, width, height, opts.tile)?;
+        if let Compression::Zstd { level } = opts.compression {
+            if !(1..=22).contains(&level) {
+                return Err(Error::invalid(format!(
+                    "zstd level {level} is outside 1..=22"
+                )));
+            }
+        }
+        let mut georef = georef.clone();
+        if georef.nodata.is_some_and(f64::is_nan) {
+            // NaN is what float rasters hold for missing cells anyway, and JSON cannot spell it.
+            georef.nodata = None;
+        }
+        if let Some(nd) = georef.nodata {
+            if nd.is_infinite() {
+                return Err(Error::invalid(format!(
+                    "nodata {nd} cannot be recorded in a store manifest (JSON has no infinity)"
+                )));
+            }
+            if !dtype.represents(nd) {
+                return Err(Error::invalid(format!(
+                    "nodata {nd} cannot be stored in {dtype}"
+                )));
+            }
+        }
+        std::fs::create_dir_all(&dir).at(&dir)?;
+        let lock = Lock::acquire(dir.join(LOCK))?;
+        let layout = TileLayout::new(width, height, opts.tile);
+        let mut manifest = Manifest {
+            format: FORMAT.to_string(),
+            version: VERSION,
+            width,
+            height,
+            dtype,
+            nodata: georef.nodata,
+            georef,
+            tile: opts.tile,
+            compression: opts.compression,
+            complete: false,
+            provenance,
+            tiles: vec![TileEntry::PENDING; layout.count()],
+        };
+        let mpath = dir.join(MANIFEST);
+        let jpath = dir.join(JOURNAL);
+        if opts.overwrite {
+            clear_store_files(&dir)?;
+        } else if mpath.exists() {
+            let old = Manifest::read(&mpath).map_err(|e| {
+                Error::store(
+                    &mpath,
+                    format!("cannot resume ({e}); use --overwrite to replace the store"),
+                )
+            })?;
+            check_same(&mpath, &old, &manifest)?;
+            let mut candidates: Vec<Option<TileEntry>> = old
+                .tiles
+                .iter()
+                .map(|t| (t.state == TileState::Done).then_some(*t))
+                .collect();
+            for (id, crc, bytes) in read_journal(&jpath)? {
+                if id < candidates.len() {
+                    candidates[id] = Some(TileEntry {
+                        state: TileState::Done,
+                        crc32: crc,
+                        bytes,
+                    });
+                }
+            }
+            let cell = dtype.size();
+            for (id, c) in candidates.into_iter().enumerate() {
+                if let Some(entry) = c {
+                    let (tx, ty) = layout.coords(id);
+                    let raw_len = layout.window(id).len() * cell;
+                    if is_intact(&tile_file(&dir, tx, ty), &entry, raw_len, opts.compression) {
+                        manifest.tiles[id] = entry;
+                    }
+                }
+            }
+        } else if std::fs::read_dir(&dir)
+            .at(&dir)?
+            .flatten()
+            .any(|e| e.file_name() != LOCK)
+        {
+            return Err(Error::store(
+                &dir,
+                "the directory exists, is not empty and is not a tile store; choose another name or use --overwrite",
+            ));
+        }
+        // Record the verified tiles in the (unfinished) manifest, then start
+        // an empty journal: a crash in between leaves the old journal, whose
+        // entries are verified again on the next resume.
+        write_atomic(&mpath, &manifest.to_bytes()?, opts.sync)?;
+        if opts.sync {
+            sync_dir(&dir)?;
+        }
+        let journal = OpenOptions::new()
+            .write(true)
+            .create(true)
+            .truncate(true)
+            .open(&jpath)
+            .at(&jpath)?;
+        Ok(StoreWriter {
+            dir,
+            manifest,
+            layout,
+            opts,
+            journal,
+            lock,
+        })
+    }
+
+    /// The layout the engine must use for this sink.
+    pub fn layout(&self) -> TileLayout {
+        self.layout
+    }
+
+    /// Number of tiles already finished (after a resume: those verified).
+    pub fn done_count(&self) -> usize {
+        self.manifest
+            .tiles
+            .iter()
+            .filter(|t| t.state == TileState::Done)
+            .count()
+    }
+
+    /// The store directory.
+    pub fn path(&self) -> &Path {
+        &self.dir
+    }
+}
+
+/// Fail unless a resumed store matches the parameters of this run.
+fn check_same(path: &Path, old: &Manifest, new: &Manifest) -> Result<()> {
+    let mut diffs = Vec::new();
+    if (old.width, old.height) != (new.width, new.height) {
+        diffs.push(format!(
+            "size {}x{} (this run: {}x{})",
+            old.width, old.height, new.width, new.height
+        ));
+    }
+    if old.dtype != new.dtype {
+        diffs.push(format!("type {} (this run: {})", old.dtype, new.dtype));
+    }
+    if old.tile != new.tile {
+        diffs.push(format!("tile size {} (this run: {})", old.tile, new.tile));
+    }
+    if old.compression != new.compression {
+        diffs.push(format!(
+            "compression {:?} (this run: {:?})",
+            old.compression, new.compression
+        ));
+    }
+    let json = |v: &dyn ToJson| v.to_json();
+    if json(&old.georef) != json(&new.georef) {
+        diffs.push("georeference".to_string());
+    }
+    if json(&old.provenance) != json(&new.provenance) {
+        diffs.push(format!(
+            "provenance (step {:?}, params {}, inputs {:?}, orogen {}; this run: step {:?}, params {}, inputs {:?}, orogen {})",
+            old.provenance.step,
+            old.provenance.params,
+            old.provenance.inputs,
+            old.provenance.version,
+            new.provenance.step,
+            new.provenance.params,
+            new.provenance.inputs,
+            new.provenance.version
+        ));
+    }
+    if diffs.is_empty() {
+        Ok(())
+    } else {
+        Err(Error::store(
+            path,
+            format!(
+                "an existing store differs from this run in {}; use --overwrite to replace it",
+                diffs.join(", ")
+            ),
+        ))
+    }
+}
+
+/// Serialised form for comparisons (what the manifest would record).
+trait ToJson {
+    fn to_json(&self) -> Option<serde_json::Value>;
+}
+impl<T: serde::Serialize> ToJson for T {
+    fn to_json(&self) -> Option<serde_json::Value> {
+        serde_json::to_value(self).ok()
+    }
+}
+
+/// Parse the journal: complete lines `id crc32hex bytes`. A line that does
+/// not parse (a torn last line) is ignored; a missing journal is empty.
+fn read_journal(path: &Path) -> Result<Vec<(usize, u32, u64)>> {
+    let meta = match std::fs::metadata(path) {
+        Ok(m) => m,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
+        Err(e) => return Err(Error::io(path, e)),
+    };
+    if meta.len() > MAX_JOURNAL_BYTES {
+        return Err(Error::too_large(
+            path,
+            "journal larger than any valid journal; use --overwrite to replace the store",
+        ));
+    }
+    let bytes = std::fs::read(path).at(path)?;
+    let mut out = Vec::new();
+    let mut lines: Vec<&[u8]> = bytes.split(|&b| b == b'\n').collect();
+    // The part after the last newline is a torn (or empty) line.
+    lines.pop();
+    for line in lines {
+        let Ok(text) = std::str::from_utf8(line) else {
+            continue;
+        };
+        let mut it = text.split_ascii_whitespace();
+        let (Some(a), Some(b), Some(c), None) = (it.next(), it.next(), it.next(), it.next()) else {
+            continue;
+        };
+        if let (Ok(id), Ok(crc), Ok(n)) = (a.parse(), u32::from_str_radix(b, 16), c.parse()) {
+            out.push((id, crc, n));
+        }
+    }
+    Ok(out)
+}
+
+/// Remove the files of a store (manifest, journal, tiles, temporaries) from
+/// `dir`, leaving anything else and the lock alone.
+fn clear_store_files(dir: &Path) -> Result<()> {
+    for e in std::fs::read_dir(dir).at(dir)? {
+        let e = e.at(dir)?;
+        let name = e.file_name();
+        let Some(name) = name.to_str() else { continue };
+        let ours = name == MANIFEST
+            || name == JOURNAL
+            || name.ends_with(".tmp")
+            || (name.starts_with("t_") && name.ends_with(".bin"));
+        if ours {
+            let p = e.path();
+            std::fs::remove_file(&p).at(&p)?;
+        }
+    }
+    Ok(())
+}
+
+impl TileSink for StoreWriter {
+    fn dtype(&self) -> DType {
+        self.manifest.dtype
+    }
+
+    fn nodata(&self) -> Option<f64> {
+        self.manifest.nodata
+    }
+
+    fn layout(&self) -> Option<TileLayout> {
+        Some(self.layout)
+    }
+
+    fn is_done(&self, id: TileId) -> bool {
+        self.manifest
+            .tiles
+            .get(id)
+            .is_some_and(|t| t.state == TileState::Done)
+    }
+
+    fn write(&mut self, id: TileId, core: Window, data: AnyGrid) -> Result<()> {
+        if id >= self.layout.count() || core != self.layout.window(id) {
+            return Err(Error::store(
+                &self.dir,
+                format!(
+                    "tile {id} at {core:?} does not belong to the store's layout ({}x{} in tiles of {}); run the engine with the store's layout",
+                    self.layout.width, self.layout.height, self.layout.tile
+                ),
+            ));
+        }
+        if data.dtype() != self.manifest.dtype || data.width() != core.w || data.height() != core.h
+        {
+            return Err(Error::store(
+                &self.dir,
+                format!(
+                    "tile {id}: got {}x{} {} cells, the store holds {}x{} {}",
+                    data.width(),
+                    data.height(),
+                    data.dtype(),
+                    core.w,
+                    core.h,
+                    self.manifest.dtype
+                ),
+            ));
+        }
+        let raw = data.as_le_bytes();
+        let crc = crc32fast::hash(raw);
+        let (tx, ty) = self.layout.coords(id);
+        let path = tile_file(&self.dir, tx, ty);
+        let enc = encode(raw, self.opts.compression, &path)?;
+        write_atomic(&path, &enc, self.opts.sync)?;
+        let jpath = self.dir.join(JOURNAL);
+        self.journal
+            .write_all(format!("{id} {crc:08x} {}\n", enc.len()).as_bytes())
+            .at(&jpath)?;
+        if self.opts.sync {
+            self.journal.sync_data().at(&jpath)?;
+        }
+        self.manifest.tiles[id] = TileEntry {
+            state: TileState::Done,
+            crc32: crc,
+            bytes: enc.len() as u64,
+        };
+        Ok(())
+    }
+
+    fn finish(mut self: Box<Self>) -> Result<()> {
+        let missing = self
+            .manifest
+            .tiles
+            .iter()
+            .filter(|t| t.state != TileState::Done)
+            .count();
+        if missing > 0 {
+            return Err(Error::store(
+                &self.dir,
+                format!("{missing} tiles were never written; the store stays unfinished, rerun the command to complete it"),
+            ));
+        }
+        self.manifest.complete = true;
+        let mpath = self.dir.join(MANIFEST);
+        write_atomic(&mpath, &self.manifest.to_bytes()?, self.opts.sync)?;
+        let jpath = self.dir.join(JOURNAL);
+        std::fs::remove_file(&jpath).at(&jpath)?;
+        if self.opts.sync {
+            sync_dir(&self.dir)?;
+        }
+        self.lock.release()
+    }
+}
