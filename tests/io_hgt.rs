@@ -45,8 +45,8 @@ fn synthetic_3_arcsecond_tile() {
     }
     let c = 1.0 / 1200.0;
     let want = [-71.0 - c / 2.0, c, 0.0, -32.0 + c / 2.0, 0.0, -c];
-    for k in 0..6 {
-        assert!((i.georef.transform[k] - want[k]).abs() < 1e-12, "t[{k}]");
+    for (k, (got, want)) in i.georef.transform.iter().zip(want).enumerate() {
+        assert!((got - want).abs() < 1e-12, "t[{k}]");
     }
     assert_eq!(i.georef.nodata, Some(-32768.0));
     assert_eq!(i.georef.crs.epsg, Some(4326));

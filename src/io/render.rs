@@ -10,8 +10,9 @@
 //! true metric cell size, combined by the "soft light" blend in its Pegtop
 //! form `out = (1 - 2s)·c² + 2s·c` (c = tint, s = shade in 0..1; s = 0.5
 //! leaves the tint unchanged). The shade is normalised so that flat ground
-//! gives s = 0.5: flat areas show the exact ramp colour, slopes lit by the sun
-//! are lighter and slopes facing away darker.
+//! gives s = 0.5 (with a mild contrast gain, [`SHADE_GAIN`]): flat areas show
+//! the exact ramp colour, slopes lit by the sun are lighter and slopes facing
+//! away darker.
 //!
 //! Colours: the land ramp runs green (low) -> yellow -> brown -> grey -> white
 //! (high) over the data's min..max or a given range. Sea: when `sea` is on and
@@ -317,7 +318,7 @@ pub fn render_preview(
             }
             let mut c = colour(v as f64);
             if let Some(sh) = &shade {
-                let s = (0.5 * sh.get(x, y) as f64 / flat).clamp(0.0, 1.0);
+                let s = (0.5 + SHADE_GAIN * (sh.get(x, y) as f64 / flat - 1.0)).clamp(0.0, 1.0);
                 c = c.map(|c| {
                     let c = c / 255.0;
                     255.0 * ((1.0 - 2.0 * s) * c * c + 2.0 * s * c)
@@ -352,6 +353,10 @@ pub fn render_preview(
         legend,
     })
 }
+
+/// Contrast of the hillshade in the blend: s = 0.5 + gain·(shade/flat − 1).
+/// 0.5 would be the plain ratio; a little more reads better at preview scale.
+const SHADE_GAIN: f64 = 0.7;
 
 /// Height of the legend strip in pixels.
 const LEGEND_H: usize = 34;
