@@ -108,6 +108,20 @@ fn nodata_is_transparent_and_size_respects_max_size() {
             assert_eq!(px[y * w + x][3], want, "alpha at ({x}, {y})");
         }
     }
+    // A raster without valid cells renders fully transparent.
+    let empty = Grid::new(50, 40, f32::NAN);
+    let info = render_preview(
+        &mem(empty, 1.0),
+        &out,
+        &RenderOptions {
+            legend: true,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert!(info.data_min.is_nan() && !info.legend);
+    let (_, _, px) = load(&out);
+    assert!(px.iter().all(|p| p[3] == 0));
     // With a legend: extra rows below, all opaque; odd sizes round up.
     let g = Grid::from_fn(333, 70, |x, _| x as f32);
     let opts = RenderOptions {
@@ -289,6 +303,20 @@ fn large_sources_are_streamed_in_bounded_chunks() {
         w * h,
         "every cell read exactly once"
     );
+    // Blocks larger than a chunk (factor 3000) are read in row slices.
+    src.total.store(0, Ordering::SeqCst);
+    let info = render_preview(
+        &src,
+        &dir.path().join("tiny.png"),
+        &RenderOptions {
+            max_size: 2,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_eq!((info.width, info.height, info.factor), (2, 2, 3000));
+    assert!(src.max_cells.load(Ordering::SeqCst) <= CHUNK_CELLS);
+    assert_eq!(src.total.load(Ordering::SeqCst), w * h);
 }
 
 fn shared(name: &str) -> Option<PathBuf> {

@@ -114,32 +114,41 @@ pub fn downsample_mean(src: &dyn RasterSource, factor: usize) -> Result<(Grid<f3
     let (ow, oh) = (w.div_ceil(factor), h.div_ceil(factor));
     let mut out = Grid::new(ow, oh, f32::NAN);
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    // Columns per chunk: a multiple of `factor` keeping chunks under CHUNK_CELLS.
+    // Columns per chunk: a multiple of `factor` keeping a chunk of `factor`
+    // rows under CHUNK_CELLS; rows per read: as many as fit in CHUNK_CELLS
+    // (fewer than `factor` only for factors beyond 2048).
     let blocks_per_chunk = (CHUNK_CELLS / (factor * factor)).max(1);
-    let chunk_w = blocks_per_chunk * factor;
+    let chunk_w = (blocks_per_chunk * factor).min(w);
+    let rows_per_read = (CHUNK_CELLS / chunk_w).max(1);
     let mut sum = vec![0f64; ow];
-    let mut cnt = vec![0u32; ow];
+    let mut cnt = vec![0u64; ow];
     for by in 0..oh {
         let y0 = by * factor;
-        let bh = factor.min(h - y0);
+        let y_end = (y0 + factor).min(h);
         sum.iter_mut().for_each(|s| *s = 0.0);
         cnt.iter_mut().for_each(|c| *c = 0);
         let mut x0 = 0;
         while x0 < w {
             let cw = chunk_w.min(w - x0);
-            let g: Grid<f32> = read_window(src, Window::new(x0 as i64, y0 as i64, cw, bh))?;
-            for y in 0..bh {
-                for (x, &v) in g.row(y).iter().enumerate() {
-                    if v.is_nan() {
-                        continue;
+            let mut yy = y0;
+            while yy < y_end {
+                let rh = rows_per_read.min(y_end - yy);
+                let win = Window::new(x0 as i64, yy as i64, cw, rh);
+                let g: Grid<f32> = read_window(src, win)?;
+                for y in 0..rh {
+                    for (x, &v) in g.row(y).iter().enumerate() {
+                        if v.is_nan() {
+                            continue;
+                        }
+                        let v = v as f64;
+                        lo = lo.min(v);
+                        hi = hi.max(v);
+                        let b = (x0 + x) / factor;
+                        sum[b] += v;
+                        cnt[b] += 1;
                     }
-                    let v = v as f64;
-                    lo = lo.min(v);
-                    hi = hi.max(v);
-                    let b = (x0 + x) / factor;
-                    sum[b] += v;
-                    cnt[b] += 1;
                 }
+                yy += rh;
             }
             x0 += cw;
         }
