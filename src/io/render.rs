@@ -7,18 +7,21 @@
 //! Elevation previews blend a hypsometric tint with a hillshade: Horn's
 //! gradient and Lambertian shading (`metrics::terrain::hillshade_grid`, light
 //! at azimuth 315°, altitude 45° by default) on the downsampled grid with its
-//! true metric cell size, combined by the "soft light" blend in its Pegtop
-//! form `out = (1 - 2s)·c² + 2s·c` (c = tint, s = shade in 0..1; s = 0.5
-//! leaves the tint unchanged). The shade is normalised so that flat ground
-//! gives s = 0.5 (with a mild contrast gain, [`SHADE_GAIN`]): flat areas show
-//! the exact ramp colour, slopes lit by the sun are lighter and slopes facing
-//! away darker.
+//! true metric cell size, combined by the "soft light" blend in the form
+//! published by Pegtop (pegtop.net, "Soft light" blend mode):
+//! `out = (1 - 2s)·c² + 2s·c` (c = tint, s = shade in 0..1; s = 0.5 leaves
+//! the tint unchanged). The shade is normalised so that flat ground gives
+//! s = 0.5 (with a mild contrast gain of 0.7): flat areas show the exact ramp
+//! colour, slopes lit by the sun are lighter and slopes facing away darker.
 //!
-//! Colours: the land ramp runs green (low) -> yellow -> brown -> grey -> white
-//! (high) over the data's min..max or a given range. Sea: when `sea` is on and
-//! the range reaches 0 or below while the maximum is above 0 (a DEM with sea,
-//! like SRTM coasts where the sea is 0), cells <= 0 are blue (darker deeper)
-//! and the land ramp starts above 0. Nodata is transparent (alpha 0).
+//! Colours: the land ramp is a hypsometric tint in the tradition of Imhof
+//! (1982, *Cartographic Relief Presentation*): green (low) -> yellow -> brown
+//! -> grey -> white (high), over the data's min..max or a given range.
+//! Sea: when `sea` is on and the range reaches 0 or below while the maximum is
+//! above 0 (a DEM with sea, like SRTM coasts where the sea is 0), cells <= 0
+//! are blue (darker deeper) and the land ramp starts above 0. Nodata is
+//! transparent (alpha 0). Other rasters (slope, hillshade, indices) use
+//! [`RenderKind::Grey`] or a named ramp, without hillshade.
 
 use super::png::{encode_png, write_atomic};
 use crate::error::{Error, Result};
