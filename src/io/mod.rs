@@ -2,8 +2,13 @@
 //! PNG heightmaps, mosaics of several files, previews; plus opening any of
 //! them by path.
 
+pub mod ascii;
+pub mod hgt;
 pub mod memsink;
+pub mod mosaic;
 pub mod open;
+pub mod png;
+pub mod render;
 
 pub use open::{
     create_sink, detect, is_store_path, open_inputs, open_raster, Format, OpenOptions,
