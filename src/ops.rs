@@ -5,6 +5,7 @@ use crate::error::{Error, Result};
 use crate::exec::{Engine, EngineConfig, LocalEngine, LocalStep};
 use crate::io::{self, OutputOptions};
 use crate::raster::{DType, RasterSource, TileLayout};
+use crate::store::Provenance;
 use std::path::{Path, PathBuf};
 
 /// Default work-tile size when neither input nor output is a tile store.
@@ -21,14 +22,23 @@ pub fn choose_layout(
     let info = src.info();
     let t = if outputs.iter().any(|p| io::is_store_path(p)) {
         oo.store.tile
-    } else if let Some(t) = tile {
+    } else {
+        choose_tile(src, tile)
+    };
+    TileLayout::new(info.width, info.height, t.max(1))
+}
+
+/// Work-tile size for reading `src`: `tile` if given, an input store's own
+/// tile size (aligned reads), else [`DEFAULT_TILE`].
+pub fn choose_tile(src: &dyn RasterSource, tile: Option<usize>) -> usize {
+    let info = src.info();
+    if let Some(t) = tile {
         t
     } else if io::detect(&info.path).ok() == Some(io::Format::Store) {
         info.block.0
     } else {
         DEFAULT_TILE
-    };
-    TileLayout::new(info.width, info.height, t.max(1))
+    }
 }
 
 /// Run a local step on `inputs` and write output `k` to `outputs[k]` as
@@ -72,12 +82,11 @@ pub fn run_local_to_paths<S: LocalStep>(
     let mut sinks = Vec::with_capacity(outputs.len());
     for (p, (dt, nd)) in outputs.iter().zip(out_types) {
         let georef = info.georef.clone().with_nodata(*nd);
-        let prov = serde_json::json!({
-            "step": step.name(),
-            "params": step.params(),
-            "inputs": inputs.iter().map(|i| i.info().path.display().to_string()).collect::<Vec<_>>(),
-            "orogen": env!("CARGO_PKG_VERSION"),
-        });
+        let prov = Provenance::new(
+            step.name(),
+            step.params(),
+            inputs.iter().map(|i| i.info().path.display().to_string()).collect(),
+        );
         sinks.push(io::create_sink(
             p,
             info.width,
@@ -102,11 +111,11 @@ pub fn convert(
 ) -> Result<()> {
     let info = src.info();
     let layout = choose_layout(src, &[out.to_path_buf()], oo, tile);
-    let prov = serde_json::json!({
-        "step": "ingest",
-        "inputs": [info.path.display().to_string()],
-        "orogen": env!("CARGO_PKG_VERSION"),
-    });
+    let prov = Provenance::new(
+        "ingest",
+        serde_json::Value::Object(Default::default()),
+        vec![info.path.display().to_string()],
+    );
     let sink = io::create_sink(
         out,
         info.width,
@@ -116,7 +125,7 @@ pub fn convert(
         oo,
         prov,
     )?;
-    crate::exec::copy(src, sink, layout, cfg)
+    crate::exec::copy(src, sink, layout, &LocalEngine::new(cfg.clone()))
 }
 
 /// What `orogen info` reports.
@@ -136,7 +145,7 @@ pub struct Description {
     pub block: (usize, usize),
     /// Cell size in metres at the middle row (east-west, north-south).
     pub cell_size_m: (f64, f64),
-    pub stats: Option<crate::exec::stats::Summary>,
+    pub stats: Option<crate::exec::stats::StatsSummary>,
 }
 
 /// Describe a raster (and compute its statistics with a global pass if asked).
@@ -144,7 +153,10 @@ pub fn describe(src: &dyn RasterSource, stats: bool, cfg: &EngineConfig) -> Resu
     let info = src.info();
     let g = &info.georef;
     let stats = if stats {
-        Some(crate::exec::stats::compute(src, cfg)?)
+        let step = crate::exec::stats::Stats::new(-1e300, 1e300, 1)?;
+        let info = src.info();
+        let layout = TileLayout::new(info.width, info.height, choose_tile(src, None));
+        Some(LocalEngine::new(cfg.clone()).run_global(&step, &[src], layout, Vec::new())?)
     } else {
         None
     };
@@ -212,7 +224,14 @@ pub fn describe_text(d: &Description) -> String {
         }
     }
     if let Some(st) = &d.stats {
-        let _ = writeln!(s, "  stats       {st}");
+        match (st.min, st.max, st.mean()) {
+            (Some(lo), Some(hi), Some(m)) => {
+                let _ = writeln!(s, "  stats       min {lo}, max {hi}, mean {m:.6}, {} valid cells, {} nodata", st.count, st.nodata);
+            }
+            _ => {
+                let _ = writeln!(s, "  stats       no valid cells ({} nodata)", st.nodata);
+            }
+        }
     }
     s
 }

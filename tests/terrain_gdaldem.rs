@@ -2,13 +2,11 @@
 //! run bit for bit, and match gdaldem's output (recorded in tests/data/gdaldem,
 //! made by GDAL 3.6 `gdaldem` on tests/data/bigtujunga_crop.tif).
 
-use orogen::exec::{Engine, EngineConfig, LocalEngine, LocalStep, TileSink};
-use orogen::io::memsink::MemSink;
+use orogen::exec::{Engine, EngineConfig, LocalEngine, LocalStep, MemSink, TileSink};
 use orogen::io::{open_raster, OpenOptions};
 use orogen::metrics::{Aspect, EdgeMode, Hillshade, Slope};
 use orogen::raster::{AnyGrid, DType, Grid, RasterSource, TileLayout};
 use std::path::Path;
-use std::sync::{Arc, Mutex};
 
 fn data(p: &str) -> std::path::PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(p)
@@ -21,21 +19,8 @@ fn open(p: &str) -> Box<dyn RasterSource> {
 /// Run `step` over `src` with work tiles of `tile` cells and `threads` threads.
 fn run<S: LocalStep>(step: &S, src: &dyn RasterSource, tile: usize, threads: usize, dtype: DType, nd: f64) -> AnyGrid {
     let info = src.info();
-    let slot: Arc<Mutex<Option<AnyGrid>>> = Arc::default();
-    let s2 = slot.clone();
-    let sink: Box<dyn TileSink> = Box::new(
-        MemSink::new(
-            info.width,
-            info.height,
-            dtype,
-            info.georef.clone().with_nodata(Some(nd)),
-            Box::new(move |g, _| {
-                *s2.lock().unwrap() = Some(g);
-                Ok(())
-            }),
-        )
-        .unwrap(),
-    );
+    let (sink, handle) = MemSink::new(info.width, info.height, dtype, Some(nd));
+    let sink: Box<dyn TileSink> = Box::new(sink);
     let cfg = EngineConfig {
         threads,
         memory_budget: 64 << 20,
@@ -44,8 +29,7 @@ fn run<S: LocalStep>(step: &S, src: &dyn RasterSource, tile: usize, threads: usi
     LocalEngine::new(cfg)
         .run_local(step, &[src], TileLayout::new(info.width, info.height, tile), vec![sink])
         .unwrap();
-    let g = slot.lock().unwrap().take().unwrap();
-    g
+    handle.take().unwrap()
 }
 
 fn check_tiling<S: LocalStep>(step: &S, dtype: DType, nd: f64) -> AnyGrid {

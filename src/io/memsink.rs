@@ -1,8 +1,8 @@
-//! A sink that assembles tiles into one in-memory grid and hands it to a
-//! whole-file writer at the end (for formats that cannot be streamed: PNG, ASCII).
+//! A sink for whole-file formats (PNG, ASCII): tiles are assembled in memory
+//! by [`crate::exec::MemSink`], then written by a finisher at the end.
 
 use crate::error::{Error, Result};
-use crate::exec::TileSink;
+use crate::exec::{MemSink, MemSinkHandle, TileSink};
 use crate::raster::{AnyGrid, DType, GeoRef, TileId, Window};
 
 /// Largest raster written through a whole-file format (cells).
@@ -11,13 +11,14 @@ pub const MAX_MEM_CELLS: usize = 1 << 28;
 type Finisher = Box<dyn FnOnce(AnyGrid, &GeoRef) -> Result<()> + Send>;
 
 /// Collects tiles, then calls `finisher(grid, georef)`.
-pub struct MemSink {
-    grid: AnyGrid,
+pub struct WholeFileSink {
+    inner: MemSink,
+    handle: MemSinkHandle,
     georef: GeoRef,
     finisher: Finisher,
 }
 
-impl MemSink {
+impl WholeFileSink {
     /// A sink for a `width` x `height` raster of `dtype`.
     pub fn new(
         width: usize,
@@ -31,30 +32,33 @@ impl MemSink {
                 "a {width}x{height} output is too large for a whole-file format (PNG/ASCII); write a GeoTIFF (.tif) or a tile store (.tiles) instead"
             )));
         }
-        let fill = georef
-            .nodata
-            .unwrap_or(if dtype.is_float() { f64::NAN } else { 0.0 });
-        Ok(MemSink {
-            grid: AnyGrid::filled(dtype, width, height, fill),
+        let (inner, handle) = MemSink::new(width, height, dtype, georef.nodata);
+        Ok(WholeFileSink {
+            inner,
+            handle,
             georef,
             finisher,
         })
     }
 }
 
-impl TileSink for MemSink {
+impl TileSink for WholeFileSink {
     fn dtype(&self) -> DType {
-        self.grid.dtype()
+        self.inner.dtype()
     }
     fn nodata(&self) -> Option<f64> {
-        self.georef.nodata
+        self.inner.nodata()
     }
-    fn write(&mut self, _id: TileId, core: Window, data: AnyGrid) -> Result<()> {
-        self.grid.paste(&data, core.x, core.y);
-        Ok(())
+    fn write(&mut self, id: TileId, core: Window, data: AnyGrid) -> Result<()> {
+        self.inner.write(id, core, data)
     }
     fn finish(self: Box<Self>) -> Result<()> {
         let s = *self;
-        (s.finisher)(s.grid, &s.georef)
+        Box::new(s.inner).finish()?;
+        let grid = s
+            .handle
+            .take()
+            .ok_or_else(|| Error::invalid("internal: in-memory sink finished without a grid"))?;
+        (s.finisher)(grid, &s.georef)
     }
 }

@@ -1,12 +1,12 @@
 //! Opening any supported raster by path, and creating an output sink by the
 //! output path's extension.
 
-use super::memsink::MemSink;
+use super::memsink::WholeFileSink;
 use crate::error::{Error, IoContext, Result};
 use crate::exec::TileSink;
 use crate::io::geotiff::{GeoTiffReader, GeoTiffWriter, WriteOptions};
 use crate::raster::{DType, GeoRef, RasterSource};
-use crate::store::{StoreOptions, StoreWriter, TileStore};
+use crate::store::{Provenance, StoreOptions, StoreWriter, TileStore};
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
@@ -139,7 +139,7 @@ pub fn create_sink(
     dtype: DType,
     georef: &GeoRef,
     oo: &OutputOptions,
-    provenance: serde_json::Value,
+    provenance: Provenance,
 ) -> Result<Box<dyn TileSink>> {
     let ext = path
         .extension()
@@ -161,13 +161,13 @@ pub fn create_sink(
         )?),
         "png" => {
             let p = path.to_path_buf();
-            Box::new(MemSink::new(
+            Box::new(WholeFileSink::new(
                 width,
                 height,
-                DType::F32,
+                dtype,
                 georef.clone(),
-                Box::new(move |g, _geo| {
-                    let g = g.to_typed::<f32>(None);
+                Box::new(move |g, geo| {
+                    let g = g.to_typed::<f32>(geo.nodata);
                     let (lo, hi) = crate::io::png::finite_range(&g);
                     crate::io::png::write_png16(&p, &g, lo, hi).map(|_| ())
                 }),
@@ -175,7 +175,7 @@ pub fn create_sink(
         }
         "asc" => {
             let p = path.to_path_buf();
-            Box::new(MemSink::new(
+            Box::new(WholeFileSink::new(
                 width,
                 height,
                 dtype,
