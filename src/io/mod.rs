@@ -1,1 +1,3 @@
 //! Readers and writers.
+
+pub mod geotiff;
