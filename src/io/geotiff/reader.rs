@@ -224,7 +224,7 @@ impl GeoTiffReader {
             (2, 32) => DType::I32,
             (3, 32) => DType::F32,
             (3, 64) => DType::F64,
-            (1 | 2 | 3, 1..=7) | (1 | 2, 64) | (3, 16) => {
+            (1..=3, 1..=7) | (1 | 2, 64) | (3, 16) => {
                 return Err(Error::unsupported(
                     path,
                     format!("{bits0}-bit samples of format {fmt0}; orogen reads int8/16/32, uint8/16/32 and float32/64"),

@@ -387,9 +387,11 @@ impl GeoTiffWriter {
         let predictor = match opts.predictor {
             Some(p @ (1 | 2)) => p,
             Some(3) if dtype.is_float() => 3,
-            Some(p) => return Err(Error::invalid(format!(
+            Some(p) => {
+                return Err(Error::invalid(format!(
                 "predictor {p} is not valid for {dtype}: use 1 or 2 (3 only for float32/float64)"
-            ))),
+            )))
+            }
             None if dtype.is_float() => 3,
             None => 2,
         };
