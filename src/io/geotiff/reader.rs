@@ -1,0 +1,568 @@
+//! Streaming GeoTIFF reader on top of the `tiff` crate's chunk API.
+//!
+//! Opening reads only the header, the first IFD and its tags. A window read
+//! decodes just the strips or tiles it intersects (`Decoder::read_chunk_bytes`),
+//! in parallel when there are several, through a pool of decoders (one
+//! `Decoder<BufReader<File>>` per concurrent user, created on demand) and a
+//! byte-bounded LRU cache of decoded blocks.
+//!
+//! Multi-band files: pixel-interleaved (PlanarConfiguration 1) files are read
+//! as their first band only; band-interleaved (planar) files are refused.
+
+use super::cache::BlockCache;
+use super::georef::{
+    crs_from_keys, half_cell_shift, parse_nodata, raster_type_from_keys, transform_from_matrix,
+    transform_from_scale_tiepoint,
+};
+use super::SUPPORTED_COMPRESSION;
+use crate::error::{Error, IoContext, Result};
+use crate::raster::{
+    AnyGrid, Crs, DType, GeoKeys, GeoRef, RasterInfo, RasterSource, RasterType, Window,
+};
+use rayon::prelude::*;
+use std::fs::File;
+use std::io::BufReader;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+use tiff::decoder::{ChunkType, Decoder, DecodingResult, Limits};
+use tiff::tags::Tag;
+use tiff::TiffError;
+
+/// Largest raster orogen accepts (cells): 2^40, about 10^12.
+const MAX_CELLS: u64 = 1 << 40;
+
+type Dec = Decoder<BufReader<File>>;
+
+/// Reader settings.
+#[derive(Debug, Clone)]
+pub struct ReaderOptions {
+    /// Bytes of decoded blocks kept in the LRU cache (0 = no cache).
+    pub cache_bytes: usize,
+    /// Largest decoded strip or tile accepted, in bytes (larger ones: TooLarge).
+    pub max_block_bytes: usize,
+}
+
+impl Default for ReaderOptions {
+    fn default() -> Self {
+        ReaderOptions {
+            cache_bytes: 64 << 20,
+            max_block_bytes: 1 << 30,
+        }
+    }
+}
+
+/// A GeoTIFF opened for streaming window reads (see the module doc).
+pub struct GeoTiffReader {
+    info: RasterInfo,
+    tiled: bool,
+    /// Nominal block size (tile, or image width x rows per strip).
+    chunk_w: usize,
+    chunk_h: usize,
+    /// Blocks per row of blocks.
+    across: usize,
+    /// Interleaved samples per pixel (band 1 is extracted).
+    samples: usize,
+    limits: Limits,
+    pool: Mutex<Vec<Dec>>,
+    cache: Mutex<BlockCache>,
+}
+
+/// Map a `tiff` crate error to an orogen error naming `path`.
+fn tiff_err(path: &Path, e: TiffError) -> Error {
+    match e {
+        TiffError::IoError(io) if io.kind() == std::io::ErrorKind::UnexpectedEof => Error::corrupt(
+            path,
+            format!("the file is truncated ({io}); re-download or re-export it"),
+        ),
+        TiffError::IoError(io) => Error::io(path, io),
+        TiffError::FormatError(f) => Error::corrupt(path, format!("not a valid TIFF: {f}")),
+        TiffError::UnsupportedError(u) => Error::unsupported(
+            path,
+            format!("{u}; orogen reads single-band (or pixel-interleaved) int8/16/32, uint8/16/32, float32/64 TIFFs compressed with {SUPPORTED_COMPRESSION}"),
+        ),
+        TiffError::LimitsExceeded => Error::too_large(path, "a TIFF structure exceeds the decoder's memory limits"),
+        other => Error::corrupt(path, format!("invalid TIFF: {other}")),
+    }
+}
+
+fn open_decoder(path: &Path, limits: &Limits) -> Result<Dec> {
+    let f = File::open(path).at(path)?;
+    let dec = Decoder::new(BufReader::with_capacity(64 << 10, f)).map_err(|e| tiff_err(path, e))?;
+    Ok(dec.with_limits(limits.clone()))
+}
+
+/// Read an optional tag as doubles (any numeric type accepted).
+fn tag_f64s(dec: &mut Dec, path: &Path, tag: u16) -> Result<Option<Vec<f64>>> {
+    let v = dec
+        .find_tag(Tag::from_u16_exhaustive(tag))
+        .map_err(|e| tiff_err(path, e))?;
+    match v {
+        None => Ok(None),
+        Some(v) => v
+            .into_f64_vec()
+            .map(Some)
+            .map_err(|_| Error::corrupt(path, format!("GeoTIFF tag {tag} does not hold numbers"))),
+    }
+}
+
+/// Read an optional tag as unsigned integers.
+fn tag_u64s(dec: &mut Dec, path: &Path, tag: Tag) -> Result<Option<Vec<u64>>> {
+    let num = tag.to_u16();
+    match dec.find_tag(tag).map_err(|e| tiff_err(path, e))? {
+        None => Ok(None),
+        Some(v) => v.into_u64_vec().map(Some).map_err(|_| {
+            Error::corrupt(
+                path,
+                format!("TIFF tag {num} has the wrong type (expected unsigned integers)"),
+            )
+        }),
+    }
+}
+
+fn tag_ascii(dec: &mut Dec, path: &Path, tag: u16) -> Result<Option<String>> {
+    match dec
+        .find_tag(Tag::from_u16_exhaustive(tag))
+        .map_err(|e| tiff_err(path, e))?
+    {
+        None => Ok(None),
+        Some(v) => v
+            .into_string()
+            .map(Some)
+            .map_err(|_| Error::corrupt(path, format!("TIFF tag {tag} should be ASCII text"))),
+    }
+}
+
+fn single_u64(dec: &mut Dec, path: &Path, tag: Tag, default: u64) -> Result<u64> {
+    Ok(tag_u64s(dec, path, tag)?
+        .and_then(|v| v.first().copied())
+        .unwrap_or(default))
+}
+
+impl GeoTiffReader {
+    /// Open `path` with default options.
+    pub fn open(path: impl AsRef<Path>) -> Result<GeoTiffReader> {
+        Self::open_with(path, &ReaderOptions::default())
+    }
+
+    /// Open `path`: read and validate the header, the first IFD and the
+    /// georeferencing; no pixel data is read.
+    pub fn open_with(path: impl AsRef<Path>, opts: &ReaderOptions) -> Result<GeoTiffReader> {
+        let path = path.as_ref();
+        let file_len = std::fs::metadata(path).at(path)?.len();
+        let limits = {
+            let mut l = Limits::default();
+            l.decoding_buffer_size = opts.max_block_bytes.max(1 << 20);
+            l.intermediate_buffer_size = opts.max_block_bytes.max(1 << 20);
+            l
+        };
+        let mut dec = open_decoder(path, &limits)?;
+        let (w, h) = dec.dimensions().map_err(|e| tiff_err(path, e))?;
+        let (width, height) = (w as usize, h as usize);
+        if width == 0 || height == 0 {
+            return Err(Error::corrupt(
+                path,
+                format!("the image is empty ({width} x {height} cells)"),
+            ));
+        }
+        if (w as u64) * (h as u64) > MAX_CELLS {
+            return Err(Error::too_large(
+                path,
+                format!(
+                    "declared size {width} x {height} cells exceeds orogen's limit of 2^40 cells"
+                ),
+            ));
+        }
+
+        // Compression: refuse what cannot be decoded before any pixel read.
+        let compression = single_u64(&mut dec, path, Tag::Compression, 1)?;
+        if !matches!(compression, 1 | 5 | 8 | 32946 | 32773 | 50000) {
+            let name = match compression {
+                6 | 7 => "JPEG",
+                34887 => "LERC",
+                34925 => "LZMA",
+                50001 => "WebP",
+                2..=4 => "CCITT fax",
+                _ => "unknown",
+            };
+            return Err(Error::unsupported(
+                path,
+                format!("compression {name} ({compression}); supported: {SUPPORTED_COMPRESSION}; convert with e.g. `gdal_translate -co COMPRESS=DEFLATE`"),
+            ));
+        }
+
+        // Sample layout and type.
+        let samples = single_u64(&mut dec, path, Tag::SamplesPerPixel, 1)? as usize;
+        let planar = single_u64(&mut dec, path, Tag::PlanarConfiguration, 1)?;
+        if samples > 1 && planar == 2 {
+            return Err(Error::unsupported(
+                path,
+                format!("band-interleaved (planar) file with {samples} bands; orogen reads single-band or pixel-interleaved files: extract a band with `gdal_translate -b 1`"),
+            ));
+        }
+        if samples == 0 || samples > 256 {
+            return Err(Error::corrupt(
+                path,
+                format!("invalid SamplesPerPixel {samples}"),
+            ));
+        }
+        let bits = tag_u64s(&mut dec, path, Tag::BitsPerSample)?.unwrap_or_else(|| vec![1]);
+        let bits0 = bits.first().copied().unwrap_or(1);
+        if bits.iter().any(|&b| b != bits0) {
+            return Err(Error::unsupported(
+                path,
+                format!("bands with different bit depths {bits:?}"),
+            ));
+        }
+        let fmt = tag_u64s(&mut dec, path, Tag::SampleFormat)?.unwrap_or_else(|| vec![1]);
+        let fmt0 = fmt.first().copied().unwrap_or(1);
+        let dtype = match (fmt0, bits0) {
+            (1, 8) => DType::U8,
+            (2, 8) => DType::I8,
+            (1, 16) => DType::U16,
+            (2, 16) => DType::I16,
+            (1, 32) => DType::U32,
+            (2, 32) => DType::I32,
+            (3, 32) => DType::F32,
+            (3, 64) => DType::F64,
+            (1..=3, 1..=7) | (1 | 2, 64) | (3, 16) => {
+                return Err(Error::unsupported(
+                    path,
+                    format!("{bits0}-bit samples of format {fmt0}; orogen reads int8/16/32, uint8/16/32 and float32/64"),
+                ))
+            }
+            (1..=3, _) => {
+                return Err(Error::corrupt(
+                    path,
+                    format!("BitsPerSample {bits0} is inconsistent with SampleFormat {fmt0}"),
+                ))
+            }
+            _ => {
+                return Err(Error::unsupported(
+                    path,
+                    format!("SampleFormat {fmt0} (only 1 unsigned, 2 signed, 3 float are read)"),
+                ))
+            }
+        };
+        let predictor = single_u64(&mut dec, path, Tag::Predictor, 1)?;
+        match (predictor, dtype.is_float()) {
+            (1 | 2, _) | (3, true) => {}
+            (3, false) => {
+                return Err(Error::corrupt(
+                    path,
+                    "floating-point predictor (3) on integer samples",
+                ));
+            }
+            (p, _) => {
+                return Err(Error::unsupported(
+                    path,
+                    format!("predictor {p}; supported: 1, 2, 3"),
+                ))
+            }
+        }
+
+        // Block layout, checked against the file size.
+        let tiled = dec.get_chunk_type() == ChunkType::Tile;
+        let (chunk_w, chunk_h) = if tiled {
+            let tw = single_u64(&mut dec, path, Tag::TileWidth, 0)?;
+            let th = single_u64(&mut dec, path, Tag::TileLength, 0)?;
+            (tw as usize, th as usize)
+        } else {
+            let rps = single_u64(&mut dec, path, Tag::RowsPerStrip, height as u64)?;
+            (width, (rps as usize).min(height))
+        };
+        if chunk_w == 0 || chunk_h == 0 {
+            return Err(Error::corrupt(path, "zero tile or strip size"));
+        }
+        let block_bytes =
+            (chunk_w as u64) * (chunk_h as u64) * (samples as u64) * (dtype.size() as u64);
+        if block_bytes > opts.max_block_bytes as u64 {
+            return Err(Error::too_large(
+                path,
+                format!("one {} of {chunk_w} x {chunk_h} cells decodes to {block_bytes} bytes (limit {}); re-tile it with `gdal_translate -co TILED=YES`", if tiled { "tile" } else { "strip" }, opts.max_block_bytes),
+            ));
+        }
+        let across = width.div_ceil(chunk_w);
+        let down = height.div_ceil(chunk_h);
+        let (otag, ctag) = if tiled {
+            (Tag::TileOffsets, Tag::TileByteCounts)
+        } else {
+            (Tag::StripOffsets, Tag::StripByteCounts)
+        };
+        let offsets = tag_u64s(&mut dec, path, otag)?.unwrap_or_default();
+        let counts = tag_u64s(&mut dec, path, ctag)?.unwrap_or_default();
+        if offsets.len() != across * down || counts.len() != offsets.len() {
+            return Err(Error::corrupt(
+                path,
+                format!(
+                    "{} offsets/byte counts arrays have {} and {} entries, expected {}",
+                    if tiled { "tile" } else { "strip" },
+                    offsets.len(),
+                    counts.len(),
+                    across * down
+                ),
+            ));
+        }
+        for (i, (&o, &c)) in offsets.iter().zip(&counts).enumerate() {
+            if o.checked_add(c).is_none_or(|end| end > file_len) {
+                return Err(Error::corrupt(
+                    path,
+                    format!("block {i} lies past the end of the file (offset {o} + {c} bytes > file size {file_len}): the file is truncated or corrupt"),
+                ));
+            }
+        }
+        if compression == 1 {
+            let stride = (samples * dtype.size()) as u64;
+            for (i, &c) in counts.iter().enumerate() {
+                let rows = if tiled {
+                    chunk_h
+                } else {
+                    chunk_h.min(height - (i * chunk_h).min(height))
+                };
+                let need = chunk_w as u64 * rows as u64 * stride;
+                if c < need {
+                    return Err(Error::corrupt(
+                        path,
+                        format!("uncompressed block {i} holds {c} bytes, needs {need}: the file is truncated or corrupt"),
+                    ));
+                }
+            }
+        }
+
+        let georef = read_georef(&mut dec, path, dtype)?;
+        let info = RasterInfo {
+            width,
+            height,
+            dtype,
+            georef,
+            block: (chunk_w, chunk_h),
+            path: path.to_path_buf(),
+        };
+        Ok(GeoTiffReader {
+            info,
+            tiled,
+            chunk_w,
+            chunk_h,
+            across,
+            samples,
+            limits,
+            pool: Mutex::new(vec![dec]),
+            cache: Mutex::new(BlockCache::new(opts.cache_bytes)),
+        })
+    }
+
+    /// The file path.
+    pub fn path(&self) -> &PathBuf {
+        &self.info.path
+    }
+
+    /// True for a tiled file, false for strips.
+    pub fn is_tiled(&self) -> bool {
+        self.tiled
+    }
+
+    /// Window of block `id` in raster coordinates (clipped to the raster).
+    fn block_window(&self, id: usize) -> Window {
+        let bx = id % self.across;
+        let by = id / self.across;
+        let x = bx * self.chunk_w;
+        let y = by * self.chunk_h;
+        Window::new(
+            x as i64,
+            y as i64,
+            self.chunk_w.min(self.info.width - x),
+            self.chunk_h.min(self.info.height - y),
+        )
+    }
+
+    /// Decode block `id` into band-1 little-endian bytes of its clipped window.
+    fn decode_block(&self, id: usize) -> Result<Arc<Vec<u8>>> {
+        let path = &self.info.path;
+        let mut dec = match self.pool.lock().ok().and_then(|mut p| p.pop()) {
+            Some(d) => d,
+            None => open_decoder(path, &self.limits)?,
+        };
+        let win = self.block_window(id);
+        let cell = self.info.dtype.size();
+        let px = cell * self.samples;
+        // Decode with the output row stride equal to the full block row, so
+        // the decoder never has to read (and discard) the right-hand padding
+        // of edge tiles: tiff 0.11.3's LZW reader fails with "no lzw end code
+        // found" on some valid streams (weezl's, and so possibly others) when
+        // that padding is skipped in a separate read at the end of the stream.
+        let stride = self.chunk_w * px;
+        let mut res = DecodingResult::U8(Vec::new());
+        dec.read_chunk_to_buffer(&mut res, id as u32, stride)
+            .map_err(|e| tiff_err(path, e))?;
+        if let Ok(mut p) = self.pool.lock() {
+            p.push(dec);
+        }
+        let raw = res.as_buffer(0);
+        let raw = raw.as_bytes();
+        let mut buf = vec![0u8; win.w * win.h * cell];
+        for r in 0..win.h {
+            let src = raw
+                .get(r * stride..r * stride + win.w * px)
+                .ok_or_else(|| {
+                    Error::corrupt(
+                        path,
+                        format!("block {id} decoded to fewer bytes than its size"),
+                    )
+                })?;
+            let dst = &mut buf[r * win.w * cell..(r + 1) * win.w * cell];
+            if self.samples == 1 {
+                dst.copy_from_slice(src);
+            } else {
+                // Band 1 of pixel-interleaved samples.
+                for (d, s) in dst.chunks_exact_mut(cell).zip(src.chunks_exact(px)) {
+                    d.copy_from_slice(&s[..cell]);
+                }
+            }
+        }
+        Ok(Arc::new(buf))
+    }
+
+    /// Block `id`, from the cache or decoded (and cached).
+    fn block(&self, id: usize) -> Result<Arc<Vec<u8>>> {
+        if let Some(b) = self.cache.lock().ok().and_then(|mut c| c.get(id as u32)) {
+            return Ok(b);
+        }
+        let b = self.decode_block(id)?;
+        if let Ok(mut c) = self.cache.lock() {
+            c.put(id as u32, b.clone());
+        }
+        Ok(b)
+    }
+}
+
+/// Georeferencing from the GeoTIFF tags (see `georef.rs`).
+fn read_georef(dec: &mut Dec, path: &Path, dtype: DType) -> Result<GeoRef> {
+    let scale = tag_f64s(dec, path, 33550)?;
+    let tie = tag_f64s(dec, path, 33922)?;
+    let matrix = tag_f64s(dec, path, 34264)?;
+    let dir = match tag_u64s(dec, path, Tag::Unknown(34735))? {
+        Some(d) => Some(
+            d.into_iter()
+                .map(u16::try_from)
+                .collect::<std::result::Result<Vec<u16>, _>>()
+                .map_err(|_| {
+                    Error::corrupt(path, "GeoKeyDirectory holds values that are not 16-bit")
+                })?,
+        ),
+        None => None,
+    };
+    let keys = match dir {
+        Some(directory) if directory.len() >= 4 => Some(GeoKeys {
+            directory,
+            doubles: tag_f64s(dec, path, 34736)?.unwrap_or_default(),
+            ascii: tag_ascii(dec, path, 34737)?.unwrap_or_default(),
+        }),
+        _ => None,
+    };
+    let nodata = match tag_ascii(dec, path, 42113)? {
+        Some(s)
+            if !s
+                .trim_matches(|c: char| c == '\0' || c.is_whitespace())
+                .is_empty() =>
+        {
+            Some(parse_nodata(&s).ok_or_else(|| {
+                Error::corrupt(
+                    path,
+                    format!("GDAL_NODATA tag holds {s:?}, which is not a number"),
+                )
+            })?)
+        }
+        _ => None,
+    };
+    // GDAL reports a float32 band's nodata rounded to float32 (the text
+    // "-3.402823e+38" becomes -3.4028230607370965e+38), and only that value
+    // compares equal to the cells; do the same.
+    let nodata = match dtype {
+        DType::F32 => nodata.map(|v| v as f32 as f64),
+        _ => nodata,
+    };
+    let transform = match (&matrix, &scale, &tie) {
+        (Some(m), _, _) => Some(
+            transform_from_matrix(m)
+                .ok_or_else(|| Error::corrupt(path, "ModelTransformation needs 16 values"))?,
+        ),
+        (None, Some(s), Some(t)) => Some(transform_from_scale_tiepoint(s, t).ok_or_else(|| {
+            Error::corrupt(path, "ModelPixelScale needs 3 and ModelTiepoint 6 values")
+        })?),
+        _ => None,
+    };
+    let raster_type = raster_type_from_keys(keys.as_ref());
+    let crs = keys.map(crs_from_keys).unwrap_or_else(Crs::default);
+    Ok(match transform {
+        Some(mut t) => {
+            if raster_type == RasterType::Point {
+                half_cell_shift(&mut t, -1.0);
+            }
+            GeoRef {
+                transform: t,
+                crs,
+                nodata,
+                raster_type,
+                georeferenced: true,
+            }
+        }
+        None => GeoRef {
+            crs,
+            nodata,
+            raster_type,
+            ..GeoRef::pixel()
+        },
+    })
+}
+
+impl RasterSource for GeoTiffReader {
+    fn info(&self) -> &RasterInfo {
+        &self.info
+    }
+
+    fn read_native(&self, win: Window) -> Result<AnyGrid> {
+        let (w, h) = (self.info.width, self.info.height);
+        if win.x < 0 || win.y < 0 || win.x_end() > w as i64 || win.y_end() > h as i64 {
+            return Err(Error::invalid(format!(
+                "{}: window {win:?} is not inside the {w} x {h} raster",
+                self.info.path.display()
+            )));
+        }
+        let cell = self.info.dtype.size();
+        let mut out = vec![0u8; win.len() * cell];
+        if win.is_empty() {
+            return AnyGrid::from_le_bytes(self.info.dtype, win.w, win.h, &out);
+        }
+        let (x0, y0) = (win.x as usize, win.y as usize);
+        let bx0 = x0 / self.chunk_w;
+        let bx1 = (x0 + win.w - 1) / self.chunk_w;
+        let by0 = y0 / self.chunk_h;
+        let by1 = (y0 + win.h - 1) / self.chunk_h;
+        let ids: Vec<usize> = (by0..=by1)
+            .flat_map(|by| (bx0..=bx1).map(move |bx| by * self.across + bx))
+            .collect();
+        let blocks: Vec<Arc<Vec<u8>>> = if ids.len() > 1 {
+            ids.par_iter()
+                .map(|&id| self.block(id))
+                .collect::<Result<_>>()?
+        } else {
+            ids.iter()
+                .map(|&id| self.block(id))
+                .collect::<Result<_>>()?
+        };
+        for (&id, data) in ids.iter().zip(&blocks) {
+            let bw = self.block_window(id);
+            let Some(part) = bw.intersect(&win) else {
+                continue;
+            };
+            let n = part.w * cell;
+            for r in 0..part.h {
+                let src_row = (part.y - bw.y) as usize + r;
+                let src = (src_row * bw.w + (part.x - bw.x) as usize) * cell;
+                let dst_row = (part.y - win.y) as usize + r;
+                let dst = (dst_row * win.w + (part.x - win.x) as usize) * cell;
+                out[dst..dst + n].copy_from_slice(&data[src..src + n]);
+            }
+        }
+        AnyGrid::from_le_bytes(self.info.dtype, win.w, win.h, &out)
+    }
+}

@@ -1,0 +1,316 @@
+#!/usr/bin/env python3
+"""Compare orogen's GeoTIFF reading and writing with GDAL's (see gdal_variants.sh).
+
+Modes:
+  (default)    build every read variant of real DEMs from ../shared/data with GDAL and
+               check `orogen info --json` (transform, EPSG, nodata) and the values orogen
+               reads (exported uncompressed, read back by GDAL) against GDAL's reading;
+               then check that what orogen WRITES (every option) GDAL reads identically.
+  --fixtures   write small crops of every read variant to tests/data/gdal/ with GDAL's
+               reference values (raw little-endian .bin) and manifest.json, for cargo test.
+"""
+import json, os, shlex, struct, subprocess, sys, tempfile
+import numpy as np
+from osgeo import gdal
+
+gdal.UseExceptions()
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+DATA = os.path.join(ROOT, "..", "shared", "data")
+OROGEN = shlex.split(os.environ.get("OROGEN", "cargo run --release --bin orogen --"))
+
+SOURCES = {  # dtype -> (file, GDAL type to convert to)
+    "int16": ("srtm3_N46E008.tif", gdal.GDT_Int16),      # geographic, PixelIsPoint, voids
+    "float32": ("qgis_dem25.tif", gdal.GDT_Float32),     # projected EPSG:23030, nodata -32768
+    "float64": ("qgis_dem25.tif", gdal.GDT_Float64),
+}
+COMPRESSIONS = ["NONE", "LZW", "DEFLATE", "ZSTD"]
+
+passed = failed = 0
+
+
+def check(ok, what):
+    global passed, failed
+    if ok:
+        passed += 1
+    else:
+        failed += 1
+        print("FAIL:", what, flush=True)
+
+
+def gdal_facts(path):
+    d = gdal.Open(path)
+    b = d.GetRasterBand(1)
+    srs = d.GetSpatialRef()
+    epsg = None
+    if srs is not None:
+        code = srs.GetAuthorityCode(None)
+        epsg = int(code) if code else None
+    nd = b.GetNoDataValue()
+    arr = b.ReadAsArray()
+    if (d.GetMetadataItem("PIXELTYPE", "IMAGE_STRUCTURE") or b.GetMetadataItem("PIXELTYPE", "IMAGE_STRUCTURE")) == "SIGNEDBYTE":
+        arr = arr.view(np.int8)
+    return {
+        "width": d.RasterXSize, "height": d.RasterYSize,
+        "transform": list(d.GetGeoTransform()), "epsg": epsg,
+        "nodata": None if nd is None else ("nan" if nd != nd else nd),
+        "raster_type": (d.GetMetadataItem("AREA_OR_POINT") or "Area").lower(),
+    }, arr
+
+
+def orogen(*args):
+    r = subprocess.run(OROGEN + list(args), capture_output=True, text=True)
+    return r.returncode, r.stdout, r.stderr
+
+
+def same_nodata(a, b):
+    if a is None or b is None:
+        return a is None and b is None
+    if a == "nan" or b == "nan":
+        return a == b
+    return float(a) == float(b)
+
+
+def compare_read(path, facts, arr, tmp):
+    """orogen's reading of `path` equals GDAL's `facts`/`arr`."""
+    name = os.path.basename(path)
+    rc, out, err = orogen("info", path, "--json")
+    if rc != 0:
+        check(False, f"{name}: orogen info failed: {err.strip()}")
+        return
+    info = json.loads(out)
+    check(info["width"] == facts["width"] and info["height"] == facts["height"], f"{name}: size")
+    check(info["transform"] == facts["transform"], f"{name}: transform {info['transform']} != {facts['transform']}")
+    check(info.get("epsg") == facts["epsg"], f"{name}: EPSG {info.get('epsg')} != {facts['epsg']}")
+    check(same_nodata(info.get("nodata"), facts["nodata"]), f"{name}: nodata {info.get('nodata')} != {facts['nodata']}")
+    out_tif = os.path.join(tmp, "read_" + name)
+    rc, _, err = orogen("export", path, "-o", out_tif, "--compress", "none")
+    if rc != 0:
+        check(False, f"{name}: orogen export failed: {err.strip()}")
+        return
+    _, got = gdal_facts(out_tif)
+    check(got.dtype == arr.dtype and np.array_equal(got, arr, equal_nan=arr.dtype.kind == "f"), f"{name}: values differ")
+    os.remove(out_tif)
+
+
+def patch_compression(path, code):
+    """Rewrite the Compression tag (259) of a classic little-endian TIFF in place
+    (used to make the legacy DEFLATE code 32946, which GDAL does not write)."""
+    with open(path, "r+b") as f:
+        b = f.read(8)
+        assert b[:4] == b"II*\0"
+        off = struct.unpack("<I", b[4:8])[0]
+        f.seek(off)
+        n = struct.unpack("<H", f.read(2))[0]
+        for i in range(n):
+            f.seek(off + 2 + 12 * i)
+            tag, typ = struct.unpack("<HH", f.read(4))
+            if tag == 259:
+                f.seek(off + 2 + 12 * i + 8)
+                f.write(struct.pack("<H", code))
+                return
+    raise RuntimeError("no compression tag")
+
+
+def read_variants(dtype):
+    """(suffix, creation options) of every read variant of a dtype."""
+    preds = [1, 2, 3] if dtype.startswith("float") else [1, 2]
+    out = []
+    for layout in ["strip", "tiled"]:
+        for comp in COMPRESSIONS:
+            for p in preds if comp != "NONE" else [1]:
+                for big in ["classic", "big"]:
+                    co = [f"COMPRESS={comp}", f"BIGTIFF={'YES' if big == 'big' else 'NO'}"]
+                    if p != 1:
+                        co.append(f"PREDICTOR={p}")
+                    co += ["TILED=YES", "BLOCKXSIZE=16", "BLOCKYSIZE=16"] if layout == "tiled" else ["BLOCKYSIZE=5"]
+                    out.append((f"{layout}_{comp.lower()}_p{p}_{big}", co))
+    return out
+
+
+def source_dataset(dtype, win=None):
+    fname, gtype = SOURCES[dtype]
+    opts = dict(format="MEM", outputType=gtype)
+    if win:
+        opts["srcWin"] = win
+    ds = gdal.Translate("", os.path.join(DATA, fname), **opts)
+    b = ds.GetRasterBand(1)
+    nd = b.GetNoDataValue()
+    if win and nd is not None and gtype in (gdal.GDT_Float32, gdal.GDT_Float64):
+        # The float crops hold no voids: make a few, so nodata handling is exercised.
+        a = b.ReadAsArray()
+        yy, xx = np.mgrid[0:a.shape[0], 0:a.shape[1]]
+        a[(xx * 7 + yy * 3) % 41 == 0] = nd
+        b.WriteArray(a)
+    return ds
+
+
+def find_window(dtype, w=67, h=43):
+    """A w x h window holding some (not only) nodata cells."""
+    fname, _ = SOURCES[dtype]
+    d = gdal.Open(os.path.join(DATA, fname))
+    b = d.GetRasterBand(1)
+    a = b.ReadAsArray()
+    nd = b.GetNoDataValue()
+    for y in range(0, d.RasterYSize - h, 7):
+        for x in range(0, d.RasterXSize - w, 7):
+            n = int((a[y:y + h, x:x + w] == nd).sum())
+            if 20 <= n <= w * h // 4:
+                return [x, y, w, h]
+    return [0, 0, w, h]
+
+
+def extra_variants(tmp):
+    """Other read variants: big-endian, PackBits, DEFLATE 32946, more types, multi-band,
+    rotated transform. Yields (file name, dataset to translate, creation options, post-fix)."""
+    src = source_dataset("int16", find_window("int16"))
+    yield "int16_strip_be_deflate_p2.tif", src, ["COMPRESS=DEFLATE", "PREDICTOR=2", "ENDIANNESS=BIG", "BLOCKYSIZE=5"], None
+    yield "int16_tiled_be_none_big.tif", src, ["ENDIANNESS=BIG", "BIGTIFF=YES", "TILED=YES", "BLOCKXSIZE=16", "BLOCKYSIZE=16"], None
+    yield "int16_strip_packbits.tif", src, ["COMPRESS=PACKBITS", "BLOCKYSIZE=5"], None
+    yield "int16_tiled_deflate32946_p2.tif", src, ["COMPRESS=DEFLATE", "PREDICTOR=2", "TILED=YES", "BLOCKXSIZE=16", "BLOCKYSIZE=16"], 32946
+    f32 = source_dataset("float32", find_window("float32"))
+    # (GDAL 3.6 reads its own big-endian files with PREDICTOR=3 as garbage, so the
+    # big-endian float variants use predictors 1 and 2.)
+    yield "float32_tiled_be_zstd_p2.tif", f32, ["COMPRESS=ZSTD", "PREDICTOR=2", "ENDIANNESS=BIG", "TILED=YES", "BLOCKXSIZE=16", "BLOCKYSIZE=16"], None
+    yield "float32_strip_be_none_big.tif", f32, ["ENDIANNESS=BIG", "BIGTIFF=YES", "BLOCKYSIZE=5"], None
+    f64 = source_dataset("float64", find_window("float64"))
+    yield "float64_tiled_be_lzw_p2.tif", f64, ["COMPRESS=LZW", "PREDICTOR=2", "ENDIANNESS=BIG", "TILED=YES", "BLOCKXSIZE=16", "BLOCKYSIZE=16"], None
+    # Other integer types, from the int16 crop (values shifted/clipped to fit).
+    a = src.GetRasterBand(1).ReadAsArray().astype(np.int64)
+    for name, gtype, conv, co in [
+        ("uint8", gdal.GDT_Byte, lambda v: np.clip(v // 20, 0, 255), []),
+        ("int8", gdal.GDT_Byte, lambda v: np.clip(v // 40 - 60, -128, 127).astype(np.int8).view(np.uint8), ["PIXELTYPE=SIGNEDBYTE"]),
+        ("uint16", gdal.GDT_UInt16, lambda v: np.clip(v + 1000, 0, 65535), []),
+        ("int32", gdal.GDT_Int32, lambda v: v * 1000 - 7, []),
+        ("uint32", gdal.GDT_UInt32, lambda v: np.clip(v, 0, None) * 70000, []),
+    ]:
+        d = gdal.GetDriverByName("MEM").Create("", a.shape[1], a.shape[0], 1, gtype)
+        d.SetGeoTransform(src.GetGeoTransform())
+        d.SetProjection(src.GetProjection())
+        d.GetRasterBand(1).WriteArray(conv(a))
+        yield f"{name}_strip_lzw_p2.tif", d, ["COMPRESS=LZW", "PREDICTOR=2", "BLOCKYSIZE=5"] + co, None
+        yield f"{name}_tiled_deflate_p1.tif", d, ["COMPRESS=DEFLATE", "TILED=YES", "BLOCKXSIZE=16", "BLOCKYSIZE=16"] + co, None
+    # Pixel-interleaved 2 bands: orogen reads band 1.
+    d = gdal.GetDriverByName("MEM").Create("", a.shape[1], a.shape[0], 2, gdal.GDT_Int16)
+    d.SetGeoTransform(src.GetGeoTransform())
+    d.SetProjection(src.GetProjection())
+    d.GetRasterBand(1).WriteArray(a)
+    d.GetRasterBand(2).WriteArray(a + 1000)
+    d.GetRasterBand(1).SetNoDataValue(-32767)
+    yield "int16_2band_pixel_deflate_p2.tif", d, ["COMPRESS=DEFLATE", "PREDICTOR=2", "INTERLEAVE=PIXEL", "TILED=YES", "BLOCKXSIZE=16", "BLOCKYSIZE=16"], None
+    # Rotated transform (ModelTransformation), projected CRS.
+    r = gdal.Translate("", f32, format="MEM")
+    gt = r.GetGeoTransform()
+    r.SetGeoTransform((gt[0], gt[1] * 0.96, gt[1] * 0.28, gt[3], gt[1] * 0.28, gt[5] * 0.96))
+    yield "float32_rotated_deflate_p3.tif", r, ["COMPRESS=DEFLATE", "PREDICTOR=3", "TILED=YES", "BLOCKXSIZE=16", "BLOCKYSIZE=16"], None
+    # No georeferencing at all.
+    n = gdal.GetDriverByName("MEM").Create("", a.shape[1], a.shape[0], 1, gdal.GDT_Int16)
+    n.GetRasterBand(1).WriteArray(a)
+    yield "int16_nogeo_none.tif", n, ["BLOCKYSIZE=5"], None
+
+
+def make_fixtures():
+    out_dir = os.path.join(ROOT, "tests", "data", "gdal")
+    os.makedirs(out_dir, exist_ok=True)
+    for f in os.listdir(out_dir):
+        if f.endswith((".tif", ".bin", ".json")):
+            os.remove(os.path.join(out_dir, f))
+    manifest = {"files": []}
+
+    def add(fname, ds, co, patch):
+        path = os.path.join(out_dir, fname)
+        gdal.Translate(path, ds, format="GTiff", creationOptions=co)
+        if patch:
+            patch_compression(path, patch)
+        facts, arr = gdal_facts(path)
+        ref = fname[:-4] + ".bin"
+        np.ascontiguousarray(arr).astype(arr.dtype.newbyteorder("<")).tofile(os.path.join(out_dir, ref))
+        facts.update(file=fname, reference=ref, dtype=str(arr.dtype))
+        manifest["files"].append(facts)
+
+    for dtype in SOURCES:
+        src = source_dataset(dtype, find_window(dtype))
+        for suffix, co in read_variants(dtype):
+            add(f"{dtype}_{suffix}.tif", src, co, None)
+    with tempfile.TemporaryDirectory() as tmp:
+        for fname, ds, co, patch in extra_variants(tmp):
+            add(fname, ds, co, patch)
+        # A planar (band-interleaved) file for the hostile-input tests.
+        d = gdal.GetDriverByName("MEM").Create("", 20, 10, 2, gdal.GDT_Int16)
+        gdal.Translate(os.path.join(out_dir, "bad_planar.tif"), d, format="GTiff", creationOptions=["INTERLEAVE=BAND"])
+    # Identical references are stored once.
+    by_content = {}
+    for e in manifest["files"]:
+        p = os.path.join(out_dir, e["reference"])
+        with open(p, "rb") as f:
+            key = (e["dtype"], f.read())
+        if key in by_content:
+            os.remove(p)
+            e["reference"] = by_content[key]
+        else:
+            by_content[key] = e["reference"]
+    with open(os.path.join(out_dir, "manifest.json"), "w") as f:
+        json.dump(manifest, f, indent=1)
+    total = sum(os.path.getsize(os.path.join(out_dir, f)) for f in os.listdir(out_dir))
+    print(f"wrote {len(manifest['files'])} fixtures, {total} bytes, to {out_dir}")
+
+
+def compare_all():
+    with tempfile.TemporaryDirectory() as tmp:
+        # Reading: every variant, full size.
+        for dtype in SOURCES:
+            src = source_dataset(dtype)
+            for suffix, co in read_variants(dtype):
+                path = os.path.join(tmp, f"{dtype}_{suffix}.tif")
+                co = [c.replace("BLOCKXSIZE=16", "BLOCKXSIZE=128").replace("BLOCKYSIZE=16", "BLOCKYSIZE=128").replace("BLOCKYSIZE=5", "BLOCKYSIZE=7") for c in co]
+                gdal.Translate(path, src, format="GTiff", creationOptions=co)
+                facts, arr = gdal_facts(path)
+                compare_read(path, facts, arr, tmp)
+                os.remove(path)
+        for fname, ds, co, patch in extra_variants(tmp):
+            path = os.path.join(tmp, fname)
+            gdal.Translate(path, ds, format="GTiff", creationOptions=co)
+            if patch:
+                patch_compression(path, patch)
+            facts, arr = gdal_facts(path)
+            compare_read(path, facts, arr, tmp)
+        # Writing: every compression x predictor, classic and BigTIFF, three types,
+        # geographic + PixelIsPoint, projected, rotated.
+        inputs = {}
+        for dtype in SOURCES:
+            p = os.path.join(tmp, f"src_{dtype}.tif")
+            gdal.Translate(p, source_dataset(dtype), format="GTiff")
+            inputs[dtype] = p
+        inputs["rotated"] = os.path.join(tmp, "float32_rotated_deflate_p3.tif")
+        inputs["projected_int16"] = os.path.join(DATA, "bigtujunga_srtm30m_utm11.tif")
+        for name, src in inputs.items():
+            facts, arr = gdal_facts(src)
+            preds = ["1", "2", "3"] if arr.dtype.kind == "f" else ["1", "2"]
+            for comp in ["none", "deflate", "lzw", "zstd"]:
+                for pred in preds:
+                    for big in ["no", "yes"]:
+                        for block in (["256"] if name != "float32" else ["256", "48"]):
+                            out = os.path.join(tmp, f"w_{name}_{comp}_{pred}_{big}_{block}.tif")
+                            rc, _, err = orogen("export", src, "-o", out, "--compress", comp, "--predictor", pred,
+                                                "--bigtiff", big, "--block", block)
+                            what = os.path.basename(out)
+                            if rc != 0:
+                                check(False, f"{what}: orogen export failed: {err.strip()}")
+                                continue
+                            got_facts, got = gdal_facts(out)
+                            check(got.dtype == arr.dtype and np.array_equal(got, arr, equal_nan=arr.dtype.kind == "f"), f"{what}: GDAL reads other values")
+                            for k in ["width", "height", "transform", "epsg", "raster_type"]:
+                                check(got_facts[k] == facts[k], f"{what}: {k} {got_facts[k]} != {facts[k]}")
+                            check(same_nodata(got_facts["nodata"], facts["nodata"]), f"{what}: nodata {got_facts['nodata']} != {facts['nodata']}")
+                            with open(out, "rb") as f:
+                                magic = f.read(4)
+                            check(magic == (b"II+\0" if big == "yes" else b"II*\0"), f"{what}: BigTIFF flag")
+                            os.remove(out)
+
+
+if __name__ == "__main__":
+    if "--fixtures" in sys.argv[1:]:
+        make_fixtures()
+    else:
+        compare_all()
+        print(f"{passed} passed, {failed} failed")
+        sys.exit(1 if failed else 0)
