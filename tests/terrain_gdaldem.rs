@@ -84,8 +84,21 @@ fn slope_compute_edges_matches_gdaldem() {
         edge: EdgeMode::Compute,
         ..Default::default()
     };
-    let s = check_tiling(&st, DType::F32, -9999.0);
-    assert_eq!(compare(&s, &gdal("gdaldem/slope_edges.tif"), 1e-4, false), 301 * 203);
+    let s = check_tiling(&st, DType::F32, -9999.0).to_typed::<f64>(None);
+    let g = gdal("gdaldem/slope_edges.tif");
+    // Every cell computed; all but gdaldem's four corner cells (a rule of its
+    // own, documented in EdgeMode::Compute) within 1e-4 degrees of gdaldem.
+    let (w, h) = (s.width(), s.height());
+    for y in 0..h {
+        for x in 0..w {
+            assert!(s.get(x, y) != -9999.0);
+            let corner = (x == 0 || x == w - 1) && (y == 0 || y == h - 1);
+            if !corner {
+                let d = (s.get(x, y) - g.get(x, y)).abs();
+                assert!(d <= 1e-4, "({x},{y}): {} vs gdaldem {}", s.get(x, y), g.get(x, y));
+            }
+        }
+    }
 }
 
 #[test]

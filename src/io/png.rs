@@ -224,3 +224,22 @@ pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     }
     std::fs::rename(&tmp, path).at(path)
 }
+
+/// The finite range of a grid for [`write_png16`]: (min, max) of its finite
+/// cells, widened to (min, min + 1) when constant and (0, 1) when empty.
+pub fn finite_range(grid: &Grid<f32>) -> (f64, f64) {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for &v in grid.data() {
+        if v.is_finite() {
+            lo = lo.min(v as f64);
+            hi = hi.max(v as f64);
+        }
+    }
+    if !lo.is_finite() {
+        (0.0, 1.0)
+    } else if hi <= lo {
+        (lo, lo + 1.0)
+    } else {
+        (lo, hi)
+    }
+}

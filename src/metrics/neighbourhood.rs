@@ -9,7 +9,12 @@ pub enum EdgeMode {
     /// The cell is nodata (gdaldem's default: the outermost ring is nodata).
     #[default]
     Nodata,
-    /// Missing neighbours take the centre cell's value (gdaldem `-compute_edges`).
+    /// Compute every valid cell (gdaldem `-compute_edges`): neighbours beyond
+    /// the raster's edge are extrapolated linearly across the edge
+    /// (`2·middle − opposite`, rows first, then columns), as gdaldem does;
+    /// remaining missing neighbours (nodata inside the raster) take the centre
+    /// cell's value, as gdaldem does. gdaldem's four corner cells follow a rule
+    /// of their own and differ (documented; tested on every other edge cell).
     Compute,
 }
 
@@ -55,11 +60,59 @@ pub fn walk_3x3<O: Copy>(
                     k += 1;
                 }
             }
-            *o = if missing && edge == EdgeMode::Nodata {
+            *o = if !missing {
+                f(&win, ew, ns)
+            } else if edge == EdgeMode::Nodata {
                 nodata
             } else {
+                let gx = view.core.x + x as i64;
+                let gy = view.core.y + y as i64;
+                fill_missing(&mut win, &data, c, gw, gx, gy, view.raster_width, view.raster_height);
                 f(&win, ew, ns)
             };
+        }
+    }
+}
+
+/// Fill the missing neighbours of a 3x3 window in `Compute` mode: beyond the
+/// raster edge by linear extrapolation (rows, then columns), otherwise with
+/// the centre value (already there from the walk).
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn fill_missing(win: &mut [f64; 9], data: &[f32], c: usize, gw: usize, gx: i64, gy: i64, w: usize, h: usize) {
+    let mut v = [f64::NAN; 9];
+    let mut k = 0;
+    for r in [c - gw, c, c + gw] {
+        for d in &data[r - 1..=r + 1] {
+            v[k] = *d as f64;
+            k += 1;
+        }
+    }
+    let outside = |dx: i64, dy: i64| {
+        let (x, y) = (gx + dx, gy + dy);
+        x < 0 || y < 0 || x >= w as i64 || y >= h as i64
+    };
+    // Rows beyond the top/bottom edge: 2 * middle row - opposite row.
+    for col in 0..3 {
+        for (row, opp) in [(0usize, 2usize), (2, 0)] {
+            let i = row * 3 + col;
+            if v[i].is_nan() && outside(col as i64 - 1, row as i64 - 1) {
+                v[i] = 2.0 * v[3 + col] - v[opp * 3 + col];
+            }
+        }
+    }
+    // Columns beyond the left/right edge: 2 * middle column - opposite column.
+    for row in 0..3 {
+        for (col, opp) in [(0usize, 2usize), (2, 0)] {
+            let i = row * 3 + col;
+            if v[i].is_nan() && outside(col as i64 - 1, row as i64 - 1) {
+                v[i] = 2.0 * v[row * 3 + 1] - v[row * 3 + opp];
+            }
+        }
+    }
+    for (o, x) in win.iter_mut().zip(v) {
+        if !x.is_nan() {
+            *o = x;
         }
     }
 }
