@@ -1,6 +1,6 @@
-//! Large ingest under a small memory budget (ignored by default; run with
-//! `cargo test --release --test store_big -- --ignored` under
-//! `/usr/bin/time -v` to measure peak RSS). The source generates cells on
+//! Large ingest under a small memory budget. Run with
+//! `/usr/bin/time -v cargo bench --bench ingest_big` (or the built bench binary)
+//! to measure peak RSS; `OROGEN_BIG_SIDE`, `OROGEN_BIG_DIR`, `OROGEN_BIG_ZSTD` adjust it. The source generates cells on
 //! the fly, so the process holds no copy of the raster.
 
 use orogen::exec::{ingest, EngineConfig};
@@ -35,9 +35,7 @@ fn side() -> usize {
         .unwrap_or(20_000)
 }
 
-#[test]
-#[ignore]
-fn big_ingest_and_read_back() {
+fn main() {
     let n = side();
     let src = Synthetic(RasterInfo {
         width: n,
