@@ -161,19 +161,30 @@ impl Default for Hillshade {
 }
 
 impl Hillshade {
-    /// Shade value of one 3x3 window (1..=255), gdaldem's scale.
+    /// Light constants: (sin alt, z·sin az·cos alt, z·cos az·cos alt, z²).
     #[inline]
-    pub fn shade(&self, w: &[f64; 9], ew: f64, ns: f64) -> u8 {
-        let (p, q) = horn_gradient(w, ew, ns);
+    fn light(&self) -> [f64; 4] {
         let z = self.z_factor;
         let (sa, ca) = self.altitude.to_radians().sin_cos();
         let (sz, cz) = self.azimuth.to_radians().sin_cos();
-        let c = (sa - z * p * sz * ca - z * q * cz * ca) / (1.0 + z * z * (p * p + q * q)).sqrt();
-        if c <= 0.0 {
-            1
-        } else {
-            (1.0 + 254.0 * c).round().min(255.0) as u8
-        }
+        [sa, z * sz * ca, z * cz * ca, z * z]
+    }
+
+    /// Shade value of one 3x3 window (1..=255), gdaldem's scale.
+    #[inline]
+    pub fn shade(&self, w: &[f64; 9], ew: f64, ns: f64) -> u8 {
+        shade_with(&self.light(), w, ew, ns)
+    }
+}
+
+#[inline]
+fn shade_with(l: &[f64; 4], w: &[f64; 9], ew: f64, ns: f64) -> u8 {
+    let (p, q) = horn_gradient(w, ew, ns);
+    let c = (l[0] - p * l[1] - q * l[2]) / (1.0 + l[3] * (p * p + q * q)).sqrt();
+    if c <= 0.0 {
+        1
+    } else {
+        (1.0 + 254.0 * c).round().min(255.0) as u8
     }
 }
 
@@ -190,8 +201,9 @@ impl LocalStep for Hillshade {
         1
     }
     fn run(&self, inputs: &[TileView<f32>], out: &mut [Grid<u8>]) -> Result<()> {
+        let l = self.light();
         walk_3x3(&inputs[0], &mut out[0], self.edge, 0u8, |w, ew, ns| {
-            self.shade(w, ew, ns)
+            shade_with(&l, w, ew, ns)
         });
         Ok(())
     }
