@@ -210,6 +210,20 @@ fn wrong_tag_types() {
     let e = fail(&p);
     assert!(matches!(e, Error::Corrupt { .. }), "{e:?}");
     assert_names_file(&e, &p);
+    // Strip offsets as text (the crate alone would read character codes).
+    let p = write(
+        dir.path(),
+        "offsets_ascii.tif",
+        &tiff(
+            replace(base(4, 2), E(273, ASCII, 2, b"x\0".to_vec())),
+            &[0; 8],
+        ),
+    );
+    let e = fail(&p);
+    assert!(
+        matches!(e, Error::Corrupt { .. }) && e.to_string().contains("StripOffsets"),
+        "{e:?}"
+    );
     // Strip offsets as a double.
     let p = write(
         dir.path(),
