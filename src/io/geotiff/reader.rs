@@ -475,7 +475,7 @@ fn read_georef(dec: &mut Dec, path: &Path, dtype: DType) -> Result<GeoRef> {
     let scale = tag_f64s(dec, path, 33550)?;
     let tie = tag_f64s(dec, path, 33922)?;
     let matrix = tag_f64s(dec, path, 34264)?;
-    let dir = match tag_u64s(dec, path, Tag::Unknown(34735))? {
+    let dir = match tag_u64s(dec, path, Tag::from_u16_exhaustive(34735))? {
         Some(d) => Some(
             d.into_iter()
                 .map(u16::try_from)
