@@ -27,7 +27,7 @@ use crate::raster::{
 use rayon::prelude::*;
 use std::fs::File;
 use std::io::BufReader;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::{Arc, Mutex};
 use tiff::decoder::{ChunkType, Decoder, DecodingResult, Limits};
 use tiff::tags::Tag;
@@ -387,7 +387,7 @@ impl GeoTiffReader {
     }
 
     /// The file path.
-    pub fn path(&self) -> &PathBuf {
+    pub fn path(&self) -> &Path {
         &self.info.path
     }
 
