@@ -210,6 +210,20 @@ fn wrong_tag_types() {
     let e = fail(&p);
     assert!(matches!(e, Error::Corrupt { .. }), "{e:?}");
     assert_names_file(&e, &p);
+    // Strip offsets as text (the crate alone would read character codes).
+    let p = write(
+        dir.path(),
+        "offsets_ascii.tif",
+        &tiff(
+            replace(base(4, 2), E(273, ASCII, 2, b"x\0".to_vec())),
+            &[0; 8],
+        ),
+    );
+    let e = fail(&p);
+    assert!(
+        matches!(e, Error::Corrupt { .. }) && e.to_string().contains("StripOffsets"),
+        "{e:?}"
+    );
     // Strip offsets as a double.
     let p = write(
         dir.path(),
@@ -423,4 +437,23 @@ fn all_nan_data_is_not_an_error() {
     let r = GeoTiffReader::open(&p).unwrap();
     let g = r.read_native(Window::full(4, 2)).unwrap();
     assert!((0..4).all(|x| g.get_f64(x, 1).is_nan()));
+}
+
+#[test]
+fn block_size_limit_is_configurable() {
+    use orogen::io::geotiff::ReaderOptions;
+    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/gdal/int16_tiled_deflate_p2_classic.tif");
+    // 16 x 16 int16 tiles = 512 bytes each.
+    let small = ReaderOptions {
+        max_block_bytes: 511,
+        ..ReaderOptions::default()
+    };
+    let e = GeoTiffReader::open_with(&p, &small).err().expect("refused");
+    assert!(matches!(e, Error::TooLarge { .. }), "{e:?}");
+    let exact = ReaderOptions {
+        max_block_bytes: 512,
+        ..ReaderOptions::default()
+    };
+    assert!(GeoTiffReader::open_with(&p, &exact).is_ok());
 }

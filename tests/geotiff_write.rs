@@ -361,6 +361,48 @@ fn failed_or_abandoned_writes_leave_no_file() {
 }
 
 #[test]
+fn bigtiff_and_predictor_are_chosen_automatically() {
+    let dir = tempfile::tempdir().unwrap();
+    let g = GeoRef::pixel();
+    let auto = WriteOptions::default();
+    let small =
+        GeoTiffWriter::create(dir.path().join("a.tif"), 1000, 1000, DType::F32, &g, &auto).unwrap();
+    assert!(!small.is_bigtiff());
+    assert_eq!(small.predictor(), 3);
+    // 40000 x 30000 f32 = 4.8 GB uncompressed: BigTIFF (nothing is written yet).
+    let big = GeoTiffWriter::create(
+        dir.path().join("b.tif"),
+        40000,
+        30000,
+        DType::F32,
+        &g,
+        &auto,
+    )
+    .unwrap();
+    assert!(big.is_bigtiff());
+    let int =
+        GeoTiffWriter::create(dir.path().join("c.tif"), 10, 10, DType::I16, &g, &auto).unwrap();
+    assert_eq!(int.predictor(), 2);
+    let none = WriteOptions {
+        compression: Compression::None,
+        predictor: Some(2),
+        ..auto.clone()
+    };
+    let raw =
+        GeoTiffWriter::create(dir.path().join("d.tif"), 10, 10, DType::I16, &g, &none).unwrap();
+    assert_eq!(raw.predictor(), 1);
+    let forced = WriteOptions {
+        bigtiff: Some(true),
+        ..auto
+    };
+    assert!(
+        GeoTiffWriter::create(dir.path().join("e.tif"), 10, 10, DType::I16, &g, &forced)
+            .unwrap()
+            .is_bigtiff()
+    );
+}
+
+#[test]
 fn partial_edge_blocks_are_padded_with_nodata() {
     // A 20x20 raster in one 32x32 block: the decoded block's padding is not
     // visible through the reader, but the file must hold exactly one tile

@@ -8,6 +8,11 @@
 //!
 //! Multi-band files: pixel-interleaved (PlanarConfiguration 1) files are read
 //! as their first band only; band-interleaved (planar) files are refused.
+//!
+//! Known difference from GDAL: an *uncompressed* file carrying a Predictor
+//! tag is un-predicted by the `tiff` crate, while libtiff (GDAL) ignores the
+//! predictor without compression. No common writer produces such files
+//! (orogen's writer never does).
 
 use super::cache::BlockCache;
 use super::georef::{
@@ -22,7 +27,7 @@ use crate::raster::{
 use rayon::prelude::*;
 use std::fs::File;
 use std::io::BufReader;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::{Arc, Mutex};
 use tiff::decoder::{ChunkType, Decoder, DecodingResult, Limits};
 use tiff::tags::Tag;
@@ -171,6 +176,37 @@ impl GeoTiffReader {
                     "declared size {width} x {height} cells exceeds orogen's limit of 2^40 cells"
                 ),
             ));
+        }
+
+        // The structural tags must hold unsigned integers: the crate would
+        // otherwise turn e.g. ASCII offsets into character codes.
+        for (num, name) in [
+            (256, "ImageWidth"),
+            (257, "ImageLength"),
+            (258, "BitsPerSample"),
+            (259, "Compression"),
+            (273, "StripOffsets"),
+            (277, "SamplesPerPixel"),
+            (278, "RowsPerStrip"),
+            (279, "StripByteCounts"),
+            (284, "PlanarConfiguration"),
+            (317, "Predictor"),
+            (322, "TileWidth"),
+            (323, "TileLength"),
+            (324, "TileOffsets"),
+            (325, "TileByteCounts"),
+            (339, "SampleFormat"),
+        ] {
+            if let Some(e) = dec.image_ifd().find_entry(Tag::from_u16_exhaustive(num)) {
+                let t = e.field_type().to_u16();
+                // BYTE, SHORT, LONG, LONG8
+                if !matches!(t, 1 | 3 | 4 | 16) {
+                    return Err(Error::corrupt(
+                        path,
+                        format!("TIFF tag {name} ({num}) has field type {t}; it must be an unsigned integer (BYTE, SHORT, LONG or LONG8)"),
+                    ));
+                }
+            }
         }
 
         // Compression: refuse what cannot be decoded before any pixel read.
@@ -351,7 +387,7 @@ impl GeoTiffReader {
     }
 
     /// The file path.
-    pub fn path(&self) -> &PathBuf {
+    pub fn path(&self) -> &Path {
         &self.info.path
     }
 
@@ -439,7 +475,7 @@ fn read_georef(dec: &mut Dec, path: &Path, dtype: DType) -> Result<GeoRef> {
     let scale = tag_f64s(dec, path, 33550)?;
     let tie = tag_f64s(dec, path, 33922)?;
     let matrix = tag_f64s(dec, path, 34264)?;
-    let dir = match tag_u64s(dec, path, Tag::Unknown(34735))? {
+    let dir = match tag_u64s(dec, path, Tag::from_u16_exhaustive(34735))? {
         Some(d) => Some(
             d.into_iter()
                 .map(u16::try_from)

@@ -513,6 +513,17 @@ impl GeoTiffWriter {
         Ok(w)
     }
 
+    /// True when the file is written as BigTIFF (asked for, or chosen by the
+    /// automatic size bound).
+    pub fn is_bigtiff(&self) -> bool {
+        self.bigtiff
+    }
+
+    /// The predictor actually written (after the automatic choice).
+    pub fn predictor(&self) -> u16 {
+        self.predictor
+    }
+
     fn put(&mut self, bytes: &[u8]) -> Result<()> {
         let f = self
             .file
@@ -719,4 +730,57 @@ pub fn write_geotiff(
         id += 1;
     }
     wr.finish()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn float_predictor_matches_technical_note_3_by_hand() {
+        // f32 1.0 = 3F800000, 2.0 = 40000000 (big-endian). Byte planes, most
+        // significant first: 3F 40 | 80 00 | 00 00 | 00 00; then each byte
+        // minus its left neighbour: 3F 01 40 80 00 00 00 00.
+        let mut row: Vec<u8> = [1.0f32, 2.0].iter().flat_map(|v| v.to_le_bytes()).collect();
+        predict_float(&mut row, 4, &mut Vec::new());
+        assert_eq!(row, vec![0x3F, 0x01, 0x40, 0x80, 0x00, 0x00, 0x00, 0x00]);
+    }
+
+    #[test]
+    fn horizontal_predictor_differences_samples_with_wraparound() {
+        let mut row: Vec<u8> = [100i16, 90, -32768, 32767]
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        predict_horizontal(&mut row, 2);
+        let got: Vec<i16> = row
+            .chunks(2)
+            .map(|c| i16::from_le_bytes([c[0], c[1]]))
+            .collect();
+        // 90-100 = -10; -32768-90 wraps to 32678; 32767-(-32768) wraps to -1.
+        assert_eq!(got, vec![100, -10, 32678, -1]);
+        let mut bytes = vec![5u8, 3, 250];
+        predict_horizontal(&mut bytes, 1);
+        assert_eq!(bytes, vec![5, 254, 247]);
+    }
+
+    #[test]
+    fn ifd_layout_puts_values_after_the_directory() {
+        let mut e = vec![
+            Entry::shorts(259, &[1]),
+            Entry::long(256, 7),
+            Entry::doubles(33550, &[1.0, 2.0, 0.0]),
+        ];
+        let (bytes, pos) = encode_ifd(&mut e, 8, false, 0);
+        // 2 + 3 * 12 + 4 = 42 bytes of directory, then 24 bytes of doubles.
+        assert_eq!(bytes.len(), 42 + 24);
+        assert_eq!(u16::from_le_bytes([bytes[0], bytes[1]]), 3);
+        // Sorted by tag: 256 first, its value inline at 8 + 2 + 8.
+        assert_eq!(u16::from_le_bytes([bytes[2], bytes[3]]), 256);
+        assert_eq!(pos[0], 8 + 2 + 8);
+        assert_eq!(pos[2], 8 + 42);
+        let (big, pos) = encode_ifd(&mut e, 16, true, 0);
+        assert_eq!(big.len(), 8 + 3 * 20 + 8 + 24);
+        assert_eq!(pos[2], 16 + 8 + 60 + 8);
+    }
 }
