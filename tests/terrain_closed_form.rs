@@ -158,3 +158,18 @@ fn geographic_cells_use_metric_sizes() {
     let want = (1.0 / ew).atan().to_degrees();
     assert!((slope.get(2, 2) as f64 - want).abs() < 1e-5);
 }
+
+#[test]
+fn fast_atan_is_within_its_bound() {
+    use orogen::metrics::terrain::atan_nonneg;
+    let mut worst = 0f64;
+    for i in 0..2_000_000u64 {
+        // dense on [0, 4], then geometric up to 1e12
+        let x = if i < 1_000_000 { i as f64 * 4e-6 } else { 4.0 * 1.00003f64.powi((i - 1_000_000) as i32) };
+        worst = worst.max((atan_nonneg(x) - x.atan()).abs());
+    }
+    assert!(worst < 7e-9, "max error {worst}");
+    assert!(atan_nonneg(f64::NAN).is_nan());
+    assert_eq!(atan_nonneg(0.0), 0.0);
+    assert!((atan_nonneg(f64::INFINITY) - std::f64::consts::FRAC_PI_2).abs() < 1e-15);
+}

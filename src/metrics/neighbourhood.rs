@@ -35,43 +35,96 @@ pub fn walk_3x3<O: Copy>(
     let h = view.halo;
     let gw = view.grid.width();
     let data = view.grid.data();
-    let mut win = [0f64; 9];
     for y in 0..view.core.h {
         let (ew, ns) = view.georef.cell_size_m(view.core.y + y as i64);
         let orow = out.row_mut(y);
-        let base = (y + h) * gw + h;
+        let r0 = (y + h - 1) * gw + h - 1;
+        // Three rows of the window, each starting one cell left of the core.
+        let up = &data[r0..r0 + orow.len() + 2];
+        let mid = &data[r0 + gw..r0 + gw + orow.len() + 2];
+        let dn = &data[r0 + 2 * gw..r0 + 2 * gw + orow.len() + 2];
+        // Branch-free pass (vectorisable when `f` is): every cell is computed,
+        // cells whose window holds a NaN get `nodata`.
+        let mut any_bad = false;
         for (x, o) in orow.iter_mut().enumerate() {
-            let c = base + x;
-            let centre = data[c];
-            if centre.is_nan() {
-                *o = nodata;
-                continue;
-            }
-            let mut missing = false;
-            let mut k = 0;
-            for r in [c - gw, c, c + gw] {
-                for v in &data[r - 1..=r + 1] {
-                    if v.is_nan() {
-                        missing = true;
-                        win[k] = centre as f64;
-                    } else {
-                        win[k] = *v as f64;
-                    }
-                    k += 1;
+            let win = [
+                up[x] as f64,
+                up[x + 1] as f64,
+                up[x + 2] as f64,
+                mid[x] as f64,
+                mid[x + 1] as f64,
+                mid[x + 2] as f64,
+                dn[x] as f64,
+                dn[x + 1] as f64,
+                dn[x + 2] as f64,
+            ];
+            // A NaN anywhere makes the sum NaN.
+            let bad = win.iter().sum::<f64>().is_nan();
+            let v = f(&win, ew, ns);
+            *o = if bad { nodata } else { v };
+            any_bad |= bad;
+        }
+        if any_bad && edge == EdgeMode::Compute {
+            for (x, o) in orow.iter_mut().enumerate() {
+                let win = [
+                    up[x] as f64,
+                    up[x + 1] as f64,
+                    up[x + 2] as f64,
+                    mid[x] as f64,
+                    mid[x + 1] as f64,
+                    mid[x + 2] as f64,
+                    dn[x] as f64,
+                    dn[x + 1] as f64,
+                    dn[x + 2] as f64,
+                ];
+                if win.iter().sum::<f64>().is_nan() {
+                    *o = slow_cell(view, &win, x, y, edge, nodata, &f, ew, ns);
                 }
             }
-            *o = if !missing {
-                f(&win, ew, ns)
-            } else if edge == EdgeMode::Nodata {
-                nodata
-            } else {
-                let gx = view.core.x + x as i64;
-                let gy = view.core.y + y as i64;
-                fill_missing(&mut win, &data, c, gw, gx, gy, view.raster_width, view.raster_height);
-                f(&win, ew, ns)
-            };
         }
     }
+}
+
+/// A cell whose window holds nodata: nodata, or (Compute mode) the metric
+/// of the window with its missing cells filled.
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn slow_cell<O: Copy>(
+    view: &TileView<f32>,
+    win: &[f64; 9],
+    x: usize,
+    y: usize,
+    edge: EdgeMode,
+    nodata: O,
+    f: &impl Fn(&[f64; 9], f64, f64) -> O,
+    ew: f64,
+    ns: f64,
+) -> O {
+    let centre = win[4];
+    if centre.is_nan() || edge == EdgeMode::Nodata {
+        return nodata;
+    }
+    let mut filled = *win;
+    for v in filled.iter_mut() {
+        if v.is_nan() {
+            *v = centre;
+        }
+    }
+    let h = view.halo;
+    let c = (y + h) * view.grid.width() + h + x;
+    let gx = view.core.x + x as i64;
+    let gy = view.core.y + y as i64;
+    fill_missing(
+        &mut filled,
+        view.grid.data(),
+        c,
+        view.grid.width(),
+        gx,
+        gy,
+        view.raster_width,
+        view.raster_height,
+    );
+    f(&filled, ew, ns)
 }
 
 /// Fill the missing neighbours of a 3x3 window in `Compute` mode: beyond the
