@@ -7,10 +7,13 @@ use crate::dispatch_any;
 use crate::error::{Error, Result};
 use crate::raster::{AnyGrid, RasterInfo, RasterSource, TileLayout, Window};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// A finished tile store opened for reading. Every read maps the tiles it
 /// touches one at a time, copies the needed cells and unmaps, so reading
-/// keeps no store pages resident.
+/// keeps no store pages resident. Each tile's checksum is verified the first
+/// time it is read through this handle (halo reads touch a tile up to nine
+/// times; verifying once keeps that cheap).
 #[derive(Debug)]
 pub struct TileStore {
     dir: PathBuf,
@@ -18,6 +21,7 @@ pub struct TileStore {
     layout: TileLayout,
     info: RasterInfo,
     verify: bool,
+    verified: Vec<AtomicBool>,
 }
 
 impl TileStore {
@@ -58,12 +62,16 @@ impl TileStore {
             block: (manifest.tile, manifest.tile),
             path: dir.clone(),
         };
+        let verified = (0..manifest.tiles.len())
+            .map(|_| AtomicBool::new(false))
+            .collect();
         Ok(TileStore {
             dir,
             manifest,
             layout,
             info,
             verify: true,
+            verified,
         })
     }
 
@@ -121,12 +129,13 @@ impl RasterSource for TileStore {
             let entry = &self.manifest.tiles[id];
             let tile_stride = core.w * cell;
             let row_bytes = part.w * cell;
+            let verify = self.verify && !self.verified[id].load(Ordering::Relaxed);
             with_raw(
                 &path,
                 entry,
                 core.len() * cell,
                 self.manifest.compression,
-                self.verify,
+                verify,
                 |raw| {
                     for r in 0..part.h {
                         let sy = (part.y - core.y) as usize + r;
@@ -138,6 +147,9 @@ impl RasterSource for TileStore {
                     }
                 },
             )?;
+            if verify {
+                self.verified[id].store(true, Ordering::Relaxed);
+            }
         }
         Ok(out)
     }
