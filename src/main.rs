@@ -259,6 +259,7 @@ fn parse_bytes(s: &str) -> Result<u64> {
 
 fn engine(run: &Run) -> Result<EngineConfig> {
     use std::io::IsTerminal;
+    QUIET.store(run.quiet, std::sync::atomic::Ordering::Relaxed);
     Ok(EngineConfig {
         threads: run.threads,
         memory_budget: parse_bytes(&run.memory)?,
@@ -340,8 +341,12 @@ fn edge(compute: bool) -> EdgeMode {
     }
 }
 
+static QUIET: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
 fn wrote(p: &Path) {
-    eprintln!("wrote {}", p.display());
+    if !QUIET.load(std::sync::atomic::Ordering::Relaxed) {
+        eprintln!("wrote {}", p.display());
+    }
 }
 
 fn main() {
