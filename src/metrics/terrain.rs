@@ -224,7 +224,8 @@ fn shade_with(l: &[f64; 4], w: &[f64; 9], ew: f64, ns: f64) -> u8 {
     if c <= 0.0 {
         1
     } else {
-        (1.0 + 254.0 * c).round().min(255.0) as u8
+        // Round half up (as GDAL converts to bytes); `as` saturates at 255.
+        (1.5 + 254.0 * c) as u8
     }
 }
 
