@@ -16,8 +16,12 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("terrain_1024x1024");
     g.throughput(Throughput::Elements((n * n) as u64));
     let mut out = vec![Grid::new(n, n, 0f32)];
-    g.bench_function("slope", |b| b.iter(|| Slope::default().run(&views, &mut out).unwrap()));
-    g.bench_function("aspect", |b| b.iter(|| Aspect::default().run(&views, &mut out).unwrap()));
+    g.bench_function("slope", |b| {
+        b.iter(|| Slope::default().run(&views, &mut out).unwrap())
+    });
+    g.bench_function("aspect", |b| {
+        b.iter(|| Aspect::default().run(&views, &mut out).unwrap())
+    });
     let mut out8 = vec![Grid::new(n, n, 0u8)];
     g.bench_function("hillshade", |b| {
         b.iter(|| Hillshade::default().run(&views, &mut out8).unwrap())

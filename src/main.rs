@@ -251,7 +251,7 @@ fn parse_bytes(s: &str) -> Result<u64> {
         u => bail!("--memory {s:?}: unknown unit {u:?} (use KiB, MiB, GiB)"),
     };
     let b = v * mult;
-    if !(b >= 16.0 * 1024.0 * 1024.0) {
+    if b.is_nan() || b < 16.0 * 1024.0 * 1024.0 {
         bail!("--memory {s:?} is too small: give at least 16MiB");
     }
     Ok(b as u64)

@@ -85,7 +85,10 @@ pub fn run_local_to_paths<S: LocalStep>(
         let prov = Provenance::new(
             step.name(),
             step.params(),
-            inputs.iter().map(|i| i.info().path.display().to_string()).collect(),
+            inputs
+                .iter()
+                .map(|i| i.info().path.display().to_string())
+                .collect(),
         );
         sinks.push(io::create_sink(
             p,
@@ -226,7 +229,11 @@ pub fn describe_text(d: &Description) -> String {
     if let Some(st) = &d.stats {
         match (st.min, st.max, st.mean()) {
             (Some(lo), Some(hi), Some(m)) => {
-                let _ = writeln!(s, "  stats       min {lo}, max {hi}, mean {m:.6}, {} valid cells, {} nodata", st.count, st.nodata);
+                let _ = writeln!(
+                    s,
+                    "  stats       min {lo}, max {hi}, mean {m:.6}, {} valid cells, {} nodata",
+                    st.count, st.nodata
+                );
             }
             _ => {
                 let _ = writeln!(s, "  stats       no valid cells ({} nodata)", st.nodata);

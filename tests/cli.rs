@@ -8,7 +8,9 @@ fn orogen() -> Command {
 }
 
 fn data(p: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(p)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(p)
 }
 
 fn ok(cmd: &mut Command) -> String {
@@ -37,14 +39,27 @@ fn fails(cmd: &mut Command) -> String {
 fn demo_writes_everything_it_lists() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("demo");
-    let s = ok(orogen().args(["demo", "--size", "300", "-q", "-o"]).arg(&out));
-    for f in ["terrain.tiles", "terrain.tif", "slope.tif", "aspect.tif", "hillshade.tif", "preview.png"] {
+    let s = ok(orogen()
+        .args(["demo", "--size", "300", "-q", "-o"])
+        .arg(&out));
+    for f in [
+        "terrain.tiles",
+        "terrain.tif",
+        "slope.tif",
+        "aspect.tif",
+        "hillshade.tif",
+        "preview.png",
+    ] {
         assert!(s.contains(f), "demo output does not list {f}: {s}");
         assert!(out.join(f).exists(), "{f} missing");
     }
     // The exported terrain equals the store, cell for cell.
-    let a = ok(orogen().args(["info", "--json", "--stats"]).arg(out.join("terrain.tif")));
-    let b = ok(orogen().args(["info", "--json", "--stats"]).arg(out.join("terrain.tiles")));
+    let a = ok(orogen()
+        .args(["info", "--json", "--stats"])
+        .arg(out.join("terrain.tif")));
+    let b = ok(orogen()
+        .args(["info", "--json", "--stats"])
+        .arg(out.join("terrain.tiles")));
     let ja: serde_json::Value = serde_json::from_str(&a[..a.rfind('}').unwrap() + 1]).unwrap();
     let jb: serde_json::Value = serde_json::from_str(&b[..b.rfind('}').unwrap() + 1]).unwrap();
     assert_eq!(ja["stats"], jb["stats"]);
@@ -52,15 +67,23 @@ fn demo_writes_everything_it_lists() {
     assert_eq!(ja["transform"], jb["transform"]);
     // Same seed, same bytes.
     let out2 = dir.path().join("demo2");
-    ok(orogen().args(["demo", "--size", "300", "-q", "--threads", "1", "-o"]).arg(&out2));
+    ok(orogen()
+        .args(["demo", "--size", "300", "-q", "--threads", "1", "-o"])
+        .arg(&out2));
     for f in ["terrain.tif", "slope.tif", "hillshade.tif", "preview.png"] {
-        assert_eq!(std::fs::read(out.join(f)).unwrap(), std::fs::read(out2.join(f)).unwrap(), "{f} not deterministic");
+        assert_eq!(
+            std::fs::read(out.join(f)).unwrap(),
+            std::fs::read(out2.join(f)).unwrap(),
+            "{f} not deterministic"
+        );
     }
 }
 
 #[test]
 fn info_reads_every_format() {
-    let s = ok(orogen().args(["info", "--json"]).arg(data("bigtujunga_crop.tif")));
+    let s = ok(orogen()
+        .args(["info", "--json"])
+        .arg(data("bigtujunga_crop.tif")));
     let j: serde_json::Value = serde_json::from_str(&s[..s.rfind('}').unwrap() + 1]).unwrap();
     assert_eq!(j["width"], 301);
     assert_eq!(j["height"], 203);
@@ -74,9 +97,19 @@ fn ingest_export_round_trip_is_exact() {
     let dir = tempfile::tempdir().unwrap();
     let store = dir.path().join("w.tiles");
     let tif = dir.path().join("w.tif");
-    ok(orogen().arg("ingest").arg(data("whitebox_DEM.tif")).args(["--store-tile", "64", "-q", "-o"]).arg(&store));
-    ok(orogen().arg("export").arg(&store).args(["-q", "-o"]).arg(&tif));
-    let a = ok(orogen().args(["info", "--json", "--stats"]).arg(data("whitebox_DEM.tif")));
+    ok(orogen()
+        .arg("ingest")
+        .arg(data("whitebox_DEM.tif"))
+        .args(["--store-tile", "64", "-q", "-o"])
+        .arg(&store));
+    ok(orogen()
+        .arg("export")
+        .arg(&store)
+        .args(["-q", "-o"])
+        .arg(&tif));
+    let a = ok(orogen()
+        .args(["info", "--json", "--stats"])
+        .arg(data("whitebox_DEM.tif")));
     let b = ok(orogen().args(["info", "--json", "--stats"]).arg(&tif));
     let ja: serde_json::Value = serde_json::from_str(&a[..a.rfind('}').unwrap() + 1]).unwrap();
     let jb: serde_json::Value = serde_json::from_str(&b[..b.rfind('}').unwrap() + 1]).unwrap();
@@ -94,7 +127,13 @@ fn bad_inputs_give_one_clear_error() {
 
     let garbage = dir.path().join("garbage.tif");
     std::fs::write(&garbage, b"this is not a tiff at all").unwrap();
-    let e = fails(orogen().arg("slope").arg(&garbage).arg("-o").arg(dir.path().join("s.tif")));
+    let e = fails(
+        orogen()
+            .arg("slope")
+            .arg(&garbage)
+            .arg("-o")
+            .arg(dir.path().join("s.tif")),
+    );
     assert!(e.contains("garbage.tif"), "{e}");
     assert!(!dir.path().join("s.tif").exists(), "no output on failure");
 
@@ -102,15 +141,32 @@ fn bad_inputs_give_one_clear_error() {
     let bytes = std::fs::read(data("bigtujunga_crop.tif")).unwrap();
     std::fs::write(&truncated, &bytes[..bytes.len() / 2]).unwrap();
     let out = dir.path().join("t.tif");
-    let e = fails(orogen().arg("slope").arg(&truncated).args(["-q", "-o"]).arg(&out));
+    let e = fails(
+        orogen()
+            .arg("slope")
+            .arg(&truncated)
+            .args(["-q", "-o"])
+            .arg(&out),
+    );
     assert!(e.contains("trunc.tif"), "{e}");
     assert!(!out.exists(), "a failed run left {out:?} behind");
 
     let e = fails(orogen().arg("info").arg(dir.path().join("x.xyz")));
     assert!(e.contains("x.xyz"));
-    let e = fails(orogen().arg("slope").arg(data("whitebox_DEM.tif")).args(["-o", "out.jpg"]));
+    let e = fails(
+        orogen()
+            .arg("slope")
+            .arg(data("whitebox_DEM.tif"))
+            .args(["-o", "out.jpg"]),
+    );
     assert!(e.contains("out.jpg") && e.contains(".tif"), "{e}");
-    let e = fails(orogen().arg("slope").arg(data("whitebox_DEM.tif")).args(["--memory", "12 parsecs", "-o"]).arg(dir.path().join("m.tif")));
+    let e = fails(
+        orogen()
+            .arg("slope")
+            .arg(data("whitebox_DEM.tif"))
+            .args(["--memory", "12 parsecs", "-o"])
+            .arg(dir.path().join("m.tif")),
+    );
     assert!(e.contains("--memory"), "{e}");
 }
 
@@ -119,7 +175,9 @@ fn all_nan_and_missing_georef_are_handled() {
     let dir = tempfile::tempdir().unwrap();
     // An ESRI ASCII grid of nodata only: no georeferencing issue, all-nodata slope.
     let asc = dir.path().join("nan.asc");
-    let mut s = String::from("ncols 4\nnrows 3\nxllcorner 0\nyllcorner 0\ncellsize 10\nNODATA_value -9999\n");
+    let mut s = String::from(
+        "ncols 4\nnrows 3\nxllcorner 0\nyllcorner 0\ncellsize 10\nNODATA_value -9999\n",
+    );
     for _ in 0..3 {
         s.push_str("-9999 -9999 -9999 -9999\n");
     }
@@ -132,8 +190,15 @@ fn all_nan_and_missing_georef_are_handled() {
 
     // A PNG heightmap has no georeferencing: a warning, then pixel coordinates.
     let png = dir.path().join("h.png");
-    ok(orogen().arg("export").arg(data("bigtujunga_crop.tif")).args(["-q", "-o"]).arg(&png));
+    ok(orogen()
+        .arg("export")
+        .arg(data("bigtujunga_crop.tif"))
+        .args(["-q", "-o"])
+        .arg(&png));
     let out = dir.path().join("h_slope.tif");
     let o = ok(orogen().arg("slope").arg(&png).args(["-q", "-o"]).arg(&out));
-    assert!(o.contains("warning") && o.contains("no georeferencing"), "{o}");
+    assert!(
+        o.contains("warning") && o.contains("no georeferencing"),
+        "{o}"
+    );
 }

@@ -51,8 +51,8 @@ fn plane_slope_and_aspect_are_exact() {
             &src,
         );
         let aspect = run(&Aspect::default(), &src);
-        let want_slope = (a * a + b * b as f64).sqrt().atan().to_degrees();
-        let mut want_aspect = (-a as f64).atan2(-b).to_degrees();
+        let want_slope = (a * a + b * b).sqrt().atan().to_degrees();
+        let mut want_aspect = (-a).atan2(-b).to_degrees();
         if want_aspect < 0.0 {
             want_aspect += 360.0;
         }
@@ -62,9 +62,7 @@ fn plane_slope_and_aspect_are_exact() {
                     (slope.get(x, y) as f64 - want_slope).abs() < 1e-4,
                     "slope {a} {b}"
                 );
-                assert!(
-                    (pct.get(x, y) as f64 - 100.0 * (a * a + b * b as f64).sqrt()).abs() < 1e-3
-                );
+                assert!((pct.get(x, y) as f64 - 100.0 * (a * a + b * b).sqrt()).abs() < 1e-3);
                 assert!(
                     (aspect.get(x, y) as f64 - want_aspect).abs() < 1e-3,
                     "aspect {a} {b}: {} vs {want_aspect}",
@@ -165,7 +163,11 @@ fn fast_atan_is_within_its_bound() {
     let mut worst = 0f64;
     for i in 0..2_000_000u64 {
         // dense on [0, 4], then geometric up to 1e12
-        let x = if i < 1_000_000 { i as f64 * 4e-6 } else { 4.0 * 1.00003f64.powi((i - 1_000_000) as i32) };
+        let x = if i < 1_000_000 {
+            i as f64 * 4e-6
+        } else {
+            4.0 * 1.00003f64.powi((i - 1_000_000) as i32)
+        };
         worst = worst.max((atan_nonneg(x) - x.atan()).abs());
     }
     assert!(worst < 7e-9, "max error {worst}");

@@ -9,7 +9,9 @@ use orogen::raster::{AnyGrid, DType, Grid, RasterSource, TileLayout};
 use std::path::Path;
 
 fn data(p: &str) -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(p)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(p)
 }
 
 fn open(p: &str) -> Box<dyn RasterSource> {
@@ -17,7 +19,14 @@ fn open(p: &str) -> Box<dyn RasterSource> {
 }
 
 /// Run `step` over `src` with work tiles of `tile` cells and `threads` threads.
-fn run<S: LocalStep>(step: &S, src: &dyn RasterSource, tile: usize, threads: usize, dtype: DType, nd: f64) -> AnyGrid {
+fn run<S: LocalStep>(
+    step: &S,
+    src: &dyn RasterSource,
+    tile: usize,
+    threads: usize,
+    dtype: DType,
+    nd: f64,
+) -> AnyGrid {
     let info = src.info();
     let (sink, handle) = MemSink::new(info.width, info.height, dtype, Some(nd));
     let sink: Box<dyn TileSink> = Box::new(sink);
@@ -27,7 +36,12 @@ fn run<S: LocalStep>(step: &S, src: &dyn RasterSource, tile: usize, threads: usi
         progress: false,
     };
     LocalEngine::new(cfg)
-        .run_local(step, &[src], TileLayout::new(info.width, info.height, tile), vec![sink])
+        .run_local(
+            step,
+            &[src],
+            TileLayout::new(info.width, info.height, tile),
+            vec![sink],
+        )
         .unwrap();
     handle.take().unwrap()
 }
@@ -38,7 +52,11 @@ fn check_tiling<S: LocalStep>(step: &S, dtype: DType, nd: f64) -> AnyGrid {
     for tile in [1, 7, 64, 257] {
         for threads in [1, 2] {
             let t = run(step, src.as_ref(), tile, threads, dtype, nd);
-            assert!(t == whole, "{} differs with tile {tile}, {threads} threads", step.name());
+            assert!(
+                t == whole,
+                "{} differs with tile {tile}, {threads} threads",
+                step.name()
+            );
         }
     }
     whole
@@ -95,7 +113,12 @@ fn slope_compute_edges_matches_gdaldem() {
             let corner = (x == 0 || x == w - 1) && (y == 0 || y == h - 1);
             if !corner {
                 let d = (s.get(x, y) - g.get(x, y)).abs();
-                assert!(d <= 1e-4, "({x},{y}): {} vs gdaldem {}", s.get(x, y), g.get(x, y));
+                assert!(
+                    d <= 1e-4,
+                    "({x},{y}): {} vs gdaldem {}",
+                    s.get(x, y),
+                    g.get(x, y)
+                );
             }
         }
     }
@@ -112,6 +135,11 @@ fn hillshade_tiled_equals_untiled_and_gdaldem() {
     let h = check_tiling(&Hillshade::default(), DType::U8, 0.0);
     let ours = h.to_typed::<f64>(None);
     let theirs = gdal("gdaldem/hillshade.tif");
-    let same = ours.data().iter().zip(theirs.data()).filter(|(a, b)| a == b).count();
+    let same = ours
+        .data()
+        .iter()
+        .zip(theirs.data())
+        .filter(|(a, b)| a == b)
+        .count();
     assert_eq!(same, ours.len(), "hillshade bytes differ from gdaldem");
 }

@@ -156,7 +156,7 @@ pub fn create_sink(
             height,
             dtype,
             georef,
-            oo.store.clone(),
+            oo.store,
             provenance,
         )?),
         "png" => {

@@ -132,7 +132,16 @@ fn slow_cell<O: Copy>(
 /// the centre value (already there from the walk).
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
-fn fill_missing(win: &mut [f64; 9], data: &[f32], c: usize, gw: usize, gx: i64, gy: i64, w: usize, h: usize) {
+fn fill_missing(
+    win: &mut [f64; 9],
+    data: &[f32],
+    c: usize,
+    gw: usize,
+    gx: i64,
+    gy: i64,
+    w: usize,
+    h: usize,
+) {
     let mut v = [f64::NAN; 9];
     let mut k = 0;
     for r in [c - gw, c, c + gw] {
