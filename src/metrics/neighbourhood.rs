@@ -47,17 +47,7 @@ pub fn walk_3x3<O: Copy>(
         // cells whose window holds a NaN get `nodata`.
         let mut any_bad = false;
         for (x, o) in orow.iter_mut().enumerate() {
-            let win = [
-                up[x] as f64,
-                up[x + 1] as f64,
-                up[x + 2] as f64,
-                mid[x] as f64,
-                mid[x + 1] as f64,
-                mid[x + 2] as f64,
-                dn[x] as f64,
-                dn[x + 1] as f64,
-                dn[x + 2] as f64,
-            ];
+            let win = window(up, mid, dn, x);
             // A NaN anywhere makes the sum NaN.
             let bad = win.iter().sum::<f64>().is_nan();
             let v = f(&win, ew, ns);
@@ -66,23 +56,29 @@ pub fn walk_3x3<O: Copy>(
         }
         if any_bad && edge == EdgeMode::Compute {
             for (x, o) in orow.iter_mut().enumerate() {
-                let win = [
-                    up[x] as f64,
-                    up[x + 1] as f64,
-                    up[x + 2] as f64,
-                    mid[x] as f64,
-                    mid[x + 1] as f64,
-                    mid[x + 2] as f64,
-                    dn[x] as f64,
-                    dn[x + 1] as f64,
-                    dn[x + 2] as f64,
-                ];
+                let win = window(up, mid, dn, x);
                 if win.iter().sum::<f64>().is_nan() {
                     *o = slow_cell(view, &win, x, y, edge, nodata, &f, ew, ns);
                 }
             }
         }
     }
+}
+
+/// The 3x3 window at column `x` of three row slices that start one cell left.
+#[inline(always)]
+fn window(up: &[f32], mid: &[f32], dn: &[f32], x: usize) -> [f64; 9] {
+    [
+        up[x] as f64,
+        up[x + 1] as f64,
+        up[x + 2] as f64,
+        mid[x] as f64,
+        mid[x + 1] as f64,
+        mid[x + 2] as f64,
+        dn[x] as f64,
+        dn[x + 1] as f64,
+        dn[x + 2] as f64,
+    ]
 }
 
 /// A cell whose window holds nodata: nodata, or (Compute mode) the metric
