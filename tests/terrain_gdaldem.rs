@@ -143,3 +143,62 @@ fn hillshade_tiled_equals_untiled_and_gdaldem() {
         .count();
     assert_eq!(same, ours.len(), "hillshade bytes differ from gdaldem");
 }
+
+/// The check: slope, aspect and hillshade computed from tile stores of
+/// tile sizes 64, 257 and 1024 (raw and zstd) equal the in-memory result.
+#[test]
+fn from_stores_of_several_tile_sizes_equal_in_memory() {
+    use orogen::store::{Compression, StoreOptions, TileStore};
+    let src = open("bigtujunga_crop.tif");
+    let slope = run(
+        &Slope::default(),
+        src.as_ref(),
+        4096,
+        1,
+        DType::F32,
+        -9999.0,
+    );
+    let aspect = run(
+        &Aspect::default(),
+        src.as_ref(),
+        4096,
+        1,
+        DType::F32,
+        -9999.0,
+    );
+    let shade = run(&Hillshade::default(), src.as_ref(), 4096, 1, DType::U8, 0.0);
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = EngineConfig {
+        threads: 2,
+        memory_budget: 64 << 20,
+        progress: false,
+    };
+    for tile in [64, 257, 1024] {
+        for compression in [Compression::None, Compression::Zstd { level: 1 }] {
+            let path = dir.path().join(format!(
+                "d{tile}_{}.tiles",
+                compression != Compression::None
+            ));
+            let opts = StoreOptions {
+                tile,
+                compression,
+                ..Default::default()
+            };
+            orogen::exec::ingest(src.as_ref(), &path, opts, &cfg).unwrap();
+            let store = TileStore::open(&path).unwrap();
+            assert_eq!(store.layout().tile, tile);
+            assert!(
+                run(&Slope::default(), &store, tile, 2, DType::F32, -9999.0) == slope,
+                "slope, store tile {tile}"
+            );
+            assert!(
+                run(&Aspect::default(), &store, tile, 2, DType::F32, -9999.0) == aspect,
+                "aspect, store tile {tile}"
+            );
+            assert!(
+                run(&Hillshade::default(), &store, tile, 2, DType::U8, 0.0) == shade,
+                "hillshade, store tile {tile}"
+            );
+        }
+    }
+}
