@@ -1,0 +1,784 @@
+//! Exact global hydrology passes across tiles, as [`GlobalStep`]s.
+//!
+//! - [`TiledFill`]: depression filling after Barnes, R. (2016). "Parallel
+//!   priority-flood depression filling for trillion cell digital elevation
+//!   models on desktops or clusters". Computers & Geosciences 96, 56–68.
+//!   *map*: each tile is flooded alone (Improved Priority-Flood) from seeds
+//!   that are its perimeter cells (one label each) and its true outlet cells
+//!   (label 1, the "ocean": cells next to nodata or the raster's edge, seen
+//!   through a halo of 1); the summary is the perimeter's labels and
+//!   elevations plus the in-tile spill graph (label pairs with the lowest
+//!   elevation at which one spills into the other). *reduce*: the tile graphs
+//!   are joined by edges between adjacent perimeter cells of neighbouring
+//!   tiles (spill elevation = the higher of the two cells) and a minimax
+//!   Dijkstra (a priority-flood over labels) from the ocean gives each label
+//!   its water level. *apply*: the tile is flooded again (not stored) and each
+//!   cell becomes `max(locally filled elevation, level of its label)`. The
+//!   result equals [`super::fill`] bit for bit (tested for many tile sizes).
+//! - [`TiledAccumulation`]: D8 accumulation after Barnes, R. (2017).
+//!   "Parallel non-divergent flow accumulation for trillion cell digital
+//!   elevation models on desktops or clusters". Environmental Modelling &
+//!   Software 92, 202–212. *map*: accumulation inside the tile and, for every
+//!   perimeter cell, its link: the next perimeter cell downstream inside the
+//!   tile, or the cell of another tile its flow enters, or none. *reduce*: the
+//!   perimeter graph is accumulated in topological order, giving the flow each
+//!   perimeter cell receives from other tiles. *apply*: the tile is
+//!   accumulated again with those inflows added at its perimeter. Sums are
+//!   exact integers (see [`super::accum`]), so the result equals
+//!   [`super::accumulate`] / [`super::accumulate_weighted`] bit for bit.
+//!
+//! Both read their inputs as f32 with a halo of 1 (NaN = nodata).
+
+use super::accum::{accumulate_core, bad_code, fixed_to_f64, receiver, weight_to_fixed};
+use super::fill::{flood_labelled, UNLABELLED};
+use super::{order_key, valid, DX, DY, NODATA_DIR};
+use crate::error::{Error, Result};
+use crate::exec::GlobalStep;
+use crate::raster::{Grid, TileId, TileLayout, TileView};
+use serde::{Deserialize, Serialize};
+use std::cmp::Reverse;
+use std::collections::{BinaryHeap, HashMap};
+
+/// Number of perimeter cells of a `w` x `h` tile.
+pub fn perimeter_len(w: usize, h: usize) -> usize {
+    if w == 0 || h == 0 {
+        0
+    } else if h == 1 {
+        w
+    } else {
+        2 * w + (h - 2) * if w == 1 { 1 } else { 2 }
+    }
+}
+
+/// Position of (x, y) in the row-major enumeration of a tile's perimeter
+/// cells, or `None` for an interior cell.
+pub fn perimeter_index(w: usize, h: usize, x: usize, y: usize) -> Option<usize> {
+    let k = if w == 1 { 1 } else { 2 };
+    if y == 0 {
+        Some(x)
+    } else if y + 1 == h {
+        Some(w + (h - 2) * k + x)
+    } else if x == 0 {
+        Some(w + (y - 1) * k)
+    } else if x + 1 == w {
+        Some(w + (y - 1) * k + 1)
+    } else {
+        None
+    }
+}
+
+/// The perimeter cells of a `w` x `h` tile in row-major order.
+pub fn perimeter_cells(w: usize, h: usize) -> impl Iterator<Item = (usize, usize)> {
+    (0..h).flat_map(move |y| {
+        let edge_row = y == 0 || y + 1 == h;
+        (0..w)
+            .filter(move |&x| edge_row || x == 0 || x + 1 == w)
+            .map(move |x| (x, y))
+    })
+}
+
+fn need_halo<T>(v: &TileView<T>, step: &str) -> Result<()> {
+    if v.halo < 1 {
+        return Err(Error::invalid(format!(
+            "{step}: tile views need a halo of at least 1"
+        )));
+    }
+    Ok(())
+}
+
+// ---------------------------------------------------------------- fill ----
+
+/// Global depression filling across tiles (Barnes 2016); see the module docs.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct TiledFill;
+
+/// Per-tile summary of [`TiledFill`]: O(perimeter).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct FillSummary {
+    /// Core size.
+    pub w: usize,
+    pub h: usize,
+    /// Local labels are `0..labels`: 0 = nodata, 1 = ocean, 2.. = one per
+    /// non-outlet perimeter cell.
+    pub labels: u32,
+    /// (label, elevation) of each perimeter cell, row-major perimeter order
+    /// (label 0 and elevation 0 for nodata).
+    pub perimeter: Vec<(u32, f32)>,
+    /// In-tile spill graph: (a, b, e) with a < b, `e` the lowest elevation
+    /// at which label a's and label b's regions touch; sorted.
+    pub spill: Vec<(u32, u32, f32)>,
+}
+
+/// Reduced solution of [`TiledFill`]: the water level of every label.
+#[derive(Debug, Clone)]
+pub struct FillSolution {
+    /// First global label of each tile's local label 2.
+    offsets: Vec<usize>,
+    /// Local label counts per tile.
+    counts: Vec<u32>,
+    /// Level per global label (0 = ocean, `f32::MIN`).
+    level: Vec<f32>,
+}
+
+/// The result of one tile's local flood.
+struct TileFlood {
+    z: Vec<f32>,
+    labels: Vec<u32>,
+    count: u32,
+    w: usize,
+    h: usize,
+}
+
+/// Flood one tile from its perimeter and true outlets; spill pairs go to
+/// `on_spill`.
+fn flood_tile(v: &TileView<f32>, on_spill: impl FnMut(u32, u32, f32)) -> Result<TileFlood> {
+    need_halo(v, "fill")?;
+    let (w, h) = (v.core.w, v.core.h);
+    let mut z = Vec::with_capacity(w * h);
+    for y in 0..h {
+        for x in 0..w {
+            z.push(v.at(x as i64, y as i64));
+        }
+    }
+    let mut labels = vec![UNLABELLED; w * h];
+    let mut seeds = Vec::new();
+    let mut next: u32 = 2;
+    for y in 0..h {
+        let edge_row = y == 0 || y + 1 == h;
+        for x in 0..w {
+            let i = y * w + x;
+            if !valid(z[i]) {
+                continue;
+            }
+            let perim = edge_row || x == 0 || x + 1 == w;
+            let outlet = (0..8).any(|d| !valid(v.at(x as i64 + DX[d], y as i64 + DY[d])));
+            if outlet {
+                labels[i] = 1;
+                seeds.push(i);
+            } else if perim {
+                labels[i] = next;
+                next = next
+                    .checked_add(1)
+                    .ok_or_else(|| Error::invalid("fill: tile has more than 2^32 labels"))?;
+                seeds.push(i);
+            }
+        }
+    }
+    flood_labelled(&mut z, w, h, &mut labels, &seeds, on_spill);
+    Ok(TileFlood {
+        z,
+        labels,
+        count: next,
+        w,
+        h,
+    })
+}
+
+impl GlobalStep for TiledFill {
+    type In = f32;
+    type Out = f32;
+    type Summary = FillSummary;
+    type Solution = FillSolution;
+    type Slice = Vec<f32>;
+
+    fn name(&self) -> String {
+        "fill".into()
+    }
+    fn params(&self) -> serde_json::Value {
+        serde_json::json!({"algorithm": "priority-flood (Barnes 2014, 2016)"})
+    }
+    fn halo(&self) -> usize {
+        1
+    }
+
+    fn map(&self, inputs: &[TileView<f32>]) -> Result<FillSummary> {
+        let v = inputs
+            .first()
+            .ok_or_else(|| Error::invalid("fill needs one input (the DEM)"))?;
+        let mut spill: HashMap<(u32, u32), f32> = HashMap::new();
+        let f = flood_tile(v, |a, b, e| {
+            let key = if a < b { (a, b) } else { (b, a) };
+            spill
+                .entry(key)
+                .and_modify(|old| {
+                    if e < *old {
+                        *old = e
+                    }
+                })
+                .or_insert(e);
+        })?;
+        let perimeter = perimeter_cells(f.w, f.h)
+            .map(|(x, y)| {
+                let i = y * f.w + x;
+                if f.labels[i] == UNLABELLED {
+                    (0, 0.0)
+                } else {
+                    (f.labels[i], f.z[i])
+                }
+            })
+            .collect();
+        let mut spill: Vec<(u32, u32, f32)> =
+            spill.into_iter().map(|((a, b), e)| (a, b, e)).collect();
+        spill.sort_by(|p, q| (p.0, p.1).cmp(&(q.0, q.1)));
+        Ok(FillSummary {
+            w: f.w,
+            h: f.h,
+            labels: f.count,
+            perimeter,
+            spill,
+        })
+    }
+
+    fn reduce(&self, layout: &TileLayout, summaries: Vec<FillSummary>) -> Result<FillSolution> {
+        if summaries.len() != layout.count() {
+            return Err(Error::invalid(format!(
+                "fill reduce: {} summaries for {} tiles",
+                summaries.len(),
+                layout.count()
+            )));
+        }
+        let mut offsets = Vec::with_capacity(summaries.len());
+        let mut counts = Vec::with_capacity(summaries.len());
+        let mut total = 1usize;
+        for (t, s) in summaries.iter().enumerate() {
+            let win = layout.window(t);
+            if s.w != win.w
+                || s.h != win.h
+                || s.perimeter.len() != perimeter_len(s.w, s.h)
+                || s.labels < 2
+            {
+                return Err(Error::invalid(format!(
+                    "fill reduce: summary of tile {t} does not match the layout"
+                )));
+            }
+            offsets.push(total);
+            counts.push(s.labels);
+            total += (s.labels - 2) as usize;
+        }
+        let global = |t: usize, l: u32| -> usize {
+            if l == 1 {
+                0
+            } else {
+                offsets[t] + (l - 2) as usize
+            }
+        };
+        let mut edges: Vec<(usize, usize, f32)> = Vec::new();
+        for (t, s) in summaries.iter().enumerate() {
+            for &(a, b, e) in &s.spill {
+                if a == 0 || b == 0 || a >= s.labels || b >= s.labels {
+                    return Err(Error::invalid(format!(
+                        "fill reduce: bad label in tile {t}'s spill graph"
+                    )));
+                }
+                edges.push((global(t, a), global(t, b), e));
+            }
+        }
+        // Edges between adjacent perimeter cells of neighbouring tiles.
+        let (ntx, nty) = (layout.tiles_x(), layout.tiles_y());
+        let cell = |t: usize, x: usize, y: usize| -> (u32, f32) {
+            let s = &summaries[t];
+            match perimeter_index(s.w, s.h, x, y) {
+                Some(k) => s.perimeter[k],
+                None => (0, 0.0),
+            }
+        };
+        let mut link = |ta: usize, xa: usize, ya: usize, tb: usize, xb: usize, yb: usize| {
+            let (la, za) = cell(ta, xa, ya);
+            let (lb, zb) = cell(tb, xb, yb);
+            if la != 0 && lb != 0 {
+                edges.push((
+                    global(ta, la),
+                    global(tb, lb),
+                    if za > zb { za } else { zb },
+                ));
+            }
+        };
+        for ty in 0..nty {
+            for tx in 0..ntx {
+                let a = layout.id(tx, ty);
+                let (wa, ha) = (summaries[a].w, summaries[a].h);
+                if tx + 1 < ntx {
+                    let b = layout.id(tx + 1, ty);
+                    for y in 0..ha {
+                        for yb in y.saturating_sub(1)..(y + 2).min(ha) {
+                            link(a, wa - 1, y, b, 0, yb);
+                        }
+                    }
+                }
+                if ty + 1 < nty {
+                    let b = layout.id(tx, ty + 1);
+                    for x in 0..wa {
+                        for xb in x.saturating_sub(1)..(x + 2).min(wa) {
+                            link(a, x, ha - 1, b, xb, 0);
+                        }
+                    }
+                    if tx + 1 < ntx {
+                        link(a, wa - 1, ha - 1, layout.id(tx + 1, ty + 1), 0, 0);
+                    }
+                    if tx > 0 {
+                        let b = layout.id(tx - 1, ty + 1);
+                        link(a, 0, ha - 1, b, summaries[b].w - 1, 0);
+                    }
+                }
+            }
+        }
+        // CSR adjacency (undirected).
+        let mut start = vec![0usize; total + 1];
+        for &(a, b, _) in &edges {
+            start[a + 1] += 1;
+            start[b + 1] += 1;
+        }
+        for i in 0..total {
+            start[i + 1] += start[i];
+        }
+        let mut fill_at = start.clone();
+        let mut adj = vec![(0usize, 0f32); start[total]];
+        for &(a, b, e) in &edges {
+            adj[fill_at[a]] = (b, e);
+            fill_at[a] += 1;
+            adj[fill_at[b]] = (a, e);
+            fill_at[b] += 1;
+        }
+        drop(edges);
+        // Minimax Dijkstra from the ocean: a priority-flood over labels.
+        let mut level = vec![f32::INFINITY; total];
+        let mut done = vec![false; total];
+        let mut heap = BinaryHeap::new();
+        level[0] = f32::MIN;
+        heap.push(Reverse((order_key(f32::MIN), 0usize)));
+        while let Some(Reverse((_, u))) = heap.pop() {
+            if done[u] {
+                continue;
+            }
+            done[u] = true;
+            let lu = level[u];
+            for &(v, e) in &adj[start[u]..start[u + 1]] {
+                let cand = if e > lu { e } else { lu };
+                if cand < level[v] {
+                    level[v] = cand;
+                    heap.push(Reverse((order_key(cand), v)));
+                }
+            }
+        }
+        if let Some(u) = done.iter().position(|&d| !d) {
+            return Err(Error::invalid(format!(
+                "fill reduce: label {u} has no path to an outlet (inconsistent summaries)"
+            )));
+        }
+        Ok(FillSolution {
+            offsets,
+            counts,
+            level,
+        })
+    }
+
+    fn slice(&self, sol: &FillSolution, id: TileId) -> Vec<f32> {
+        let n = sol.counts[id] as usize;
+        let mut s = vec![0.0f32; n];
+        if n > 1 {
+            s[1] = f32::MIN;
+        }
+        for (l, v) in s.iter_mut().enumerate().skip(2) {
+            *v = sol.level[sol.offsets[id] + l - 2];
+        }
+        s
+    }
+
+    fn apply(
+        &self,
+        inputs: &[TileView<f32>],
+        slice: &Vec<f32>,
+        out: &mut [Grid<f32>],
+    ) -> Result<()> {
+        let v = inputs
+            .first()
+            .ok_or_else(|| Error::invalid("fill needs one input (the DEM)"))?;
+        let f = flood_tile(v, |_, _, _| {})?;
+        if f.count as usize != slice.len() {
+            return Err(Error::invalid(
+                "fill apply: slice does not belong to this tile",
+            ));
+        }
+        let o = out
+            .first_mut()
+            .ok_or_else(|| Error::invalid("fill apply: no output grid"))?;
+        for (i, cell) in o.data_mut().iter_mut().enumerate() {
+            let l = f.labels[i];
+            *cell = if l == UNLABELLED {
+                f32::NAN
+            } else {
+                let lv = slice[l as usize];
+                if lv > f.z[i] {
+                    lv
+                } else {
+                    f.z[i]
+                }
+            };
+        }
+        Ok(())
+    }
+}
+
+// ------------------------------------------------------- accumulation ----
+
+/// Global D8 flow accumulation across tiles (Barnes 2017); see the module
+/// docs. Input 0: D8 directions read as f32 (ESRI codes, NaN or 255 =
+/// nodata); input 1 (when `weighted`): weights. Output: f64 accumulation
+/// (cell counts, or sums of weights), NaN on nodata.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct TiledAccumulation {
+    /// Sum weights (input 1) instead of counting cells.
+    pub weighted: bool,
+}
+
+/// Where the flow of a perimeter cell goes next, seen from its tile.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+pub enum Link {
+    /// It ends inside the tile (no-flow cell, nodata, off the raster).
+    End,
+    /// It reaches this perimeter cell (index) of the same tile.
+    Perim(u32),
+    /// It enters the cell (x, y) (global coordinates) of another tile.
+    Cross(u64, u64),
+}
+
+/// Per-tile summary of [`TiledAccumulation`]: one entry per perimeter cell.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct AccumSummary {
+    pub w: usize,
+    pub h: usize,
+    /// Local accumulation (fixed point for weights) and link of each
+    /// perimeter cell, row-major perimeter order.
+    pub perimeter: Vec<(i128, Link)>,
+}
+
+/// Reduced solution: the inflow each perimeter cell receives from other tiles.
+#[derive(Debug, Clone)]
+pub struct AccumSolution {
+    offsets: Vec<usize>,
+    inflow: Vec<i128>,
+}
+
+impl TiledAccumulation {
+    /// Decode the direction view (core + halo) into codes.
+    fn codes(&self, v: &TileView<f32>) -> Result<Vec<u8>> {
+        need_halo(v, "accumulation")?;
+        let mut out = Vec::with_capacity(v.grid.len());
+        let gw = v.grid.width();
+        let h = v.halo as i64;
+        for (i, &c) in v.grid.data().iter().enumerate() {
+            let code = if c.is_nan() || c == NODATA_DIR as f32 {
+                NODATA_DIR
+            } else if c >= 0.0
+                && c <= 128.0
+                && c.fract() == 0.0
+                && (c == 0.0 || super::code_to_dir(c as u8).is_some())
+            {
+                c as u8
+            } else {
+                let gx = v.core.x + (i % gw) as i64 - h;
+                let gy = v.core.y + (i / gw) as i64 - h;
+                return Err(Error::invalid(format!(
+                    "flow direction {c} at cell ({gx}, {gy}) is not a D8 code (0, 1, 2, 4, …, 128; NaN or 255 for nodata)"
+                )));
+            };
+            out.push(code);
+        }
+        Ok(out)
+    }
+
+    /// Core codes and each core cell's own contribution.
+    fn core(
+        &self,
+        inputs: &[TileView<f32>],
+    ) -> Result<(Vec<u8>, Vec<u8>, Vec<i128>, usize, usize)> {
+        let d = inputs
+            .first()
+            .ok_or_else(|| Error::invalid("accumulation needs the flow directions as input 0"))?;
+        let all = self.codes(d)?;
+        let (w, h) = (d.core.w, d.core.h);
+        let gw = d.grid.width();
+        let hl = d.halo;
+        let mut core = Vec::with_capacity(w * h);
+        for y in 0..h {
+            core.extend_from_slice(&all[(y + hl) * gw + hl..(y + hl) * gw + hl + w]);
+        }
+        let mut own = Vec::with_capacity(w * h);
+        if self.weighted {
+            let wt = inputs.get(1).ok_or_else(|| {
+                Error::invalid("weighted accumulation needs the weights as input 1")
+            })?;
+            if wt.core != d.core {
+                return Err(Error::invalid(
+                    "accumulation: weights and directions tiles differ",
+                ));
+            }
+            for y in 0..h {
+                for x in 0..w {
+                    let c = core[y * w + x];
+                    own.push(if c == NODATA_DIR {
+                        0
+                    } else {
+                        weight_to_fixed(wt.at(x as i64, y as i64))?
+                    });
+                }
+            }
+        } else {
+            own.extend(core.iter().map(|&c| if c == NODATA_DIR { 0 } else { 1 }));
+        }
+        Ok((all, core, own, w, h))
+    }
+}
+
+impl GlobalStep for TiledAccumulation {
+    type In = f32;
+    type Out = f64;
+    type Summary = AccumSummary;
+    type Solution = AccumSolution;
+    type Slice = Vec<i128>;
+
+    fn name(&self) -> String {
+        "accumulate".into()
+    }
+    fn params(&self) -> serde_json::Value {
+        serde_json::json!({"algorithm": "D8 accumulation (Barnes 2017)", "weighted": self.weighted})
+    }
+    fn halo(&self) -> usize {
+        1
+    }
+
+    fn map(&self, inputs: &[TileView<f32>]) -> Result<AccumSummary> {
+        let (all, core, mut acc, w, h) = self.core(inputs)?;
+        let v = &inputs[0];
+        let order = accumulate_core(&core, w, h, &mut acc)?;
+        // Next perimeter cell downstream of every cell, downstream first.
+        const END: u32 = u32::MAX;
+        const OUT: u32 = u32::MAX - 1;
+        let mut down = vec![END; w * h];
+        let gw = v.grid.width();
+        let hl = v.halo;
+        for &c in order.iter().rev() {
+            let c = c as usize;
+            let (x, y) = (c % w, c / w);
+            let code = core[c];
+            down[c] = match receiver(x, y, code, w, h) {
+                Err(()) => return Err(bad_code(code, x, y)),
+                Ok(Some(r)) => {
+                    if core[r] == NODATA_DIR {
+                        END
+                    } else if let Some(k) = perimeter_index(w, h, r % w, r / w) {
+                        k as u32
+                    } else {
+                        down[r]
+                    }
+                }
+                Ok(None) => {
+                    match super::code_to_dir(code) {
+                        // points beyond the core: valid target in the halo?
+                        Some(d) => {
+                            let hx = (x as i64 + DX[d] + hl as i64) as usize;
+                            let hy = (y as i64 + DY[d] + hl as i64) as usize;
+                            if all[hy * gw + hx] != NODATA_DIR {
+                                OUT
+                            } else {
+                                END
+                            }
+                        }
+                        None => END,
+                    }
+                }
+            };
+        }
+        let perimeter = perimeter_cells(w, h)
+            .map(|(x, y)| {
+                let c = y * w + x;
+                let link = match down[c] {
+                    END => Link::End,
+                    OUT => {
+                        let d = super::code_to_dir(core[c]).expect("OUT only for codes");
+                        Link::Cross(
+                            (v.core.x + x as i64 + DX[d]) as u64,
+                            (v.core.y + y as i64 + DY[d]) as u64,
+                        )
+                    }
+                    k => Link::Perim(k),
+                };
+                (acc[c], link)
+            })
+            .collect();
+        Ok(AccumSummary { w, h, perimeter })
+    }
+
+    fn reduce(&self, layout: &TileLayout, summaries: Vec<AccumSummary>) -> Result<AccumSolution> {
+        if summaries.len() != layout.count() {
+            return Err(Error::invalid(format!(
+                "accumulation reduce: {} summaries for {} tiles",
+                summaries.len(),
+                layout.count()
+            )));
+        }
+        let mut offsets = Vec::with_capacity(summaries.len());
+        let mut total = 0usize;
+        for (t, s) in summaries.iter().enumerate() {
+            let win = layout.window(t);
+            if s.w != win.w || s.h != win.h || s.perimeter.len() != perimeter_len(s.w, s.h) {
+                return Err(Error::invalid(format!(
+                    "accumulation reduce: summary of tile {t} does not match the layout"
+                )));
+            }
+            offsets.push(total);
+            total += s.perimeter.len();
+        }
+        let corrupt = |t: usize| {
+            Error::invalid(format!(
+                "accumulation reduce: bad link in tile {t}'s summary"
+            ))
+        };
+        // Downstream node of every perimeter node; `cross` marks links to
+        // another tile (they carry the whole accumulation, not just inflow).
+        let mut next = vec![usize::MAX; total];
+        let mut cross = vec![false; total];
+        let mut own = vec![0i128; total];
+        for (t, s) in summaries.iter().enumerate() {
+            for (k, &(a, link)) in s.perimeter.iter().enumerate() {
+                let u = offsets[t] + k;
+                own[u] = a;
+                match link {
+                    Link::End => {}
+                    Link::Perim(j) => {
+                        if j as usize >= s.perimeter.len() || j as usize == k {
+                            return Err(corrupt(t));
+                        }
+                        next[u] = offsets[t] + j as usize;
+                    }
+                    Link::Cross(gx, gy) => {
+                        if gx as usize >= layout.width || gy as usize >= layout.height {
+                            return Err(corrupt(t));
+                        }
+                        let (gx, gy) = (gx as usize, gy as usize);
+                        let tb = layout.id(gx / layout.tile, gy / layout.tile);
+                        let win = layout.window(tb);
+                        let (lx, ly) = (gx - win.x as usize, gy - win.y as usize);
+                        let j = perimeter_index(win.w, win.h, lx, ly).ok_or_else(|| corrupt(t))?;
+                        if tb == t {
+                            return Err(corrupt(t));
+                        }
+                        next[u] = offsets[tb] + j;
+                        cross[u] = true;
+                    }
+                }
+            }
+        }
+        let mut indeg = vec![0u8; total];
+        for &v in &next {
+            if v != usize::MAX {
+                indeg[v] = indeg[v].saturating_add(1);
+            }
+        }
+        let mut extra = vec![0i128; total];
+        let mut inflow = vec![0i128; total];
+        let mut queue: Vec<usize> = (0..total).filter(|&u| indeg[u] == 0).collect();
+        let mut head = 0;
+        let overflow = || Error::invalid("flow accumulation overflowed 2^127");
+        while head < queue.len() {
+            let u = queue[head];
+            head += 1;
+            let v = next[u];
+            if v == usize::MAX {
+                continue;
+            }
+            if cross[u] {
+                let a = own[u].checked_add(extra[u]).ok_or_else(overflow)?;
+                extra[v] = extra[v].checked_add(a).ok_or_else(overflow)?;
+                inflow[v] = inflow[v].checked_add(a).ok_or_else(overflow)?;
+            } else {
+                extra[v] = extra[v].checked_add(extra[u]).ok_or_else(overflow)?;
+            }
+            indeg[v] -= 1;
+            if indeg[v] == 0 {
+                queue.push(v);
+            }
+        }
+        if queue.len() != total {
+            return Err(Error::invalid(
+                "flow directions contain a cycle across tiles; directions must come from a D8 routing of one DEM",
+            ));
+        }
+        Ok(AccumSolution { offsets, inflow })
+    }
+
+    fn slice(&self, sol: &AccumSolution, id: TileId) -> Vec<i128> {
+        let end = sol.offsets.get(id + 1).copied().unwrap_or(sol.inflow.len());
+        sol.inflow[sol.offsets[id]..end].to_vec()
+    }
+
+    fn apply(
+        &self,
+        inputs: &[TileView<f32>],
+        slice: &Vec<i128>,
+        out: &mut [Grid<f64>],
+    ) -> Result<()> {
+        let (_, core, mut acc, w, h) = self.core(inputs)?;
+        if slice.len() != perimeter_len(w, h) {
+            return Err(Error::invalid(
+                "accumulation apply: slice does not belong to this tile",
+            ));
+        }
+        for ((x, y), &inc) in perimeter_cells(w, h).zip(slice) {
+            let c = y * w + x;
+            acc[c] = acc[c]
+                .checked_add(inc)
+                .ok_or_else(|| Error::invalid("flow accumulation overflowed 2^127"))?;
+        }
+        accumulate_core(&core, w, h, &mut acc)?;
+        let o = out
+            .first_mut()
+            .ok_or_else(|| Error::invalid("accumulation apply: no output grid"))?;
+        for (i, cell) in o.data_mut().iter_mut().enumerate() {
+            *cell = if core[i] == NODATA_DIR {
+                f64::NAN
+            } else if self.weighted {
+                fixed_to_f64(acc[i])
+            } else {
+                acc[i] as f64
+            };
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn perimeter_enumeration_matches_index() {
+        for w in 1..6 {
+            for h in 1..6 {
+                let cells: Vec<_> = perimeter_cells(w, h).collect();
+                assert_eq!(cells.len(), perimeter_len(w, h), "{w}x{h}");
+                for (k, &(x, y)) in cells.iter().enumerate() {
+                    assert_eq!(perimeter_index(w, h, x, y), Some(k), "{w}x{h} ({x},{y})");
+                }
+                for y in 0..h {
+                    for x in 0..w {
+                        let on = x == 0 || y == 0 || x + 1 == w || y + 1 == h;
+                        assert_eq!(perimeter_index(w, h, x, y).is_some(), on);
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn summaries_round_trip_through_json() {
+        let s = AccumSummary {
+            w: 2,
+            h: 1,
+            perimeter: vec![(1i128 << 100, Link::Cross(3, 4)), (-5, Link::Perim(0))],
+        };
+        let j = serde_json::to_string(&s).unwrap();
+        let back: AccumSummary = serde_json::from_str(&j).unwrap();
+        assert_eq!(back, s);
+    }
+}
