@@ -669,10 +669,12 @@ impl GlobalStep for TiledAccumulation {
                 }
             }
         }
-        let mut indeg = vec![0u8; total];
+        // in-degrees: up to 3 from other tiles plus any number of perimeter
+        // cells of the same tile whose paths join here
+        let mut indeg = vec![0u32; total];
         for &v in &next {
             if v != usize::MAX {
-                indeg[v] = indeg[v].saturating_add(1);
+                indeg[v] += 1;
             }
         }
         let mut extra = vec![0i128; total];
