@@ -238,11 +238,11 @@ proptest! {
                 }
             }
         }
-        for i in 0..w * h {
-            if dirs.data()[i] == NODATA_DIR {
-                prop_assert!(acc.data()[i].is_nan());
+        for ((&code, &got), &want) in dirs.data().iter().zip(acc.data()).zip(&brute) {
+            if code == NODATA_DIR {
+                prop_assert!(got.is_nan());
             } else {
-                prop_assert_eq!(acc.data()[i], brute[i]);
+                prop_assert_eq!(got, want);
             }
         }
     }

@@ -4,7 +4,7 @@
 //! JSON as a distributed engine would ship them.
 
 use orogen::exec::GlobalStep;
-use orogen::hydro::tiled::{TiledAccumulation, TiledFill};
+use orogen::hydro::tiled::{TiledAccumulation, TiledD8, TiledFill};
 use orogen::hydro::{accumulate, accumulate_weighted, d8_directions, fill, NODATA_DIR};
 use orogen::raster::{
     read_view, Cell, GeoRef, Grid, IntoAny, MemRaster, RasterSource, TileLayout, TileView,
@@ -79,11 +79,22 @@ fn check_all(g: &Grid<f32>, tiles: &[usize]) -> Result<(), TestCaseError> {
     let wts = Grid::from_fn(w, h, |x, y| ((x * 31 + y * 17) % 13) as f32 * 0.37 - 1.5);
     let want_wacc = accumulate_weighted(&dirs, &wts).expect("acyclic");
     let src = mem(g, None);
+    let fsrc = mem(&want_fill, None);
+    let raw_dirs = d8_directions(g);
     let dsrc = mem(&dirs, Some(NODATA_DIR as f64));
     let wsrc = mem(&wts, None);
     for &t in tiles {
         let got = run_global(&TiledFill, &[&src], t).expect("tiled fill");
         prop_assert_eq!(bits32(&got), bits32(&want_fill), "fill, tile {}", t);
+        let got = run_global(&TiledD8, &[&fsrc], t).expect("tiled d8");
+        prop_assert_eq!(got.data(), dirs.data(), "d8 on the filled DEM, tile {}", t);
+        let got = run_global(&TiledD8, &[&src], t).expect("tiled d8");
+        prop_assert_eq!(
+            got.data(),
+            raw_dirs.data(),
+            "d8 on the unfilled DEM, tile {}",
+            t
+        );
         let got = run_global(&TiledAccumulation { weighted: false }, &[&dsrc], t)
             .expect("tiled accumulation");
         prop_assert_eq!(bits64(&got), bits64(&want_acc), "accumulation, tile {}", t);

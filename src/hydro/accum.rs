@@ -32,7 +32,7 @@ pub(crate) fn weight_to_fixed(v: f32) -> Result<i128> {
         return Ok(0);
     }
     let f = v as f64;
-    if !(f.abs() <= MAX_WEIGHT) {
+    if f.is_nan() || f.abs() > MAX_WEIGHT {
         return Err(Error::invalid(format!(
             "flow accumulation weight {v} is out of range (|weight| must be <= 2^62)"
         )));

@@ -55,7 +55,7 @@ fn neighbour(x: usize, y: usize, d: usize, w: usize, h: usize) -> Option<usize> 
 
 /// Steepest-descent codes; cells without a lower neighbour get NO_FLOW unless
 /// they are outlet cells, which point at their first nodata/off-grid neighbour.
-fn steepest_descent(z: &[f32], w: usize, h: usize) -> Vec<u8> {
+pub(crate) fn steepest_descent(z: &[f32], w: usize, h: usize) -> Vec<u8> {
     let mut dir = vec![NODATA_DIR; z.len()];
     for y in 0..h {
         for x in 0..w {
@@ -67,10 +67,10 @@ fn steepest_descent(z: &[f32], w: usize, h: usize) -> Vec<u8> {
             let mut best = 0.0f64;
             let mut best_d = usize::MAX;
             let mut exit_d = usize::MAX;
-            for d in 0..8 {
+            for (d, &dist) in DIST.iter().enumerate() {
                 match neighbour(x, y, d, w, h) {
                     Some(n) if valid(z[n]) => {
-                        let s = (zc as f64 - z[n] as f64) / DIST[d];
+                        let s = (zc as f64 - z[n] as f64) / dist;
                         if s > best {
                             best = s;
                             best_d = d;
