@@ -1,6 +1,11 @@
 //! Hydrology core: depression filling, D8 flow directions with flats, flow
 //! accumulation — in memory on [`Grid`](crate::raster::Grid)s and as exact
-//! global passes across tiles ([`tiled`]).
+//! global passes across tiles ([`tiled`]: `TiledFill`, `TiledD8`,
+//! `TiledAccumulation`, each equal to its in-memory counterpart bit for bit).
+//!
+//! A typical chain: `fill` → `d8_directions` → `accumulate`; tiled:
+//! `TiledFill` → `TiledD8` (on the filled DEM) → `TiledAccumulation` (on the
+//! directions, read as f32 with 255 declared as nodata).
 //!
 //! # Conventions (shared by every function of this module)
 //! - **Elevations** are `f32`. A cell is *nodata* when its value is not finite

@@ -14,7 +14,7 @@
 //!   Dijkstra (a priority-flood over labels) from the ocean gives each label
 //!   its water level. *apply*: the tile is flooded again (not stored) and each
 //!   cell becomes `max(locally filled elevation, level of its label)`. The
-//!   result equals [`super::fill`] bit for bit (tested for many tile sizes).
+//!   result equals [`super::fill()`] bit for bit (tested for many tile sizes).
 //! - [`TiledAccumulation`]: D8 accumulation after Barnes, R. (2017).
 //!   "Parallel non-divergent flow accumulation for trillion cell digital
 //!   elevation models on desktops or clusters". Environmental Modelling &
@@ -27,7 +27,19 @@
 //!   exact integers (see [`super::accum`]), so the result equals
 //!   [`super::accumulate`] / [`super::accumulate_weighted`] bit for bit.
 //!
-//! Both read their inputs as f32 with a halo of 1 (NaN = nodata).
+//! - [`TiledD8`]: D8 directions with flats resolved exactly across tiles
+//!   (Barnes, Lehman & Mulla 2014 gradients as shortest distances over
+//!   perimeter "portals"; see its docs). Equal to [`super::d8_directions`].
+//!
+//! All read their inputs as f32 (NaN = nodata), with a halo of 1 (fill,
+//! accumulation) or 2 (D8).
+//!
+//! Not (yet) tiled: epsilon filling and watershed labels. Epsilon fill's
+//! values depend on the order in which the in-memory flood reaches each cell
+//! of a flat, which a per-tile flood cannot reproduce; an exact tiled form
+//! needs the epsilon surface redefined as `next_up^k(fill level)` with `k`
+//! a geodesic distance inside each flat (computable with the portal
+//! machinery of [`TiledD8`]) and the in-memory version changed to match.
 
 use super::accum::{accumulate_core, bad_code, fixed_to_f64, receiver, weight_to_fixed};
 use super::fill::{flood_labelled, UNLABELLED};
