@@ -851,6 +851,11 @@ pub struct D8Summary {
     /// (i, j, d): portals i < j (indices into `portals`) are `d` steps apart
     /// through the tile's NO_FLOW cells.
     pub pairs: Vec<(u32, u32, u32)>,
+    /// The whole tile is NO_FLOW (a flat covers it: sea, a filled lake):
+    /// `pairs` is left empty, every two portals are their Chebyshev distance
+    /// apart (an obstacle-free rectangle), and the reduce relaxes them
+    /// directly instead of storing O(perimeter²) pairs.
+    pub open: bool,
 }
 
 /// Reduced solution of [`TiledD8`]: global distances of every portal.
@@ -1012,6 +1017,16 @@ impl GlobalStep for TiledD8 {
                 cells.push(c);
             }
         }
+        let open = p.nf.iter().all(|&b| b);
+        if open {
+            return Ok(D8Summary {
+                w,
+                h,
+                portals,
+                pairs: Vec::new(),
+                open,
+            });
+        }
         // portal-pair distances: one BFS per portal, reusing the buffers
         let mut portal_at = vec![FAR; w * h];
         for (i, &c) in cells.iter().enumerate() {
@@ -1052,6 +1067,7 @@ impl GlobalStep for TiledD8 {
             h,
             portals,
             pairs,
+            open,
         })
     }
 
@@ -1067,6 +1083,8 @@ impl GlobalStep for TiledD8 {
         let mut first = Vec::with_capacity(summaries.len());
         let mut init_t = Vec::new();
         let mut init_a = Vec::new();
+        // tile and (x, y) of every node, for the Chebyshev relaxation of open tiles
+        let mut node_pos: Vec<(u32, u32, u32)> = Vec::new();
         for (t, s) in summaries.iter().enumerate() {
             let win = layout.window(t);
             let plen = perimeter_len(win.w, win.h);
@@ -1077,11 +1095,19 @@ impl GlobalStep for TiledD8 {
             }
             let mut map = vec![FAR; plen];
             first.push(init_t.len());
+            let cells: Vec<(usize, usize)> = perimeter_cells(win.w, win.h).collect();
+            if s.open && s.portals.len() != plen {
+                return Err(Error::invalid(format!(
+                    "d8 reduce: open tile {t} without all its portals"
+                )));
+            }
             for &(k, dt, da) in &s.portals {
                 if k as usize >= plen || map[k as usize] != FAR {
                     return Err(Error::invalid(format!("d8 reduce: bad portal in tile {t}")));
                 }
                 map[k as usize] = init_t.len() as u32;
+                let (x, y) = cells[k as usize];
+                node_pos.push((t as u32, x as u32, y as u32));
                 init_t.push(dt);
                 init_a.push(da);
             }
@@ -1144,6 +1170,19 @@ impl GlobalStep for TiledD8 {
                     if nd < dist[v] {
                         dist[v] = nd;
                         heap.push(Reverse((nd, v)));
+                    }
+                }
+                let (t, ux, uy) = node_pos[u];
+                let s = &summaries[t as usize];
+                if s.open {
+                    let f = first[t as usize];
+                    for v in f..f + s.portals.len() {
+                        let (_, vx, vy) = node_pos[v];
+                        let nd = d.saturating_add(ux.abs_diff(vx).max(uy.abs_diff(vy)));
+                        if nd < dist[v] {
+                            dist[v] = nd;
+                            heap.push(Reverse((nd, v)));
+                        }
                     }
                 }
             }
