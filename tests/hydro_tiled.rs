@@ -212,3 +212,23 @@ fn real_dems_tiled_equal_untiled() {
         eprintln!("{name}: {w}x{h}, fill {t_fill:?}, {raised} cells raised, {flat} flat cells");
     }
 }
+
+#[test]
+fn one_flat_lake_across_many_whole_tiles() {
+    // a walled square lake at one height with a single exit on the west
+    // edge, and an island: the flat covers whole tiles (open tiles) and its
+    // distances wrap around the island across tile edges.
+    let (w, h) = (36, 30);
+    let g = Grid::from_fn(w, h, |x, y| {
+        let wall = x == 0 || y == 0 || x == w - 1 || y == h - 1;
+        let island = (14..20).contains(&x) && (8..22).contains(&y);
+        if (x, y) == (0, 15) {
+            5.0
+        } else if wall || island {
+            50.0
+        } else {
+            5.0
+        }
+    });
+    check_all(&g, &[1, 4, 5, 6, 9, 12, 36]).unwrap();
+}
