@@ -65,7 +65,7 @@ fn perf_large_dem() {
     };
     eprintln!("DEM {w}x{h} = {mc:.1} Mcells");
     let t = Instant::now();
-    let f = fill(&g);
+    let f = fill(&g).unwrap();
     time("fill", t);
     let t = Instant::now();
     let e = fill_epsilon(&g).unwrap();
@@ -135,7 +135,7 @@ fn richdem_fill_matches() {
     )
     .unwrap();
     let t = Instant::now();
-    let f = fill(&g);
+    let f = fill(&g).unwrap();
     let s = t.elapsed().as_secs_f64();
     let differ = f
         .data()

@@ -66,7 +66,7 @@ fn bits64(g: &Grid<f64>) -> Vec<u64> {
 /// Check fill and (weighted) accumulation, tiled vs in memory, for `tiles`.
 fn check_all(g: &Grid<f32>, tiles: &[usize]) -> Result<(), TestCaseError> {
     let (w, h) = (g.width(), g.height());
-    let want_fill = fill(g);
+    let want_fill = fill(g).unwrap();
     let dirs = d8_directions(&want_fill);
     let counts = accumulate(&dirs).expect("acyclic");
     let want_acc = Grid::from_fn(w, h, |x, y| {
@@ -150,7 +150,7 @@ fn depression_spanning_many_tiles() {
         }
     });
     check_all(&g, &[1, 3, 5, 7, 16, 40]).unwrap();
-    let f = fill(&g);
+    let f = fill(&g).unwrap();
     assert_eq!(f.get(20, 16), 7.0, "the bowl fills to the notch");
 }
 
@@ -186,7 +186,7 @@ fn real_dems_tiled_equal_untiled() {
     ] {
         let g = read_raw(name, w, h, nodata);
         let t0 = Instant::now();
-        let f = fill(&g);
+        let f = fill(&g).unwrap();
         let t_fill = t0.elapsed();
         let raised = f
             .data()

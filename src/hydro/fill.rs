@@ -44,29 +44,27 @@ pub(crate) fn flood_labelled(
 ) {
     debug_assert_eq!(z.len(), w * h);
     debug_assert_eq!(labels.len(), w * h);
-    let mut open: BinaryHeap<Reverse<(u32, usize)>> = BinaryHeap::with_capacity(seeds.len());
+    debug_assert!(z.len() <= MAX_CELLS);
+    // Priority = order key of the elevation in the high 32 bits, cell index
+    // (the deterministic tie-break) in the low 32 bits: one u64 compare.
+    let mut open: BinaryHeap<Reverse<u64>> = BinaryHeap::with_capacity(seeds.len());
     let mut pit: VecDeque<usize> = VecDeque::new();
     for &s in seeds {
-        open.push(Reverse((order_key(z[s]), s)));
+        open.push(Reverse(pack(z[s], s)));
     }
+    let mut nb = [0usize; 8];
     loop {
         let c = if let Some(c) = pit.pop_front() {
             c
-        } else if let Some(Reverse((_, c))) = open.pop() {
-            c
+        } else if let Some(Reverse(k)) = open.pop() {
+            (k & 0xFFFF_FFFF) as usize
         } else {
             break;
         };
         let zc = z[c];
         let lc = labels[c];
-        let (x, y) = ((c % w) as i64, (c / w) as i64);
-        for d in 0..8 {
-            let nx = x + DX[d];
-            let ny = y + DY[d];
-            if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
-                continue;
-            }
-            let n = ny as usize * w + nx as usize;
+        let count = neighbours(c, w, h, &mut nb);
+        for &n in &nb[..count] {
             let zn = z[n];
             if !valid(zn) {
                 continue;
@@ -83,17 +81,66 @@ pub(crate) fn flood_labelled(
                 z[n] = zc;
                 pit.push_back(n);
             } else {
-                open.push(Reverse((order_key(zn), n)));
+                open.push(Reverse(pack(zn, n)));
             }
         }
     }
 }
 
+/// Largest grid (cells) the in-memory floods handle: indices fit in 32 bits.
+pub(crate) const MAX_CELLS: usize = 1 << 32;
+
+fn too_many(w: usize, h: usize) -> Result<()> {
+    if w.checked_mul(h).is_none_or(|n| n > MAX_CELLS) {
+        return Err(Error::invalid(format!(
+            "{w}x{h} cells is more than the in-memory fill handles (2^32); use the tiled fill"
+        )));
+    }
+    Ok(())
+}
+
+#[inline]
+fn pack(z: f32, i: usize) -> u64 {
+    ((order_key(z) as u64) << 32) | i as u64
+}
+
+/// Indices of the in-grid neighbours of cell `c` in E..NE order; returns
+/// how many were written. Interior cells skip the bounds checks.
+#[inline(always)]
+pub(crate) fn neighbours(c: usize, w: usize, h: usize, out: &mut [usize; 8]) -> usize {
+    let (x, y) = (c % w, c / w);
+    if x > 0 && y > 0 && x + 1 < w && y + 1 < h {
+        *out = [
+            c + 1,
+            c + w + 1,
+            c + w,
+            c + w - 1,
+            c - 1,
+            c - w - 1,
+            c - w,
+            c - w + 1,
+        ];
+        return 8;
+    }
+    let mut k = 0;
+    for d in 0..8 {
+        let nx = x as i64 + DX[d];
+        let ny = y as i64 + DY[d];
+        if nx >= 0 && ny >= 0 && nx < w as i64 && ny < h as i64 {
+            out[k] = ny as usize * w + nx as usize;
+            k += 1;
+        }
+    }
+    k
+}
+
 /// Fill all depressions of `dem` (NaN/±∞ = nodata): every valid cell is
 /// raised to the lowest level from which water can reach an outlet.
-/// Barnes et al. (2014), Algorithm 2 (Improved Priority-Flood).
-pub fn fill(dem: &Grid<f32>) -> Grid<f32> {
+/// Barnes et al. (2014), Algorithm 2 (Improved Priority-Flood). Errors only
+/// for grids of more than 2^32 cells (use [`super::tiled::TiledFill`]).
+pub fn fill(dem: &Grid<f32>) -> Result<Grid<f32>> {
     let (w, h) = (dem.width(), dem.height());
+    too_many(w, h)?;
     let mut z = dem.data().to_vec();
     let outlets = outlet_cells(&z, w, h);
     let mut labels = vec![UNLABELLED; z.len()];
@@ -111,15 +158,17 @@ pub fn fill(dem: &Grid<f32>) -> Grid<f32> {
             *v = f32::NAN;
         }
     }
-    Grid::from_vec(w, h, z).expect("same size as the input")
+    Grid::from_vec(w, h, z)
 }
 
 /// Watershed labels (Barnes et al. 2014, Algorithms 4/5): each outlet cell
 /// gets its own label, 1, 2, … in row-major order, and every valid cell the
 /// label of the outlet its water leaves the DEM through after filling
-/// (0 = nodata). Returns the labels and the filled DEM.
-pub fn watershed_labels(dem: &Grid<f32>) -> (Grid<u32>, Grid<f32>) {
+/// (0 = nodata). Returns the labels and the filled DEM. Errors for grids of
+/// more than 2^32 cells.
+pub fn watershed_labels(dem: &Grid<f32>) -> Result<(Grid<u32>, Grid<f32>)> {
     let (w, h) = (dem.width(), dem.height());
+    too_many(w, h)?;
     let mut z = dem.data().to_vec();
     let outlets = outlet_cells(&z, w, h);
     let mut labels = vec![UNLABELLED; z.len()];
@@ -138,10 +187,7 @@ pub fn watershed_labels(dem: &Grid<f32>) -> (Grid<u32>, Grid<f32>) {
             *v = f32::NAN;
         }
     }
-    (
-        Grid::from_vec(w, h, labels).expect("same size as the input"),
-        Grid::from_vec(w, h, z).expect("same size as the input"),
-    )
+    Ok((Grid::from_vec(w, h, labels)?, Grid::from_vec(w, h, z)?))
 }
 
 /// Fill depressions so that every valid cell that is not an outlet cell has a
@@ -152,38 +198,35 @@ pub fn watershed_labels(dem: &Grid<f32>) -> (Grid<u32>, Grid<f32>) {
 /// flat). Errors if a cell would have to rise above `f32::MAX`.
 pub fn fill_epsilon(dem: &Grid<f32>) -> Result<Grid<f32>> {
     let (w, h) = (dem.width(), dem.height());
+    too_many(w, h)?;
     let mut z = dem.data().to_vec();
     let outlets = outlet_cells(&z, w, h);
     let mut closed = vec![false; z.len()];
-    let mut open: BinaryHeap<Reverse<(u32, usize)>> = BinaryHeap::new();
+    let mut open: BinaryHeap<Reverse<u64>> = BinaryHeap::new();
     let mut pit: VecDeque<usize> = VecDeque::new();
     for (i, &o) in outlets.iter().enumerate() {
         if o {
             closed[i] = true;
-            open.push(Reverse((order_key(z[i]), i)));
+            open.push(Reverse(pack(z[i], i)));
         }
     }
+    let mut nb = [0usize; 8];
     let mut overflow = false;
     loop {
         // Alg. 3: a queued cell at the same elevation as the pit front goes
         // first, so that it is not raised needlessly by the pit.
+        let idx = |k: u64| (k & 0xFFFF_FFFF) as usize;
         let c = match (pit.front(), open.peek()) {
-            (Some(&p), Some(Reverse((k, _)))) if *k == order_key(z[p]) => {
-                open.pop().map(|Reverse((_, c))| c)
+            (Some(&p), Some(Reverse(k))) if (*k >> 32) as u32 == order_key(z[p]) => {
+                open.pop().map(|Reverse(k)| idx(k))
             }
             (Some(_), _) => pit.pop_front(),
-            (None, _) => open.pop().map(|Reverse((_, c))| c),
+            (None, _) => open.pop().map(|Reverse(k)| idx(k)),
         };
         let Some(c) = c else { break };
         let up = next_up(z[c]);
-        let (x, y) = ((c % w) as i64, (c / w) as i64);
-        for d in 0..8 {
-            let nx = x + DX[d];
-            let ny = y + DY[d];
-            if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
-                continue;
-            }
-            let n = ny as usize * w + nx as usize;
+        let count = neighbours(c, w, h, &mut nb);
+        for &n in &nb[..count] {
             if closed[n] || !valid(z[n]) {
                 continue;
             }
@@ -195,7 +238,7 @@ pub fn fill_epsilon(dem: &Grid<f32>) -> Result<Grid<f32>> {
                 z[n] = up;
                 pit.push_back(n);
             } else {
-                open.push(Reverse((order_key(z[n]), n)));
+                open.push(Reverse(pack(z[n], n)));
             }
         }
     }
@@ -228,7 +271,7 @@ mod tests {
             5.0, 5.0, 5.0,
             5.0, 1.0, 4.0,
             5.0, 5.0, 5.0]);
-        let f = fill(&d);
+        let f = fill(&d).unwrap();
         assert_eq!(f.get(1, 1), 4.0);
         assert_eq!(f.get(2, 1), 4.0);
         assert_eq!(f.get(0, 0), 5.0);
@@ -275,7 +318,7 @@ mod tests {
             9.0, 9.0, 9.0, 9.0, 9.0,
             1.0, 2.0, 8.0, 2.0, 0.5,
             9.0, 9.0, 9.0, 9.0, 9.0]);
-        let (l, _) = watershed_labels(&d);
+        let (l, _) = watershed_labels(&d).unwrap();
         let west = l.get(0, 1);
         let east = l.get(4, 1);
         assert_ne!(west, east);

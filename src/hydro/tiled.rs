@@ -146,6 +146,11 @@ struct TileFlood {
 fn flood_tile(v: &TileView<f32>, on_spill: impl FnMut(u32, u32, f32)) -> Result<TileFlood> {
     need_halo(v, "fill")?;
     let (w, h) = (v.core.w, v.core.h);
+    if w.checked_mul(h).is_none_or(|n| n > super::fill::MAX_CELLS) {
+        return Err(Error::invalid(format!(
+            "fill: a tile of {w}x{h} cells is too large (at most 2^32 cells)"
+        )));
+    }
     let mut z = Vec::with_capacity(w * h);
     for y in 0..h {
         for x in 0..w {
