@@ -137,20 +137,24 @@ fn richdem_fill_matches() {
     let t = Instant::now();
     let f = fill(&g).unwrap();
     let s = t.elapsed().as_secs_f64();
-    let differ = f
-        .data()
-        .iter()
-        .zip(&theirs)
-        .filter(|(&a, &b)| {
-            if a.is_nan() {
-                b != nodata
-            } else {
-                a.to_bits() != b.to_bits()
+    // valid cells whose filled value differs; nodata cells one side has a
+    // value for; differing cells where RichDEM's surface is higher
+    let mut differ = 0;
+    let mut nodata_differ = 0;
+    let mut richdem_higher = 0;
+    for (&a, &b) in f.data().iter().zip(&theirs) {
+        let b_nodata = b == nodata || b.is_nan();
+        if a.is_nan() != b_nodata {
+            nodata_differ += 1;
+        } else if !a.is_nan() && a.to_bits() != b.to_bits() {
+            differ += 1;
+            if b > a {
+                richdem_higher += 1;
             }
-        })
-        .count();
+        }
+    }
     eprintln!(
-        "richdem-compare cells={} differ={differ} orogen_s={s}",
+        "richdem-compare cells={} differ={differ} nodata_differ={nodata_differ} richdem_higher={richdem_higher} orogen_s={s}",
         w * h
     );
 }

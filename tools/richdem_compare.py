@@ -78,7 +78,8 @@ def main(paths):
             fields = dict(kv.split("=") for kv in line[0].split()[1:])
             t_or = float(fields["orogen_s"])
             print(f"{os.path.basename(path)}: {w}x{h}, {fields['differ']} of {fields['cells']} "
-                  f"cells differ; RichDEM {t_rd:.3f} s, orogen {t_or:.3f} s, "
+                  f"valid cells differ ({fields['richdem_higher']} higher in RichDEM, "
+                  f"{fields['nodata_differ']} nodata mismatches); RichDEM {t_rd:.3f} s, orogen {t_or:.3f} s, "
                   f"orogen is {t_rd / t_or:.2f}x RichDEM's speed")
 
 
