@@ -78,15 +78,32 @@ pub(crate) fn bad_code(code: u8, x: usize, y: usize) -> Error {
     ))
 }
 
+/// An exact accumulator: cell counts in `u64`, fixed-point weights in `i128`.
+pub(crate) trait Acc: Copy {
+    fn add(self, o: Self) -> Option<Self>;
+}
+impl Acc for u64 {
+    #[inline]
+    fn add(self, o: Self) -> Option<Self> {
+        self.checked_add(o)
+    }
+}
+impl Acc for i128 {
+    #[inline]
+    fn add(self, o: Self) -> Option<Self> {
+        self.checked_add(o)
+    }
+}
+
 /// Core accumulation over a `w` x `h` direction array: `acc` holds each
 /// cell's own contribution on entry and its accumulation on exit (nodata
 /// cells are left untouched). Flow into nodata or beyond the array is
 /// dropped. Returns the topological order (upstream first) of valid cells.
-pub(crate) fn accumulate_core(
+pub(crate) fn accumulate_core<A: Acc>(
     dirs: &[u8],
     w: usize,
     h: usize,
-    acc: &mut [i128],
+    acc: &mut [A],
 ) -> Result<Vec<u32>> {
     let n = dirs.len();
     if n > u32::MAX as usize {
@@ -131,8 +148,8 @@ pub(crate) fn accumulate_core(
         if r != u32::MAX {
             let r = r as usize;
             acc[r] = acc[r]
-                .checked_add(acc[c])
-                .ok_or_else(|| Error::invalid("flow accumulation overflowed 2^127"))?;
+                .add(acc[c])
+                .ok_or_else(|| Error::invalid("flow accumulation overflowed its integer range"))?;
             indeg[r] -= 1;
             if indeg[r] == 0 {
                 order.push(r as u32);
@@ -153,14 +170,13 @@ pub(crate) fn accumulate_core(
 /// `dirs` are ESRI D8 codes as made by [`super::d8_directions`]; errors on an
 /// invalid code or a cycle.
 pub fn accumulate(dirs: &Grid<u8>) -> Result<Grid<u64>> {
-    let mut acc: Vec<i128> = dirs
+    let mut acc: Vec<u64> = dirs
         .data()
         .iter()
         .map(|&c| if c == NODATA_DIR { 0 } else { 1 })
         .collect();
     accumulate_core(dirs.data(), dirs.width(), dirs.height(), &mut acc)?;
-    let out = acc.into_iter().map(|v| v as u64).collect();
-    Grid::from_vec(dirs.width(), dirs.height(), out)
+    Grid::from_vec(dirs.width(), dirs.height(), acc)
 }
 
 /// Sum of `weights` over the cells draining through each cell, itself

@@ -263,6 +263,7 @@ impl GlobalStep for TiledFill {
                 || s.h != win.h
                 || s.perimeter.len() != perimeter_len(s.w, s.h)
                 || s.labels < 2
+                || s.perimeter.iter().any(|&(l, _)| l >= s.labels)
             {
                 return Err(Error::invalid(format!(
                     "fill reduce: summary of tile {t} does not match the layout"
