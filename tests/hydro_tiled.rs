@@ -232,3 +232,31 @@ fn one_flat_lake_across_many_whole_tiles() {
     });
     check_all(&g, &[1, 4, 5, 6, 9, 12, 36]).unwrap();
 }
+
+#[test]
+fn bad_directions_and_summaries_are_errors() {
+    let step = TiledAccumulation { weighted: false };
+    // a cycle across two tiles: E then W
+    let d = Grid::from_vec(2, 1, vec![1.0f32, 16.0]).unwrap();
+    let src = mem(&d, None);
+    assert!(run_global(&step, &[&src], 1).is_err());
+    assert!(run_global(&step, &[&src], 2).is_err());
+    // a value that is no D8 code
+    let d = Grid::from_vec(3, 1, vec![1.0f32, 3.0, 0.0]).unwrap();
+    assert!(run_global(&step, &[&mem(&d, None)], 1).is_err());
+    // the weighted step without weights
+    let d = Grid::from_vec(2, 1, vec![1.0f32, 1.0]).unwrap();
+    assert!(run_global(&TiledAccumulation { weighted: true }, &[&mem(&d, None)], 1).is_err());
+    // summaries that do not match the layout
+    let layout = TileLayout::new(4, 4, 2);
+    assert!(TiledFill.reduce(&layout, Vec::new()).is_err());
+    assert!(step.reduce(&layout, Vec::new()).is_err());
+    assert!(TiledD8.reduce(&layout, Vec::new()).is_err());
+    let g = Grid::new(4, 4, 1.0f32);
+    let gsrc = mem(&g, None);
+    let mut sums: Vec<_> = (0..4)
+        .map(|id| TiledFill.map(&[read_view::<f32>(&gsrc, &layout, id, 1).unwrap()]).unwrap())
+        .collect();
+    sums[2].perimeter[0].0 = 99; // a label the tile does not have
+    assert!(TiledFill.reduce(&layout, sums).is_err());
+}
