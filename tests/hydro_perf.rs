@@ -89,11 +89,6 @@ fn perf_large_dem() {
         .zip(f.data())
         .all(|(p, q)| p.to_bits() == q.to_bits() || (p.is_nan() && q.is_nan())));
     drop(tf);
-    let fsrc = MemRaster::from_grid(f.clone(), GeoRef::pixel());
-    let t = Instant::now();
-    let td = tiled(&TiledD8, &fsrc, 1024);
-    time("tiled d8 (1024, 1 thr)", t);
-    assert_eq!(td.data(), d.data());
     let dsrc = MemRaster::from_grid(
         d.map(|c| if c == NODATA_DIR { f32::NAN } else { c as f32 }),
         GeoRef::pixel(),
@@ -106,6 +101,16 @@ fn perf_large_dem() {
         .iter()
         .zip(a.data())
         .all(|(p, &q)| p.is_nan() || *p == q as f64));
+    // TiledD8's map costs O(portals x flat area) per tile (see its docs):
+    // its tile size is set apart, OROGEN_HYDRO_PERF_D8_TILE (default 1024)
+    let d8_tile: usize = std::env::var("OROGEN_HYDRO_PERF_D8_TILE")
+        .map(|v| v.parse().unwrap())
+        .unwrap_or(1024);
+    let fsrc = MemRaster::from_grid(f.clone(), GeoRef::pixel());
+    let t = Instant::now();
+    let td = tiled(&TiledD8, &fsrc, d8_tile);
+    time(&format!("tiled d8 ({d8_tile}, 1 thr)"), t);
+    assert_eq!(td.data(), d.data());
 }
 
 /// Used by `tools/richdem_compare.py`: times orogen's fill on a raw DEM and

@@ -255,7 +255,11 @@ fn bad_directions_and_summaries_are_errors() {
     let g = Grid::new(4, 4, 1.0f32);
     let gsrc = mem(&g, None);
     let mut sums: Vec<_> = (0..4)
-        .map(|id| TiledFill.map(&[read_view::<f32>(&gsrc, &layout, id, 1).unwrap()]).unwrap())
+        .map(|id| {
+            TiledFill
+                .map(&[read_view::<f32>(&gsrc, &layout, id, 1).unwrap()])
+                .unwrap()
+        })
         .collect();
     sums[2].perimeter[0].0 = 99; // a label the tile does not have
     assert!(TiledFill.reduce(&layout, sums).is_err());
