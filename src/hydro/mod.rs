@@ -5,7 +5,8 @@
 //!
 //! A typical chain: `fill` → `d8_directions` → `accumulate`; tiled:
 //! `TiledFill` → `TiledD8` (on the filled DEM) → `TiledAccumulation` (on the
-//! directions, read as f32 with 255 declared as nodata).
+//! directions, read as f32 with 255 declared as nodata). Sinks for D8 output
+//! should be u8 with nodata 255 so that the codes round-trip.
 //!
 //! # Conventions (shared by every function of this module)
 //! - **Elevations** are `f32`. A cell is *nodata* when its value is not finite
