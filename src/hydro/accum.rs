@@ -133,27 +133,35 @@ pub(crate) fn accumulate_core<A: Acc>(
             }
         }
     }
+    // Walk downstream from each source cell (row-major) for as long as the
+    // next cell has received all its inflows (Barnes 2017, Alg. 1 style):
+    // memory is touched along flow paths rather than in breadth-first order
+    // across the grid. A processed cell's in-degree is set to DONE, so the
+    // scan only starts walks at untouched sources; `order` records a
+    // topological order (upstream first).
+    const DONE: u8 = u8::MAX;
     let mut order: Vec<u32> = Vec::with_capacity(valid_cells);
-    for c in 0..n {
-        if dirs[c] != NODATA_DIR && indeg[c] == 0 {
-            order.push(c as u32);
+    for c0 in 0..n {
+        if indeg[c0] != 0 || dirs[c0] == NODATA_DIR {
+            continue;
         }
-    }
-    // `order` doubles as the FIFO queue.
-    let mut head = 0;
-    while head < order.len() {
-        let c = order[head] as usize;
-        head += 1;
-        let r = recv[c];
-        if r != u32::MAX {
+        let mut c = c0;
+        loop {
+            indeg[c] = DONE;
+            order.push(c as u32);
+            let r = recv[c];
+            if r == u32::MAX {
+                break;
+            }
             let r = r as usize;
             acc[r] = acc[r]
                 .add(acc[c])
                 .ok_or_else(|| Error::invalid("flow accumulation overflowed its integer range"))?;
             indeg[r] -= 1;
-            if indeg[r] == 0 {
-                order.push(r as u32);
+            if indeg[r] != 0 {
+                break;
             }
+            c = r;
         }
     }
     if order.len() != valid_cells {
