@@ -11,6 +11,7 @@ compile_error!(
 
 pub mod error;
 pub mod exec;
+pub mod hydro;
 pub mod io;
 pub mod metrics;
 pub mod ops;

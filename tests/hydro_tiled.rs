@@ -1,0 +1,266 @@
+//! Tiled global passes == in-memory results, bit for bit, with a sequential
+//! driver doing exactly what an engine does (map every tile -> reduce ->
+//! slice -> apply every tile), summaries and slices round-tripped through
+//! JSON as a distributed engine would ship them.
+
+use orogen::exec::GlobalStep;
+use orogen::hydro::tiled::{TiledAccumulation, TiledD8, TiledFill};
+use orogen::hydro::{accumulate, accumulate_weighted, d8_directions, fill, NODATA_DIR};
+use orogen::raster::{
+    read_view, Cell, GeoRef, Grid, IntoAny, MemRaster, RasterSource, TileLayout, TileView,
+};
+use proptest::prelude::*;
+use std::path::Path;
+use std::time::Instant;
+
+fn run_global<S>(step: &S, srcs: &[&dyn RasterSource], tile: usize) -> orogen::Result<Grid<S::Out>>
+where
+    S: GlobalStep<In = f32>,
+    S::Out: Cell,
+{
+    let info = srcs[0].info();
+    let layout = TileLayout::new(info.width, info.height, tile);
+    let views = |id| -> orogen::Result<Vec<TileView<f32>>> {
+        srcs.iter()
+            .map(|s| read_view::<f32>(*s, &layout, id, step.halo()))
+            .collect()
+    };
+    let mut sums = Vec::with_capacity(layout.count());
+    for id in 0..layout.count() {
+        let s = step.map(&views(id)?)?;
+        let json = serde_json::to_string(&s).expect("summary serialises");
+        sums.push(serde_json::from_str(&json).expect("summary deserialises"));
+    }
+    let sol = step.reduce(&layout, sums)?;
+    let mut out = Grid::new(info.width, info.height, S::Out::from_f64(f64::NAN));
+    for id in 0..layout.count() {
+        let slice = step.slice(&sol, id);
+        let json = serde_json::to_string(&slice).expect("slice serialises");
+        let slice = serde_json::from_str(&json).expect("slice deserialises");
+        let core = layout.window(id);
+        let mut o = vec![Grid::new(core.w, core.h, S::Out::from_f64(f64::NAN))];
+        step.apply(&views(id)?, &slice, &mut o)?;
+        out.paste(&o[0], core.x, core.y);
+    }
+    Ok(out)
+}
+
+fn mem<T: IntoAny>(g: &Grid<T>, nodata: Option<f64>) -> MemRaster {
+    MemRaster::from_grid(g.clone(), GeoRef::pixel().with_nodata(nodata))
+}
+
+fn bits32(g: &Grid<f32>) -> Vec<u32> {
+    g.data()
+        .iter()
+        .map(|v| if v.is_nan() { u32::MAX } else { v.to_bits() })
+        .collect()
+}
+
+fn bits64(g: &Grid<f64>) -> Vec<u64> {
+    g.data()
+        .iter()
+        .map(|v| if v.is_nan() { u64::MAX } else { v.to_bits() })
+        .collect()
+}
+
+/// Check fill and (weighted) accumulation, tiled vs in memory, for `tiles`.
+fn check_all(g: &Grid<f32>, tiles: &[usize]) -> Result<(), TestCaseError> {
+    let (w, h) = (g.width(), g.height());
+    let want_fill = fill(g).unwrap();
+    let dirs = d8_directions(&want_fill);
+    let counts = accumulate(&dirs).expect("acyclic");
+    let want_acc = Grid::from_fn(w, h, |x, y| {
+        if dirs.get(x, y) == NODATA_DIR {
+            f64::NAN
+        } else {
+            counts.get(x, y) as f64
+        }
+    });
+    let wts = Grid::from_fn(w, h, |x, y| ((x * 31 + y * 17) % 13) as f32 * 0.37 - 1.5);
+    let want_wacc = accumulate_weighted(&dirs, &wts).expect("acyclic");
+    let src = mem(g, None);
+    let fsrc = mem(&want_fill, None);
+    let raw_dirs = d8_directions(g);
+    let dsrc = mem(&dirs, Some(NODATA_DIR as f64));
+    let wsrc = mem(&wts, None);
+    for &t in tiles {
+        let got = run_global(&TiledFill, &[&src], t).expect("tiled fill");
+        prop_assert_eq!(bits32(&got), bits32(&want_fill), "fill, tile {}", t);
+        let got = run_global(&TiledD8, &[&fsrc], t).expect("tiled d8");
+        prop_assert_eq!(got.data(), dirs.data(), "d8 on the filled DEM, tile {}", t);
+        let got = run_global(&TiledD8, &[&src], t).expect("tiled d8");
+        prop_assert_eq!(
+            got.data(),
+            raw_dirs.data(),
+            "d8 on the unfilled DEM, tile {}",
+            t
+        );
+        let got = run_global(&TiledAccumulation { weighted: false }, &[&dsrc], t)
+            .expect("tiled accumulation");
+        prop_assert_eq!(bits64(&got), bits64(&want_acc), "accumulation, tile {}", t);
+        let got = run_global(&TiledAccumulation { weighted: true }, &[&dsrc, &wsrc], t)
+            .expect("tiled weighted accumulation");
+        prop_assert_eq!(
+            bits64(&got),
+            bits64(&want_wacc),
+            "weighted accumulation, tile {}",
+            t
+        );
+    }
+    Ok(())
+}
+
+fn dem() -> impl Strategy<Value = Grid<f32>> {
+    (1usize..20, 1usize..20).prop_flat_map(|(w, h)| {
+        let cell = prop_oneof![
+            12 => (-4i32..7).prop_map(|v| v as f32),
+            3 => -400.0f32..900.0,
+            2 => Just(f32::NAN),
+        ];
+        proptest::collection::vec(cell, w * h)
+            .prop_map(move |v| Grid::from_vec(w, h, v).expect("sized"))
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 120, .. ProptestConfig::default() })]
+
+    #[test]
+    fn tiled_equals_untiled(g in dem()) {
+        let whole = g.width().max(g.height());
+        check_all(&g, &[1, 2, 3, 7, 16, whole])?;
+    }
+}
+
+#[test]
+fn depression_spanning_many_tiles() {
+    // a big bowl whose rim is cut by one channel at height 7 towards the west
+    // edge: its fill level is decided far from most tiles.
+    let (w, h) = (41, 33);
+    let g = Grid::from_fn(w, h, |x, y| {
+        let dx = x as f32 - 20.0;
+        let dy = y as f32 - 16.0;
+        let r = (dx * dx + dy * dy).sqrt();
+        if x <= 7 && y == 16 {
+            7.0
+        } else if r > 14.0 {
+            30.0 - (r - 14.0)
+        } else {
+            r * 0.5
+        }
+    });
+    check_all(&g, &[1, 3, 5, 7, 16, 40]).unwrap();
+    let f = fill(&g).unwrap();
+    assert_eq!(f.get(20, 16), 7.0, "the bowl fills to the notch");
+}
+
+#[test]
+fn all_nodata_and_constant_grids() {
+    check_all(&Grid::new(9, 6, f32::NAN), &[1, 4, 9]).unwrap();
+    check_all(&Grid::new(13, 11, 5.0), &[1, 3, 7, 13]).unwrap();
+}
+
+/// Read a raw little-endian f32 file written by `gdal_translate -of ENVI -ot Float32`.
+fn read_raw(name: &str, w: usize, h: usize, nodata: f32) -> Grid<f32> {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/hydro")
+        .join(name);
+    let bytes = std::fs::read(&p).expect("test data present");
+    assert_eq!(bytes.len(), w * h * 4);
+    let v = bytes
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .map(|z| if z == nodata { f32::NAN } else { z })
+        .collect();
+    Grid::from_vec(w, h, v).unwrap()
+}
+
+#[test]
+fn real_dems_tiled_equal_untiled() {
+    // whitebox_DEM is already depressionless (a conditioned test DEM);
+    // pysheds_dem (integer metres, low relief) has no depressions but many flats
+    for (name, w, h, nodata, pits, flats) in [
+        ("bigtujunga_crop.f32", 301, 203, 32767.0, true, true),
+        ("whitebox_DEM.f32", 237, 188, -32768.0, false, false),
+        ("pysheds_dem.f32", 367, 359, -32768.0, false, true),
+    ] {
+        let g = read_raw(name, w, h, nodata);
+        let t0 = Instant::now();
+        let f = fill(&g).unwrap();
+        let t_fill = t0.elapsed();
+        let raised = f
+            .data()
+            .iter()
+            .zip(g.data())
+            .filter(|(a, b)| a != b && !a.is_nan())
+            .count();
+        assert_eq!(raised > 0, pits, "{name}: {raised} cells raised");
+        // interior cells of the filled DEM without a lower neighbour: the
+        // flats that the tiled D8 has to resolve across tiles
+        let flat = (1..h - 1)
+            .flat_map(|y| (1..w - 1).map(move |x| (x, y)))
+            .filter(|&(x, y)| {
+                let zc = f.get(x, y);
+                (0..9).all(|k| {
+                    let v = f.get(x + k % 3 - 1, y + k / 3 - 1);
+                    v.is_finite() && v >= zc
+                })
+            })
+            .count();
+        assert_eq!(flat > 0, flats, "{name}: {flat} flat cells");
+        check_all(&g, &[37, 64, 100, 256]).unwrap();
+        eprintln!("{name}: {w}x{h}, fill {t_fill:?}, {raised} cells raised, {flat} flat cells");
+    }
+}
+
+#[test]
+fn one_flat_lake_across_many_whole_tiles() {
+    // a walled square lake at one height with a single exit on the west
+    // edge, and an island: the flat covers whole tiles (open tiles) and its
+    // distances wrap around the island across tile edges.
+    let (w, h) = (36, 30);
+    let g = Grid::from_fn(w, h, |x, y| {
+        let wall = x == 0 || y == 0 || x == w - 1 || y == h - 1;
+        let island = (14..20).contains(&x) && (8..22).contains(&y);
+        if (x, y) == (0, 15) {
+            5.0
+        } else if wall || island {
+            50.0
+        } else {
+            5.0
+        }
+    });
+    check_all(&g, &[1, 4, 5, 6, 9, 12, 36]).unwrap();
+}
+
+#[test]
+fn bad_directions_and_summaries_are_errors() {
+    let step = TiledAccumulation { weighted: false };
+    // a cycle across two tiles: E then W
+    let d = Grid::from_vec(2, 1, vec![1.0f32, 16.0]).unwrap();
+    let src = mem(&d, None);
+    assert!(run_global(&step, &[&src], 1).is_err());
+    assert!(run_global(&step, &[&src], 2).is_err());
+    // a value that is no D8 code
+    let d = Grid::from_vec(3, 1, vec![1.0f32, 3.0, 0.0]).unwrap();
+    assert!(run_global(&step, &[&mem(&d, None)], 1).is_err());
+    // the weighted step without weights
+    let d = Grid::from_vec(2, 1, vec![1.0f32, 1.0]).unwrap();
+    assert!(run_global(&TiledAccumulation { weighted: true }, &[&mem(&d, None)], 1).is_err());
+    // summaries that do not match the layout
+    let layout = TileLayout::new(4, 4, 2);
+    assert!(TiledFill.reduce(&layout, Vec::new()).is_err());
+    assert!(step.reduce(&layout, Vec::new()).is_err());
+    assert!(TiledD8.reduce(&layout, Vec::new()).is_err());
+    let g = Grid::new(4, 4, 1.0f32);
+    let gsrc = mem(&g, None);
+    let mut sums: Vec<_> = (0..4)
+        .map(|id| {
+            TiledFill
+                .map(&[read_view::<f32>(&gsrc, &layout, id, 1).unwrap()])
+                .unwrap()
+        })
+        .collect();
+    sums[2].perimeter[0].0 = 99; // a label the tile does not have
+    assert!(TiledFill.reduce(&layout, sums).is_err());
+}
