@@ -5,7 +5,7 @@ Usage:  python3 tools/richdem_compare.py DEM.tif [more.tif ...]
 
 For each DEM: GDAL converts it to raw float32 (nodata kept as its value),
 RichDEM's FillDepressions (epsilon=False) fills it and is timed, then the
-ignored test `richdem_fill_matches` in tests/hydro_perf.rs (release build)
+bench binary `benches/hydro_perf.rs` (release build, `richdem_fill_matches`)
 times orogen's fill on the same raw file and compares the two results bit
 for bit. Prints one line per DEM: cells, differing cells, both timings and
 the ratio.
@@ -46,7 +46,7 @@ def gdal_size_nodata(path):
 
 def main(paths):
     subprocess.run(
-        ["cargo", "test", "--release", "--test", "hydro_perf", "--no-run", "-q"],
+        ["cargo", "bench", "--bench", "hydro_perf", "--no-run", "-q"],
         cwd=ROOT, check=True)
     with tempfile.TemporaryDirectory() as tmp:
         for path in paths:
@@ -67,8 +67,7 @@ def main(paths):
             env = dict(os.environ)
             env["OROGEN_HYDRO_RICHDEM"] = f"{raw}:{w}:{h}:{nodata32!r}:{out}"
             res = subprocess.run(
-                ["cargo", "test", "--release", "--test", "hydro_perf", "richdem", "--",
-                 "--ignored", "--nocapture"],
+                ["cargo", "bench", "--bench", "hydro_perf", "-q"],
                 cwd=ROOT, env=env, capture_output=True, text=True)
             line = [l for l in res.stderr.splitlines() if l.startswith("richdem-compare")]
             if res.returncode != 0 or not line:

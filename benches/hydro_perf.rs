@@ -1,10 +1,12 @@
-//! Timings on a large real DEM (ignored by default; run in release):
+//! Timings on a large real DEM (a bench binary, run in release):
 //!
 //! ```text
 //! gdal_translate -of ENVI -ot Float32 poland_N49-55_E014-025.tif /tmp/poland.f32
 //! OROGEN_HYDRO_PERF_DEM=/tmp/poland.f32:13201:7201:-32768 \
-//!   cargo test --release --test hydro_perf -- --ignored --nocapture
+//!   cargo bench --bench hydro_perf
 //! ```
+//! With `OROGEN_HYDRO_RICHDEM` set (by `tools/richdem_compare.py`) it compares
+//! orogen's fill with RichDEM's output instead.
 //! The DEM is a raw little-endian f32 file `path:width:height:nodata`.
 //! Each step is also checked against the next (tiled fill == fill, D8 acyclic,
 //! accumulation conserves cells) so the timings are of correct runs.
@@ -43,8 +45,6 @@ fn tiled<S: GlobalStep<In = f32>>(step: &S, src: &dyn RasterSource, tile: usize)
     out
 }
 
-#[test]
-#[ignore = "needs OROGEN_HYDRO_PERF_DEM and a release build"]
 fn perf_large_dem() {
     let spec =
         std::env::var("OROGEN_HYDRO_PERF_DEM").expect("set OROGEN_HYDRO_PERF_DEM=path:w:h:nodata");
@@ -115,8 +115,6 @@ fn perf_large_dem() {
 
 /// Used by `tools/richdem_compare.py`: times orogen's fill on a raw DEM and
 /// compares it with RichDEM's filled output, bit for bit.
-#[test]
-#[ignore = "run by tools/richdem_compare.py"]
 fn richdem_fill_matches() {
     let spec = std::env::var("OROGEN_HYDRO_RICHDEM").expect("set by tools/richdem_compare.py");
     let parts: Vec<&str> = spec.split(':').collect();
@@ -162,4 +160,14 @@ fn richdem_fill_matches() {
         "richdem-compare cells={} differ={differ} nodata_differ={nodata_differ} richdem_higher={richdem_higher} orogen_s={s}",
         w * h
     );
+}
+
+fn main() {
+    if std::env::var("OROGEN_HYDRO_RICHDEM").is_ok() {
+        richdem_fill_matches();
+    } else if std::env::var("OROGEN_HYDRO_PERF_DEM").is_ok() {
+        perf_large_dem();
+    } else {
+        eprintln!("set OROGEN_HYDRO_PERF_DEM=path:w:h:nodata (see the file's header) or run tools/richdem_compare.py");
+    }
 }
