@@ -187,6 +187,47 @@ enum Cmd {
         #[command(flatten)]
         run: Run,
     },
+    /// Fill depressions (Priority-Flood; exact across tiles after Barnes 2016).
+    #[command(
+        after_help = "Example:\n  orogen fill dem.tif -o filled.tif\n  orogen fill poland.tiles -o filled.tiles --memory 512MiB\nNodata cells and the DEM's edge are outlets."
+    )]
+    Fill {
+        #[command(flatten)]
+        input: In,
+        #[command(flatten)]
+        out: Out,
+        #[command(flatten)]
+        run: Run,
+    },
+    /// D8 flow directions of a filled DEM (ESRI codes 1..128, 0 = no flow, 255 = nodata),
+    /// flats drained per Barnes, Lehman & Mulla 2014, exact across tiles.
+    #[command(
+        after_help = "Example:\n  orogen fill dem.tif -o filled.tif && orogen flow filled.tif -o d8.tif\nLarge flats (sea, lakes) that only partly cover a tile are slow across tiles;\nmask the sea as nodata or use a smaller --tile for this step."
+    )]
+    Flow {
+        #[command(flatten)]
+        input: In,
+        #[command(flatten)]
+        out: Out,
+        #[command(flatten)]
+        run: Run,
+    },
+    /// D8 flow accumulation in cells (or weighted), exact across tiles after Barnes 2017.
+    #[command(
+        after_help = "Example:\n  orogen accumulate d8.tif -o acc.tif\n  orogen accumulate d8.tif --weights rain.tif -o acc.tif"
+    )]
+    Accumulate {
+        /// D8 directions from `orogen flow`.
+        #[command(flatten)]
+        input: In,
+        /// Weights raster (same size): accumulate its values instead of cells.
+        #[arg(long)]
+        weights: Option<PathBuf>,
+        #[command(flatten)]
+        out: Out,
+        #[command(flatten)]
+        run: Run,
+    },
     /// Render a preview PNG: hillshade blended with a hypsometric colour ramp.
     #[command(
         after_help = "Example:\n  orogen render dem.tiles -o preview.png --legend\n  orogen render slope.tif -o slope.png --grey"
@@ -456,6 +497,70 @@ fn run(cli: Cli) -> Result<()> {
                 &[src.as_ref()],
                 std::slice::from_ref(&out.output),
                 &[(DType::U8, Some(0.0))],
+                &oo,
+                run.tile,
+                &engine(&run)?,
+            )?;
+            wrote(&out.output);
+        }
+        Cmd::Fill { input, out, run } => {
+            let src = open(&input)?;
+            let oo = output_options(&out)?;
+            ops::run_global_to_paths(
+                &orogen::hydro::tiled::TiledFill,
+                &[src.as_ref()],
+                std::slice::from_ref(&out.output),
+                &[(DType::F32, Some(orogen::metrics::terrain::SLOPE_NODATA))],
+                &oo,
+                run.tile,
+                &engine(&run)?,
+            )?;
+            wrote(&out.output);
+        }
+        Cmd::Flow { input, out, run } => {
+            let src = open(&input)?;
+            let oo = output_options(&out)?;
+            ops::run_global_to_paths(
+                &orogen::hydro::tiled::TiledD8,
+                &[src.as_ref()],
+                std::slice::from_ref(&out.output),
+                &[(DType::U8, Some(orogen::hydro::NODATA_DIR as f64))],
+                &oo,
+                run.tile,
+                &engine(&run)?,
+            )?;
+            wrote(&out.output);
+        }
+        Cmd::Accumulate {
+            input,
+            weights,
+            out,
+            run,
+        } => {
+            let src = open(&input)?;
+            if src.info().dtype != DType::U8 {
+                bail!(
+                    "{}: expected D8 directions (a byte raster from `orogen flow`), found {} cells",
+                    input.input.display(),
+                    src.info().dtype
+                );
+            }
+            let w = match &weights {
+                Some(p) => Some(io::open_raster(p, &OpenOptions::default())?),
+                None => None,
+            };
+            let mut inputs: Vec<&dyn RasterSource> = vec![src.as_ref()];
+            if let Some(w) = &w {
+                inputs.push(w.as_ref());
+            }
+            let oo = output_options(&out)?;
+            ops::run_global_to_paths(
+                &orogen::hydro::tiled::TiledAccumulation {
+                    weighted: weights.is_some(),
+                },
+                &inputs,
+                std::slice::from_ref(&out.output),
+                &[(DType::F64, Some(-1.0))],
                 &oo,
                 run.tile,
                 &engine(&run)?,

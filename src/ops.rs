@@ -2,7 +2,7 @@
 //! pick the tile layout, create sinks by output path, run a step on an engine.
 
 use crate::error::{Error, Result};
-use crate::exec::{Engine, EngineConfig, LocalEngine, LocalStep};
+use crate::exec::{Engine, EngineConfig, GlobalStep, LocalEngine, LocalStep};
 use crate::io::{self, OutputOptions};
 use crate::raster::{DType, RasterSource, TileLayout};
 use crate::store::Provenance;
@@ -41,17 +41,8 @@ pub fn choose_tile(src: &dyn RasterSource, tile: Option<usize>) -> usize {
     }
 }
 
-/// Run a local step on `inputs` and write output `k` to `outputs[k]` as
-/// `(dtype, nodata)` of `out_types[k]`.
-pub fn run_local_to_paths<S: LocalStep>(
-    step: &S,
-    inputs: &[&dyn RasterSource],
-    outputs: &[PathBuf],
-    out_types: &[(DType, Option<f64>)],
-    oo: &OutputOptions,
-    tile: Option<usize>,
-    cfg: &EngineConfig,
-) -> Result<()> {
+/// Check that all inputs have the first one's size.
+fn check_inputs<'a>(inputs: &[&'a dyn RasterSource]) -> Result<&'a dyn RasterSource> {
     let first = *inputs
         .first()
         .ok_or_else(|| Error::invalid("a step needs at least one input"))?;
@@ -70,21 +61,32 @@ pub fn run_local_to_paths<S: LocalStep>(
             )));
         }
     }
-    if outputs.len() != step.outputs() || out_types.len() != outputs.len() {
+    Ok(first)
+}
+
+/// One sink per output path, with the first input's georeference.
+fn make_sinks(
+    name: String,
+    params: serde_json::Value,
+    inputs: &[&dyn RasterSource],
+    outputs: &[PathBuf],
+    out_types: &[(DType, Option<f64>)],
+    oo: &OutputOptions,
+) -> Result<Vec<Box<dyn crate::exec::TileSink>>> {
+    let info = inputs[0].info();
+    if out_types.len() != outputs.len() {
         return Err(Error::invalid(format!(
-            "{} writes {} output(s), {} path(s) given",
-            step.name(),
-            step.outputs(),
+            "{name} writes {} output(s), {} path(s) given",
+            out_types.len(),
             outputs.len()
         )));
     }
-    let layout = choose_layout(first, outputs, oo, tile);
     let mut sinks = Vec::with_capacity(outputs.len());
     for (p, (dt, nd)) in outputs.iter().zip(out_types) {
         let georef = info.georef.clone().with_nodata(*nd);
         let prov = Provenance::new(
-            step.name(),
-            step.params(),
+            name.clone(),
+            params.clone(),
             inputs
                 .iter()
                 .map(|i| i.info().path.display().to_string())
@@ -100,7 +102,56 @@ pub fn run_local_to_paths<S: LocalStep>(
             prov,
         )?);
     }
+    Ok(sinks)
+}
+
+/// Run a local step on `inputs` and write output `k` to `outputs[k]` as
+/// `(dtype, nodata)` of `out_types[k]`.
+pub fn run_local_to_paths<S: LocalStep>(
+    step: &S,
+    inputs: &[&dyn RasterSource],
+    outputs: &[PathBuf],
+    out_types: &[(DType, Option<f64>)],
+    oo: &OutputOptions,
+    tile: Option<usize>,
+    cfg: &EngineConfig,
+) -> Result<()> {
+    let first = check_inputs(inputs)?;
+    if outputs.len() != step.outputs() {
+        return Err(Error::invalid(format!(
+            "{} writes {} output(s), {} path(s) given",
+            step.name(),
+            step.outputs(),
+            outputs.len()
+        )));
+    }
+    let layout = choose_layout(first, outputs, oo, tile);
+    let sinks = make_sinks(step.name(), step.params(), inputs, outputs, out_types, oo)?;
     LocalEngine::new(cfg.clone()).run_local(step, inputs, layout, sinks)
+}
+
+/// Run a global step (map, reduce, apply) on `inputs` and write its outputs.
+pub fn run_global_to_paths<S: GlobalStep>(
+    step: &S,
+    inputs: &[&dyn RasterSource],
+    outputs: &[PathBuf],
+    out_types: &[(DType, Option<f64>)],
+    oo: &OutputOptions,
+    tile: Option<usize>,
+    cfg: &EngineConfig,
+) -> Result<S::Solution> {
+    let first = check_inputs(inputs)?;
+    if outputs.len() != step.outputs() {
+        return Err(Error::invalid(format!(
+            "{} writes {} output(s), {} path(s) given",
+            step.name(),
+            step.outputs(),
+            outputs.len()
+        )));
+    }
+    let layout = choose_layout(first, outputs, oo, tile);
+    let sinks = make_sinks(step.name(), step.params(), inputs, outputs, out_types, oo)?;
+    LocalEngine::new(cfg.clone()).run_global(step, inputs, layout, sinks)
 }
 
 /// Copy any raster (or mosaic) into `out` (a tile store, GeoTIFF, PNG or ASCII
