@@ -295,8 +295,9 @@ pub fn describe_text(d: &Description) -> String {
 }
 
 /// `orogen demo`: generate a seeded fBm terrain, ingest it into a tile store,
-/// export it, derive slope, aspect and hillshade, render a preview. Returns the
-/// files written with a description of each.
+/// export it, derive slope, aspect and hillshade, fill depressions, route D8
+/// flow and accumulate it (global passes across tiles), render a preview.
+/// Returns the files written with a description of each.
 pub fn demo(
     dir: &Path,
     size: usize,
@@ -360,6 +361,44 @@ pub fn demo(
         cfg,
     )?;
     files.push((shade, "hillshade, light from 315 degrees at 45 degrees"));
+    let filled = dir.join("filled.tif");
+    run_global_to_paths(
+        &crate::hydro::tiled::TiledFill,
+        &[dem.as_ref()],
+        std::slice::from_ref(&filled),
+        &[f32_nd],
+        &oo,
+        None,
+        cfg,
+    )?;
+    files.push((
+        filled.clone(),
+        "depressions filled (Priority-Flood, exact across tiles)",
+    ));
+    let filled_src = io::open_raster(&filled, &io::OpenOptions::default())?;
+    let d8 = dir.join("flow_d8.tif");
+    run_global_to_paths(
+        &crate::hydro::tiled::TiledD8,
+        &[filled_src.as_ref()],
+        std::slice::from_ref(&d8),
+        &[(DType::U8, Some(crate::hydro::NODATA_DIR as f64))],
+        &oo,
+        Some(oo.store.tile),
+        cfg,
+    )?;
+    files.push((d8.clone(), "D8 flow directions (ESRI codes), flats drained"));
+    let d8_src = io::open_raster(&d8, &io::OpenOptions::default())?;
+    let acc = dir.join("accumulation.tif");
+    run_global_to_paths(
+        &crate::hydro::tiled::TiledAccumulation { weighted: false },
+        &[d8_src.as_ref()],
+        std::slice::from_ref(&acc),
+        &[(DType::F64, Some(-1.0))],
+        &oo,
+        Some(oo.store.tile),
+        cfg,
+    )?;
+    files.push((acc, "D8 flow accumulation (cells)"));
     let preview = dir.join("preview.png");
     let ropts = io::render::RenderOptions {
         legend: true,
