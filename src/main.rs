@@ -491,45 +491,29 @@ fn run(cli: Cli) -> Result<()> {
                 z_factor,
                 edge: edge(compute_edges),
             };
-            let oo = output_options(&out)?;
-            ops::run_local_to_paths(
-                &step,
-                &[src.as_ref()],
-                std::slice::from_ref(&out.output),
-                &[(DType::U8, Some(0.0))],
-                &oo,
-                run.tile,
-                &engine(&run)?,
-            )?;
-            wrote(&out.output);
+            local1(&step, src.as_ref(), &out, &run, (DType::U8, Some(0.0)))?;
         }
         Cmd::Fill { input, out, run } => {
             let src = open(&input)?;
-            let oo = output_options(&out)?;
-            ops::run_global_to_paths(
+            let ty = (DType::F32, Some(orogen::metrics::terrain::SLOPE_NODATA));
+            global1(
                 &orogen::hydro::tiled::TiledFill,
                 &[src.as_ref()],
-                std::slice::from_ref(&out.output),
-                &[(DType::F32, Some(orogen::metrics::terrain::SLOPE_NODATA))],
-                &oo,
-                run.tile,
-                &engine(&run)?,
+                &out,
+                &run,
+                ty,
             )?;
-            wrote(&out.output);
         }
         Cmd::Flow { input, out, run } => {
             let src = open(&input)?;
-            let oo = output_options(&out)?;
-            ops::run_global_to_paths(
+            let ty = (DType::U8, Some(orogen::hydro::NODATA_DIR as f64));
+            global1(
                 &orogen::hydro::tiled::TiledD8,
                 &[src.as_ref()],
-                std::slice::from_ref(&out.output),
-                &[(DType::U8, Some(orogen::hydro::NODATA_DIR as f64))],
-                &oo,
-                run.tile,
-                &engine(&run)?,
+                &out,
+                &run,
+                ty,
             )?;
-            wrote(&out.output);
         }
         Cmd::Accumulate {
             input,
@@ -553,19 +537,10 @@ fn run(cli: Cli) -> Result<()> {
             if let Some(w) = &w {
                 inputs.push(w.as_ref());
             }
-            let oo = output_options(&out)?;
-            ops::run_global_to_paths(
-                &orogen::hydro::tiled::TiledAccumulation {
-                    weighted: weights.is_some(),
-                },
-                &inputs,
-                std::slice::from_ref(&out.output),
-                &[(DType::F64, Some(-1.0))],
-                &oo,
-                run.tile,
-                &engine(&run)?,
-            )?;
-            wrote(&out.output);
+            let step = orogen::hydro::tiled::TiledAccumulation {
+                weighted: weights.is_some(),
+            };
+            global1(&step, &inputs, &out, &run, (DType::F64, Some(-1.0)))?;
         }
         Cmd::Render {
             input,
@@ -608,22 +583,61 @@ fn run(cli: Cli) -> Result<()> {
     Ok(())
 }
 
-fn run_f32<S: orogen::exec::LocalStep<In = f32, Out = f32>>(
+/// Run a one-output local step and write it as `ty` (dtype, nodata).
+fn local1<S: orogen::exec::LocalStep>(
     step: &S,
     src: &dyn RasterSource,
     out: &Out,
     run: &Run,
+    ty: (DType, Option<f64>),
 ) -> Result<()> {
     let oo = output_options(out)?;
     ops::run_local_to_paths(
         step,
         &[src],
         std::slice::from_ref(&out.output),
-        &[(DType::F32, Some(orogen::metrics::terrain::SLOPE_NODATA))],
+        &[ty],
         &oo,
         run.tile,
         &engine(run)?,
     )?;
     wrote(&out.output);
     Ok(())
+}
+
+/// Run a one-output global step on `inputs` and write it as `ty`.
+fn global1<S: orogen::exec::GlobalStep>(
+    step: &S,
+    inputs: &[&dyn RasterSource],
+    out: &Out,
+    run: &Run,
+    ty: (DType, Option<f64>),
+) -> Result<()> {
+    let oo = output_options(out)?;
+    ops::run_global_to_paths(
+        step,
+        inputs,
+        std::slice::from_ref(&out.output),
+        &[ty],
+        &oo,
+        run.tile,
+        &engine(run)?,
+    )?;
+    wrote(&out.output);
+    Ok(())
+}
+
+fn run_f32<S: orogen::exec::LocalStep<In = f32, Out = f32>>(
+    step: &S,
+    src: &dyn RasterSource,
+    out: &Out,
+    run: &Run,
+) -> Result<()> {
+    local1(
+        step,
+        src,
+        out,
+        run,
+        (DType::F32, Some(orogen::metrics::terrain::SLOPE_NODATA)),
+    )
 }
