@@ -1,0 +1,164 @@
+//! 3x3 pointwise descriptors: Evans' quadric coefficients and the curvatures
+//! derived from them, the 5-point Laplacian, TRI (Riley; Wilson) and Jenness'
+//! rugosity. Windows are `[a b c / d e f / g h i]` = `z1..z9` in row-major
+//! order with row 0 to the north (as `walk_3x3` passes them); `ew`, `ns` are
+//! the true cell sizes in metres.
+
+/// Partial derivatives of the quadric `z = r x²/2 + t y²/2 + s x y + p x + q y + c`
+/// fitted by least squares to a 3x3 window (Evans 1979, "An integrated system
+/// of terrain analysis and slope mapping", Final report DA-ERO-591-73-G0040,
+/// Univ. Durham; formulas as in Florinsky 2016, *Digital Terrain Analysis in
+/// Soil Science and Geology*, 2nd ed., ch. 4, Evans–Young method), generalised to
+/// rectangular cells (x east with spacing `ew`, y north with spacing `ns`):
+/// `p = (z3+z6+z9−z1−z4−z7)/(6 ew)`, `q = (z1+z2+z3−z7−z8−z9)/(6 ns)`,
+/// `r = (z1+z3+z4+z6+z7+z9 − 2(z2+z5+z8))/(3 ew²)`,
+/// `t = (z1+z2+z3+z7+z8+z9 − 2(z4+z5+z6))/(3 ns²)`,
+/// `s = (z3+z7−z1−z9)/(4 ew ns)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Quadric {
+    pub p: f64,
+    pub q: f64,
+    pub r: f64,
+    pub s: f64,
+    pub t: f64,
+}
+
+impl Quadric {
+    /// Fit a 3x3 window.
+    #[inline]
+    pub fn fit(w: &[f64; 9], ew: f64, ns: f64) -> Quadric {
+        let [z1, z2, z3, z4, z5, z6, z7, z8, z9] = *w;
+        Quadric {
+            p: (z3 + z6 + z9 - z1 - z4 - z7) / (6.0 * ew),
+            q: (z1 + z2 + z3 - z7 - z8 - z9) / (6.0 * ns),
+            r: (z1 + z3 + z4 + z6 + z7 + z9 - 2.0 * (z2 + z5 + z8)) / (3.0 * ew * ew),
+            t: (z1 + z2 + z3 + z7 + z8 + z9 - 2.0 * (z4 + z5 + z6)) / (3.0 * ns * ns),
+            s: (z3 + z7 - z1 - z9) / (4.0 * ew * ns),
+        }
+    }
+
+    /// Mean curvature `H = −((1+q²)r − 2pqs + (1+p²)t) / (2 (1+p²+q²)^{3/2})`
+    /// (Florinsky 2016, ch. 2); positive on convex (hill-top) surfaces.
+    #[inline]
+    pub fn mean(&self) -> f64 {
+        let Quadric { p, q, r, s, t } = *self;
+        let g = 1.0 + p * p + q * q;
+        -((1.0 + q * q) * r - 2.0 * p * q * s + (1.0 + p * p) * t) / (2.0 * g * g.sqrt())
+    }
+
+    /// Gaussian curvature `K = (rt − s²)/(1+p²+q²)²` (Florinsky 2016, ch. 2).
+    #[inline]
+    pub fn gaussian(&self) -> f64 {
+        let Quadric { p, q, r, s, t } = *self;
+        let g = 1.0 + p * p + q * q;
+        (r * t - s * s) / (g * g)
+    }
+
+    /// Minimal and maximal curvatures `H ∓ √(H² − K)` (Florinsky 2016, ch. 2);
+    /// `H² − K` is clamped at 0 against rounding.
+    #[inline]
+    pub fn min_max(&self) -> (f64, f64) {
+        let h = self.mean();
+        let d = (h * h - self.gaussian()).max(0.0).sqrt();
+        (h - d, h + d)
+    }
+
+    /// Vertical (profile) curvature
+    /// `kv = −(p²r + 2pqs + q²t) / ((p²+q²) (1+p²+q²)^{3/2})` (Florinsky
+    /// 2016, ch. 2); 0 where the gradient is 0 (undefined there).
+    #[inline]
+    pub fn profile(&self) -> f64 {
+        let Quadric { p, q, r, s, t } = *self;
+        let g2 = p * p + q * q;
+        if g2 == 0.0 {
+            return 0.0;
+        }
+        let g = 1.0 + g2;
+        -(p * p * r + 2.0 * p * q * s + q * q * t) / (g2 * g * g.sqrt())
+    }
+
+    /// Horizontal (tangential) curvature
+    /// `kh = −(q²r − 2pqs + p²t) / ((p²+q²) √(1+p²+q²))` (Florinsky 2016,
+    /// ch. 2); 0 where the gradient is 0.
+    #[inline]
+    pub fn tangential(&self) -> f64 {
+        let Quadric { p, q, r, s, t } = *self;
+        let g2 = p * p + q * q;
+        if g2 == 0.0 {
+            return 0.0;
+        }
+        -(q * q * r - 2.0 * p * q * s + p * p * t) / (g2 * (1.0 + g2).sqrt())
+    }
+
+    /// Plan (contour) curvature, the curvature of the contour line in the
+    /// horizontal plane: `kp = −(q²r − 2pqs + p²t) / (p²+q²)^{3/2}`
+    /// (Florinsky 2016, ch. 2); 0 where the gradient is 0.
+    #[inline]
+    pub fn plan(&self) -> f64 {
+        let Quadric { p, q, r, s, t } = *self;
+        let g2 = p * p + q * q;
+        if g2 == 0.0 {
+            return 0.0;
+        }
+        -(q * q * r - 2.0 * p * q * s + p * p * t) / (g2 * g2.sqrt())
+    }
+}
+
+/// 5-point Laplacian `(z4 + z6 − 2 z5)/ew² + (z2 + z8 − 2 z5)/ns²`.
+#[inline]
+pub fn laplacian(w: &[f64; 9], ew: f64, ns: f64) -> f64 {
+    (w[3] + w[5] - 2.0 * w[4]) / (ew * ew) + (w[1] + w[7] - 2.0 * w[4]) / (ns * ns)
+}
+
+/// Terrain ruggedness index of Riley, DeGloria & Elliot (1999):
+/// `√Σ (z_i − z5)²` over the 8 neighbours.
+#[inline]
+pub fn tri_riley(w: &[f64; 9]) -> f64 {
+    let c = w[4];
+    w.iter().map(|z| (z - c) * (z - c)).sum::<f64>().sqrt()
+}
+
+/// Terrain ruggedness index of Wilson et al. (2007, Marine Geodesy 30, 3-35):
+/// mean absolute difference to the 8 neighbours (gdaldem TRI's default).
+#[inline]
+pub fn tri_wilson(w: &[f64; 9]) -> f64 {
+    let c = w[4];
+    w.iter().map(|z| (z - c).abs()).sum::<f64>() / 8.0
+}
+
+/// Rugosity (surface-area ratio) of Jenness (2004, "Calculating landscape
+/// surface area from digital elevation models", Wildlife Society Bulletin
+/// 32(3), 829-839): the 3D triangles joining the centre to each pair of
+/// adjacent neighbours among the 8, clipped to the cell (every edge halved,
+/// so each triangle is similar to the full one with factor ½ and a quarter of
+/// its area), summed and divided by the cell's planimetric area `ew·ns`.
+/// Triangle areas by Heron's formula on the 3D edge lengths, as Jenness does.
+#[inline]
+pub fn rugosity(w: &[f64; 9], ew: f64, ns: f64) -> f64 {
+    // Neighbours in ring order around the centre (clockwise from north-west),
+    // with their (dx, dy) offsets in metres.
+    const RING: [(usize, f64, f64); 8] = [
+        (0, -1.0, 1.0),
+        (1, 0.0, 1.0),
+        (2, 1.0, 1.0),
+        (5, 1.0, 0.0),
+        (8, 1.0, -1.0),
+        (7, 0.0, -1.0),
+        (6, -1.0, -1.0),
+        (3, -1.0, 0.0),
+    ];
+    let c = w[4];
+    let len = |dx: f64, dy: f64, dz: f64| ((dx * ew).powi(2) + (dy * ns).powi(2) + dz * dz).sqrt();
+    let mut area = 0.0;
+    for k in 0..8 {
+        let (i, ax, ay) = RING[k];
+        let (j, bx, by) = RING[(k + 1) % 8];
+        let a = len(ax, ay, w[i] - c);
+        let b = len(bx, by, w[j] - c);
+        let e = len(bx - ax, by - ay, w[j] - w[i]);
+        let sp = (a + b + e) / 2.0;
+        let heron = (sp * (sp - a) * (sp - b) * (sp - e)).max(0.0).sqrt();
+        area += heron / 4.0;
+    }
+    area / (ew * ns)
+}
