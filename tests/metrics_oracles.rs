@@ -3,6 +3,8 @@
 //! brute-force double loops over windows on random grids with nodata holes,
 //! run tiled through `LocalEngine`.
 
+#![allow(clippy::needless_range_loop)] // index loops read like the definitions
+
 use orogen::exec::{Engine, EngineConfig, LocalEngine, MemSink};
 use orogen::metrics::{parse_specs, MultiMetric};
 use orogen::raster::{Crs, DType, GeoRef, Grid, MemRaster, RasterSource, TileLayout};
@@ -100,7 +102,7 @@ fn tilted_plane_closed_forms() {
         7,
         2,
     );
-    let g = (a * a + b * b as f64).sqrt();
+    let g: f64 = (a * a + b * b).sqrt();
     let slope = g.atan().to_degrees();
     // Downslope direction (−a, −b): azimuth clockwise from north.
     let mut aspect = (-a).atan2(-b).to_degrees();
@@ -109,7 +111,16 @@ fn tilted_plane_closed_forms() {
     }
     let riley = (6.0f64 * (a * a + b * b)).sqrt() * CELL;
     let mut wilson = 0.0;
-    for (dx, dy) in [(-1, -1), (0, -1), (1, -1), (-1, 0), (1, 0), (-1, 1), (0, 1), (1, 1)] {
+    for (dx, dy) in [
+        (-1, -1),
+        (0, -1),
+        (1, -1),
+        (-1, 0),
+        (1, 0),
+        (-1, 1),
+        (0, 1),
+        (1, 1),
+    ] {
         wilson += (a * dx as f64 + b * dy as f64).abs() * CELL / 8.0;
     }
     let rug = (1.0 + a * a + b * b).sqrt();
@@ -127,14 +138,27 @@ fn tilted_plane_closed_forms() {
                     assert!(g.is_nan(), "metric {k} at edge ({x},{y}) = {g}");
                     return;
                 }
-                assert!(close(g, want, rel, abs), "metric {k} at ({x},{y}): {g} vs {want}");
+                assert!(
+                    close(g, want, rel, abs),
+                    "metric {k} at ({x},{y}): {g} vs {want}"
+                );
             };
             chk(0, a, 1e-6, 1e-9);
             chk(1, b, 1e-6, 1e-9);
             chk(2, slope, 1e-6, 0.0);
             chk(3, aspect, 1e-6, 0.0);
-            chk(4, aspect.to_radians().cos() * slope.to_radians().sin(), 1e-6, 1e-9);
-            chk(5, aspect.to_radians().sin() * slope.to_radians().sin(), 1e-6, 1e-9);
+            chk(
+                4,
+                aspect.to_radians().cos() * slope.to_radians().sin(),
+                1e-6,
+                1e-9,
+            );
+            chk(
+                5,
+                aspect.to_radians().sin() * slope.to_radians().sin(),
+                1e-6,
+                1e-9,
+            );
             for k in 6..=10 {
                 chk(k, 0.0, 0.0, 1e-7);
             }
@@ -177,7 +201,11 @@ fn paraboloid_laplacian_and_apex_curvatures() {
     for y in 1..h - 1 {
         for x in 1..w - 1 {
             // f32 storage of z limits the second difference to ~1e-5 / 100.
-            assert!(close(out[0][y * w + x], lap, 1e-4, 1e-6), "({x},{y}) {}", out[0][y * w + x]);
+            assert!(
+                close(out[0][y * w + x], lap, 1e-4, 1e-6),
+                "({x},{y}) {}",
+                out[0][y * w + x]
+            );
         }
     }
     let c = 10 * w + 10;
@@ -214,15 +242,32 @@ fn sphere_cap_curvature_is_one_over_r() {
             let i = y * w + x;
             let (px, py) = xy(x, y);
             let rho = ((px - cx).powi(2) + (py - cy).powi(2)).sqrt();
-            assert!(close(out[0][i], 1.0 / rr, 2e-3, 0.0), "H ({x},{y}) {}", out[0][i]);
-            assert!(close(out[1][i], 1.0 / (rr * rr), 4e-3, 0.0), "K ({x},{y}) {}", out[1][i]);
+            assert!(
+                close(out[0][i], 1.0 / rr, 2e-3, 0.0),
+                "H ({x},{y}) {}",
+                out[0][i]
+            );
+            assert!(
+                close(out[1][i], 1.0 / (rr * rr), 4e-3, 0.0),
+                "K ({x},{y}) {}",
+                out[1][i]
+            );
             if rho > 50.0 {
                 // Principal, normal-section curvatures all 1/R; the contour is
                 // a circle of radius ρ: plan curvature 1/ρ.
                 for k in 2..=5 {
-                    assert!(close(out[k][i], 1.0 / rr, 5e-2, 0.0), "k{k} ({x},{y}) {}", out[k][i]);
+                    assert!(
+                        close(out[k][i], 1.0 / rr, 5e-2, 0.0),
+                        "k{k} ({x},{y}) {}",
+                        out[k][i]
+                    );
                 }
-                assert!(close(out[6][i], 1.0 / rho, 2e-2, 0.0), "kp ({x},{y}) {} vs {}", out[6][i], 1.0 / rho);
+                assert!(
+                    close(out[6][i], 1.0 / rho, 2e-2, 0.0),
+                    "kp ({x},{y}) {} vs {}",
+                    out[6][i],
+                    1.0 / rho
+                );
             }
         }
     }
@@ -250,14 +295,31 @@ fn pit_and_cone_openness_and_sky_view() {
         let c = 15 * w + 15;
         // Every ray from the apex rises (pit) or falls (cone) at angle atan k.
         let beta = sign * k.atan().to_degrees();
-        assert!(close(out[0][c], 90.0 - beta, 1e-6, 0.0), "pos {sign} {dirs}: {}", out[0][c]);
-        assert!(close(out[1][c], 90.0 + beta, 1e-6, 0.0), "neg {sign} {dirs}: {}", out[1][c]);
+        assert!(
+            close(out[0][c], 90.0 - beta, 1e-6, 0.0),
+            "pos {sign} {dirs}: {}",
+            out[0][c]
+        );
+        assert!(
+            close(out[1][c], 90.0 + beta, 1e-6, 0.0),
+            "neg {sign} {dirs}: {}",
+            out[1][c]
+        );
         let svf = 1.0 - beta.max(0.0).to_radians().sin();
-        assert!(close(out[2][c], svf, 1e-6, 0.0), "svf {sign} {dirs}: {}", out[2][c]);
+        assert!(
+            close(out[2][c], svf, 1e-6, 0.0),
+            "svf {sign} {dirs}: {}",
+            out[2][c]
+        );
     }
     // Flat ground: openness 90°, sky view 1 everywhere.
     let src = source(&vec![7.0; 100], 10, 10);
-    let out = run(&src, "openness:radius=3c,openness_neg:radius=3c,sky_view:radius=3c", 4, 1);
+    let out = run(
+        &src,
+        "openness:radius=3c,openness_neg:radius=3c,sky_view:radius=3c",
+        4,
+        1,
+    );
     for i in 0..100 {
         assert_eq!((out[0][i], out[1][i], out[2][i]), (90.0, 90.0, 1.0));
     }
@@ -288,7 +350,14 @@ fn at(d: &[f32], w: usize, h: usize, x: i64, y: i64) -> f64 {
 
 /// Naive window statistics of the square of half-side r: (n, mean, variance,
 /// mean without centre, max, min).
-fn naive_window(d: &[f32], w: usize, h: usize, x: i64, y: i64, r: i64) -> (f64, f64, f64, f64, f64, f64) {
+fn naive_window(
+    d: &[f32],
+    w: usize,
+    h: usize,
+    x: i64,
+    y: i64,
+    r: i64,
+) -> (f64, f64, f64, f64, f64, f64) {
     let mut vals = Vec::new();
     for dy in -r..=r {
         for dx in -r..=r {
@@ -331,14 +400,25 @@ fn windowed_statistics_brute_force() {
                 want[1][i] = var;
                 want[2][i] = var.sqrt();
                 want[3][i] = tpi;
-                want[4][i] = if var == 0.0 && !tpi.is_nan() { 0.0 } else { tpi / var.sqrt() };
+                want[4][i] = if var == 0.0 && !tpi.is_nan() {
+                    0.0
+                } else {
+                    tpi / var.sqrt()
+                };
                 want[5][i] = mx - mn;
             }
         }
         for tile in [1, 7, 64] {
             let out = run(&src, &specs, tile, 2);
             for k in 0..6 {
-                assert_all(&format!("r{r} tile{tile} m{k}"), &out[k], &want[k], w, 2e-7, 1e-9);
+                assert_all(
+                    &format!("r{r} tile{tile} m{k}"),
+                    &out[k],
+                    &want[k],
+                    w,
+                    2e-7,
+                    1e-9,
+                );
             }
         }
     }
@@ -372,13 +452,30 @@ fn tri_laplacian_rugosity_brute_force() {
             let lap = (z(-1, 0) + z(1, 0) - 2.0 * c + z(0, -1) + z(0, 1) - 2.0 * c) / (CELL * CELL);
             // Jenness 2004: 8 triangles (centre, neighbour, next neighbour)
             // with half-length edges; area from the cross product.
-            let ring = [(-1, -1), (0, -1), (1, -1), (1, 0), (1, 1), (0, 1), (-1, 1), (-1, 0)];
+            let ring = [
+                (-1, -1),
+                (0, -1),
+                (1, -1),
+                (1, 0),
+                (1, 1),
+                (0, 1),
+                (-1, 1),
+                (-1, 0),
+            ];
             let mut area = 0.0;
             for k in 0..8 {
                 let (ax, ay) = ring[k];
                 let (bx, by) = ring[(k + 1) % 8];
-                let u = [ax as f64 * CELL / 2.0, ay as f64 * CELL / 2.0, (z(ax, ay) - c) / 2.0];
-                let v = [bx as f64 * CELL / 2.0, by as f64 * CELL / 2.0, (z(bx, by) - c) / 2.0];
+                let u = [
+                    ax as f64 * CELL / 2.0,
+                    ay as f64 * CELL / 2.0,
+                    (z(ax, ay) - c) / 2.0,
+                ];
+                let v = [
+                    bx as f64 * CELL / 2.0,
+                    by as f64 * CELL / 2.0,
+                    (z(bx, by) - c) / 2.0,
+                ];
                 let cr = [
                     u[1] * v[2] - u[2] * v[1],
                     u[2] * v[0] - u[0] * v[2],
@@ -390,7 +487,11 @@ fn tri_laplacian_rugosity_brute_force() {
             assert!(close(out[0][i], riley, 2e-7, 0.0), "riley ({x},{y})");
             assert!(close(out[1][i], wilson, 2e-7, 0.0), "wilson ({x},{y})");
             assert!(close(out[2][i], lap, 2e-7, 1e-12), "lap ({x},{y})");
-            assert!(close(out[3][i], rug, 1e-6, 0.0), "rugosity ({x},{y}) {} vs {rug}", out[3][i]);
+            assert!(
+                close(out[3][i], rug, 1e-6, 0.0),
+                "rugosity ({x},{y}) {} vs {rug}",
+                out[3][i]
+            );
         }
     }
 }
@@ -413,8 +514,10 @@ fn roughness_brute_force() {
         if any_nan {
             return None;
         }
-        let p = (z(1, -1) + 2.0 * z(1, 0) + z(1, 1) - z(-1, -1) - 2.0 * z(-1, 0) - z(-1, 1)) / (8.0 * CELL);
-        let q = (z(-1, -1) + 2.0 * z(0, -1) + z(1, -1) - z(-1, 1) - 2.0 * z(0, 1) - z(1, 1)) / (8.0 * CELL);
+        let p = (z(1, -1) + 2.0 * z(1, 0) + z(1, 1) - z(-1, -1) - 2.0 * z(-1, 0) - z(-1, 1))
+            / (8.0 * CELL);
+        let q = (z(-1, -1) + 2.0 * z(0, -1) + z(1, -1) - z(-1, 1) - 2.0 * z(0, 1) - z(1, 1))
+            / (8.0 * CELL);
         let n = (p * p + q * q + 1.0).sqrt();
         Some([-p / n, -q / n, 1.0 / n])
     };
@@ -443,7 +546,14 @@ fn roughness_brute_force() {
     }
     for tile in [1, 6, 64] {
         let out = run(&src, "roughness:radius=3c", tile, 2);
-        assert_all(&format!("roughness tile {tile}"), &out[0], &want, w, 1e-6, 1e-5);
+        assert_all(
+            &format!("roughness tile {tile}"),
+            &out[0],
+            &want,
+            w,
+            1e-6,
+            1e-5,
+        );
     }
 }
 
@@ -461,11 +571,34 @@ fn horizon_brute_force() {
             2,
         );
         let steps: Vec<(i64, i64)> = if dirs == 8 {
-            vec![(1, 0), (1, 1), (0, 1), (-1, 1), (-1, 0), (-1, -1), (0, -1), (1, -1)]
+            vec![
+                (1, 0),
+                (1, 1),
+                (0, 1),
+                (-1, 1),
+                (-1, 0),
+                (-1, -1),
+                (0, -1),
+                (1, -1),
+            ]
         } else {
             vec![
-                (1, 0), (1, 1), (0, 1), (-1, 1), (-1, 0), (-1, -1), (0, -1), (1, -1),
-                (1, 2), (2, 1), (2, -1), (1, -2), (-1, -2), (-2, -1), (-2, 1), (-1, 2),
+                (1, 0),
+                (1, 1),
+                (0, 1),
+                (-1, 1),
+                (-1, 0),
+                (-1, -1),
+                (0, -1),
+                (1, -1),
+                (1, 2),
+                (2, 1),
+                (2, -1),
+                (1, -2),
+                (-1, -2),
+                (-2, -1),
+                (-2, 1),
+                (-1, 2),
             ]
         };
         for y in 0..h as i64 {
@@ -503,9 +636,21 @@ fn horizon_brute_force() {
                 } else {
                     (f64::NAN, f64::NAN, f64::NAN)
                 };
-                assert!(close(out[0][i], p, 1e-6, 1e-6), "pos {dirs} ({x},{y}) {} vs {p}", out[0][i]);
-                assert!(close(out[1][i], n, 1e-6, 1e-6), "neg {dirs} ({x},{y}) {} vs {n}", out[1][i]);
-                assert!(close(out[2][i], s, 1e-6, 1e-7), "svf {dirs} ({x},{y}) {} vs {s}", out[2][i]);
+                assert!(
+                    close(out[0][i], p, 1e-6, 1e-6),
+                    "pos {dirs} ({x},{y}) {} vs {p}",
+                    out[0][i]
+                );
+                assert!(
+                    close(out[1][i], n, 1e-6, 1e-6),
+                    "neg {dirs} ({x},{y}) {} vs {n}",
+                    out[1][i]
+                );
+                assert!(
+                    close(out[2][i], s, 1e-6, 1e-7),
+                    "svf {dirs} ({x},{y}) {} vs {s}",
+                    out[2][i]
+                );
             }
         }
     }

@@ -133,11 +133,16 @@ impl LocalStep for MultiMetric {
         let sat = match sat_r {
             Some(r) => {
                 let vals = region(view, r);
-                let squares = self
-                    .metrics
-                    .iter()
-                    .any(|m| matches!(m.spec.kind, MetricKind::Stdev | MetricKind::Variance | MetricKind::Ntpi));
-                Some((r, Sat::new(&vals, cw + 2 * r, ch + 2 * r, squares, &self.path)?))
+                let squares = self.metrics.iter().any(|m| {
+                    matches!(
+                        m.spec.kind,
+                        MetricKind::Stdev | MetricKind::Variance | MetricKind::Ntpi
+                    )
+                });
+                Some((
+                    r,
+                    Sat::new(&vals, cw + 2 * r, ch + 2 * r, squares, &self.path)?,
+                ))
             }
             None => None,
         };
@@ -192,10 +197,12 @@ impl LocalStep for MultiMetric {
                 Laplacian => walk_3x3(view, o, EdgeMode::Nodata, nan, |w, ew, ns| {
                     laplacian(w, ew, ns) as f32
                 }),
-                TriRiley => walk_3x3(view, o, EdgeMode::Nodata, nan, |w, _, _| tri_riley(w) as f32),
-                TriWilson => {
-                    walk_3x3(view, o, EdgeMode::Nodata, nan, |w, _, _| tri_wilson(w) as f32)
-                }
+                TriRiley => walk_3x3(view, o, EdgeMode::Nodata, nan, |w, _, _| {
+                    tri_riley(w) as f32
+                }),
+                TriWilson => walk_3x3(view, o, EdgeMode::Nodata, nan, |w, _, _| {
+                    tri_wilson(w) as f32
+                }),
                 Rugosity => walk_3x3(view, o, EdgeMode::Nodata, nan, |w, ew, ns| {
                     rugosity(w, ew, ns) as f32
                 }),
@@ -268,10 +275,7 @@ impl LocalStep for MultiMetric {
                     horizon(view, m.radius_cells, m.radius_m, m.spec.directions, hout);
                     // Duplicates of one kind copy the first grid of that kind.
                     for i in 0..grids.len() {
-                        let first = grids
-                            .iter()
-                            .position(|g| g.0 == grids[i].0)
-                            .unwrap_or(i);
+                        let first = grids.iter().position(|g| g.0 == grids[i].0).unwrap_or(i);
                         let data = grids[first].2.data().to_vec();
                         out[grids[i].1].data_mut().copy_from_slice(&data);
                     }
@@ -296,7 +300,14 @@ fn region(view: &TileView<f32>, r: usize) -> Vec<f64> {
 
 /// Mean, stdev, variance, TPI or NTPI of every core cell from the SAT built
 /// over core + `big` cells; window half-side `r ≤ big`.
-fn windowed_stat(view: &TileView<f32>, sat: &Sat, big: usize, r: usize, kind: MetricKind, o: &mut Grid<f32>) {
+fn windowed_stat(
+    view: &TileView<f32>,
+    sat: &Sat,
+    big: usize,
+    r: usize,
+    kind: MetricKind,
+    o: &mut Grid<f32>,
+) {
     let h = view.halo;
     let gw = view.grid.width();
     let data = view.grid.data();
@@ -317,7 +328,9 @@ fn windowed_stat(view: &TileView<f32>, sat: &Sat, big: usize, r: usize, kind: Me
                     // The window without its centre.
                     let mut others = ws;
                     others.n -= 1;
-                    others.sum = others.sum.wrapping_sub(super::windowed::to_fixed(z as f64, ws.frac));
+                    others.sum = others
+                        .sum
+                        .wrapping_sub(super::windowed::to_fixed(z as f64, ws.frac));
                     let tpi = z as f64 - others.mean();
                     if kind == MetricKind::Tpi {
                         tpi
@@ -397,12 +410,14 @@ fn normal_sats(view: &TileView<f32>, r: usize, path: &str) -> Result<[Sat; 3]> {
     let gw = view.grid.width();
     let data = view.grid.data();
     let (w, hh) = (view.core.w + 2 * r, view.core.h + 2 * r);
-    let mut n = [vec![f64::NAN; w * hh], vec![f64::NAN; w * hh], vec![f64::NAN; w * hh]];
+    let mut n = [
+        vec![f64::NAN; w * hh],
+        vec![f64::NAN; w * hh],
+        vec![f64::NAN; w * hh],
+    ];
     for y in 0..hh {
         let vy = y + h - r;
-        let (ew, ns) = view
-            .georef
-            .cell_size_m(view.core.y + vy as i64 - h as i64);
+        let (ew, ns) = view.georef.cell_size_m(view.core.y + vy as i64 - h as i64);
         for x in 0..w {
             let vx = x + h - r;
             let mut win = [0.0; 9];

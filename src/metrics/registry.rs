@@ -135,36 +135,246 @@ macro_rules! def {
 
 /// The registry, in the order `orogen metric list` prints it.
 pub const METRICS: &[MetricDef] = &[
-    def!(Dzdx, "dzdx", &[], "z/m", "gradient component east (dz/dx)", HORN),
-    def!(Dzdy, "dzdy", &[], "z/m", "gradient component north (dz/dy)", HORN),
-    def!(Slope, "slope", &[UNITS], "degrees|percent", "slope angle (as the `slope` command)", HORN),
-    def!(Aspect, "aspect", &[], "degrees", "azimuth of steepest descent, clockwise from north; flat = nodata", HORN),
-    def!(Northness, "northness", &[], "-1..1", "cos(aspect)*sin(slope)", "Argudo et al. survey sec. 2 (northness/eastness weighted by slope); Horn gradient"),
-    def!(Eastness, "eastness", &[], "-1..1", "sin(aspect)*sin(slope)", "Argudo et al. survey sec. 2 (northness/eastness weighted by slope); Horn gradient"),
-    def!(NormalX, "normal_x", &[], "-1..1", "unit surface normal, east component -p/sqrt(1+p^2+q^2)", HORN),
-    def!(NormalY, "normal_y", &[], "-1..1", "unit surface normal, north component -q/sqrt(1+p^2+q^2)", HORN),
-    def!(NormalZ, "normal_z", &[], "0..1", "unit surface normal, up component 1/sqrt(1+p^2+q^2)", HORN),
-    def!(Laplacian, "laplacian", &[], "z/m^2", "5-point Laplacian d2z/dx2 + d2z/dy2", "finite differences (Argudo et al. survey sec. 3)"),
-    def!(ProfileCurvature, "profile_curvature", &[], "1/m", "vertical (profile) curvature kv; convex positive; 0 where flat", EVANS),
-    def!(PlanCurvature, "plan_curvature", &[], "1/m", "plan (contour) curvature kp; convex positive; 0 where flat", EVANS),
-    def!(TangentialCurvature, "tangential_curvature", &[], "1/m", "horizontal (tangential) curvature kh; convex positive; 0 where flat", EVANS),
-    def!(MeanCurvature, "mean_curvature", &[], "1/m", "mean curvature H; convex positive", EVANS),
-    def!(GaussianCurvature, "gaussian_curvature", &[], "1/m^2", "Gaussian curvature K", EVANS),
-    def!(MinCurvature, "min_curvature", &[], "1/m", "minimal curvature H - sqrt(H^2-K)", EVANS),
-    def!(MaxCurvature, "max_curvature", &[], "1/m", "maximal curvature H + sqrt(H^2-K)", EVANS),
-    def!(Mean, "mean", &[RADIUS], "z", "mean of valid cells in the square window of side 2r+1", "summed-area tables, Crow 1984 (SIGGRAPH)"),
-    def!(Stdev, "stdev", &[RADIUS], "z", "population standard deviation of valid cells in the square window", "summed-area tables, Crow 1984"),
-    def!(Variance, "variance", &[RADIUS], "z^2", "population variance of valid cells in the square window", "summed-area tables, Crow 1984"),
-    def!(Tpi, "tpi", &[RADIUS], "z", "z minus the mean of the other valid cells of the square window", "Weiss 2001 (TPI poster, ESRI UC); square window, centre excluded"),
-    def!(Ntpi, "ntpi", &[RADIUS], "-", "TPI / standard deviation of the window (0 where the window is flat)", "Weiss 2001; De Reu et al. 2013 (DEV)"),
-    def!(Relief, "relief", &[RADIUS], "z", "local relief: max - min of valid cells in the square window", "van Herk 1992 / Gil & Werman 1993 running max/min"),
-    def!(TriRiley, "tri_riley", &[], "z", "sqrt of the sum of squared differences to the 8 neighbours", "Riley, DeGloria & Elliot 1999, Intermountain J. Sci. 5"),
-    def!(TriWilson, "tri", &[], "z", "mean absolute difference to the 8 neighbours (gdaldem TRI default)", "Wilson et al. 2007, Marine Geodesy 30"),
-    def!(Roughness, "roughness", &[RADIUS], "degrees", "spherical standard deviation of unit normals in the square window", "Lindsay, Newman & Francioni 2019, Geosciences 9(7) 322"),
-    def!(Rugosity, "rugosity", &[], ">=1", "surface area / planimetric area of the cell (8 triangles)", "Jenness 2004, Wildlife Society Bulletin 32(3)"),
-    def!(OpennessPositive, "openness", &[RADIUS_HORIZON, DIRECTIONS], "degrees", "positive openness: mean over directions of 90 - horizon elevation angle", "Yokoyama, Shirasawa & Pike 2002, PE&RS 68(3)"),
-    def!(OpennessNegative, "openness_neg", &[RADIUS_HORIZON, DIRECTIONS], "degrees", "negative openness: mean over directions of 90 + nadir (min) elevation angle", "Yokoyama, Shirasawa & Pike 2002, PE&RS 68(3)"),
-    def!(SkyView, "sky_view", &[RADIUS_HORIZON, DIRECTIONS], "0..1", "sky-view factor 1 - mean sin(max(horizon angle, 0))", "Zakšek, Oštir & Kokalj 2011, Remote Sensing 3(2)"),
+    def!(
+        Dzdx,
+        "dzdx",
+        &[],
+        "z/m",
+        "gradient component east (dz/dx)",
+        HORN
+    ),
+    def!(
+        Dzdy,
+        "dzdy",
+        &[],
+        "z/m",
+        "gradient component north (dz/dy)",
+        HORN
+    ),
+    def!(
+        Slope,
+        "slope",
+        &[UNITS],
+        "degrees|percent",
+        "slope angle (as the `slope` command)",
+        HORN
+    ),
+    def!(
+        Aspect,
+        "aspect",
+        &[],
+        "degrees",
+        "azimuth of steepest descent, clockwise from north; flat = nodata",
+        HORN
+    ),
+    def!(
+        Northness,
+        "northness",
+        &[],
+        "-1..1",
+        "cos(aspect)*sin(slope)",
+        "Argudo et al. survey sec. 2 (northness/eastness weighted by slope); Horn gradient"
+    ),
+    def!(
+        Eastness,
+        "eastness",
+        &[],
+        "-1..1",
+        "sin(aspect)*sin(slope)",
+        "Argudo et al. survey sec. 2 (northness/eastness weighted by slope); Horn gradient"
+    ),
+    def!(
+        NormalX,
+        "normal_x",
+        &[],
+        "-1..1",
+        "unit surface normal, east component -p/sqrt(1+p^2+q^2)",
+        HORN
+    ),
+    def!(
+        NormalY,
+        "normal_y",
+        &[],
+        "-1..1",
+        "unit surface normal, north component -q/sqrt(1+p^2+q^2)",
+        HORN
+    ),
+    def!(
+        NormalZ,
+        "normal_z",
+        &[],
+        "0..1",
+        "unit surface normal, up component 1/sqrt(1+p^2+q^2)",
+        HORN
+    ),
+    def!(
+        Laplacian,
+        "laplacian",
+        &[],
+        "z/m^2",
+        "5-point Laplacian d2z/dx2 + d2z/dy2",
+        "finite differences (Argudo et al. survey sec. 3)"
+    ),
+    def!(
+        ProfileCurvature,
+        "profile_curvature",
+        &[],
+        "1/m",
+        "vertical (profile) curvature kv; convex positive; 0 where flat",
+        EVANS
+    ),
+    def!(
+        PlanCurvature,
+        "plan_curvature",
+        &[],
+        "1/m",
+        "plan (contour) curvature kp; convex positive; 0 where flat",
+        EVANS
+    ),
+    def!(
+        TangentialCurvature,
+        "tangential_curvature",
+        &[],
+        "1/m",
+        "horizontal (tangential) curvature kh; convex positive; 0 where flat",
+        EVANS
+    ),
+    def!(
+        MeanCurvature,
+        "mean_curvature",
+        &[],
+        "1/m",
+        "mean curvature H; convex positive",
+        EVANS
+    ),
+    def!(
+        GaussianCurvature,
+        "gaussian_curvature",
+        &[],
+        "1/m^2",
+        "Gaussian curvature K",
+        EVANS
+    ),
+    def!(
+        MinCurvature,
+        "min_curvature",
+        &[],
+        "1/m",
+        "minimal curvature H - sqrt(H^2-K)",
+        EVANS
+    ),
+    def!(
+        MaxCurvature,
+        "max_curvature",
+        &[],
+        "1/m",
+        "maximal curvature H + sqrt(H^2-K)",
+        EVANS
+    ),
+    def!(
+        Mean,
+        "mean",
+        &[RADIUS],
+        "z",
+        "mean of valid cells in the square window of side 2r+1",
+        "summed-area tables, Crow 1984 (SIGGRAPH)"
+    ),
+    def!(
+        Stdev,
+        "stdev",
+        &[RADIUS],
+        "z",
+        "population standard deviation of valid cells in the square window",
+        "summed-area tables, Crow 1984"
+    ),
+    def!(
+        Variance,
+        "variance",
+        &[RADIUS],
+        "z^2",
+        "population variance of valid cells in the square window",
+        "summed-area tables, Crow 1984"
+    ),
+    def!(
+        Tpi,
+        "tpi",
+        &[RADIUS],
+        "z",
+        "z minus the mean of the other valid cells of the square window",
+        "Weiss 2001 (TPI poster, ESRI UC); square window, centre excluded"
+    ),
+    def!(
+        Ntpi,
+        "ntpi",
+        &[RADIUS],
+        "-",
+        "TPI / standard deviation of the window (0 where the window is flat)",
+        "Weiss 2001; De Reu et al. 2013 (DEV)"
+    ),
+    def!(
+        Relief,
+        "relief",
+        &[RADIUS],
+        "z",
+        "local relief: max - min of valid cells in the square window",
+        "van Herk 1992 / Gil & Werman 1993 running max/min"
+    ),
+    def!(
+        TriRiley,
+        "tri_riley",
+        &[],
+        "z",
+        "sqrt of the sum of squared differences to the 8 neighbours",
+        "Riley, DeGloria & Elliot 1999, Intermountain J. Sci. 5"
+    ),
+    def!(
+        TriWilson,
+        "tri",
+        &[],
+        "z",
+        "mean absolute difference to the 8 neighbours (gdaldem TRI default)",
+        "Wilson et al. 2007, Marine Geodesy 30"
+    ),
+    def!(
+        Roughness,
+        "roughness",
+        &[RADIUS],
+        "degrees",
+        "spherical standard deviation of unit normals in the square window",
+        "Lindsay, Newman & Francioni 2019, Geosciences 9(7) 322"
+    ),
+    def!(
+        Rugosity,
+        "rugosity",
+        &[],
+        ">=1",
+        "surface area / planimetric area of the cell (8 triangles)",
+        "Jenness 2004, Wildlife Society Bulletin 32(3)"
+    ),
+    def!(
+        OpennessPositive,
+        "openness",
+        &[RADIUS_HORIZON, DIRECTIONS],
+        "degrees",
+        "positive openness: mean over directions of 90 - horizon elevation angle",
+        "Yokoyama, Shirasawa & Pike 2002, PE&RS 68(3)"
+    ),
+    def!(
+        OpennessNegative,
+        "openness_neg",
+        &[RADIUS_HORIZON, DIRECTIONS],
+        "degrees",
+        "negative openness: mean over directions of 90 + nadir (min) elevation angle",
+        "Yokoyama, Shirasawa & Pike 2002, PE&RS 68(3)"
+    ),
+    def!(
+        SkyView,
+        "sky_view",
+        &[RADIUS_HORIZON, DIRECTIONS],
+        "0..1",
+        "sky-view factor 1 - mean sin(max(horizon angle, 0))",
+        "Zakšek, Oštir & Kokalj 2011, Remote Sensing 3(2)"
+    ),
 ];
 
 /// The registry entry of `kind`.
@@ -233,7 +443,12 @@ impl MetricSpec {
         if let Some(r) = self.radius {
             s.push_str(&format!("_r{r}"));
         }
-        if self.def().params.iter().any(|p| p.kind == ParamKind::Directions) && self.directions != 8
+        if self
+            .def()
+            .params
+            .iter()
+            .any(|p| p.kind == ParamKind::Directions)
+            && self.directions != 8
         {
             s.push_str(&format!("_d{}", self.directions));
         }
@@ -268,9 +483,8 @@ impl MetricSpec {
 /// Parse `500m`, `1.5km`, `25c` (a bare number is refused: say m or c).
 pub fn parse_length(s: &str) -> std::result::Result<Length, String> {
     let s = s.trim();
-    let bad = || {
-        format!("'{s}' is not a length: write metres (500m), kilometres (1.5km) or cells (25c)")
-    };
+    let bad =
+        || format!("'{s}' is not a length: write metres (500m), kilometres (1.5km) or cells (25c)");
     let (num, scale, cells) = if let Some(n) = s.strip_suffix("km") {
         (n, 1000.0, false)
     } else if let Some(n) = s.strip_suffix('m') {
@@ -299,7 +513,11 @@ pub fn parse_length(s: &str) -> std::result::Result<Length, String> {
 
 /// Names of all metrics, comma separated (for error messages).
 fn all_names() -> String {
-    METRICS.iter().map(|d| d.name).collect::<Vec<_>>().join(", ")
+    METRICS
+        .iter()
+        .map(|d| d.name)
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// Parse a comma-separated list of metric specs: `name[:param=value[:param=value]]`,
@@ -319,7 +537,10 @@ pub fn parse_specs(s: &str) -> Result<Vec<MetricSpec>> {
         let mut parts = item.split(':');
         let name = parts.next().unwrap_or("").trim();
         let d = METRICS.iter().find(|d| d.name == name).ok_or_else(|| {
-            Error::invalid(format!("unknown metric '{name}'; known metrics: {}", all_names()))
+            Error::invalid(format!(
+                "unknown metric '{name}'; known metrics: {}",
+                all_names()
+            ))
         })?;
         let mut spec = MetricSpec::new(d.kind);
         let mut seen: Vec<&str> = Vec::new();
@@ -337,9 +558,7 @@ pub fn parse_specs(s: &str) -> Result<Vec<MetricSpec>> {
                 )
             };
             let (k, v) = kv.split_once('=').ok_or_else(|| {
-                Error::invalid(format!(
-                    "'{kv}' in '{item}' is not param=value; {accepted}"
-                ))
+                Error::invalid(format!("'{kv}' in '{item}' is not param=value; {accepted}"))
             })?;
             let (k, v) = (k.trim(), v.trim());
             let p = d.params.iter().find(|p| p.name == k).ok_or_else(|| {
@@ -415,8 +634,8 @@ impl Resolved {
     pub fn halo(&self) -> usize {
         use MetricKind::*;
         match self.spec.kind {
-            Mean | Stdev | Variance | Tpi | Ntpi | Relief | OpennessPositive
-            | OpennessNegative | SkyView => self.radius_cells,
+            Mean | Stdev | Variance | Tpi | Ntpi | Relief | OpennessPositive | OpennessNegative
+            | SkyView => self.radius_cells,
             // Normals need one more ring.
             Roughness => self.radius_cells + 1,
             _ => 1,
