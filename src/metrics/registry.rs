@@ -172,16 +172,16 @@ pub const METRICS: &[MetricDef] = &[
         "northness",
         &[],
         "-1..1",
-        "cos(aspect)*sin(slope)",
-        "Argudo et al. survey sec. 2 (northness/eastness weighted by slope); Horn gradient"
+        "cos(aspect)*sin(slope), slope-weighted so flat cells are 0 (= normal_y)",
+        "aspect and slope of Horn 1981; slope-weighted form chosen here (plain cos(aspect) is undefined on flats)"
     ),
     def!(
         Eastness,
         "eastness",
         &[],
         "-1..1",
-        "sin(aspect)*sin(slope)",
-        "Argudo et al. survey sec. 2 (northness/eastness weighted by slope); Horn gradient"
+        "sin(aspect)*sin(slope), slope-weighted so flat cells are 0 (= normal_x)",
+        "aspect and slope of Horn 1981; slope-weighted form chosen here (plain sin(aspect) is undefined on flats)"
     ),
     def!(
         NormalX,

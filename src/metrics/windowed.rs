@@ -145,21 +145,24 @@ impl WindowSums {
     }
 
     /// Population variance in value units², computed exactly in integers:
-    /// with Σq = n·a + b (0 ≤ b < n), `Σ(q − Σq/n)² = Σq² − 2aΣq + n a² − b²/n`.
+    /// for any integer `a` near the mean and `b = Σq − n·a`,
+    /// `Σ(q − Σq/n)² = Σq² − 2aΣq + n a² − b²/n`; the first three terms are
+    /// exact (wrapping, the true value fits), the last is small and taken in
+    /// f64. `a` comes from one f64 division (no 128-bit division).
     #[inline]
     pub fn variance(&self) -> f64 {
         if self.n == 0 {
             return f64::NAN;
         }
         let n = self.n as i128;
-        let a = self.sum.div_euclid(n);
-        let b = self.sum.rem_euclid(n);
+        let a = (self.sum as f64 / self.n as f64).round() as i128;
+        let b = self.sum.wrapping_sub(n.wrapping_mul(a));
         let d = self
             .sumsq
             .wrapping_sub(2i128.wrapping_mul(a).wrapping_mul(self.sum))
             .wrapping_add(n.wrapping_mul(a).wrapping_mul(a));
         let bf = b as f64;
-        let v = (d as f64 - bf * bf / n as f64) / n as f64;
+        let v = (d as f64 - bf * bf / self.n as f64) / self.n as f64;
         v.max(0.0) / (1u128 << (2 * self.frac)) as f64
     }
 }
