@@ -218,6 +218,83 @@ fn paraboloid_laplacian_and_apex_curvatures() {
 }
 
 #[test]
+fn wood_quadric_exact_on_paraboloid_with_holes() {
+    let (w, h) = (25, 23);
+    let (aa, bb) = (1.0 / 400.0, 1.0 / 100.0);
+    let (cx, cy) = xy(12, 11);
+    let mut r = Rng(17);
+    let data: Vec<f32> = (0..w * h)
+        .map(|i| {
+            let (x, y) = xy(i % w, i / w);
+            let z = aa * (x - cx - 15.0).powi(2)
+                + bb * (y - cy + 5.0).powi(2)
+                + 0.004 * (x - cx) * (y - cy);
+            if r.next() % 9 == 0 && i != 11 * w + 12 {
+                f32::NAN
+            } else {
+                z as f32
+            }
+        })
+        .collect();
+    let src = source(&data, w, h);
+    let out = run(
+        &src,
+        "mean_curvature:radius=3c,gaussian_curvature:radius=3c,profile_curvature:radius=30m,plan_curvature:radius=3c",
+        8,
+        2,
+    );
+    // Analytic derivatives of the quadratic, then the differential geometry
+    // of a graph z(x, y) (do Carmo 1976, sec. 3-3): H, K, and the normal
+    // curvature along the gradient (profile) and the contour's plane curvature.
+    for y in 3..h - 3 {
+        for x in 3..w - 3 {
+            let i = y * w + x;
+            if data[i].is_nan() {
+                assert!(out[0][i].is_nan());
+                continue;
+            }
+            let (px, py) = xy(x, y);
+            let (u, v) = (px - cx, py - cy);
+            let zx = 2.0 * aa * (u - 15.0) + 0.004 * v;
+            let zy = 2.0 * bb * (v + 5.0) + 0.004 * u;
+            let (zxx, zyy, zxy) = (2.0 * aa, 2.0 * bb, 0.004);
+            let g = 1.0 + zx * zx + zy * zy;
+            let hh = -((1.0 + zy * zy) * zxx - 2.0 * zx * zy * zxy + (1.0 + zx * zx) * zyy)
+                / (2.0 * g.powf(1.5));
+            let kk = (zxx * zyy - zxy * zxy) / (g * g);
+            // Second derivative along the unit gradient direction, over (1+|∇z|²)^{3/2}.
+            let gn = (zx * zx + zy * zy).sqrt();
+            let (ex, ey) = (zx / gn, zy / gn);
+            let dss = zxx * ex * ex + 2.0 * zxy * ex * ey + zyy * ey * ey;
+            let kv = -dss / g.powf(1.5);
+            // Contour curvature: second derivative across the gradient over |∇z|.
+            let dtt = zxx * ey * ey - 2.0 * zxy * ex * ey + zyy * ex * ex;
+            let kp = -dtt / gn;
+            assert!(
+                close(out[0][i], hh, 1e-5, 1e-12),
+                "H ({x},{y}) {} vs {hh}",
+                out[0][i]
+            );
+            assert!(
+                close(out[1][i], kk, 1e-5, 1e-14),
+                "K ({x},{y}) {} vs {kk}",
+                out[1][i]
+            );
+            assert!(
+                close(out[2][i], kv, 1e-5, 1e-12),
+                "kv ({x},{y}) {} vs {kv}",
+                out[2][i]
+            );
+            assert!(
+                close(out[3][i], kp, 1e-5, 1e-12),
+                "kp ({x},{y}) {} vs {kp}",
+                out[3][i]
+            );
+        }
+    }
+}
+
+#[test]
 fn sphere_cap_curvature_is_one_over_r() {
     let (w, h) = (41, 41);
     let rr = 5000.0;

@@ -1,21 +1,22 @@
 //! Many metrics in one pass: [`MultiMetric`] is a local step with one f32
 //! output per requested metric (NaN = nodata) and the largest halo any of
 //! them needs. Intermediate products are computed once per tile and shared:
-//! the Evans quadric coefficients (all curvatures), one summed-area table of
+//! the quadric coefficients (all curvatures of one radius), one summed-area table of
 //! values, counts and squares (mean, stdev, variance, TPI, NTPI at any
 //! radius), one field of unit normals with its tables (roughness at any
 //! radius), and one horizon scan per (radius, directions) for openness and
 //! sky view.
 //!
 //! Nodata: a cell whose value is nodata is nodata in every output; 3x3
-//! metrics are nodata where a neighbour is nodata or beyond the raster
-//! (gdaldem's default); windowed metrics exclude nodata cells and cells
-//! beyond the raster from their windows.
+//! metrics (including Evans curvatures, radius 1) are nodata where a
+//! neighbour is nodata or beyond the raster (gdaldem's default); windowed
+//! metrics (including Wood's curvatures, radius > 1) exclude nodata cells
+//! and cells beyond the raster from their windows.
 
 use super::horizon::{horizon, HorizonOut};
 use super::neighbourhood::{walk_3x3, EdgeMode};
-use super::quadric::{laplacian, rugosity, tri_riley, tri_wilson, Quadric};
-use super::registry::{resolve, MetricKind, MetricSpec, Resolved};
+use super::quadric::{laplacian, rugosity, tri_riley, tri_wilson, wood_fit, Quadric};
+use super::registry::{is_curvature, resolve, MetricKind, MetricSpec, Resolved};
 use super::terrain::horn_gradient;
 use super::windowed::{running_max, Sat};
 use crate::error::{Error, Result};
@@ -58,20 +59,6 @@ impl MultiMetric {
     }
 }
 
-fn is_curvature(k: MetricKind) -> bool {
-    use MetricKind::*;
-    matches!(
-        k,
-        ProfileCurvature
-            | PlanCurvature
-            | TangentialCurvature
-            | MeanCurvature
-            | GaussianCurvature
-            | MinCurvature
-            | MaxCurvature
-    )
-}
-
 fn is_sat(k: MetricKind) -> bool {
     use MetricKind::*;
     matches!(k, Mean | Stdev | Variance | Tpi | Ntpi)
@@ -108,21 +95,22 @@ impl LocalStep for MultiMetric {
         let (cw, ch) = (view.core.w, view.core.h);
         let nan = f32::NAN;
 
-        // Shared: quadric coefficients for every curvature.
-        let quad = if self.metrics.iter().any(|m| is_curvature(m.spec.kind)) {
-            let none = Quadric {
-                p: f64::NAN,
-                q: f64::NAN,
-                r: f64::NAN,
-                s: f64::NAN,
-                t: f64::NAN,
-            };
-            let mut g = Grid::new(cw, ch, none);
-            walk_3x3(view, &mut g, EdgeMode::Nodata, none, Quadric::fit);
-            Some(g)
-        } else {
-            None
-        };
+        // Shared: quadric coefficients per curvature radius (Evans 3x3 for
+        // radius 1, Wood's n x n fit beyond).
+        let mut quads: Vec<(usize, Grid<Quadric>)> = Vec::new();
+        for m in self.metrics.iter().filter(|m| is_curvature(m.spec.kind)) {
+            let r = m.radius_cells.max(1);
+            if quads.iter().any(|q| q.0 == r) {
+                continue;
+            }
+            let mut g = Grid::new(cw, ch, Quadric::NAN);
+            if r == 1 {
+                walk_3x3(view, &mut g, EdgeMode::Nodata, Quadric::NAN, Quadric::fit);
+            } else {
+                wood_fit(view, r, &mut g);
+            }
+            quads.push((r, g));
+        }
         // Shared: one SAT over core + the largest SAT radius.
         let sat_r = self
             .metrics
@@ -208,7 +196,8 @@ impl LocalStep for MultiMetric {
                 }),
                 ProfileCurvature | PlanCurvature | TangentialCurvature | MeanCurvature
                 | GaussianCurvature | MinCurvature | MaxCurvature => {
-                    let Some(qg) = quad.as_ref() else {
+                    let r = m.radius_cells.max(1);
+                    let Some(qg) = quads.iter().find(|q| q.0 == r).map(|q| &q.1) else {
                         return Err(Error::invalid("metrics: quadric table missing"));
                     };
                     let kind = m.spec.kind;

@@ -162,3 +162,202 @@ pub fn rugosity(w: &[f64; 9], ew: f64, ns: f64) -> f64 {
     }
     area / (ew * ns)
 }
+
+impl Quadric {
+    /// All coefficients NaN (nodata).
+    pub const NAN: Quadric = Quadric {
+        p: f64::NAN,
+        q: f64::NAN,
+        r: f64::NAN,
+        s: f64::NAN,
+        t: f64::NAN,
+    };
+}
+
+/// Solve the 6x6 system `m · x = v` by Gaussian elimination with partial
+/// pivoting; `None` if (numerically) singular.
+fn solve6(mut m: [[f64; 6]; 6], mut v: [f64; 6]) -> Option<[f64; 6]> {
+    let scale = m.iter().flatten().fold(0.0f64, |a, b| a.max(b.abs()));
+    if scale == 0.0 || !scale.is_finite() {
+        return None;
+    }
+    for col in 0..6 {
+        let piv = (col..6).max_by(|&a, &b| m[a][col].abs().total_cmp(&m[b][col].abs()))?;
+        if m[piv][col].abs() <= 1e-12 * scale {
+            return None;
+        }
+        m.swap(col, piv);
+        v.swap(col, piv);
+        let pivot_row = m[col];
+        for row in col + 1..6 {
+            let f = m[row][col] / pivot_row[col];
+            for (a, b) in m[row][col..].iter_mut().zip(&pivot_row[col..]) {
+                *a -= f * b;
+            }
+            v[row] -= f * v[col];
+        }
+    }
+    let mut x = [0.0; 6];
+    for row in (0..6).rev() {
+        let mut s = v[row];
+        for k in row + 1..6 {
+            s -= m[row][k] * x[k];
+        }
+        x[row] = s / m[row][row];
+    }
+    Some(x)
+}
+
+/// Basis of the quadric at offset (i east, j north) in cells.
+#[inline(always)]
+fn basis(i: f64, j: f64) -> [f64; 6] {
+    [i * i, j * j, i * j, i, j, 1.0]
+}
+
+/// Wood's quadric fit (Wood 1996, *The geomorphological characterisation of
+/// digital elevation models*, PhD thesis, Univ. Leicester, ch. 4): the
+/// unweighted least-squares quadric `z = a x² + b y² + c xy + d x + e y + f`
+/// over the valid cells of the `(2r+1)²` window, so that curvatures describe
+/// the terrain at the scale of the window (for r = 1 it is Evans' fit).
+/// Offsets are in cells, heights relative to the centre (conditioning);
+/// derivatives are then scaled by the row's true cell sizes:
+/// `p = d/ew, q = e/ns, r = 2a/ew², t = 2b/ns², s = c/(ew·ns)`.
+/// Windows without nodata share one precomputed inverse normal matrix (6
+/// sums per window cell); windows with holes solve their own 6x6 system.
+/// Cost O(r²) per cell. Cells whose centre is nodata, or whose valid cells
+/// do not determine the quadric, get [`Quadric::NAN`]. Needs `r ≤ halo`.
+pub fn wood_fit(
+    view: &crate::raster::TileView<f32>,
+    r: usize,
+    out: &mut crate::raster::Grid<Quadric>,
+) {
+    assert!(r >= 1 && r <= view.halo, "Wood's fit needs 1 <= r <= halo");
+    let h = view.halo;
+    let gw = view.grid.width();
+    let data = view.grid.data();
+    let ri = r as i64;
+    let side = 2 * r + 1;
+    // The full window's normal matrix and its inverse (columns of M⁻¹).
+    let mut full = [[0.0; 6]; 6];
+    for dy in -ri..=ri {
+        for dx in -ri..=ri {
+            let b = basis(dx as f64, -dy as f64);
+            for (a, ba) in full.iter_mut().zip(&b) {
+                for (m, bb) in a.iter_mut().zip(&b) {
+                    *m += ba * bb;
+                }
+            }
+        }
+    }
+    let mut inv = [[0.0; 6]; 6];
+    for k in 0..6 {
+        let mut e = [0.0; 6];
+        e[k] = 1.0;
+        // The full window of r >= 1 always determines the quadric.
+        let col = solve6(full, e).unwrap_or([f64::NAN; 6]);
+        for (row, c) in inv.iter_mut().zip(col) {
+            row[k] = c;
+        }
+    }
+    for y in 0..view.core.h {
+        let (ew, ns) = view.georef.cell_size_m(view.core.y + y as i64);
+        for x in 0..view.core.w {
+            let c = (y + h) * gw + x + h;
+            let z0 = data[c] as f64;
+            if z0.is_nan() {
+                out.set(x, y, Quadric::NAN);
+                continue;
+            }
+            let mut v = [0.0; 6];
+            let mut n = 0usize;
+            for (row, dy) in (-ri..=ri).enumerate() {
+                let start = c - r * gw + row * gw - r;
+                let line = &data[start..start + side];
+                for (col, &z) in line.iter().enumerate() {
+                    if z.is_nan() {
+                        continue;
+                    }
+                    let dz = z as f64 - z0;
+                    let b = basis(col as f64 - r as f64, -dy as f64);
+                    for (vk, bk) in v.iter_mut().zip(&b) {
+                        *vk += bk * dz;
+                    }
+                    n += 1;
+                }
+            }
+            let beta = if n == side * side {
+                let mut bt = [0.0; 6];
+                for (o, row) in bt.iter_mut().zip(&inv) {
+                    *o = row.iter().zip(&v).map(|(a, b)| a * b).sum();
+                }
+                Some(bt)
+            } else {
+                let mut m = [[0.0; 6]; 6];
+                for (row, dy) in (-ri..=ri).enumerate() {
+                    let start = c - r * gw + row * gw - r;
+                    for (col, &z) in data[start..start + side].iter().enumerate() {
+                        if z.is_nan() {
+                            continue;
+                        }
+                        let b = basis(col as f64 - r as f64, -dy as f64);
+                        for (a, ba) in m.iter_mut().zip(&b) {
+                            for (mm, bb) in a.iter_mut().zip(&b) {
+                                *mm += ba * bb;
+                            }
+                        }
+                    }
+                }
+                solve6(m, v)
+            };
+            out.set(
+                x,
+                y,
+                match beta {
+                    Some(b) => Quadric {
+                        p: b[3] / ew,
+                        q: b[4] / ns,
+                        r: 2.0 * b[0] / (ew * ew),
+                        t: 2.0 * b[1] / (ns * ns),
+                        s: b[2] / (ew * ns),
+                    },
+                    None => Quadric::NAN,
+                },
+            );
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::raster::{Crs, GeoRef, Grid, TileView, Window};
+
+    #[test]
+    fn wood_radius_one_is_evans() {
+        let data: Vec<f32> = (0..25).map(|i| ((i * 37) % 11) as f32 * 1.5).collect();
+        let view = TileView {
+            id: 0,
+            core: Window::new(1, 1, 3, 3),
+            halo: 1,
+            grid: Grid::from_vec(5, 5, data.clone()).unwrap(),
+            georef: GeoRef::north_up(0.0, 0.0, 10.0, Crs::projected(32611)),
+            raster_width: 5,
+            raster_height: 5,
+        };
+        let mut out = Grid::new(3, 3, Quadric::NAN);
+        wood_fit(&view, 1, &mut out);
+        for y in 0..3 {
+            for x in 0..3 {
+                let mut w = [0.0; 9];
+                for k in 0..9 {
+                    w[k] = data[(y + k / 3) * 5 + x + k % 3] as f64;
+                }
+                let e = Quadric::fit(&w, 10.0, 10.0);
+                let g = out.get(x, y);
+                for (a, b) in [(g.p, e.p), (g.q, e.q), (g.r, e.r), (g.s, e.s), (g.t, e.t)] {
+                    assert!((a - b).abs() < 1e-12, "({x},{y}) {g:?} vs {e:?}");
+                }
+            }
+        }
+    }
+}

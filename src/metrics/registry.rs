@@ -103,6 +103,12 @@ const RADIUS_HORIZON: ParamDef = ParamDef {
     default: "10c",
     range: "1c..=2000c, or a length in m/km (> 0); the horizon search cutoff",
 };
+const RADIUS_QUADRIC: ParamDef = ParamDef {
+    name: "radius",
+    kind: ParamKind::Radius,
+    default: "1c",
+    range: "1c (Evans 3x3) ..=2000c, or a length in m/km: Wood's (2r+1)^2 least-squares quadric",
+};
 const DIRECTIONS: ParamDef = ParamDef {
     name: "directions",
     kind: ParamKind::Directions,
@@ -118,7 +124,7 @@ const UNITS: ParamDef = ParamDef {
 
 const HORN: &str = "Horn 1981, Proc. IEEE 69(1) (3x3 weighted gradient)";
 const EVANS: &str =
-    "Evans 1979 3x3 quadric; formulas of Florinsky 2016, Digital Terrain Analysis in Soil Science and Geology, 2nd ed., ch. 2";
+    "Evans 1979 3x3 quadric (radius 1c), Wood 1996 PhD thesis (Leicester) ch. 4 for larger windows; formulas of Florinsky 2016, Digital Terrain Analysis in Soil Science and Geology, 2nd ed., ch. 2";
 
 macro_rules! def {
     ($k:ident, $n:expr, $p:expr, $u:expr, $d:expr, $c:expr) => {
@@ -218,7 +224,7 @@ pub const METRICS: &[MetricDef] = &[
     def!(
         ProfileCurvature,
         "profile_curvature",
-        &[],
+        &[RADIUS_QUADRIC],
         "1/m",
         "vertical (profile) curvature kv; convex positive; 0 where flat",
         EVANS
@@ -226,7 +232,7 @@ pub const METRICS: &[MetricDef] = &[
     def!(
         PlanCurvature,
         "plan_curvature",
-        &[],
+        &[RADIUS_QUADRIC],
         "1/m",
         "plan (contour) curvature kp; convex positive; 0 where flat",
         EVANS
@@ -234,7 +240,7 @@ pub const METRICS: &[MetricDef] = &[
     def!(
         TangentialCurvature,
         "tangential_curvature",
-        &[],
+        &[RADIUS_QUADRIC],
         "1/m",
         "horizontal (tangential) curvature kh; convex positive; 0 where flat",
         EVANS
@@ -242,7 +248,7 @@ pub const METRICS: &[MetricDef] = &[
     def!(
         MeanCurvature,
         "mean_curvature",
-        &[],
+        &[RADIUS_QUADRIC],
         "1/m",
         "mean curvature H; convex positive",
         EVANS
@@ -250,7 +256,7 @@ pub const METRICS: &[MetricDef] = &[
     def!(
         GaussianCurvature,
         "gaussian_curvature",
-        &[],
+        &[RADIUS_QUADRIC],
         "1/m^2",
         "Gaussian curvature K",
         EVANS
@@ -258,7 +264,7 @@ pub const METRICS: &[MetricDef] = &[
     def!(
         MinCurvature,
         "min_curvature",
-        &[],
+        &[RADIUS_QUADRIC],
         "1/m",
         "minimal curvature H - sqrt(H^2-K)",
         EVANS
@@ -266,7 +272,7 @@ pub const METRICS: &[MetricDef] = &[
     def!(
         MaxCurvature,
         "max_curvature",
-        &[],
+        &[RADIUS_QUADRIC],
         "1/m",
         "maximal curvature H + sqrt(H^2-K)",
         EVANS
@@ -385,6 +391,21 @@ pub fn def(kind: MetricKind) -> &'static MetricDef {
         .expect("every MetricKind has a registry entry (checked by a unit test)")
 }
 
+/// True for the quadric curvatures (Evans 3x3 or Wood n x n).
+pub fn is_curvature(k: MetricKind) -> bool {
+    use MetricKind::*;
+    matches!(
+        k,
+        ProfileCurvature
+            | PlanCurvature
+            | TangentialCurvature
+            | MeanCurvature
+            | GaussianCurvature
+            | MinCurvature
+            | MaxCurvature
+    )
+}
+
 /// A length given by the user.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -441,7 +462,10 @@ impl MetricSpec {
     pub fn label(&self) -> String {
         let mut s = self.def().name.to_string();
         if let Some(r) = self.radius {
-            s.push_str(&format!("_r{r}"));
+            // Curvatures at their default (Evans 3x3) keep the plain name.
+            if !(is_curvature(self.kind) && r == Length::Cells(1)) {
+                s.push_str(&format!("_r{r}"));
+            }
         }
         if self
             .def()
@@ -638,6 +662,7 @@ impl Resolved {
             | SkyView => self.radius_cells,
             // Normals need one more ring.
             Roughness => self.radius_cells + 1,
+            k if is_curvature(k) => self.radius_cells.max(1),
             _ => 1,
         }
     }
