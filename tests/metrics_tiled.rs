@@ -221,6 +221,25 @@ fn parse_specs_values_and_errors() {
     let e = err("tpi:radius=99999c");
     assert!(e.contains("out of range"), "{e}");
 
+    // Output names from labels; duplicates refused.
+    let p = orogen::metrics::output_paths(&s[..4], Path::new("out"), "tif").unwrap();
+    assert_eq!(p[1], Path::new("out/tpi_r500m.tif"));
+    assert_eq!(p[3], Path::new("out/relief_r25c.tif"));
+    let dup = parse_specs("tpi:radius=3c,slope,tpi:radius=3c").unwrap();
+    let e = orogen::metrics::output_paths(&dup, Path::new("o"), "tif")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("twice"), "{e}");
+    // Curvatures at the default radius keep their plain name.
+    assert_eq!(
+        parse_specs("mean_curvature").unwrap()[0].label(),
+        "mean_curvature"
+    );
+    assert_eq!(
+        parse_specs("mean_curvature:radius=5c").unwrap()[0].label(),
+        "mean_curvature_r5c"
+    );
+
     // The list names every metric with its citation.
     let l = list();
     for d in METRICS {

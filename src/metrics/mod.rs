@@ -8,7 +8,7 @@ pub mod registry;
 pub mod terrain;
 pub mod windowed;
 
-pub use multi::{compute, MultiMetric, METRIC_NODATA};
+pub use multi::{compute, output_paths, MultiMetric, METRIC_NODATA};
 pub use neighbourhood::EdgeMode;
 pub use registry::{list, parse_specs, MetricKind, MetricSpec};
 pub use terrain::{Aspect, Hillshade, Slope, SlopeUnits};

@@ -57,6 +57,77 @@ impl MultiMetric {
     pub fn metrics(&self) -> &[Resolved] {
         &self.metrics
     }
+
+    /// Upper bound of the scratch memory one tile of `tile x tile` cells
+    /// allocates in [`LocalStep::run`] beyond its input view and outputs
+    /// (summed-area tables, normals, quadric grids, relief passes), for
+    /// memory budgets: the engine's own estimate counts views and outputs only.
+    pub fn scratch_bytes(&self, tile: usize) -> u64 {
+        let core = (tile * tile) as u64;
+        let region = |r: usize| ((tile + 2 * r + 1) * (tile + 2 * r + 1)) as u64;
+        let mut b = 0u64;
+        let radius = |f: &dyn Fn(MetricKind) -> bool| {
+            self.metrics
+                .iter()
+                .filter(|m| f(m.spec.kind))
+                .map(|m| m.radius_cells)
+                .max()
+        };
+        if let Some(r) = radius(&|k| {
+            matches!(
+                k,
+                MetricKind::Mean
+                    | MetricKind::Stdev
+                    | MetricKind::Variance
+                    | MetricKind::Tpi
+                    | MetricKind::Ntpi
+            )
+        }) {
+            // values (f64) + count (u32) + two i128 tables
+            b += region(r) * (8 + 4 + 16 + 16);
+        }
+        if let Some(r) = radius(&|k| k == MetricKind::Roughness) {
+            // three normal components (f64) + three (count, i128) tables
+            b += region(r) * (3 * 8 + 3 * (4 + 16));
+        }
+        if let Some(r) = radius(&|k| k == MetricKind::Relief) {
+            b += region(r) * 8 + (tile + 2 * r) as u64 * tile as u64 * 16;
+        }
+        let quadrics = {
+            let mut rs: Vec<usize> = self
+                .metrics
+                .iter()
+                .filter(|m| is_curvature(m.spec.kind))
+                .map(|m| m.radius_cells.max(1))
+                .collect();
+            rs.sort_unstable();
+            rs.dedup();
+            rs.len() as u64
+        };
+        b + quadrics * core * std::mem::size_of::<Quadric>() as u64 + 3 * core * 4
+    }
+}
+
+/// Output paths for `specs` in `dir`: `<label>.<ext>` (e.g. `tpi_r500m.tif`);
+/// an error if two specs would write the same file.
+pub fn output_paths(
+    specs: &[MetricSpec],
+    dir: &std::path::Path,
+    ext: &str,
+) -> Result<Vec<PathBuf>> {
+    let mut out: Vec<PathBuf> = Vec::with_capacity(specs.len());
+    for s in specs {
+        let p = dir.join(format!("{}.{ext}", s.label()));
+        if out.contains(&p) {
+            return Err(Error::invalid(format!(
+                "metric {} is requested twice (both would write {}): remove the duplicate",
+                s.label(),
+                p.display()
+            )));
+        }
+        out.push(p);
+    }
+    Ok(out)
 }
 
 fn is_sat(k: MetricKind) -> bool {
