@@ -53,8 +53,12 @@ fn run(src: &dyn RasterSource, specs: &str, tile: usize, threads: usize) -> Vec<
 
 fn tiled_equals_untiled(path: &str) {
     let src = open_raster(Path::new(path), &OpenOptions::default()).unwrap();
+    check_tiled(src.as_ref(), path);
+}
+
+fn check_tiled(src: &dyn RasterSource, path: &str) {
     let info = src.info().clone();
-    let whole = run(src.as_ref(), SPECS, info.width.max(info.height), 1);
+    let whole = run(src, SPECS, info.width.max(info.height), 1);
     let specs = parse_specs(SPECS).unwrap();
     for (k, s) in specs.iter().enumerate() {
         let valid = whole[k].iter().filter(|&&v| v != u32::MAX).count();
@@ -65,7 +69,7 @@ fn tiled_equals_untiled(path: &str) {
         );
     }
     for (tile, threads) in [(1, 2), (7, 2), (64, 1), (64, 2)] {
-        let got = run(src.as_ref(), SPECS, tile, threads);
+        let got = run(src, SPECS, tile, threads);
         for (k, s) in specs.iter().enumerate() {
             if let Some(i) = (0..whole[k].len()).find(|&i| got[k][i] != whole[k][i]) {
                 panic!(
@@ -81,7 +85,7 @@ fn tiled_equals_untiled(path: &str) {
     }
     // One pass for many metrics == each metric alone.
     for (k, s) in SPECS.split(',').enumerate() {
-        let alone = run(src.as_ref(), s, 64, 1);
+        let alone = run(src, s, 64, 1);
         assert!(
             alone[0] == whole[k],
             "{path}: {s} alone differs from the multi pass"
@@ -97,6 +101,24 @@ fn tiled_equals_untiled_bigtujunga() {
 #[test]
 fn tiled_equals_untiled_whitebox() {
     tiled_equals_untiled("tests/data/whitebox_DEM.tif");
+}
+
+/// Geographic 3" SRTM with nodata holes (the .asc has no .prj: its degrees
+/// are declared WGS 84 here): per-row true cell sizes, halos from the
+/// smallest true cell.
+#[test]
+fn tiled_equals_untiled_geographic() {
+    let path = "tests/data/landlab_SRTMGL3_frontrange.asc";
+    let asc = open_raster(Path::new(path), &OpenOptions::default()).unwrap();
+    let i = asc.info().clone();
+    let data = asc.read_native(orogen::raster::Window::full(i.width, i.height)).unwrap();
+    let mut g = i.georef.clone();
+    g.crs = Crs::wgs84();
+    g.georeferenced = true;
+    let src = MemRaster::new(data, g.clone(), path);
+    let (ew, ns) = g.cell_size_m(0);
+    assert!(ew > 60.0 && ew < 80.0 && ns > 90.0 && ns < 95.0, "{ew} {ns}");
+    check_tiled(&src, path);
 }
 
 #[test]
