@@ -732,3 +732,85 @@ fn horizon_brute_force() {
         }
     }
 }
+
+#[test]
+fn top_hats_brute_force() {
+    let (w, h) = (26, 21);
+    let d = random_grid(w, h, 23);
+    let src = source(&d, w, h);
+    for r in [1i64, 2, 4] {
+        // Erosion and dilation at every valid cell (valid neighbours only).
+        let mut ero = vec![f64::NAN; w * h];
+        let mut dil = vec![f64::NAN; w * h];
+        for y in 0..h as i64 {
+            for x in 0..w as i64 {
+                if at(&d, w, h, x, y).is_nan() {
+                    continue;
+                }
+                let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+                for dy in -r..=r {
+                    for dx in -r..=r {
+                        let v = at(&d, w, h, x + dx, y + dy);
+                        if !v.is_nan() {
+                            lo = lo.min(v);
+                            hi = hi.max(v);
+                        }
+                    }
+                }
+                ero[y as usize * w + x as usize] = lo;
+                dil[y as usize * w + x as usize] = hi;
+            }
+        }
+        let mut white = vec![f64::NAN; w * h];
+        let mut black = vec![f64::NAN; w * h];
+        for y in 0..h as i64 {
+            for x in 0..w as i64 {
+                let z = at(&d, w, h, x, y);
+                if z.is_nan() {
+                    continue;
+                }
+                let (mut open, mut close) = (f64::NEG_INFINITY, f64::INFINITY);
+                for dy in -r..=r {
+                    for dx in -r..=r {
+                        let (xx, yy) = (x + dx, y + dy);
+                        if xx < 0 || yy < 0 || xx >= w as i64 || yy >= h as i64 {
+                            continue;
+                        }
+                        let i = yy as usize * w + xx as usize;
+                        if !ero[i].is_nan() {
+                            open = open.max(ero[i]);
+                            close = close.min(dil[i]);
+                        }
+                    }
+                }
+                white[y as usize * w + x as usize] = z - open;
+                black[y as usize * w + x as usize] = close - z;
+                assert!(z - open >= 0.0 && close - z >= 0.0);
+            }
+        }
+        for tile in [1, 7, 64] {
+            let out = run(
+                &src,
+                &format!("tophat_white:radius={r}c,tophat_black:radius={r}c"),
+                tile,
+                2,
+            );
+            assert_all(
+                &format!("white r{r} tile {tile}"),
+                &out[0],
+                &white,
+                w,
+                0.0,
+                0.0,
+            );
+            assert_all(
+                &format!("black r{r} tile {tile}"),
+                &out[1],
+                &black,
+                w,
+                0.0,
+                0.0,
+            );
+        }
+    }
+}

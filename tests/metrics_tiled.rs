@@ -13,7 +13,7 @@ use orogen::metrics::{compute, list, parse_specs, MultiMetric};
 use orogen::raster::{Crs, DType, GeoRef, Grid, MemRaster, RasterSource, TileLayout};
 use std::path::Path;
 
-const SPECS: &str = "mean_curvature:radius=3c,profile_curvature:radius=2c,dzdx,slope,aspect,northness,normal_z,laplacian,profile_curvature,plan_curvature,tangential_curvature,mean_curvature,gaussian_curvature,min_curvature,max_curvature,mean:radius=4c,stdev:radius=3c,tpi:radius=90m,ntpi:radius=4c,relief:radius=5c,tri_riley,tri,rugosity,roughness:radius=3c,openness:radius=150m,openness_neg:radius=4c:directions=16,sky_view:radius=150m";
+const SPECS: &str = "mean_curvature:radius=3c,profile_curvature:radius=2c,dzdx,slope,aspect,northness,normal_z,laplacian,profile_curvature,plan_curvature,tangential_curvature,mean_curvature,gaussian_curvature,min_curvature,max_curvature,mean:radius=4c,stdev:radius=3c,tpi:radius=90m,ntpi:radius=4c,relief:radius=5c,tophat_white:radius=3c,tophat_black:radius=2c,tri_riley,tri,rugosity,roughness:radius=3c,openness:radius=150m,openness_neg:radius=4c:directions=16,sky_view:radius=150m";
 
 fn run(src: &dyn RasterSource, specs: &str, tile: usize, threads: usize) -> Vec<Vec<u32>> {
     let specs = parse_specs(specs).unwrap();
@@ -111,13 +111,18 @@ fn tiled_equals_untiled_geographic() {
     let path = "tests/data/landlab_SRTMGL3_frontrange.asc";
     let asc = open_raster(Path::new(path), &OpenOptions::default()).unwrap();
     let i = asc.info().clone();
-    let data = asc.read_native(orogen::raster::Window::full(i.width, i.height)).unwrap();
+    let data = asc
+        .read_native(orogen::raster::Window::full(i.width, i.height))
+        .unwrap();
     let mut g = i.georef.clone();
     g.crs = Crs::wgs84();
     g.georeferenced = true;
     let src = MemRaster::new(data, g.clone(), path);
     let (ew, ns) = g.cell_size_m(0);
-    assert!(ew > 60.0 && ew < 80.0 && ns > 90.0 && ns < 95.0, "{ew} {ns}");
+    assert!(
+        ew > 60.0 && ew < 80.0 && ns > 90.0 && ns < 95.0,
+        "{ew} {ns}"
+    );
     check_tiled(&src, path);
 }
 

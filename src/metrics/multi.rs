@@ -18,7 +18,7 @@ use super::neighbourhood::{walk_3x3, EdgeMode};
 use super::quadric::{laplacian, rugosity, tri_riley, tri_wilson, wood_fit, Quadric};
 use super::registry::{is_curvature, resolve, MetricKind, MetricSpec, Resolved};
 use super::terrain::horn_gradient;
-use super::windowed::{running_max, Sat};
+use super::windowed::{open_close, running_max, Sat};
 use crate::error::{Error, Result};
 use crate::exec::{EngineConfig, LocalStep};
 use crate::io::OutputOptions;
@@ -92,6 +92,11 @@ impl MultiMetric {
         }
         if let Some(r) = radius(&|k| k == MetricKind::Relief) {
             b += region(r) * 8 + (tile + 2 * r) as u64 * tile as u64 * 16;
+        }
+        if let Some(r) = radius(&|k| matches!(k, MetricKind::TopHatWhite | MetricKind::TopHatBlack))
+        {
+            // region, flipped copy, first pass, running lines
+            b += region(2 * r) * 8 * 4;
         }
         let quadrics = {
             let mut rs: Vec<usize> = self
@@ -295,6 +300,23 @@ impl LocalStep for MultiMetric {
                     windowed_stat(view, sat, *big, m.radius_cells, m.spec.kind, o);
                 }
                 Relief => relief(view, m.radius_cells, o, &mut g1, &mut g2),
+                TopHatWhite | TopHatBlack => {
+                    let r = m.radius_cells;
+                    let vals = region(view, 2 * r);
+                    let w = view.core.w + 4 * r;
+                    let white = m.spec.kind == TopHatWhite;
+                    let oc = open_close(&vals, w, view.core.h + 4 * r, r, !white);
+                    for (i, (o, v)) in o.data_mut().iter_mut().zip(&oc).enumerate() {
+                        let z = vals[(i / cw + 2 * r) * w + i % cw + 2 * r];
+                        *o = if z.is_nan() {
+                            nan
+                        } else if white {
+                            (z - v) as f32
+                        } else {
+                            (v - z) as f32
+                        };
+                    }
+                }
                 Roughness => {
                     let Some((big, ns)) = normals.as_ref() else {
                         return Err(Error::invalid("metrics: normal tables missing"));

@@ -41,6 +41,8 @@ pub enum MetricKind {
     Tpi,
     Ntpi,
     Relief,
+    TopHatWhite,
+    TopHatBlack,
     TriRiley,
     TriWilson,
     Roughness,
@@ -324,6 +326,22 @@ pub const METRICS: &[MetricDef] = &[
         "z",
         "local relief: max - min of valid cells in the square window",
         "van Herk 1992 / Gil & Werman 1993 running max/min"
+    ),
+    def!(
+        TopHatWhite,
+        "tophat_white",
+        &[RADIUS],
+        "z",
+        "white top-hat z - opening (square window): height above the local 'floor'",
+        "grey-level morphology, Serra 1982; van Herk/Gil-Werman max/min"
+    ),
+    def!(
+        TopHatBlack,
+        "tophat_black",
+        &[RADIUS],
+        "z",
+        "black top-hat closing - z (square window): depth below the local 'lid'",
+        "grey-level morphology, Serra 1982; van Herk/Gil-Werman max/min"
     ),
     def!(
         TriRiley,
@@ -660,6 +678,8 @@ impl Resolved {
         match self.spec.kind {
             Mean | Stdev | Variance | Tpi | Ntpi | Relief | OpennessPositive | OpennessNegative
             | SkyView => self.radius_cells,
+            // Two passes of the window.
+            TopHatWhite | TopHatBlack => 2 * self.radius_cells,
             // Normals need one more ring.
             Roughness => self.radius_cells + 1,
             k if is_curvature(k) => self.radius_cells.max(1),
