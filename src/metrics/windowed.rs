@@ -212,38 +212,6 @@ pub fn running_max(a: &[f64], r: usize, out: &mut [f64], g: &mut Vec<f64>, hs: &
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn running_max_matches_naive() {
-        let a: Vec<f64> = (0..37).map(|i| ((i * 7919) % 23) as f64 - 11.0).collect();
-        let (mut g, mut h) = (Vec::new(), Vec::new());
-        for r in 0..40 {
-            let mut out = vec![0.0; a.len()];
-            running_max(&a, r, &mut out, &mut g, &mut h);
-            for (j, o) in out.iter().enumerate() {
-                let lo = j.saturating_sub(r);
-                let hi = (j + r).min(a.len() - 1);
-                let m = a[lo..=hi].iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-                assert_eq!(*o, m, "r {r} j {j}");
-            }
-        }
-    }
-
-    #[test]
-    fn variance_exact_on_large_offsets() {
-        // Values near 1e6 with a tiny spread: f64 naive Σz² − (Σz)²/n loses it.
-        let vals = [1e6 + 0.5, 1e6 + 1.0, 1e6 + 1.5, f64::NAN];
-        let sat = Sat::new(&vals, 2, 2, true, "t").unwrap();
-        let ws = sat.window(0, 0, 2, 2);
-        assert_eq!(ws.n, 3);
-        assert_eq!(ws.mean(), 1e6 + 1.0);
-        assert!((ws.variance() - 1.0 / 6.0).abs() < 1e-15);
-    }
-}
-
 /// Maximum over the square window of half-side `r` for every cell of the
 /// inner `(w−2r) x (h−2r)` part of a `w x h` region (row-major), by two
 /// separable [`running_max`] passes: O(1) per cell whatever `r`. NaN cells
@@ -304,5 +272,37 @@ pub fn open_close(vals: &[f64], w: usize, h: usize, r: usize, closing: bool) -> 
         neg(&box_max(&neg(&first), w1, h1, r))
     } else {
         box_max(&first, w1, h1, r)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn running_max_matches_naive() {
+        let a: Vec<f64> = (0..37).map(|i| ((i * 7919) % 23) as f64 - 11.0).collect();
+        let (mut g, mut h) = (Vec::new(), Vec::new());
+        for r in 0..40 {
+            let mut out = vec![0.0; a.len()];
+            running_max(&a, r, &mut out, &mut g, &mut h);
+            for (j, o) in out.iter().enumerate() {
+                let lo = j.saturating_sub(r);
+                let hi = (j + r).min(a.len() - 1);
+                let m = a[lo..=hi].iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+                assert_eq!(*o, m, "r {r} j {j}");
+            }
+        }
+    }
+
+    #[test]
+    fn variance_exact_on_large_offsets() {
+        // Values near 1e6 with a tiny spread: f64 naive Σz² − (Σz)²/n loses it.
+        let vals = [1e6 + 0.5, 1e6 + 1.0, 1e6 + 1.5, f64::NAN];
+        let sat = Sat::new(&vals, 2, 2, true, "t").unwrap();
+        let ws = sat.window(0, 0, 2, 2);
+        assert_eq!(ws.n, 3);
+        assert_eq!(ws.mean(), 1e6 + 1.0);
+        assert!((ws.variance() - 1.0 / 6.0).abs() < 1e-15);
     }
 }
