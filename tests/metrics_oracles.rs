@@ -98,11 +98,12 @@ fn tilted_plane_closed_forms() {
     let src = source(&data, w, h);
     let out = run(
         &src,
-        "dzdx,dzdy,slope,aspect,northness,eastness,laplacian,mean_curvature,gaussian_curvature,profile_curvature,plan_curvature,tpi:radius=2c,relief:radius=2c,tri_riley,tri,rugosity,variance:radius=3c,roughness:radius=2c",
+        "dzdx,dzdy,slope,aspect,northness,eastness,laplacian,mean_curvature,gaussian_curvature,profile_curvature,plan_curvature,tpi:radius=2c,relief:radius=2c,tri_riley,tri,rugosity,variance:radius=3c,roughness:radius=2c,sky_view_approx",
         7,
         2,
     );
     let g: f64 = (a * a + b * b).sqrt();
+    let svf_approx = (1.0 + g.atan().cos()) / 2.0;
     let slope = g.atan().to_degrees();
     // Downslope direction (−a, −b): azimuth clockwise from north.
     let mut aspect = (-a).atan2(-b).to_degrees();
@@ -174,6 +175,11 @@ fn tilted_plane_closed_forms() {
             }
             if interior(x, y, 3) {
                 chk(17, 0.0, 0.0, 1e-4);
+            }
+            if interior(x, y, 1) {
+                chk(18, svf_approx, 1e-6, 0.0);
+            } else {
+                assert!(out[18][i].is_nan());
             }
         }
     }

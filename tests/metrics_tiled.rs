@@ -13,7 +13,7 @@ use orogen::metrics::{compute, list, parse_specs, MultiMetric};
 use orogen::raster::{Crs, DType, GeoRef, Grid, MemRaster, RasterSource, TileLayout};
 use std::path::Path;
 
-const SPECS: &str = "mean_curvature:radius=3c,profile_curvature:radius=2c,dzdx,slope,aspect,northness,normal_z,laplacian,profile_curvature,plan_curvature,tangential_curvature,mean_curvature,gaussian_curvature,min_curvature,max_curvature,mean:radius=4c,stdev:radius=3c,tpi:radius=90m,ntpi:radius=4c,relief:radius=5c,tophat_white:radius=3c,tophat_black:radius=2c,tri_riley,tri,rugosity,roughness:radius=3c,openness:radius=150m,openness_neg:radius=4c:directions=16,sky_view:radius=150m";
+const SPECS: &str = "mean_curvature:radius=3c,profile_curvature:radius=2c,dzdx,slope,aspect,northness,normal_z,laplacian,profile_curvature,plan_curvature,tangential_curvature,mean_curvature,gaussian_curvature,min_curvature,max_curvature,mean:radius=4c,stdev:radius=3c,tpi:radius=90m,ntpi:radius=4c,relief:radius=5c,tophat_white:radius=3c,tophat_black:radius=2c,percentile:radius=3c,sky_view_approx,tri_riley,tri,rugosity,roughness:radius=3c,openness:radius=150m,openness_neg:radius=4c:directions=16,sky_view:radius=150m";
 
 fn run(src: &dyn RasterSource, specs: &str, tile: usize, threads: usize) -> Vec<Vec<u32>> {
     let specs = parse_specs(specs).unwrap();

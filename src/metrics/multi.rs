@@ -300,6 +300,12 @@ impl LocalStep for MultiMetric {
                     windowed_stat(view, sat, *big, m.radius_cells, m.spec.kind, o);
                 }
                 Relief => relief(view, m.radius_cells, o, &mut g1, &mut g2),
+                SkyViewApprox => walk_3x3(view, o, EdgeMode::Nodata, nan, |w, ew, ns| {
+                    let (p, q) = horn_gradient(w, ew, ns);
+                    // cos β = 1/√(1+p²+q²)
+                    ((1.0 + 1.0 / (1.0 + p * p + q * q).sqrt()) / 2.0) as f32
+                }),
+                Percentile => percentile(view, m.radius_cells, o),
                 TopHatWhite | TopHatBlack => {
                     let r = m.radius_cells;
                     let vals = region(view, 2 * r);
@@ -429,6 +435,45 @@ fn windowed_stat(
                 }
             };
             o.set(x, y, v as f32);
+        }
+    }
+}
+
+/// Elevation percentile: 100 · (number of the other valid cells of the
+/// square window strictly lower than the centre) / (number of the other
+/// valid cells); nodata if there are none. Exact counting, O(r²) per cell.
+fn percentile(view: &TileView<f32>, r: usize, o: &mut Grid<f32>) {
+    let h = view.halo;
+    let gw = view.grid.width();
+    let data = view.grid.data();
+    let side = 2 * r + 1;
+    for y in 0..view.core.h {
+        for x in 0..view.core.w {
+            let c = (y + h) * gw + x + h;
+            let z = data[c];
+            if z.is_nan() {
+                o.set(x, y, f32::NAN);
+                continue;
+            }
+            let (mut lower, mut n) = (0u32, 0u32);
+            for row in 0..side {
+                let start = c + row * gw - r * gw - r;
+                for &v in &data[start..start + side] {
+                    // NaN compares false: neither counted nor lower.
+                    n += u32::from(!v.is_nan());
+                    lower += u32::from(v < z);
+                }
+            }
+            let others = n - 1;
+            o.set(
+                x,
+                y,
+                if others == 0 {
+                    f32::NAN
+                } else {
+                    (100.0 * lower as f64 / others as f64) as f32
+                },
+            );
         }
     }
 }

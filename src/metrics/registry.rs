@@ -41,6 +41,7 @@ pub enum MetricKind {
     Tpi,
     Ntpi,
     Relief,
+    Percentile,
     TopHatWhite,
     TopHatBlack,
     TriRiley,
@@ -50,6 +51,7 @@ pub enum MetricKind {
     OpennessPositive,
     OpennessNegative,
     SkyView,
+    SkyViewApprox,
 }
 
 /// What a metric's parameters are.
@@ -328,6 +330,14 @@ pub const METRICS: &[MetricDef] = &[
         "van Herk 1992 / Gil & Werman 1993 running max/min"
     ),
     def!(
+        Percentile,
+        "percentile",
+        &[RADIUS],
+        "%",
+        "share of the other valid cells of the square window lower than the cell (O(r^2) per cell)",
+        "elevation percentile (Argudo et al. survey sec. 3, local statistics)"
+    ),
+    def!(
         TopHatWhite,
         "tophat_white",
         &[RADIUS],
@@ -398,6 +408,14 @@ pub const METRICS: &[MetricDef] = &[
         "0..1",
         "sky-view factor 1 - mean sin(max(horizon angle, 0))",
         "Zakšek, Oštir & Kokalj 2011, Remote Sensing 3(2)"
+    ),
+    def!(
+        SkyViewApprox,
+        "sky_view_approx",
+        &[],
+        "0..1",
+        "(1 + cos slope)/2: the sky view of an infinite plane of that slope",
+        "Zakšek, Oštir & Kokalj 2011 (plane case); Horn slope"
     ),
 ];
 
@@ -678,6 +696,7 @@ impl Resolved {
         match self.spec.kind {
             Mean | Stdev | Variance | Tpi | Ntpi | Relief | OpennessPositive | OpennessNegative
             | SkyView => self.radius_cells,
+            Percentile => self.radius_cells,
             // Two passes of the window.
             TopHatWhite | TopHatBlack => 2 * self.radius_cells,
             // Normals need one more ring.
