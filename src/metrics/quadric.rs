@@ -119,7 +119,8 @@ pub fn tri_riley(w: &[f64; 9]) -> f64 {
 }
 
 /// Terrain ruggedness index of Wilson et al. (2007, Marine Geodesy 30, 3-35):
-/// mean absolute difference to the 8 neighbours (gdaldem TRI's default).
+/// mean absolute difference to the 8 neighbours (gdaldem TRI -alg Wilson;
+/// GDAL 3.6's default TRI is Riley's).
 #[inline]
 pub fn tri_wilson(w: &[f64; 9]) -> f64 {
     let c = w[4];

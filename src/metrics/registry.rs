@@ -366,7 +366,7 @@ pub const METRICS: &[MetricDef] = &[
         "tri",
         &[],
         "z",
-        "mean absolute difference to the 8 neighbours (gdaldem TRI default)",
+        "mean absolute difference to the 8 neighbours (gdaldem TRI -alg Wilson)",
         "Wilson et al. 2007, Marine Geodesy 30"
     ),
     def!(
@@ -415,7 +415,7 @@ pub const METRICS: &[MetricDef] = &[
         &[],
         "0..1",
         "(1 + cos slope)/2: the sky view of an infinite plane of that slope",
-        "Zakšek, Oštir & Kokalj 2011 (plane case); Horn slope"
+        "isotropic sky view of a tilted plane (Liu & Jordan 1963, Solar Energy 7(2)); Horn slope"
     ),
 ];
 
