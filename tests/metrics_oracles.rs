@@ -441,9 +441,24 @@ fn naive_window(
     y: i64,
     r: i64,
 ) -> (f64, f64, f64, f64, f64, f64) {
+    naive_window_shape(d, w, h, x, y, r, false)
+}
+
+fn naive_window_shape(
+    d: &[f32],
+    w: usize,
+    h: usize,
+    x: i64,
+    y: i64,
+    r: i64,
+    disk: bool,
+) -> (f64, f64, f64, f64, f64, f64) {
     let mut vals = Vec::new();
     for dy in -r..=r {
         for dx in -r..=r {
+            if disk && dx * dx + dy * dy > r * r {
+                continue;
+            }
             let v = at(d, w, h, x + dx, y + dy);
             if !v.is_nan() {
                 vals.push(v);
@@ -817,6 +832,52 @@ fn top_hats_brute_force() {
                 0.0,
                 0.0,
             );
+        }
+    }
+}
+
+#[test]
+fn disk_window_statistics_brute_force() {
+    let (w, h) = (31, 27);
+    let d = random_grid(w, h, 29);
+    let src = source(&d, w, h);
+    for r in [1i64, 3, 6] {
+        let specs = format!(
+            "mean:radius={r}c:shape=disk,variance:radius={r}c:shape=disk,stdev:radius={r}c:shape=disk,tpi:radius={r}c:shape=disk,ntpi:radius={r}c:shape=disk"
+        );
+        let mut want = vec![vec![f64::NAN; w * h]; 5];
+        for y in 0..h as i64 {
+            for x in 0..w as i64 {
+                let c = at(&d, w, h, x, y);
+                if c.is_nan() {
+                    continue;
+                }
+                let (n, mean, var, others, _, _) = naive_window_shape(&d, w, h, x, y, r, true);
+                let i = y as usize * w + x as usize;
+                let tpi = if n > 1.0 { c - others } else { f64::NAN };
+                want[0][i] = mean;
+                want[1][i] = var;
+                want[2][i] = var.sqrt();
+                want[3][i] = tpi;
+                want[4][i] = if var == 0.0 && !tpi.is_nan() {
+                    0.0
+                } else {
+                    tpi / var.sqrt()
+                };
+            }
+        }
+        for tile in [1, 8, 64] {
+            let out = run(&src, &specs, tile, 2);
+            for k in 0..5 {
+                assert_all(
+                    &format!("disk r{r} tile{tile} m{k}"),
+                    &out[k],
+                    &want[k],
+                    w,
+                    2e-7,
+                    1e-9,
+                );
+            }
         }
     }
 }

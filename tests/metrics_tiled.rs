@@ -13,7 +13,7 @@ use orogen::metrics::{compute, list, parse_specs, MultiMetric};
 use orogen::raster::{Crs, DType, GeoRef, Grid, MemRaster, RasterSource, TileLayout};
 use std::path::Path;
 
-const SPECS: &str = "mean_curvature:radius=3c,profile_curvature:radius=2c,dzdx,slope,aspect,northness,normal_z,laplacian,profile_curvature,plan_curvature,tangential_curvature,mean_curvature,gaussian_curvature,min_curvature,max_curvature,mean:radius=4c,stdev:radius=3c,tpi:radius=90m,ntpi:radius=4c,relief:radius=5c,tophat_white:radius=3c,tophat_black:radius=2c,percentile:radius=3c,sky_view_approx,tri_riley,tri,rugosity,roughness:radius=3c,openness:radius=150m,openness_neg:radius=4c:directions=16,sky_view:radius=150m";
+const SPECS: &str = "mean_curvature:radius=3c,profile_curvature:radius=2c,dzdx,slope,aspect,northness,normal_z,laplacian,profile_curvature,plan_curvature,tangential_curvature,mean_curvature,gaussian_curvature,min_curvature,max_curvature,mean:radius=4c,stdev:radius=3c,variance:radius=5c:shape=disk,tpi:radius=90m,ntpi:radius=4c,relief:radius=5c,tophat_white:radius=3c,tophat_black:radius=2c,percentile:radius=3c,sky_view_approx,tri_riley,tri,rugosity,roughness:radius=3c,openness:radius=150m,openness_neg:radius=4c:directions=16,sky_view:radius=150m";
 
 fn run(src: &dyn RasterSource, specs: &str, tile: usize, threads: usize) -> Vec<Vec<u32>> {
     let specs = parse_specs(specs).unwrap();
@@ -207,6 +207,11 @@ fn parse_specs_values_and_errors() {
     assert_eq!(s[2].directions, 16);
     assert_eq!(s[3].radius, Some(Length::Cells(25)));
     assert_eq!(s[4].label(), "slope_pct");
+    let disk = parse_specs("tpi:radius=5c:shape=disk").unwrap();
+    assert!(disk[0].disk);
+    assert_eq!(disk[0].label(), "tpi_r5c_disk");
+    assert!(err("tpi:shape=circle").contains("square or disk"));
+    assert!(err("relief:shape=disk").contains("no parameter 'shape'"));
     assert_eq!(s[1].label(), "tpi_r500m");
     // Defaults.
     assert_eq!(

@@ -297,7 +297,7 @@ impl LocalStep for MultiMetric {
                     let Some((big, sat)) = sat.as_ref() else {
                         return Err(Error::invalid("metrics: summed-area table missing"));
                     };
-                    windowed_stat(view, sat, *big, m.radius_cells, m.spec.kind, o);
+                    windowed_stat(view, sat, *big, m.radius_cells, m.spec.disk, m.spec.kind, o);
                 }
                 Relief => relief(view, m.radius_cells, o, &mut g1, &mut g2),
                 SkyViewApprox => walk_3x3(view, o, EdgeMode::Nodata, nan, |w, ew, ns| {
@@ -388,17 +388,32 @@ fn region(view: &TileView<f32>, r: usize) -> Vec<f64> {
 
 /// Mean, stdev, variance, TPI or NTPI of every core cell from the SAT built
 /// over core + `big` cells; window half-side `r ≤ big`.
+///
+/// With `disk`, the window is the disk of cells with `dx² + dy² ≤ r²` (in
+/// cells), summed as one SAT row segment per row: O(r) per cell, exact.
+#[allow(clippy::too_many_arguments)]
 fn windowed_stat(
     view: &TileView<f32>,
     sat: &Sat,
     big: usize,
     r: usize,
+    disk: bool,
     kind: MetricKind,
     o: &mut Grid<f32>,
 ) {
     let h = view.halo;
     let gw = view.grid.width();
     let data = view.grid.data();
+    // Half-widths of the disk's rows (exact integer test dx² ≤ r² − dy²).
+    let half: Vec<usize> = (0..=r)
+        .map(|dy| {
+            let mut hw = 0;
+            while (hw + 1) * (hw + 1) + dy * dy <= r * r {
+                hw += 1;
+            }
+            hw
+        })
+        .collect();
     for y in 0..view.core.h {
         let (y0, y1) = (y + big - r, y + big + r + 1);
         for x in 0..view.core.w {
@@ -407,7 +422,19 @@ fn windowed_stat(
                 o.set(x, y, f32::NAN);
                 continue;
             }
-            let ws = sat.window(x + big - r, y0, x + big + r + 1, y1);
+            let ws = if disk {
+                let cx = x + big;
+                let mut acc = sat.window(cx - half[0], y + big, cx + half[0] + 1, y + big + 1);
+                for dy in 1..=r {
+                    let hw = half[dy];
+                    for yy in [y + big - dy, y + big + dy] {
+                        acc = acc.plus(&sat.window(cx - hw, yy, cx + hw + 1, yy + 1));
+                    }
+                }
+                acc
+            } else {
+                sat.window(x + big - r, y0, x + big + r + 1, y1)
+            };
             let v = match kind {
                 MetricKind::Mean => ws.mean(),
                 MetricKind::Variance => ws.variance(),

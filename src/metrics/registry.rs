@@ -63,6 +63,8 @@ pub enum ParamKind {
     Directions,
     /// Slope units: `degrees` or `percent`.
     SlopeUnits,
+    /// Window shape: `square` or `disk`.
+    Shape,
 }
 
 /// One parameter of a metric, as the registry describes it.
@@ -100,6 +102,12 @@ const RADIUS: ParamDef = ParamDef {
     kind: ParamKind::Radius,
     default: "3c",
     range: "1c..=2000c, or a length in m/km (> 0) converted with the smallest true cell size",
+};
+const SHAPE: ParamDef = ParamDef {
+    name: "shape",
+    kind: ParamKind::Shape,
+    default: "square",
+    range: "square (SAT, O(1) per cell) or disk (dx²+dy² ≤ r² in cells, O(r) per cell)",
 };
 const RADIUS_HORIZON: ParamDef = ParamDef {
     name: "radius",
@@ -284,7 +292,7 @@ pub const METRICS: &[MetricDef] = &[
     def!(
         Mean,
         "mean",
-        &[RADIUS],
+        &[RADIUS, SHAPE],
         "z",
         "mean of valid cells in the square window of side 2r+1",
         "summed-area tables, Crow 1984 (SIGGRAPH)"
@@ -292,7 +300,7 @@ pub const METRICS: &[MetricDef] = &[
     def!(
         Stdev,
         "stdev",
-        &[RADIUS],
+        &[RADIUS, SHAPE],
         "z",
         "population standard deviation of valid cells in the square window",
         "summed-area tables, Crow 1984"
@@ -300,7 +308,7 @@ pub const METRICS: &[MetricDef] = &[
     def!(
         Variance,
         "variance",
-        &[RADIUS],
+        &[RADIUS, SHAPE],
         "z^2",
         "population variance of valid cells in the square window",
         "summed-area tables, Crow 1984"
@@ -308,7 +316,7 @@ pub const METRICS: &[MetricDef] = &[
     def!(
         Tpi,
         "tpi",
-        &[RADIUS],
+        &[RADIUS, SHAPE],
         "z",
         "z minus the mean of the other valid cells of the square window",
         "Weiss 2001 (TPI poster, ESRI UC); square window, centre excluded"
@@ -316,7 +324,7 @@ pub const METRICS: &[MetricDef] = &[
     def!(
         Ntpi,
         "ntpi",
-        &[RADIUS],
+        &[RADIUS, SHAPE],
         "-",
         "TPI / standard deviation of the window (0 where the window is flat)",
         "Weiss 2001; De Reu et al. 2013 (DEV)"
@@ -469,6 +477,9 @@ pub struct MetricSpec {
     pub directions: usize,
     /// Slope units.
     pub units: SlopeUnits,
+    /// Disk window instead of the square (windowed statistics).
+    #[serde(default)]
+    pub disk: bool,
 }
 
 impl MetricSpec {
@@ -480,6 +491,7 @@ impl MetricSpec {
             radius: None,
             directions: 8,
             units: SlopeUnits::Degrees,
+            disk: false,
         };
         for p in d.params {
             // Defaults are registry constants, parsed by the unit tests.
@@ -512,6 +524,9 @@ impl MetricSpec {
         {
             s.push_str(&format!("_d{}", self.directions));
         }
+        if self.disk {
+            s.push_str("_disk");
+        }
         if self.kind == MetricKind::Slope && self.units == SlopeUnits::Percent {
             s.push_str("_pct");
         }
@@ -526,6 +541,13 @@ impl MetricSpec {
                     "8" => 8,
                     "16" => 16,
                     _ => return Err(format!("'{value}' is not 8 or 16")),
+                }
+            }
+            ParamKind::Shape => {
+                self.disk = match value {
+                    "square" => false,
+                    "disk" => true,
+                    _ => return Err(format!("'{value}' is not square or disk")),
                 }
             }
             ParamKind::SlopeUnits => {
@@ -672,7 +694,7 @@ pub fn list() -> String {
     }
     let _ = writeln!(
         s,
-        "\nradius: 500m, 1.5km (converted with the smallest true cell size of the raster) or 25c (cells), 1c..={MAX_RADIUS_CELLS}c;\nwindows are squares of side 2r+1 cells; nodata cells are excluded from windows; a nodata centre is nodata."
+        "\nradius: 500m, 1.5km (converted with the smallest true cell size of the raster) or 25c (cells), 1c..={MAX_RADIUS_CELLS}c;\nwindows are squares of side 2r+1 cells (mean/stdev/variance/tpi/ntpi: shape=disk for dx²+dy² ≤ r²); nodata cells are excluded from windows; a nodata centre is nodata."
     );
     s
 }
@@ -785,6 +807,7 @@ mod tests {
                 radius: None,
                 directions: 8,
                 units: SlopeUnits::Degrees,
+                disk: false,
             };
             for p in d.params {
                 s.set(p, p.default).unwrap();

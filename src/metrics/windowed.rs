@@ -4,10 +4,12 @@
 //! Gil-Werman running max/min (van Herk 1992, Pattern Recognition Letters
 //! 13(7); Gil & Werman 1993, IEEE PAMI 15(5)) for local relief.
 //!
-//! Windows are squares of side `2r+1` cells centred on the cell (the survey
-//! of Argudo et al. uses disks; a square of half-side r contains the disk of
-//! radius r and has 4/π ≈ 1.27 times its area, so square statistics smooth
-//! slightly more). Nodata (NaN) cells are excluded from every window.
+//! Windows are squares of side `2r+1` cells centred on the cell by default
+//! (the survey of Argudo et al. uses disks; a square of half-side r contains
+//! the disk of radius r and has 4/π ≈ 1.27 times its area, so square
+//! statistics smooth slightly more). Disks (`shape=disk`: cells with
+//! dx² + dy² ≤ r², in cells) are summed as one SAT row segment per row,
+//! O(r) per cell. Nodata (NaN) cells are excluded from every window.
 //!
 //! **Exact, tile-independent sums.** A floating-point SAT gives results that
 //! depend on where the table starts (its rounding depends on the prefix),
@@ -135,6 +137,17 @@ impl Sat {
 }
 
 impl WindowSums {
+    /// Sums of two disjoint windows (wrapping, exact when the total fits).
+    #[inline]
+    pub fn plus(&self, o: &WindowSums) -> WindowSums {
+        WindowSums {
+            n: self.n + o.n,
+            sum: self.sum.wrapping_add(o.sum),
+            sumsq: self.sumsq.wrapping_add(o.sumsq),
+            frac: self.frac,
+        }
+    }
+
     /// Mean in value units (NaN if empty).
     #[inline]
     pub fn mean(&self) -> f64 {
