@@ -425,8 +425,7 @@ fn windowed_stat(
             let ws = if disk {
                 let cx = x + big;
                 let mut acc = sat.window(cx - half[0], y + big, cx + half[0] + 1, y + big + 1);
-                for dy in 1..=r {
-                    let hw = half[dy];
+                for (dy, &hw) in half.iter().enumerate().skip(1) {
                     for yy in [y + big - dy, y + big + dy] {
                         acc = acc.plus(&sat.window(cx - hw, yy, cx + hw + 1, yy + 1));
                     }
