@@ -1,7 +1,14 @@
 //! Terrain descriptors: pointwise metrics computed per tile with a halo.
 
+pub mod horizon;
+pub mod multi;
 pub mod neighbourhood;
+pub mod quadric;
+pub mod registry;
 pub mod terrain;
+pub mod windowed;
 
+pub use multi::{compute, output_paths, MultiMetric, METRIC_NODATA};
 pub use neighbourhood::EdgeMode;
+pub use registry::{list, parse_specs, MetricKind, MetricSpec};
 pub use terrain::{Aspect, Hillshade, Slope, SlopeUnits};

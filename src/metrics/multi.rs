@@ -1,0 +1,653 @@
+//! Many metrics in one pass: [`MultiMetric`] is a local step with one f32
+//! output per requested metric (NaN = nodata) and the largest halo any of
+//! them needs. Intermediate products are computed once per tile and shared:
+//! the quadric coefficients (all curvatures of one radius), one summed-area table of
+//! values, counts and squares (mean, stdev, variance, TPI, NTPI at any
+//! radius), one field of unit normals with its tables (roughness at any
+//! radius), and one horizon scan per (radius, directions) for openness and
+//! sky view.
+//!
+//! Nodata: a cell whose value is nodata is nodata in every output; 3x3
+//! metrics (including Evans curvatures, radius 1) are nodata where a
+//! neighbour is nodata or beyond the raster (gdaldem's default); windowed
+//! metrics (including Wood's curvatures, radius > 1) exclude nodata cells
+//! and cells beyond the raster from their windows.
+
+use super::horizon::{horizon, HorizonOut};
+use super::neighbourhood::{walk_3x3, EdgeMode};
+use super::quadric::{laplacian, rugosity, tri_riley, tri_wilson, wood_fit, Quadric};
+use super::registry::{is_curvature, resolve, MetricKind, MetricSpec, Resolved};
+use super::terrain::horn_gradient;
+use super::windowed::{open_close, running_max, Sat};
+use crate::error::{Error, Result};
+use crate::exec::{EngineConfig, LocalStep};
+use crate::io::OutputOptions;
+use crate::raster::{DType, Grid, RasterInfo, RasterSource, TileView};
+use serde_json::json;
+use std::path::PathBuf;
+
+/// Nodata value written for metric outputs in files (gdaldem's -9999, as slope).
+pub const METRIC_NODATA: f64 = -9999.0;
+
+/// Fractional bits of the fixed-point unit normals summed for roughness.
+const NORMAL_FRAC: u32 = 60;
+
+/// Several metrics computed in one tiled pass.
+#[derive(Debug, Clone)]
+pub struct MultiMetric {
+    metrics: Vec<Resolved>,
+    halo: usize,
+    /// The input's path, for error messages.
+    path: String,
+}
+
+impl MultiMetric {
+    /// Bind `specs` to the raster described by `info` (radii to cells).
+    pub fn new(specs: &[MetricSpec], info: &RasterInfo) -> Result<MultiMetric> {
+        let metrics = resolve(specs, info)?;
+        let halo = metrics.iter().map(Resolved::halo).max().unwrap_or(1).max(1);
+        Ok(MultiMetric {
+            metrics,
+            halo,
+            path: info.path.display().to_string(),
+        })
+    }
+
+    /// The metrics, in output order.
+    pub fn metrics(&self) -> &[Resolved] {
+        &self.metrics
+    }
+
+    /// Upper bound of the scratch memory one tile of `tile x tile` cells
+    /// allocates in [`LocalStep::run`] beyond its input view and outputs
+    /// (summed-area tables, normals, quadric grids, relief passes), for
+    /// memory budgets: the engine's own estimate counts views and outputs only.
+    pub fn scratch_bytes(&self, tile: usize) -> u64 {
+        let core = (tile * tile) as u64;
+        let region = |r: usize| ((tile + 2 * r + 1) * (tile + 2 * r + 1)) as u64;
+        let mut b = 0u64;
+        let radius = |f: &dyn Fn(MetricKind) -> bool| {
+            self.metrics
+                .iter()
+                .filter(|m| f(m.spec.kind))
+                .map(|m| m.radius_cells)
+                .max()
+        };
+        if let Some(r) = radius(&|k| {
+            matches!(
+                k,
+                MetricKind::Mean
+                    | MetricKind::Stdev
+                    | MetricKind::Variance
+                    | MetricKind::Tpi
+                    | MetricKind::Ntpi
+            )
+        }) {
+            // values (f64) + count (u32) + two i128 tables
+            b += region(r) * (8 + 4 + 16 + 16);
+        }
+        if let Some(r) = radius(&|k| k == MetricKind::Roughness) {
+            // three normal components (f64) + three (count, i128) tables
+            b += region(r) * (3 * 8 + 3 * (4 + 16));
+        }
+        if let Some(r) = radius(&|k| k == MetricKind::Relief) {
+            b += region(r) * 8 + (tile + 2 * r) as u64 * tile as u64 * 16;
+        }
+        if let Some(r) = radius(&|k| matches!(k, MetricKind::TopHatWhite | MetricKind::TopHatBlack))
+        {
+            // region, flipped copy, first pass, running lines
+            b += region(2 * r) * 8 * 4;
+        }
+        let quadrics = {
+            let mut rs: Vec<usize> = self
+                .metrics
+                .iter()
+                .filter(|m| is_curvature(m.spec.kind))
+                .map(|m| m.radius_cells.max(1))
+                .collect();
+            rs.sort_unstable();
+            rs.dedup();
+            rs.len() as u64
+        };
+        b + quadrics * core * std::mem::size_of::<Quadric>() as u64 + 3 * core * 4
+    }
+}
+
+/// Output paths for `specs` in `dir`: `<label>.<ext>` (e.g. `tpi_r500m.tif`);
+/// an error if two specs would write the same file.
+pub fn output_paths(
+    specs: &[MetricSpec],
+    dir: &std::path::Path,
+    ext: &str,
+) -> Result<Vec<PathBuf>> {
+    let mut out: Vec<PathBuf> = Vec::with_capacity(specs.len());
+    for s in specs {
+        let p = dir.join(format!("{}.{ext}", s.label()));
+        if out.contains(&p) {
+            return Err(Error::invalid(format!(
+                "metric {} is requested twice (both would write {}): remove the duplicate",
+                s.label(),
+                p.display()
+            )));
+        }
+        out.push(p);
+    }
+    Ok(out)
+}
+
+fn is_sat(k: MetricKind) -> bool {
+    use MetricKind::*;
+    matches!(k, Mean | Stdev | Variance | Tpi | Ntpi)
+}
+
+fn is_horizon(k: MetricKind) -> bool {
+    use MetricKind::*;
+    matches!(k, OpennessPositive | OpennessNegative | SkyView)
+}
+
+impl LocalStep for MultiMetric {
+    type In = f32;
+    type Out = f32;
+    fn name(&self) -> String {
+        let names: Vec<String> = self.metrics.iter().map(|m| m.spec.label()).collect();
+        format!("metric {}", names.join(","))
+    }
+    fn params(&self) -> serde_json::Value {
+        json!({ "metrics": self.metrics, "halo": self.halo })
+    }
+    fn halo(&self) -> usize {
+        self.halo
+    }
+    fn outputs(&self) -> usize {
+        self.metrics.len()
+    }
+    fn run(&self, inputs: &[TileView<f32>], out: &mut [Grid<f32>]) -> Result<()> {
+        let view = inputs
+            .first()
+            .ok_or_else(|| Error::invalid("metrics need one input"))?;
+        if out.len() != self.metrics.len() {
+            return Err(Error::invalid("metrics: wrong number of outputs"));
+        }
+        let (cw, ch) = (view.core.w, view.core.h);
+        let nan = f32::NAN;
+
+        // Shared: quadric coefficients per curvature radius (Evans 3x3 for
+        // radius 1, Wood's n x n fit beyond).
+        let mut quads: Vec<(usize, Grid<Quadric>)> = Vec::new();
+        for m in self.metrics.iter().filter(|m| is_curvature(m.spec.kind)) {
+            let r = m.radius_cells.max(1);
+            if quads.iter().any(|q| q.0 == r) {
+                continue;
+            }
+            let mut g = Grid::new(cw, ch, Quadric::NAN);
+            if r == 1 {
+                walk_3x3(view, &mut g, EdgeMode::Nodata, Quadric::NAN, Quadric::fit);
+            } else {
+                wood_fit(view, r, &mut g);
+            }
+            quads.push((r, g));
+        }
+        // Shared: one SAT over core + the largest SAT radius.
+        let sat_r = self
+            .metrics
+            .iter()
+            .filter(|m| is_sat(m.spec.kind))
+            .map(|m| m.radius_cells)
+            .max();
+        let sat = match sat_r {
+            Some(r) => {
+                let vals = region(view, r);
+                let squares = self.metrics.iter().any(|m| {
+                    matches!(
+                        m.spec.kind,
+                        MetricKind::Stdev | MetricKind::Variance | MetricKind::Ntpi
+                    )
+                });
+                Some((
+                    r,
+                    Sat::new(&vals, cw + 2 * r, ch + 2 * r, squares, &self.path)?,
+                ))
+            }
+            None => None,
+        };
+        // Shared: unit normals and their tables for roughness.
+        let rough_r = self
+            .metrics
+            .iter()
+            .filter(|m| m.spec.kind == MetricKind::Roughness)
+            .map(|m| m.radius_cells)
+            .max();
+        let normals = match rough_r {
+            Some(r) => Some((r, normal_sats(view, r, &self.path)?)),
+            None => None,
+        };
+
+        let mut done_horizon = vec![false; self.metrics.len()];
+        let (mut g1, mut g2) = (Vec::new(), Vec::new());
+        for k in 0..self.metrics.len() {
+            let m = &self.metrics[k];
+            let o = &mut out[k];
+            use MetricKind::*;
+            match m.spec.kind {
+                Dzdx => walk_3x3(view, o, EdgeMode::Nodata, nan, |w, ew, ns| {
+                    horn_gradient(w, ew, ns).0 as f32
+                }),
+                Dzdy => walk_3x3(view, o, EdgeMode::Nodata, nan, |w, ew, ns| {
+                    horn_gradient(w, ew, ns).1 as f32
+                }),
+                Slope => {
+                    let s = super::terrain::Slope {
+                        units: m.spec.units,
+                        ..super::terrain::Slope::default()
+                    };
+                    s.run(inputs, std::slice::from_mut(o))?;
+                }
+                Aspect => {
+                    super::terrain::Aspect::default().run(inputs, std::slice::from_mut(o))?;
+                }
+                // cos(aspect)·sin(slope) = −q/√(1+p²+q²) (aspect = atan2(−p, −q)).
+                Northness | NormalY => walk_3x3(view, o, EdgeMode::Nodata, nan, |w, ew, ns| {
+                    let (p, q) = horn_gradient(w, ew, ns);
+                    (-q / (1.0 + p * p + q * q).sqrt()) as f32
+                }),
+                Eastness | NormalX => walk_3x3(view, o, EdgeMode::Nodata, nan, |w, ew, ns| {
+                    let (p, q) = horn_gradient(w, ew, ns);
+                    (-p / (1.0 + p * p + q * q).sqrt()) as f32
+                }),
+                NormalZ => walk_3x3(view, o, EdgeMode::Nodata, nan, |w, ew, ns| {
+                    let (p, q) = horn_gradient(w, ew, ns);
+                    (1.0 / (1.0 + p * p + q * q).sqrt()) as f32
+                }),
+                Laplacian => walk_3x3(view, o, EdgeMode::Nodata, nan, |w, ew, ns| {
+                    laplacian(w, ew, ns) as f32
+                }),
+                TriRiley => walk_3x3(view, o, EdgeMode::Nodata, nan, |w, _, _| {
+                    tri_riley(w) as f32
+                }),
+                TriWilson => walk_3x3(view, o, EdgeMode::Nodata, nan, |w, _, _| {
+                    tri_wilson(w) as f32
+                }),
+                Rugosity => walk_3x3(view, o, EdgeMode::Nodata, nan, |w, ew, ns| {
+                    rugosity(w, ew, ns) as f32
+                }),
+                ProfileCurvature | PlanCurvature | TangentialCurvature | MeanCurvature
+                | GaussianCurvature | MinCurvature | MaxCurvature => {
+                    let r = m.radius_cells.max(1);
+                    let Some(qg) = quads.iter().find(|q| q.0 == r).map(|q| &q.1) else {
+                        return Err(Error::invalid("metrics: quadric table missing"));
+                    };
+                    let kind = m.spec.kind;
+                    for (o, c) in o.data_mut().iter_mut().zip(qg.data()) {
+                        *o = if c.p.is_nan() {
+                            nan
+                        } else {
+                            (match kind {
+                                ProfileCurvature => c.profile(),
+                                PlanCurvature => c.plan(),
+                                TangentialCurvature => c.tangential(),
+                                MeanCurvature => c.mean(),
+                                GaussianCurvature => c.gaussian(),
+                                MinCurvature => c.min_max().0,
+                                _ => c.min_max().1,
+                            }) as f32
+                        };
+                    }
+                }
+                Mean | Stdev | Variance | Tpi | Ntpi => {
+                    let Some((big, sat)) = sat.as_ref() else {
+                        return Err(Error::invalid("metrics: summed-area table missing"));
+                    };
+                    windowed_stat(view, sat, *big, m.radius_cells, m.spec.disk, m.spec.kind, o);
+                }
+                Relief => relief(view, m.radius_cells, o, &mut g1, &mut g2),
+                SkyViewApprox => walk_3x3(view, o, EdgeMode::Nodata, nan, |w, ew, ns| {
+                    let (p, q) = horn_gradient(w, ew, ns);
+                    // cos β = 1/√(1+p²+q²)
+                    ((1.0 + 1.0 / (1.0 + p * p + q * q).sqrt()) / 2.0) as f32
+                }),
+                Percentile => percentile(view, m.radius_cells, o),
+                TopHatWhite | TopHatBlack => {
+                    let r = m.radius_cells;
+                    let vals = region(view, 2 * r);
+                    let w = view.core.w + 4 * r;
+                    let white = m.spec.kind == TopHatWhite;
+                    let oc = open_close(&vals, w, view.core.h + 4 * r, r, !white);
+                    for (i, (o, v)) in o.data_mut().iter_mut().zip(&oc).enumerate() {
+                        let z = vals[(i / cw + 2 * r) * w + i % cw + 2 * r];
+                        *o = if z.is_nan() {
+                            nan
+                        } else if white {
+                            (z - v) as f32
+                        } else {
+                            (v - z) as f32
+                        };
+                    }
+                }
+                Roughness => {
+                    let Some((big, ns)) = normals.as_ref() else {
+                        return Err(Error::invalid("metrics: normal tables missing"));
+                    };
+                    roughness(view, ns, *big, m.radius_cells, o);
+                }
+                OpennessPositive | OpennessNegative | SkyView => {
+                    if done_horizon[k] {
+                        continue;
+                    }
+                    // One scan for every horizon metric with the same rays.
+                    let key = (m.radius_cells, m.radius_m.to_bits(), m.spec.directions);
+                    let same: Vec<usize> = (k..self.metrics.len())
+                        .filter(|&j| {
+                            let n = &self.metrics[j];
+                            is_horizon(n.spec.kind)
+                                && (n.radius_cells, n.radius_m.to_bits(), n.spec.directions) == key
+                        })
+                        .collect();
+                    let mut hout = HorizonOut {
+                        positive: None,
+                        negative: None,
+                        sky_view: None,
+                    };
+                    let mut grids: Vec<(MetricKind, usize, Grid<f32>)> = Vec::new();
+                    for &j in &same {
+                        done_horizon[j] = true;
+                        grids.push((self.metrics[j].spec.kind, j, Grid::new(cw, ch, nan)));
+                    }
+                    for (kind, _, g) in grids.iter_mut() {
+                        match kind {
+                            OpennessPositive if hout.positive.is_none() => hout.positive = Some(g),
+                            OpennessNegative if hout.negative.is_none() => hout.negative = Some(g),
+                            SkyView if hout.sky_view.is_none() => hout.sky_view = Some(g),
+                            _ => {}
+                        }
+                    }
+                    horizon(view, m.radius_cells, m.radius_m, m.spec.directions, hout);
+                    // Duplicates of one kind copy the first grid of that kind.
+                    for i in 0..grids.len() {
+                        let first = grids.iter().position(|g| g.0 == grids[i].0).unwrap_or(i);
+                        let data = grids[first].2.data().to_vec();
+                        out[grids[i].1].data_mut().copy_from_slice(&data);
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The core plus `r` cells on each side of `view`, as f64 (NaN = nodata).
+fn region(view: &TileView<f32>, r: usize) -> Vec<f64> {
+    let (h, gw) = (view.halo, view.grid.width());
+    let (w, hh) = (view.core.w + 2 * r, view.core.h + 2 * r);
+    let mut v = Vec::with_capacity(w * hh);
+    for y in 0..hh {
+        let start = (y + h - r) * gw + h - r;
+        v.extend(view.grid.data()[start..start + w].iter().map(|&z| z as f64));
+    }
+    v
+}
+
+/// Mean, stdev, variance, TPI or NTPI of every core cell from the SAT built
+/// over core + `big` cells; window half-side `r ≤ big`.
+///
+/// With `disk`, the window is the disk of cells with `dx² + dy² ≤ r²` (in
+/// cells), summed as one SAT row segment per row: O(r) per cell, exact.
+#[allow(clippy::too_many_arguments)]
+fn windowed_stat(
+    view: &TileView<f32>,
+    sat: &Sat,
+    big: usize,
+    r: usize,
+    disk: bool,
+    kind: MetricKind,
+    o: &mut Grid<f32>,
+) {
+    let h = view.halo;
+    let gw = view.grid.width();
+    let data = view.grid.data();
+    // Half-widths of the disk's rows (exact integer test dx² ≤ r² − dy²).
+    let half: Vec<usize> = (0..=r)
+        .map(|dy| {
+            let mut hw = 0;
+            while (hw + 1) * (hw + 1) + dy * dy <= r * r {
+                hw += 1;
+            }
+            hw
+        })
+        .collect();
+    for y in 0..view.core.h {
+        let (y0, y1) = (y + big - r, y + big + r + 1);
+        for x in 0..view.core.w {
+            let z = data[(y + h) * gw + x + h];
+            if z.is_nan() {
+                o.set(x, y, f32::NAN);
+                continue;
+            }
+            let ws = if disk {
+                let cx = x + big;
+                let mut acc = sat.window(cx - half[0], y + big, cx + half[0] + 1, y + big + 1);
+                for (dy, &hw) in half.iter().enumerate().skip(1) {
+                    for yy in [y + big - dy, y + big + dy] {
+                        acc = acc.plus(&sat.window(cx - hw, yy, cx + hw + 1, yy + 1));
+                    }
+                }
+                acc
+            } else {
+                sat.window(x + big - r, y0, x + big + r + 1, y1)
+            };
+            let v = match kind {
+                MetricKind::Mean => ws.mean(),
+                MetricKind::Variance => ws.variance(),
+                MetricKind::Stdev => ws.variance().sqrt(),
+                _ => {
+                    // The window without its centre.
+                    let mut others = ws;
+                    others.n -= 1;
+                    others.sum = others
+                        .sum
+                        .wrapping_sub(super::windowed::to_fixed(z as f64, ws.frac));
+                    let tpi = z as f64 - others.mean();
+                    if kind == MetricKind::Tpi {
+                        tpi
+                    } else {
+                        let sd = ws.variance().sqrt();
+                        if tpi.is_nan() {
+                            f64::NAN
+                        } else if sd == 0.0 {
+                            0.0
+                        } else {
+                            tpi / sd
+                        }
+                    }
+                }
+            };
+            o.set(x, y, v as f32);
+        }
+    }
+}
+
+/// Elevation percentile: 100 · (number of the other valid cells of the
+/// square window strictly lower than the centre) / (number of the other
+/// valid cells); nodata if there are none. Exact counting, O(r²) per cell.
+fn percentile(view: &TileView<f32>, r: usize, o: &mut Grid<f32>) {
+    let h = view.halo;
+    let gw = view.grid.width();
+    let data = view.grid.data();
+    let side = 2 * r + 1;
+    for y in 0..view.core.h {
+        for x in 0..view.core.w {
+            let c = (y + h) * gw + x + h;
+            let z = data[c];
+            if z.is_nan() {
+                o.set(x, y, f32::NAN);
+                continue;
+            }
+            let (mut lower, mut n) = (0u32, 0u32);
+            for row in 0..side {
+                let start = c + row * gw - r * gw - r;
+                for &v in &data[start..start + side] {
+                    // NaN compares false: neither counted nor lower.
+                    n += u32::from(!v.is_nan());
+                    lower += u32::from(v < z);
+                }
+            }
+            let others = n - 1;
+            o.set(
+                x,
+                y,
+                if others == 0 {
+                    f32::NAN
+                } else {
+                    (100.0 * lower as f64 / others as f64) as f32
+                },
+            );
+        }
+    }
+}
+
+/// Local relief (max − min over the square window of half-side `r`, valid
+/// cells only) by separable van Herk / Gil-Werman running max and min.
+fn relief(view: &TileView<f32>, r: usize, o: &mut Grid<f32>, g1: &mut Vec<f64>, g2: &mut Vec<f64>) {
+    let (cw, ch) = (view.core.w, view.core.h);
+    let vals = region(view, r);
+    let w = cw + 2 * r;
+    let rows = ch + 2 * r;
+    // Horizontal pass: for every region row, max and min over columns.
+    let mut hmax = vec![0.0; rows * cw];
+    let mut hmin = vec![0.0; rows * cw];
+    let mut line = vec![0.0; w];
+    let mut res = vec![0.0; w];
+    for y in 0..rows {
+        let row = &vals[y * w..(y + 1) * w];
+        for (l, &z) in line.iter_mut().zip(row) {
+            *l = if z.is_nan() { f64::NEG_INFINITY } else { z };
+        }
+        running_max(&line, r, &mut res, g1, g2);
+        hmax[y * cw..(y + 1) * cw].copy_from_slice(&res[r..r + cw]);
+        for (l, &z) in line.iter_mut().zip(row) {
+            *l = if z.is_nan() { f64::NEG_INFINITY } else { -z };
+        }
+        running_max(&line, r, &mut res, g1, g2);
+        for (d, s) in hmin[y * cw..(y + 1) * cw].iter_mut().zip(&res[r..r + cw]) {
+            *d = -s;
+        }
+    }
+    // Vertical pass per core column.
+    let mut col = vec![0.0; rows];
+    let mut cmax = vec![0.0; rows];
+    let mut cmin = vec![0.0; rows];
+    for x in 0..cw {
+        for (y, c) in col.iter_mut().enumerate() {
+            *c = hmax[y * cw + x];
+        }
+        running_max(&col, r, &mut cmax, g1, g2);
+        for (y, c) in col.iter_mut().enumerate() {
+            // −(+∞) from an all-nodata row stays −∞ for the max of negatives.
+            *c = -hmin[y * cw + x];
+        }
+        running_max(&col, r, &mut cmin, g1, g2);
+        for y in 0..ch {
+            let z = vals[(y + r) * w + x + r];
+            let v = if z.is_nan() {
+                f32::NAN
+            } else {
+                (cmax[y + r] + cmin[y + r]) as f32
+            };
+            o.set(x, y, v);
+        }
+    }
+}
+
+/// Summed-area tables of the unit normals (Horn gradient) over core + `r`.
+fn normal_sats(view: &TileView<f32>, r: usize, path: &str) -> Result<[Sat; 3]> {
+    let h = view.halo;
+    let gw = view.grid.width();
+    let data = view.grid.data();
+    let (w, hh) = (view.core.w + 2 * r, view.core.h + 2 * r);
+    let mut n = [
+        vec![f64::NAN; w * hh],
+        vec![f64::NAN; w * hh],
+        vec![f64::NAN; w * hh],
+    ];
+    for y in 0..hh {
+        let vy = y + h - r;
+        let (ew, ns) = view.georef.cell_size_m(view.core.y + vy as i64 - h as i64);
+        for x in 0..w {
+            let vx = x + h - r;
+            let mut win = [0.0; 9];
+            let mut k = 0;
+            for yy in vy - 1..=vy + 1 {
+                for xx in vx - 1..=vx + 1 {
+                    win[k] = data[yy * gw + xx] as f64;
+                    k += 1;
+                }
+            }
+            if win.iter().sum::<f64>().is_nan() {
+                continue;
+            }
+            let (p, q) = horn_gradient(&win, ew, ns);
+            let d = (1.0 + p * p + q * q).sqrt();
+            let i = y * w + x;
+            n[0][i] = -p / d;
+            n[1][i] = -q / d;
+            n[2][i] = 1.0 / d;
+        }
+    }
+    let [a, b, c] = n;
+    Ok([
+        Sat::with_frac(&a, w, hh, false, NORMAL_FRAC, 1.0, path)?,
+        Sat::with_frac(&b, w, hh, false, NORMAL_FRAC, 1.0, path)?,
+        Sat::with_frac(&c, w, hh, false, NORMAL_FRAC, 1.0, path)?,
+    ])
+}
+
+/// Spherical standard deviation of the unit normals in the window (Lindsay
+/// et al. 2019): `s = √(−2 ln R̄)` in degrees, with `R̄ = |Σ n| / N` the mean
+/// resultant length. Normals are those of the unsmoothed DEM (Lindsay et al.
+/// smooth first; smooth the input for their multiscale variant).
+fn roughness(view: &TileView<f32>, sats: &[Sat; 3], big: usize, r: usize, o: &mut Grid<f32>) {
+    let h = view.halo;
+    let gw = view.grid.width();
+    let data = view.grid.data();
+    for y in 0..view.core.h {
+        for x in 0..view.core.w {
+            if data[(y + h) * gw + x + h].is_nan() {
+                o.set(x, y, f32::NAN);
+                continue;
+            }
+            let (x0, y0, x1, y1) = (x + big - r, y + big - r, x + big + r + 1, y + big + r + 1);
+            let a = sats[0].window(x0, y0, x1, y1);
+            if a.n == 0 {
+                o.set(x, y, f32::NAN);
+                continue;
+            }
+            let b = sats[1].window(x0, y0, x1, y1);
+            let c = sats[2].window(x0, y0, x1, y1);
+            let f = |s: i128| super::windowed::fixed_to_f64(s, NORMAL_FRAC);
+            let (sx, sy, sz) = (f(a.sum), f(b.sum), f(c.sum));
+            let rbar = ((sx * sx + sy * sy + sz * sz).sqrt() / a.n as f64).min(1.0);
+            o.set(x, y, (-2.0 * rbar.ln()).max(0.0).sqrt().to_degrees() as f32);
+        }
+    }
+}
+
+/// Compute `specs` on `src` in one tiled pass, writing metric `k` to
+/// `outputs[k]` (`.tif` or `.tiles`, f32 with nodata [`METRIC_NODATA`]).
+pub fn compute(
+    src: &dyn RasterSource,
+    specs: &[MetricSpec],
+    outputs: &[PathBuf],
+    oo: &OutputOptions,
+    tile: Option<usize>,
+    cfg: &EngineConfig,
+) -> Result<()> {
+    let step = MultiMetric::new(specs, src.info())?;
+    if outputs.len() != specs.len() {
+        return Err(Error::invalid(format!(
+            "{} metric(s) requested but {} output path(s) given",
+            specs.len(),
+            outputs.len()
+        )));
+    }
+    let types = vec![(DType::F32, Some(METRIC_NODATA)); outputs.len()];
+    crate::ops::run_local_to_paths(&step, &[src], outputs, &types, oo, tile, cfg)
+}

@@ -1,0 +1,817 @@
+//! The terrain-descriptor registry: every metric orogen computes, its
+//! parameters (types, defaults, allowed ranges), the halo it needs, units,
+//! one-line description and citation; parsing of metric specs such as
+//! `slope,tpi:radius=500m,openness:radius=1km`.
+//!
+//! The families and their definitions follow the survey of Argudo, Guérin,
+//! Schott & Galin, "Terrain descriptors for landscape synthesis, analysis and
+//! simulation" (Computer Graphics Forum, Eurographics 2025 state of the art
+//! report), sections 2-4; each metric's
+//! own citation is in [`MetricDef::citation`].
+
+use crate::error::{Error, Result};
+use crate::metrics::terrain::SlopeUnits;
+use crate::raster::RasterInfo;
+use serde::{Deserialize, Serialize};
+
+/// Every metric in the registry.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MetricKind {
+    Dzdx,
+    Dzdy,
+    Slope,
+    Aspect,
+    Northness,
+    Eastness,
+    NormalX,
+    NormalY,
+    NormalZ,
+    Laplacian,
+    ProfileCurvature,
+    PlanCurvature,
+    TangentialCurvature,
+    MeanCurvature,
+    GaussianCurvature,
+    MinCurvature,
+    MaxCurvature,
+    Mean,
+    Stdev,
+    Variance,
+    Tpi,
+    Ntpi,
+    Relief,
+    Percentile,
+    TopHatWhite,
+    TopHatBlack,
+    TriRiley,
+    TriWilson,
+    Roughness,
+    Rugosity,
+    OpennessPositive,
+    OpennessNegative,
+    SkyView,
+    SkyViewApprox,
+}
+
+/// What a metric's parameters are.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ParamKind {
+    /// A length: metres (`500m`, `1.5km`) or cells (`25c`).
+    Radius,
+    /// Number of horizon directions: 8 or 16.
+    Directions,
+    /// Slope units: `degrees` or `percent`.
+    SlopeUnits,
+    /// Window shape: `square` or `disk`.
+    Shape,
+}
+
+/// One parameter of a metric, as the registry describes it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ParamDef {
+    pub name: &'static str,
+    pub kind: ParamKind,
+    /// Default, in the syntax `parse_specs` accepts.
+    pub default: &'static str,
+    /// Allowed values, in words.
+    pub range: &'static str,
+}
+
+/// Registry entry of one metric.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MetricDef {
+    pub kind: MetricKind,
+    /// Name used in specs and output file names.
+    pub name: &'static str,
+    pub params: &'static [ParamDef],
+    /// Units of the output values.
+    pub units: &'static str,
+    /// One-line description.
+    pub description: &'static str,
+    /// Source of the definition.
+    pub citation: &'static str,
+}
+
+/// Largest radius in cells accepted (windowed sums stay exact in i128
+/// fixed point up to this window size; see `windowed`).
+pub const MAX_RADIUS_CELLS: usize = 2000;
+
+const RADIUS: ParamDef = ParamDef {
+    name: "radius",
+    kind: ParamKind::Radius,
+    default: "3c",
+    range: "1c..=2000c, or a length in m/km (> 0) converted with the smallest true cell size",
+};
+const SHAPE: ParamDef = ParamDef {
+    name: "shape",
+    kind: ParamKind::Shape,
+    default: "square",
+    range: "square (SAT, O(1) per cell) or disk (dx²+dy² ≤ r² in cells, O(r) per cell)",
+};
+const RADIUS_HORIZON: ParamDef = ParamDef {
+    name: "radius",
+    kind: ParamKind::Radius,
+    default: "10c",
+    range: "1c..=2000c, or a length in m/km (> 0); the horizon search cutoff",
+};
+const RADIUS_QUADRIC: ParamDef = ParamDef {
+    name: "radius",
+    kind: ParamKind::Radius,
+    default: "1c",
+    range: "1c (Evans 3x3) ..=2000c, or a length in m/km: Wood's (2r+1)^2 least-squares quadric",
+};
+const DIRECTIONS: ParamDef = ParamDef {
+    name: "directions",
+    kind: ParamKind::Directions,
+    default: "8",
+    range: "8 or 16",
+};
+const UNITS: ParamDef = ParamDef {
+    name: "units",
+    kind: ParamKind::SlopeUnits,
+    default: "degrees",
+    range: "degrees or percent",
+};
+
+const HORN: &str = "Horn 1981, Proc. IEEE 69(1) (3x3 weighted gradient)";
+const EVANS: &str =
+    "Evans 1979 3x3 quadric (radius 1c), Wood 1996 PhD thesis (Leicester) ch. 4 for larger windows; formulas of Florinsky 2016, Digital Terrain Analysis in Soil Science and Geology, 2nd ed., ch. 2";
+
+macro_rules! def {
+    ($k:ident, $n:expr, $p:expr, $u:expr, $d:expr, $c:expr) => {
+        MetricDef {
+            kind: MetricKind::$k,
+            name: $n,
+            params: $p,
+            units: $u,
+            description: $d,
+            citation: $c,
+        }
+    };
+}
+
+/// The registry, in the order `orogen metric list` prints it.
+pub const METRICS: &[MetricDef] = &[
+    def!(
+        Dzdx,
+        "dzdx",
+        &[],
+        "z/m",
+        "gradient component east (dz/dx)",
+        HORN
+    ),
+    def!(
+        Dzdy,
+        "dzdy",
+        &[],
+        "z/m",
+        "gradient component north (dz/dy)",
+        HORN
+    ),
+    def!(
+        Slope,
+        "slope",
+        &[UNITS],
+        "degrees|percent",
+        "slope angle (as the `slope` command)",
+        HORN
+    ),
+    def!(
+        Aspect,
+        "aspect",
+        &[],
+        "degrees",
+        "azimuth of steepest descent, clockwise from north; flat = nodata",
+        HORN
+    ),
+    def!(
+        Northness,
+        "northness",
+        &[],
+        "-1..1",
+        "cos(aspect)*sin(slope), slope-weighted so flat cells are 0 (= normal_y)",
+        "aspect and slope of Horn 1981; slope-weighted form chosen here (plain cos(aspect) is undefined on flats)"
+    ),
+    def!(
+        Eastness,
+        "eastness",
+        &[],
+        "-1..1",
+        "sin(aspect)*sin(slope), slope-weighted so flat cells are 0 (= normal_x)",
+        "aspect and slope of Horn 1981; slope-weighted form chosen here (plain sin(aspect) is undefined on flats)"
+    ),
+    def!(
+        NormalX,
+        "normal_x",
+        &[],
+        "-1..1",
+        "unit surface normal, east component -p/sqrt(1+p^2+q^2)",
+        HORN
+    ),
+    def!(
+        NormalY,
+        "normal_y",
+        &[],
+        "-1..1",
+        "unit surface normal, north component -q/sqrt(1+p^2+q^2)",
+        HORN
+    ),
+    def!(
+        NormalZ,
+        "normal_z",
+        &[],
+        "0..1",
+        "unit surface normal, up component 1/sqrt(1+p^2+q^2)",
+        HORN
+    ),
+    def!(
+        Laplacian,
+        "laplacian",
+        &[],
+        "z/m^2",
+        "5-point Laplacian d2z/dx2 + d2z/dy2",
+        "finite differences (Argudo et al. survey sec. 3)"
+    ),
+    def!(
+        ProfileCurvature,
+        "profile_curvature",
+        &[RADIUS_QUADRIC],
+        "1/m",
+        "vertical (profile) curvature kv; convex positive; 0 where flat",
+        EVANS
+    ),
+    def!(
+        PlanCurvature,
+        "plan_curvature",
+        &[RADIUS_QUADRIC],
+        "1/m",
+        "plan (contour) curvature kp; convex positive; 0 where flat",
+        EVANS
+    ),
+    def!(
+        TangentialCurvature,
+        "tangential_curvature",
+        &[RADIUS_QUADRIC],
+        "1/m",
+        "horizontal (tangential) curvature kh; convex positive; 0 where flat",
+        EVANS
+    ),
+    def!(
+        MeanCurvature,
+        "mean_curvature",
+        &[RADIUS_QUADRIC],
+        "1/m",
+        "mean curvature H; convex positive",
+        EVANS
+    ),
+    def!(
+        GaussianCurvature,
+        "gaussian_curvature",
+        &[RADIUS_QUADRIC],
+        "1/m^2",
+        "Gaussian curvature K",
+        EVANS
+    ),
+    def!(
+        MinCurvature,
+        "min_curvature",
+        &[RADIUS_QUADRIC],
+        "1/m",
+        "minimal curvature H - sqrt(H^2-K)",
+        EVANS
+    ),
+    def!(
+        MaxCurvature,
+        "max_curvature",
+        &[RADIUS_QUADRIC],
+        "1/m",
+        "maximal curvature H + sqrt(H^2-K)",
+        EVANS
+    ),
+    def!(
+        Mean,
+        "mean",
+        &[RADIUS, SHAPE],
+        "z",
+        "mean of valid cells in the square window of side 2r+1",
+        "summed-area tables, Crow 1984 (SIGGRAPH)"
+    ),
+    def!(
+        Stdev,
+        "stdev",
+        &[RADIUS, SHAPE],
+        "z",
+        "population standard deviation of valid cells in the square window",
+        "summed-area tables, Crow 1984"
+    ),
+    def!(
+        Variance,
+        "variance",
+        &[RADIUS, SHAPE],
+        "z^2",
+        "population variance of valid cells in the square window",
+        "summed-area tables, Crow 1984"
+    ),
+    def!(
+        Tpi,
+        "tpi",
+        &[RADIUS, SHAPE],
+        "z",
+        "z minus the mean of the other valid cells of the square window",
+        "Weiss 2001 (TPI poster, ESRI UC); square window, centre excluded"
+    ),
+    def!(
+        Ntpi,
+        "ntpi",
+        &[RADIUS, SHAPE],
+        "-",
+        "TPI / standard deviation of the window (0 where the window is flat)",
+        "Weiss 2001; De Reu et al. 2013 (DEV)"
+    ),
+    def!(
+        Relief,
+        "relief",
+        &[RADIUS],
+        "z",
+        "local relief: max - min of valid cells in the square window",
+        "van Herk 1992 / Gil & Werman 1993 running max/min"
+    ),
+    def!(
+        Percentile,
+        "percentile",
+        &[RADIUS],
+        "%",
+        "share of the other valid cells of the square window lower than the cell (O(r^2) per cell)",
+        "elevation percentile (Argudo et al. survey sec. 3, local statistics)"
+    ),
+    def!(
+        TopHatWhite,
+        "tophat_white",
+        &[RADIUS],
+        "z",
+        "white top-hat z - opening (square window): height above the local 'floor'",
+        "grey-level morphology, Serra 1982; van Herk/Gil-Werman max/min"
+    ),
+    def!(
+        TopHatBlack,
+        "tophat_black",
+        &[RADIUS],
+        "z",
+        "black top-hat closing - z (square window): depth below the local 'lid'",
+        "grey-level morphology, Serra 1982; van Herk/Gil-Werman max/min"
+    ),
+    def!(
+        TriRiley,
+        "tri_riley",
+        &[],
+        "z",
+        "sqrt of the sum of squared differences to the 8 neighbours",
+        "Riley, DeGloria & Elliot 1999, Intermountain J. Sci. 5"
+    ),
+    def!(
+        TriWilson,
+        "tri",
+        &[],
+        "z",
+        "mean absolute difference to the 8 neighbours (gdaldem TRI -alg Wilson)",
+        "Wilson et al. 2007, Marine Geodesy 30"
+    ),
+    def!(
+        Roughness,
+        "roughness",
+        &[RADIUS],
+        "degrees",
+        "spherical standard deviation of unit normals in the square window",
+        "Lindsay, Newman & Francioni 2019, Geosciences 9(7) 322"
+    ),
+    def!(
+        Rugosity,
+        "rugosity",
+        &[],
+        ">=1",
+        "surface area / planimetric area of the cell (8 triangles)",
+        "Jenness 2004, Wildlife Society Bulletin 32(3)"
+    ),
+    def!(
+        OpennessPositive,
+        "openness",
+        &[RADIUS_HORIZON, DIRECTIONS],
+        "degrees",
+        "positive openness: mean over directions of 90 - horizon elevation angle",
+        "Yokoyama, Shirasawa & Pike 2002, PE&RS 68(3)"
+    ),
+    def!(
+        OpennessNegative,
+        "openness_neg",
+        &[RADIUS_HORIZON, DIRECTIONS],
+        "degrees",
+        "negative openness: mean over directions of 90 + nadir (min) elevation angle",
+        "Yokoyama, Shirasawa & Pike 2002, PE&RS 68(3)"
+    ),
+    def!(
+        SkyView,
+        "sky_view",
+        &[RADIUS_HORIZON, DIRECTIONS],
+        "0..1",
+        "sky-view factor 1 - mean sin(max(horizon angle, 0))",
+        "Zakšek, Oštir & Kokalj 2011, Remote Sensing 3(2)"
+    ),
+    def!(
+        SkyViewApprox,
+        "sky_view_approx",
+        &[],
+        "0..1",
+        "(1 + cos slope)/2: the sky view of an infinite plane of that slope",
+        "isotropic sky view of a tilted plane (Liu & Jordan 1963, Solar Energy 7(2)); Horn slope"
+    ),
+];
+
+/// The registry entry of `kind`.
+pub fn def(kind: MetricKind) -> &'static MetricDef {
+    METRICS
+        .iter()
+        .find(|d| d.kind == kind)
+        .expect("every MetricKind has a registry entry (checked by a unit test)")
+}
+
+/// True for the quadric curvatures (Evans 3x3 or Wood n x n).
+pub fn is_curvature(k: MetricKind) -> bool {
+    use MetricKind::*;
+    matches!(
+        k,
+        ProfileCurvature
+            | PlanCurvature
+            | TangentialCurvature
+            | MeanCurvature
+            | GaussianCurvature
+            | MinCurvature
+            | MaxCurvature
+    )
+}
+
+/// A length given by the user.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Length {
+    Metres(f64),
+    Cells(usize),
+}
+
+impl std::fmt::Display for Length {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Length::Metres(m) => write!(f, "{m}m"),
+            Length::Cells(c) => write!(f, "{c}c"),
+        }
+    }
+}
+
+/// One requested metric with its parameters (defaults filled in).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MetricSpec {
+    pub kind: MetricKind,
+    /// Window radius or horizon cutoff (metrics with a `radius` parameter).
+    pub radius: Option<Length>,
+    /// Horizon directions (8 or 16) for openness and sky view.
+    pub directions: usize,
+    /// Slope units.
+    pub units: SlopeUnits,
+    /// Disk window instead of the square (windowed statistics).
+    #[serde(default)]
+    pub disk: bool,
+}
+
+impl MetricSpec {
+    /// The metric with its default parameters.
+    pub fn new(kind: MetricKind) -> MetricSpec {
+        let d = def(kind);
+        let mut s = MetricSpec {
+            kind,
+            radius: None,
+            directions: 8,
+            units: SlopeUnits::Degrees,
+            disk: false,
+        };
+        for p in d.params {
+            // Defaults are registry constants, parsed by the unit tests.
+            let _ = s.set(p, p.default);
+        }
+        s
+    }
+
+    /// Registry entry.
+    pub fn def(&self) -> &'static MetricDef {
+        def(self.kind)
+    }
+
+    /// Output name: the metric's name plus its non-default parameters, e.g.
+    /// `tpi_r500m` (file names of the CLI).
+    pub fn label(&self) -> String {
+        let mut s = self.def().name.to_string();
+        if let Some(r) = self.radius {
+            // Curvatures at their default (Evans 3x3) keep the plain name.
+            if !(is_curvature(self.kind) && r == Length::Cells(1)) {
+                s.push_str(&format!("_r{r}"));
+            }
+        }
+        if self
+            .def()
+            .params
+            .iter()
+            .any(|p| p.kind == ParamKind::Directions)
+            && self.directions != 8
+        {
+            s.push_str(&format!("_d{}", self.directions));
+        }
+        if self.disk {
+            s.push_str("_disk");
+        }
+        if self.kind == MetricKind::Slope && self.units == SlopeUnits::Percent {
+            s.push_str("_pct");
+        }
+        s
+    }
+
+    fn set(&mut self, p: &ParamDef, value: &str) -> std::result::Result<(), String> {
+        match p.kind {
+            ParamKind::Radius => self.radius = Some(parse_length(value)?),
+            ParamKind::Directions => {
+                self.directions = match value {
+                    "8" => 8,
+                    "16" => 16,
+                    _ => return Err(format!("'{value}' is not 8 or 16")),
+                }
+            }
+            ParamKind::Shape => {
+                self.disk = match value {
+                    "square" => false,
+                    "disk" => true,
+                    _ => return Err(format!("'{value}' is not square or disk")),
+                }
+            }
+            ParamKind::SlopeUnits => {
+                self.units = match value {
+                    "degrees" | "deg" => SlopeUnits::Degrees,
+                    "percent" | "pct" => SlopeUnits::Percent,
+                    _ => return Err(format!("'{value}' is not degrees or percent")),
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Parse `500m`, `1.5km`, `25c` (a bare number is refused: say m or c).
+pub fn parse_length(s: &str) -> std::result::Result<Length, String> {
+    let s = s.trim();
+    let bad =
+        || format!("'{s}' is not a length: write metres (500m), kilometres (1.5km) or cells (25c)");
+    let (num, scale, cells) = if let Some(n) = s.strip_suffix("km") {
+        (n, 1000.0, false)
+    } else if let Some(n) = s.strip_suffix('m') {
+        (n, 1.0, false)
+    } else if let Some(n) = s.strip_suffix('c') {
+        (n, 1.0, true)
+    } else {
+        return Err(bad());
+    };
+    if cells {
+        let c: i64 = num.trim().parse().map_err(|_| bad())?;
+        if c < 1 || c as usize > MAX_RADIUS_CELLS {
+            return Err(format!(
+                "radius {s} is out of range: use 1c..={MAX_RADIUS_CELLS}c"
+            ));
+        }
+        Ok(Length::Cells(c as usize))
+    } else {
+        let v: f64 = num.trim().parse().map_err(|_| bad())?;
+        if !(v.is_finite() && v > 0.0) {
+            return Err(format!("radius {s} must be a positive finite length"));
+        }
+        Ok(Length::Metres(v * scale))
+    }
+}
+
+/// Names of all metrics, comma separated (for error messages).
+fn all_names() -> String {
+    METRICS
+        .iter()
+        .map(|d| d.name)
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Parse a comma-separated list of metric specs: `name[:param=value[:param=value]]`,
+/// e.g. `slope,tpi:radius=500m,openness:radius=1km:directions=16`.
+/// Unknown metrics, parameters or values give `Error::Invalid` listing what
+/// is accepted. Radii are checked against the raster later, by [`resolve`].
+pub fn parse_specs(s: &str) -> Result<Vec<MetricSpec>> {
+    let mut out = Vec::new();
+    for item in s.split(',') {
+        let item = item.trim();
+        if item.is_empty() {
+            return Err(Error::invalid(format!(
+                "empty metric in '{s}': separate metrics with single commas (known: {})",
+                all_names()
+            )));
+        }
+        let mut parts = item.split(':');
+        let name = parts.next().unwrap_or("").trim();
+        let d = METRICS.iter().find(|d| d.name == name).ok_or_else(|| {
+            Error::invalid(format!(
+                "unknown metric '{name}'; known metrics: {}",
+                all_names()
+            ))
+        })?;
+        let mut spec = MetricSpec::new(d.kind);
+        let mut seen: Vec<&str> = Vec::new();
+        for kv in parts {
+            let accepted = if d.params.is_empty() {
+                "it takes no parameters".to_string()
+            } else {
+                format!(
+                    "accepted: {}",
+                    d.params
+                        .iter()
+                        .map(|p| format!("{} ({})", p.name, p.range))
+                        .collect::<Vec<_>>()
+                        .join("; ")
+                )
+            };
+            let (k, v) = kv.split_once('=').ok_or_else(|| {
+                Error::invalid(format!("'{kv}' in '{item}' is not param=value; {accepted}"))
+            })?;
+            let (k, v) = (k.trim(), v.trim());
+            let p = d.params.iter().find(|p| p.name == k).ok_or_else(|| {
+                Error::invalid(format!(
+                    "metric '{name}' has no parameter '{k}'; {accepted}"
+                ))
+            })?;
+            if seen.contains(&k) {
+                return Err(Error::invalid(format!(
+                    "parameter '{k}' given twice in '{item}'"
+                )));
+            }
+            seen.push(k);
+            spec.set(p, v).map_err(|m| {
+                Error::invalid(format!(
+                    "bad value for {name}:{k}: {m} (allowed: {})",
+                    p.range
+                ))
+            })?;
+        }
+        out.push(spec);
+    }
+    Ok(out)
+}
+
+/// The table `orogen metric list` prints: one line per metric with its
+/// parameters (name=default, range), units, description and citation.
+pub fn list() -> String {
+    use std::fmt::Write;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "{:<22} {:<34} {:<16} description [source]",
+        "metric", "parameters (default)", "units"
+    );
+    for d in METRICS {
+        let params = if d.params.is_empty() {
+            "-".to_string()
+        } else {
+            d.params
+                .iter()
+                .map(|p| format!("{}={}", p.name, p.default))
+                .collect::<Vec<_>>()
+                .join(" ")
+        };
+        let _ = writeln!(
+            s,
+            "{:<22} {:<34} {:<16} {} [{}]",
+            d.name, params, d.units, d.description, d.citation
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\nradius: 500m, 1.5km (converted with the smallest true cell size of the raster) or 25c (cells), 1c..={MAX_RADIUS_CELLS}c;\nwindows are squares of side 2r+1 cells (mean/stdev/variance/tpi/ntpi: shape=disk for dx²+dy² ≤ r²); nodata cells are excluded from windows; a nodata centre is nodata."
+    );
+    s
+}
+
+/// A metric bound to a raster: radius in cells (window half-side or horizon
+/// steps) and the horizon cutoff distance in metres.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Resolved {
+    pub spec: MetricSpec,
+    /// Radius in cells (0 for metrics without a radius).
+    pub radius_cells: usize,
+    /// Radius as a distance in metres (horizon cutoff); for a radius given in
+    /// cells, cells times the smallest true cell size.
+    pub radius_m: f64,
+}
+
+impl Resolved {
+    /// Halo in cells the metric needs.
+    pub fn halo(&self) -> usize {
+        use MetricKind::*;
+        match self.spec.kind {
+            Mean | Stdev | Variance | Tpi | Ntpi | Relief | OpennessPositive | OpennessNegative
+            | SkyView => self.radius_cells,
+            Percentile => self.radius_cells,
+            // Two passes of the window.
+            TopHatWhite | TopHatBlack => 2 * self.radius_cells,
+            // Normals need one more ring.
+            Roughness => self.radius_cells + 1,
+            k if is_curvature(k) => self.radius_cells.max(1),
+            _ => 1,
+        }
+    }
+}
+
+/// Smallest true cell size in metres over all rows of the raster (both axes).
+pub fn min_cell_size_m(info: &RasterInfo) -> f64 {
+    let g = &info.georef;
+    let mut m = f64::INFINITY;
+    if g.georeferenced && g.crs.geographic {
+        for row in 0..info.height as i64 {
+            let (a, b) = g.cell_size_m(row);
+            m = m.min(a).min(b);
+        }
+    } else {
+        let (a, b) = g.cell_size_m(0);
+        m = a.min(b);
+    }
+    m
+}
+
+/// Bind specs to a raster: convert metre radii to cells with the smallest
+/// true cell size over the rows (so a window covers at least the radius
+/// everywhere), and refuse radii beyond the raster or the cell limit.
+pub fn resolve(specs: &[MetricSpec], info: &RasterInfo) -> Result<Vec<Resolved>> {
+    if specs.is_empty() {
+        return Err(Error::invalid(format!(
+            "no metric requested; known metrics: {}",
+            all_names()
+        )));
+    }
+    let cell = min_cell_size_m(info);
+    if !(cell.is_finite() && cell > 0.0) {
+        return Err(Error::invalid(format!(
+            "{}: the cell size ({cell} m) is not positive: fix the georeferencing",
+            info.path.display()
+        )));
+    }
+    let extent = info.width.max(info.height);
+    specs
+        .iter()
+        .map(|s| {
+            let (cells, m) = match s.radius {
+                None => (0.0, 0.0),
+                Some(Length::Cells(c)) => (c as f64, c as f64 * cell),
+                Some(Length::Metres(m)) => ((m / cell).ceil().max(1.0), m),
+            };
+            let cells_f = cells;
+            if s.radius.is_some() && (cells_f > extent as f64 || cells_f > MAX_RADIUS_CELLS as f64)
+            {
+                return Err(Error::invalid(format!(
+                    "{}: radius {} of {} is {} cells (cell size {cell:.3} m), beyond the raster ({}x{} cells) or the limit of {MAX_RADIUS_CELLS} cells: use a smaller radius",
+                    info.path.display(),
+                    s.radius.map(|r| r.to_string()).unwrap_or_default(),
+                    s.def().name,
+                    cells_f,
+                    info.width,
+                    info.height
+                )));
+            }
+            Ok(Resolved {
+                spec: s.clone(),
+                radius_cells: cells_f as usize,
+                radius_m: m,
+            })
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_kind_once_and_defaults_parse() {
+        for d in METRICS {
+            assert_eq!(METRICS.iter().filter(|e| e.kind == d.kind).count(), 1);
+            assert_eq!(METRICS.iter().filter(|e| e.name == d.name).count(), 1);
+            let mut s = MetricSpec {
+                kind: d.kind,
+                radius: None,
+                directions: 8,
+                units: SlopeUnits::Degrees,
+                disk: false,
+            };
+            for p in d.params {
+                s.set(p, p.default).unwrap();
+            }
+        }
+    }
+}
