@@ -61,6 +61,23 @@ struct Out {
     overwrite: bool,
 }
 
+/// Output format options without an output path (for commands writing several files).
+#[derive(Args, Clone)]
+struct OutFmt {
+    /// GeoTIFF compression.
+    #[arg(long, value_enum, default_value_t = Compress::Deflate)]
+    compress: Compress,
+    /// GeoTIFF predictor (1 none, 2 horizontal, 3 floating point; default: automatic).
+    #[arg(long)]
+    predictor: Option<u16>,
+    /// Tile-store tile size (for .tiles outputs).
+    #[arg(long, default_value_t = 1024)]
+    store_tile: usize,
+    /// Replace existing output tile stores instead of resuming them.
+    #[arg(long)]
+    overwrite: bool,
+}
+
 #[derive(Args, Clone)]
 struct In {
     /// Input raster: GeoTIFF, .hgt, .asc, PNG heightmap or tile store.
@@ -184,6 +201,29 @@ enum Cmd {
         compute_edges: bool,
         #[command(flatten)]
         out: Out,
+        #[command(flatten)]
+        run: Run,
+    },
+    /// Terrain descriptors: `orogen metric list`, or several metrics in one pass over the tiles.
+    #[command(
+        after_help = "Examples:\n  orogen metric list\n  orogen metric dem.tif --metric slope,aspect,tpi:radius=500m,openness:radius=1km -o out/\n  orogen metric dem.tiles --metric curv_mean:radius=5c,relief:radius=300m -o out/ --format tiles\nOne file per metric is written into the output folder, named after the metric and its parameters."
+    )]
+    Metric {
+        /// Input raster, or `list` to print the metrics and their parameters.
+        input: PathBuf,
+        /// Comma-separated metrics with parameters (`name:param=value:...`).
+        #[arg(long, short = 'm')]
+        metric: Option<String>,
+        /// Output folder.
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Output format: tif or tiles.
+        #[arg(long, default_value = "tif")]
+        format: String,
+        #[command(flatten)]
+        png: PngArgs,
+        #[command(flatten)]
+        out: OutFmt,
         #[command(flatten)]
         run: Run,
     },
@@ -492,6 +532,52 @@ fn run(cli: Cli) -> Result<()> {
                 edge: edge(compute_edges),
             };
             local1(&step, src.as_ref(), &out, &run, (DType::U8, Some(0.0)))?;
+        }
+        Cmd::Metric {
+            input,
+            metric,
+            output,
+            format,
+            png,
+            out,
+            run,
+        } => {
+            if input.as_os_str() == "list" {
+                print!("{}", orogen::metrics::list());
+                return Ok(());
+            }
+            let Some(spec) = metric else {
+                bail!("give the metrics to compute with --metric (see `orogen metric list`)");
+            };
+            let Some(dir) = output else {
+                bail!("give an output folder with -o DIR");
+            };
+            if format != "tif" && format != "tiles" {
+                bail!("--format {format:?}: use tif or tiles");
+            }
+            let specs = orogen::metrics::parse_specs(&spec)?;
+            let src = open(&In {
+                input: input.clone(),
+                png,
+            })?;
+            std::fs::create_dir_all(&dir)
+                .with_context(|| format!("{}: cannot create the output folder", dir.display()))?;
+            let paths = orogen::metrics::output_paths(&specs, &dir, &format)?;
+            let full = Out {
+                output: dir.clone(),
+                compress: out.compress,
+                predictor: out.predictor,
+                block: 256,
+                bigtiff: "auto".into(),
+                store_tile: out.store_tile,
+                zstd: false,
+                overwrite: out.overwrite,
+            };
+            let oo = output_options(&full)?;
+            orogen::metrics::compute(src.as_ref(), &specs, &paths, &oo, run.tile, &engine(&run)?)?;
+            for p in &paths {
+                wrote(p);
+            }
         }
         Cmd::Fill { input, out, run } => {
             let src = open(&input)?;

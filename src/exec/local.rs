@@ -374,7 +374,7 @@ impl Engine for LocalEngine {
             std::mem::size_of::<S::In>(),
             std::mem::size_of::<S::Out>(),
             &sizes,
-        );
+        ) + step.scratch_bytes(layout.tile);
         let ids = todo(&layout, &sinks);
         let n_out = step.outputs();
         let compute = |id: TileId| -> Result<Vec<AnyGrid>> {

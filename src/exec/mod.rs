@@ -26,6 +26,11 @@ pub trait LocalStep: Sync {
     fn outputs(&self) -> usize {
         1
     }
+    /// Extra working memory `run` allocates for one tile of side `tile`
+    /// (summed-area tables, horizon buffers…), counted in the memory budget.
+    fn scratch_bytes(&self, _tile: usize) -> u64 {
+        0
+    }
     /// Compute one tile. `inputs[i]` is input `i`'s view (core + halo);
     /// `out[k]` is output `k`'s core, pre-filled with nodata (NaN or 0).
     fn run(&self, inputs: &[TileView<Self::In>], out: &mut [Grid<Self::Out>]) -> Result<()>;

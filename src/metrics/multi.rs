@@ -62,7 +62,7 @@ impl MultiMetric {
     /// allocates in [`LocalStep::run`] beyond its input view and outputs
     /// (summed-area tables, normals, quadric grids, relief passes), for
     /// memory budgets: the engine's own estimate counts views and outputs only.
-    pub fn scratch_bytes(&self, tile: usize) -> u64 {
+    pub fn scratch_estimate(&self, tile: usize) -> u64 {
         let core = (tile * tile) as u64;
         let region = |r: usize| ((tile + 2 * r + 1) * (tile + 2 * r + 1)) as u64;
         let mut b = 0u64;
@@ -157,6 +157,9 @@ impl LocalStep for MultiMetric {
     }
     fn halo(&self) -> usize {
         self.halo
+    }
+    fn scratch_bytes(&self, tile: usize) -> u64 {
+        self.scratch_estimate(tile)
     }
     fn outputs(&self) -> usize {
         self.metrics.len()
