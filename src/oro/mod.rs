@@ -1,0 +1,89 @@
+//! Orometry in memory: peaks, saddles, the divide tree, prominence, isolation.
+//!
+//! Entry points: [`peaks`] (the whole pipeline: tree, prune, isolation),
+//! [`divide_tree`] (the unpruned tree), [`critical_points`], and the writers
+//! [`write_peaks_csv`], [`write_peaks_geojson`], [`write_saddles_geojson`],
+//! [`write_divide_tree_geojson`]; [`DivideTree::save_json`]/`load_json`.
+//! Input: a `Grid<f32>` with NaN as nodata. Definitions follow Kirmse & de
+//! Ferranti 2017 (prominence, key saddle, prominence parent, isolation); see
+//! `tree.rs` for the sweep and the tie rules, [`EdgeConvention`] for the edge.
+
+mod isolation;
+mod regions;
+mod tree;
+mod write;
+
+pub use isolation::IsolationIndex;
+pub use tree::{CriticalPoints, DivideTree, EdgeConvention, Isolation, Peak, Saddle};
+pub use write::{
+    write_divide_tree_geojson, write_peaks_csv, write_peaks_geojson, write_saddles_geojson,
+};
+
+use crate::error::{Error, Result};
+use crate::raster::{GeoRef, Grid};
+
+/// Options of [`peaks`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct PeakOptions {
+    /// Keep peaks with prominence ≥ this (metres, or DEM units).
+    pub min_prominence: f64,
+    /// Edge and nodata convention.
+    pub convention: EdgeConvention,
+    /// Compute isolation of the kept peaks.
+    pub isolation: bool,
+}
+
+impl Default for PeakOptions {
+    fn default() -> Self {
+        PeakOptions {
+            min_prominence: 30.0,
+            convention: EdgeConvention::SeaLevel,
+            isolation: true,
+        }
+    }
+}
+
+/// Peaks with prominence ≥ the threshold, as a pruned divide tree (peaks in
+/// decreasing elevation, each with key saddle and parent among kept peaks).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PeakList {
+    pub tree: DivideTree,
+    pub georef: GeoRef,
+}
+
+/// The unpruned divide tree of `dem` (NaN = nodata).
+pub fn divide_tree(dem: &Grid<f32>, convention: EdgeConvention) -> Result<DivideTree> {
+    Ok(tree::build(dem, convention)?.0)
+}
+
+/// Peaks, join saddles and pits of `dem` (see [`CriticalPoints`]).
+pub fn critical_points(dem: &Grid<f32>) -> Result<CriticalPoints> {
+    Ok(tree::build(dem, EdgeConvention::Unknown)?.1)
+}
+
+/// The whole pipeline: divide tree, pruning at `opts.min_prominence`,
+/// isolation of the kept peaks.
+pub fn peaks(dem: &Grid<f32>, georef: &GeoRef, opts: &PeakOptions) -> Result<PeakList> {
+    if !opts.min_prominence.is_finite() {
+        return Err(Error::invalid(format!(
+            "peaks: minimum prominence must be a finite number, got {}",
+            opts.min_prominence
+        )));
+    }
+    let mut tree = divide_tree(dem, opts.convention)?.pruned(opts.min_prominence);
+    if opts.isolation {
+        compute_isolation(&mut tree, dem, georef);
+    }
+    Ok(PeakList {
+        tree,
+        georef: georef.clone(),
+    })
+}
+
+/// Fill [`Peak::isolation`] for every peak of `tree` (built from `dem`).
+pub fn compute_isolation(tree: &mut DivideTree, dem: &Grid<f32>, georef: &GeoRef) {
+    let idx = IsolationIndex::new(dem, georef);
+    for p in tree.peaks.iter_mut() {
+        p.isolation = idx.nearest_higher(p.col as usize, p.row as usize, p.elevation);
+    }
+}
