@@ -72,7 +72,8 @@ fn flat_reps(z: &[f32], w: usize, h: usize) -> Vec<usize> {
     rep
 }
 
-/// Oracle peaks: (col, row, elevation, prominence), SeaLevel with all cells > 0.
+/// Oracle peaks: (col, row, elevation, prominence); all cells > 0. Of equal
+/// summits, the one whose plateau starts later in row-major order is higher.
 fn oracle(z: &[f32], w: usize, h: usize, conv: EdgeConvention) -> Vec<(u32, u32, f32, f64)> {
     let rep = flat_reps(z, w, h);
     let mut out = Vec::new();
@@ -95,7 +96,9 @@ fn oracle(z: &[f32], w: usize, h: usize, conv: EdgeConvention) -> Vec<(u32, u32,
                 }
             }
         }
-        if !is_peak || !any {
+        // Unknown: a plateau with no valid neighbour is not a peak; SeaLevel:
+        // it is an island (all test heights are > 0 = the sea).
+        if !is_peak || (!any && conv == EdgeConvention::Unknown) {
             continue;
         }
         let mut levels: Vec<f32> = z
@@ -108,7 +111,7 @@ fn oracle(z: &[f32], w: usize, h: usize, conv: EdgeConvention) -> Vec<(u32, u32,
         let mut prom = None;
         for &l in &levels {
             let s = reach(z, w, h, p, l);
-            let found = (0..z.len()).any(|c| s[c] && (z[c] > hp || (z[c] == hp && rep[c] < p)));
+            let found = (0..z.len()).any(|c| s[c] && (z[c] > hp || (z[c] == hp && rep[c] > p)));
             if found {
                 prom = Some(hp as f64 - l as f64);
                 break;
@@ -183,7 +186,7 @@ proptest! {
             let t = oro::divide_tree(&g, conv).unwrap();
             prop_assert_eq!(ours(&t), oracle(&z, w, h, conv));
             check_tree(&t, &z, w, h);
-            let crit = oro::critical_points(&g).unwrap();
+            let crit = oro::critical_points(&g, conv).unwrap();
             let mut cp = crit.peaks.clone();
             cp.sort_by_key(|a| (a.1, a.0));
             let op: Vec<(u32, u32)> = oracle(&z, w, h, conv).iter().map(|a| (a.0, a.1)).collect();

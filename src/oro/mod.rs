@@ -57,8 +57,8 @@ pub fn divide_tree(dem: &Grid<f32>, convention: EdgeConvention) -> Result<Divide
 }
 
 /// Peaks, join saddles and pits of `dem` (see [`CriticalPoints`]).
-pub fn critical_points(dem: &Grid<f32>) -> Result<CriticalPoints> {
-    Ok(tree::build(dem, EdgeConvention::Unknown)?.1)
+pub fn critical_points(dem: &Grid<f32>, convention: EdgeConvention) -> Result<CriticalPoints> {
+    Ok(tree::build(dem, convention)?.1)
 }
 
 /// The whole pipeline: divide tree, pruning at `opts.min_prominence`,

@@ -16,10 +16,12 @@
 //! analysis and synthesis", ACM TOG 38(6)) §4 use the same peak–saddle–peak
 //! structure.
 //!
-//! Ties: regions of equal elevation are processed in increasing id order
-//! (row-major order of their first cell). Of two equal-height peaks, the one
-//! processed first counts as higher, so equal twin summits are resolved
-//! deterministically: the later one gets the key saddle.
+//! Ties: regions of equal elevation are processed in *decreasing* id order
+//! (reverse row-major order of their first cell). Of two equal-height peaks,
+//! the one processed first counts as higher, so of equal twin summits the
+//! southern (north-up DEMs; on one row, the eastern) one is the higher and
+//! the other gets the key saddle. This is the choice akirmse/mountains made
+//! on all six twin pairs of the two SRTM reference tiles.
 //!
 //! Edges here run from a peak to its *prominence parent* (the highest peak of
 //! the component that absorbed it), not to the ridge-adjacent peak of
@@ -62,8 +64,11 @@ pub struct Isolation {
     pub bearing_deg: f64,
 }
 
-/// A peak: a flat region strictly higher than all its valid neighbours (it
-/// needs at least one: an all-flat DEM has no peak).
+/// A peak: a flat region strictly higher than all its neighbours. Under
+/// [`EdgeConvention::SeaLevel`] the edge and nodata count as neighbours at 0
+/// (an all-flat DEM at 100 m is one island peak); under `Unknown` they are
+/// ignored and a peak needs at least one valid neighbour (an all-flat DEM has
+/// no peak).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Peak {
     /// Representative cell (first cell of the summit plateau in row-major order).
@@ -114,8 +119,7 @@ pub struct DivideTree {
 /// Critical points of a DEM (representative cells as (col, row)).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct CriticalPoints {
-    /// Flat regions strictly higher than every valid neighbour, with at least one
-    /// valid neighbour (edge and nodata are ignored here).
+    /// The peaks of [`DivideTree::peaks`] (see [`Peak`] for the convention).
     pub peaks: Vec<(u32, u32)>,
     /// Join saddles: regions where ≥ 2 components of the descending sweep
     /// meet (those of the sweep, without the sea). Split saddles (which join
@@ -156,7 +160,7 @@ pub fn build(dem: &Grid<f32>, convention: EdgeConvention) -> Result<(DivideTree,
     order.sort_unstable_by(|&a, &b| {
         reg.elev[b as usize]
             .total_cmp(&reg.elev[a as usize])
-            .then(a.cmp(&b))
+            .then(b.cmp(&a))
     });
     let sea = nreg as u32;
     let mut uf = Uf {
@@ -303,10 +307,11 @@ pub fn build(dem: &Grid<f32>, convention: EdgeConvention) -> Result<(DivideTree,
         if pit {
             crit.pits.push((col, row));
         }
-        if roots.is_empty() && !any_valid {
+        if roots.is_empty() && !any_valid && convention == EdgeConvention::Unknown {
             // The region has no valid neighbour (the whole DEM is flat, or a
-            // plateau enclosed by nodata): nothing shows it is higher than
-            // anything, so it is not a peak.
+            // plateau enclosed by nodata) and the outside is unknown: nothing
+            // shows it is higher than anything, so it is not a peak. (Under
+            // SeaLevel it is an island above the sea, so a peak.)
             top[r] = SEA_TOP;
             lowest[r] = z;
         } else if roots.is_empty() {
