@@ -134,6 +134,63 @@ fn oracle(z: &[f32], w: usize, h: usize, conv: EdgeConvention) -> Vec<(u32, u32,
     out
 }
 
+/// Oracle pits and join saddles (sorted by row, col). A pit: a flat region
+/// whose neighbours are all valid and higher. A join saddle: a region adjacent
+/// to ≥ 2 distinct 8-connected components of the cells that come before it in
+/// the sweep order (higher, or equal height with a later first cell).
+type Cells = Vec<(u32, u32)>;
+
+fn oracle_pits_saddles(z: &[f32], w: usize, h: usize) -> (Cells, Cells) {
+    let rep = flat_reps(z, w, h);
+    let (mut pits, mut saddles) = (Vec::new(), Vec::new());
+    for r in 0..z.len() {
+        if z[r].is_nan() || rep[r] != r {
+            continue;
+        }
+        let before = |c: usize| !z[c].is_nan() && (z[c] > z[r] || (z[c] == z[r] && rep[c] > r));
+        let members: Vec<usize> = (0..z.len()).filter(|&c| rep[c] == r).collect();
+        let mut pit = true;
+        let mut comps: Vec<Vec<bool>> = Vec::new();
+        for &c in &members {
+            for n in nbrs(w, h, c) {
+                match n {
+                    None => pit = false,
+                    Some(n) if z[n].is_nan() => pit = false,
+                    Some(n) if rep[n] == r => {}
+                    Some(n) => {
+                        if z[n] < z[r] {
+                            pit = false;
+                        }
+                        if before(n) && !comps.iter().any(|m| m[n]) {
+                            // Flood n's component within the `before` set.
+                            let mut m = vec![false; z.len()];
+                            let mut st = vec![n];
+                            m[n] = true;
+                            while let Some(x) = st.pop() {
+                                for y in nbrs(w, h, x).flatten() {
+                                    if !m[y] && before(y) {
+                                        m[y] = true;
+                                        st.push(y);
+                                    }
+                                }
+                            }
+                            comps.push(m);
+                        }
+                    }
+                }
+            }
+        }
+        let pos = ((r % w) as u32, (r / w) as u32);
+        if pit {
+            pits.push(pos);
+        }
+        if comps.len() >= 2 {
+            saddles.push(pos);
+        }
+    }
+    (pits, saddles)
+}
+
 fn ours(t: &DivideTree) -> Vec<(u32, u32, f32, f64)> {
     let mut v: Vec<_> = t
         .peaks
@@ -177,7 +234,7 @@ fn grid_strategy() -> impl Strategy<Value = (usize, usize, Vec<f32>)> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 400, .. ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 600, .. ProptestConfig::default() })]
 
     #[test]
     fn prominence_matches_definition((w, h, z) in grid_strategy()) {
@@ -191,6 +248,10 @@ proptest! {
             cp.sort_by_key(|a| (a.1, a.0));
             let op: Vec<(u32, u32)> = oracle(&z, w, h, conv).iter().map(|a| (a.0, a.1)).collect();
             prop_assert_eq!(cp, op);
+            let (mut pits, mut sads) = (crit.pits.clone(), crit.saddles.clone());
+            pits.sort_by_key(|a| (a.1, a.0));
+            sads.sort_by_key(|a| (a.1, a.0));
+            prop_assert_eq!((pits, sads), oracle_pits_saddles(&z, w, h));
             // Pruning = the oracle's peaks above the threshold, tree still valid.
             for thr in [1.0, 2.0, 3.0] {
                 let pt = t.pruned(thr);

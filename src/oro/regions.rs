@@ -62,6 +62,13 @@ impl Regions {
             if z.is_nan() || label[start] != NONE {
                 continue;
             }
+            if z.is_infinite() {
+                return Err(Error::invalid(format!(
+                    "orometry: cell ({}, {}) is {z}; elevations must be finite (use NaN for nodata)",
+                    start % w,
+                    start / w
+                )));
+            }
             let r = elev.len() as u32;
             let first = cells.len();
             label[start] = r;

@@ -241,8 +241,8 @@ pub fn build(dem: &Grid<f32>, convention: EdgeConvention) -> Result<(DivideTree,
         let mut roots = vec![sea];
         top[sea as usize] = SEA_TOP;
         lowest[sea as usize] = 0.0;
-        for r in 0..reg.len() {
-            if done[r] && reg.touches_outside[r] {
+        for (r, (&d, &t)) in done.iter().zip(&reg.touches_outside).enumerate() {
+            if d && t {
                 roots.push(uf.find(r as u32));
             }
         }
@@ -293,8 +293,10 @@ pub fn build(dem: &Grid<f32>, convention: EdgeConvention) -> Result<(DivideTree,
                     continue;
                 }
                 any_valid = true;
-                if done[nb as usize] {
+                if !done[nb as usize] {
+                    // A lower neighbour: not a pit.
                     pit = false;
+                } else {
                     let s = uf.find(nb);
                     if !roots.contains(&s) {
                         roots.push(s);
