@@ -341,6 +341,12 @@ fn writers_and_json_round_trip() {
         .unwrap_err()
         .to_string()
         .contains("tree.json"));
+    // Everything at once, into a new directory.
+    let out = dir.path().join("out");
+    let files = l.write_all(&out).unwrap();
+    assert_eq!(files.len(), 5);
+    assert_eq!(std::fs::read_to_string(&files[0]).unwrap(), text);
+    assert_eq!(DivideTree::load_json(&files[4]).unwrap(), l.tree);
     // Projected CRS: x/y columns.
     let utm = GeoRef::north_up(500000.0, 4000000.0, 30.0, Crs::projected(32611));
     oro::write_peaks_csv(&csv, &l.tree, &utm).unwrap();

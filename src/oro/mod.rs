@@ -7,6 +7,21 @@
 //! Input: a `Grid<f32>` with NaN as nodata. Definitions follow Kirmse & de
 //! Ferranti 2017 (prominence, key saddle, prominence parent, isolation); see
 //! `tree.rs` for the sweep and the tie rules, [`EdgeConvention`] for the edge.
+//!
+//! Checked against akirmse/mountains (the tool of Kirmse & de Ferranti) on two
+//! SRTM3 tiles (`tests/oro_reference.rs`): identical peak lists, elevations
+//! and prominences at ≥ 30 m.
+//!
+//! Not tiled yet. The plan for out-of-core DEMs: each tile runs this sweep
+//! with its boundary ring as extra tree nodes and emits (1) the peaks whose
+//! key saddle was found before their component reached the tile boundary
+//! (final: no terrain outside can change them), (2) a contracted join tree
+//! over the remaining peaks, the saddles joining them and the boundary cells
+//! ("runoffs" in Kirmse's terms), each node with its elevation and position.
+//! Neighbouring summaries are merged by connecting boundary cells adjacent
+//! across the seam at level min(a, b) and re-running the same descending
+//! Kruskal sweep on the small contracted graph; seams that become interior are
+//! then contracted away, so summaries stay O(boundary + open peaks).
 
 mod isolation;
 mod regions;
@@ -21,6 +36,7 @@ pub use write::{
 
 use crate::error::{Error, Result};
 use crate::raster::{GeoRef, Grid};
+use std::path::{Path, PathBuf};
 
 /// Options of [`peaks`].
 #[derive(Debug, Clone, PartialEq)]
@@ -49,6 +65,31 @@ impl Default for PeakOptions {
 pub struct PeakList {
     pub tree: DivideTree,
     pub georef: GeoRef,
+}
+
+impl PeakList {
+    /// Write `peaks.csv`, `peaks.geojson`, `saddles.geojson`,
+    /// `divide_tree.geojson` and `divide_tree.json` into `dir` (created if
+    /// missing); returns the paths written.
+    pub fn write_all(&self, dir: &Path) -> Result<Vec<PathBuf>> {
+        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+        let p = |n: &str| dir.join(n);
+        write_peaks_csv(&p("peaks.csv"), &self.tree, &self.georef)?;
+        write_peaks_geojson(&p("peaks.geojson"), &self.tree, &self.georef)?;
+        write_saddles_geojson(&p("saddles.geojson"), &self.tree, &self.georef)?;
+        write_divide_tree_geojson(&p("divide_tree.geojson"), &self.tree, &self.georef)?;
+        self.tree.save_json(&p("divide_tree.json"))?;
+        Ok([
+            "peaks.csv",
+            "peaks.geojson",
+            "saddles.geojson",
+            "divide_tree.geojson",
+            "divide_tree.json",
+        ]
+        .iter()
+        .map(|n| p(n))
+        .collect())
+    }
 }
 
 /// The unpruned divide tree of `dem` (NaN = nodata).

@@ -27,7 +27,7 @@
 //! the component that absorbed it), not to the ridge-adjacent peak of
 //! Kirmse's divide tree; both trees give the same prominences.
 
-use super::regions::{Regions, N8, NONE};
+use super::regions::{Regions, N8};
 use crate::error::{Error, Result};
 use crate::raster::Grid;
 use serde::{Deserialize, Serialize};
@@ -133,6 +133,8 @@ pub struct CriticalPoints {
 /// Union-find over regions plus one virtual sea node.
 struct Uf {
     parent: Vec<u32>,
+    /// Union by rank (Tarjan 1975) keeps finds short on huge flats.
+    rank: Vec<u8>,
 }
 
 impl Uf {
@@ -156,20 +158,31 @@ pub fn build(dem: &Grid<f32>, convention: EdgeConvention) -> Result<(DivideTree,
     let nreg = reg.len();
     let w = reg.width;
     let h = reg.height;
-    let mut order: Vec<u32> = (0..nreg as u32).collect();
-    order.sort_unstable_by(|&a, &b| {
-        reg.elev[b as usize]
-            .total_cmp(&reg.elev[a as usize])
-            .then(b.cmp(&a))
-    });
+    // Sweep order: (elevation, id) decreasing, sorted as packed u64 keys
+    // (order-preserving bits of the f32 above the id) instead of an indirect
+    // comparison sort.
+    let mut keys: Vec<u64> = reg
+        .elev
+        .iter()
+        .enumerate()
+        .map(|(i, &z)| {
+            let b = (z + 0.0).to_bits(); // -0.0 sorts as 0.0
+            let ord = if b >> 31 == 1 { !b } else { b | 0x8000_0000 };
+            ((ord as u64) << 32) | i as u64
+        })
+        .collect();
+    keys.sort_unstable();
+    let order: Vec<u32> = keys.iter().rev().map(|&k| k as u32).collect();
+    drop(keys);
     let sea = nreg as u32;
     let mut uf = Uf {
         parent: (0..=nreg as u32).collect(),
+        rank: vec![0; nreg + 1],
     };
     // Per component root: top peak index (or SEA_TOP), lowest elevation seen.
     let mut top = vec![SEA_TOP; nreg + 1];
     let mut lowest = vec![f32::INFINITY; nreg + 1];
-    let mut done = vec![false; nreg];
+    let data = dem.data();
     let mut peak_region: Vec<u32> = Vec::new();
     let mut peaks: Vec<Peak> = Vec::new();
     let mut saddles: Vec<Saddle> = Vec::new();
@@ -178,8 +191,8 @@ pub fn build(dem: &Grid<f32>, convention: EdgeConvention) -> Result<(DivideTree,
     let mut roots: Vec<u32> = Vec::with_capacity(8);
     let pos = |c: u32| (c % w as u32, c / w as u32);
 
-    // Attach every loser root in `roots` (all but the winner) to the winner.
-    // Returns the new root.
+    // Merge the components `roots`: every loser (all but the one with the
+    // highest top peak) gets its key saddle. Returns the new union-find root.
     #[allow(clippy::too_many_arguments)]
     fn merge(
         uf: &mut Uf,
@@ -199,13 +212,29 @@ pub fn build(dem: &Grid<f32>, convention: EdgeConvention) -> Result<(DivideTree,
             .min_by_key(|&&r| rank(top[r as usize]))
             .expect("merge called with roots");
         let wtop = top[win as usize];
+        // The union-find root is chosen by rank; the component's top peak is
+        // carried in `top` independently of which element is the root.
+        let mut root = roots[0];
+        for &r in roots {
+            if uf.rank[r as usize] > uf.rank[root as usize] {
+                root = r;
+            }
+        }
+        if roots
+            .iter()
+            .any(|&r| r != root && uf.rank[r as usize] == uf.rank[root as usize])
+        {
+            uf.rank[root as usize] = uf.rank[root as usize].saturating_add(1);
+        }
         let mut low = lowest[win as usize];
         for &r in roots {
+            low = low.min(lowest[r as usize]);
+            if r != root {
+                uf.parent[r as usize] = root;
+            }
             if r == win {
                 continue;
             }
-            low = low.min(lowest[r as usize]);
-            uf.parent[r as usize] = win;
             if top[r as usize] == SEA_TOP {
                 // A plateau with no valid neighbour: no peak to attach.
                 continue;
@@ -221,8 +250,9 @@ pub fn build(dem: &Grid<f32>, convention: EdgeConvention) -> Result<(DivideTree,
                 saddles.push(s.clone());
             }
         }
-        lowest[win as usize] = low.min(level);
-        win
+        lowest[root as usize] = low.min(level);
+        top[root as usize] = wtop;
+        root
     }
 
     // The sea joins: every finished component touching the edge or nodata is
@@ -230,7 +260,6 @@ pub fn build(dem: &Grid<f32>, convention: EdgeConvention) -> Result<(DivideTree,
     #[allow(clippy::too_many_arguments)]
     fn sea_event(
         reg: &Regions,
-        done: &[bool],
         uf: &mut Uf,
         top: &mut [u32],
         lowest: &mut [f32],
@@ -241,8 +270,9 @@ pub fn build(dem: &Grid<f32>, convention: EdgeConvention) -> Result<(DivideTree,
         let mut roots = vec![sea];
         top[sea as usize] = SEA_TOP;
         lowest[sea as usize] = 0.0;
-        for (r, (&d, &t)) in done.iter().zip(&reg.touches_outside).enumerate() {
-            if d && t {
+        // Regions above 0 are exactly the ones swept so far.
+        for (r, (&z, &t)) in reg.elev.iter().zip(&reg.touches_outside).enumerate() {
+            if z > 0.0 && t {
                 roots.push(uf.find(r as u32));
             }
         }
@@ -258,7 +288,6 @@ pub fn build(dem: &Grid<f32>, convention: EdgeConvention) -> Result<(DivideTree,
             sea_active = true;
             sea_event(
                 &reg,
-                &done,
                 &mut uf,
                 &mut top,
                 &mut lowest,
@@ -274,12 +303,14 @@ pub fn build(dem: &Grid<f32>, convention: EdgeConvention) -> Result<(DivideTree,
             let (x, y) = ((c as usize % w) as i64, (c as usize / w) as i64);
             for (dx, dy) in N8 {
                 let (nx, ny) = (x + dx, y + dy);
-                let nb = if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
-                    NONE
+                // Neighbour states come from the DEM itself (spatially local):
+                // higher = already swept, equal = this region, lower = later.
+                let nz = if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
+                    f32::NAN
                 } else {
-                    reg.label[ny as usize * w + nx as usize]
+                    data[ny as usize * w + nx as usize]
                 };
-                if nb == NONE {
+                if nz.is_nan() {
                     pit = false;
                     if sea_active {
                         let s = uf.find(sea);
@@ -287,17 +318,13 @@ pub fn build(dem: &Grid<f32>, convention: EdgeConvention) -> Result<(DivideTree,
                             roots.push(s);
                         }
                     }
-                    continue;
-                }
-                if nb as usize == r {
-                    continue;
-                }
-                any_valid = true;
-                if !done[nb as usize] {
+                } else if nz < z {
                     // A lower neighbour: not a pit.
+                    any_valid = true;
                     pit = false;
-                } else {
-                    let s = uf.find(nb);
+                } else if nz > z {
+                    any_valid = true;
+                    let s = uf.find(reg.label[ny as usize * w + nx as usize]);
                     if !roots.contains(&s) {
                         roots.push(s);
                     }
@@ -356,12 +383,10 @@ pub fn build(dem: &Grid<f32>, convention: EdgeConvention) -> Result<(DivideTree,
             );
             uf.parent[r] = win;
         }
-        done[r] = true;
     }
     if convention == EdgeConvention::SeaLevel && !sea_active {
         sea_event(
             &reg,
-            &done,
             &mut uf,
             &mut top,
             &mut lowest,
