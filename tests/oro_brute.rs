@@ -219,6 +219,34 @@ fn check_tree(t: &DivideTree, z: &[f32], w: usize, h: usize) {
                 // Parent and saddle are connected to the peak above the saddle level.
                 let r = reach(z, w, h, pi, s.elevation);
                 assert!(r[si] && r[q.row as usize * w + q.col as usize]);
+                // Prominence parent: the highest summit (ties: later first cell)
+                // of the saddle's component among the cells swept up to and
+                // including the saddle region.
+                let rep = flat_reps(z, w, h);
+                let key = |c: usize| (z[c], rep[c]);
+                let upto = |c: usize| {
+                    !z[c].is_nan() && key(c).partial_cmp(&key(si)) != Some(std::cmp::Ordering::Less)
+                };
+                let mut seen = vec![false; z.len()];
+                let mut st = vec![si];
+                seen[si] = true;
+                let mut best = si;
+                while let Some(x) = st.pop() {
+                    if key(x).partial_cmp(&key(best)) == Some(std::cmp::Ordering::Greater) {
+                        best = x;
+                    }
+                    for y in nbrs(w, h, x).flatten() {
+                        if !seen[y] && upto(y) {
+                            seen[y] = true;
+                            st.push(y);
+                        }
+                    }
+                }
+                assert_eq!(
+                    rep[best],
+                    q.row as usize * w + q.col as usize,
+                    "prominence parent"
+                );
             }
             (None, None) => {}
             other => panic!("key saddle and parent must come together: {other:?}"),
