@@ -46,8 +46,9 @@ pub enum EdgeConvention {
     /// Nothing is assumed about the outside: the sweep sees only valid cells.
     /// The highest peak of each 8-connected area of valid cells has no key
     /// saddle and prominence = its elevation − the lowest cell of that area
-    /// (the deepest drop the DEM proves). Other prominences are exact only if
-    /// the key saddle found is the true one (see [`Peak::on_edge`]).
+    /// (the deepest drop the DEM proves). For the other peaks the value is an
+    /// upper bound of the true prominence: terrain beyond the edge can only
+    /// offer a higher key saddle.
     Unknown,
 }
 
@@ -183,7 +184,6 @@ pub fn build(dem: &Grid<f32>, convention: EdgeConvention) -> Result<(DivideTree,
     let mut top = vec![SEA_TOP; nreg + 1];
     let mut lowest = vec![f32::INFINITY; nreg + 1];
     let data = dem.data();
-    let mut peak_region: Vec<u32> = Vec::new();
     let mut peaks: Vec<Peak> = Vec::new();
     let mut saddles: Vec<Saddle> = Vec::new();
     let mut crit = CriticalPoints::default();
@@ -346,7 +346,6 @@ pub fn build(dem: &Grid<f32>, convention: EdgeConvention) -> Result<(DivideTree,
         } else if roots.is_empty() {
             top[r] = peaks.len() as u32;
             lowest[r] = z;
-            peak_region.push(r as u32);
             crit.peaks.push((col, row));
             peaks.push(Peak {
                 col,
