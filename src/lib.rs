@@ -15,6 +15,7 @@ pub mod hydro;
 pub mod io;
 pub mod metrics;
 pub mod ops;
+pub mod oro;
 pub mod raster;
 pub mod store;
 pub mod synth;
