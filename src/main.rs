@@ -227,6 +227,28 @@ enum Cmd {
         #[command(flatten)]
         run: Run,
     },
+    /// Peaks with prominence, key saddles, parents, isolation and the divide tree.
+    #[command(
+        after_help = "Example:\n  orogen peaks ../shared/data/srtm3_S33W071.tif --min-prominence 30 -o out/\nWrites peaks.csv, peaks.geojson, saddles.geojson, divide_tree.geojson and divide_tree.json.\nConventions (Kirmse & de Ferranti 2017): with --edge sea-level (default) the DEM's edge and\nnodata are sea level 0; with --edge unknown the outside is ignored.\nThis step runs in memory (about 28 bytes per cell); --memory must allow it."
+    )]
+    Peaks {
+        #[command(flatten)]
+        input: In,
+        /// Keep peaks with at least this prominence (DEM units, usually metres).
+        #[arg(long, default_value_t = 30.0)]
+        min_prominence: f64,
+        /// Edge and nodata convention: sea-level or unknown.
+        #[arg(long, default_value = "sea-level")]
+        edge: String,
+        /// Skip isolation (distance to higher ground).
+        #[arg(long)]
+        no_isolation: bool,
+        /// Output folder.
+        #[arg(short, long)]
+        output: PathBuf,
+        #[command(flatten)]
+        run: Run,
+    },
     /// Fill depressions (Priority-Flood; exact across tiles after Barnes 2016).
     #[command(
         after_help = "Example:\n  orogen fill dem.tif -o filled.tif\n  orogen fill poland.tiles -o filled.tiles --memory 512MiB\nNodata cells and the DEM's edge are outlets."
@@ -577,6 +599,57 @@ fn run(cli: Cli) -> Result<()> {
             orogen::metrics::compute(src.as_ref(), &specs, &paths, &oo, run.tile, &engine(&run)?)?;
             for p in &paths {
                 wrote(p);
+            }
+        }
+        Cmd::Peaks {
+            input,
+            min_prominence,
+            edge,
+            no_isolation,
+            output,
+            run,
+        } => {
+            let convention = match edge.as_str() {
+                "sea-level" => orogen::oro::EdgeConvention::SeaLevel,
+                "unknown" => orogen::oro::EdgeConvention::Unknown,
+                e => bail!("--edge {e:?}: use sea-level or unknown"),
+            };
+            if !(min_prominence.is_finite() && min_prominence >= 0.0) {
+                bail!("--min-prominence {min_prominence}: give a prominence of 0 or more");
+            }
+            let cfg = engine(&run)?;
+            let src = open(&input)?;
+            let info = src.info().clone();
+            let need = (info.width as u64) * (info.height as u64) * 28;
+            if need > cfg.memory_budget {
+                bail!(
+                    "{}: peaks runs in memory for now and needs about {:.1} GiB for {}x{} cells; raise --memory (e.g. --memory {}GiB)",
+                    input.input.display(),
+                    need as f64 / (1u64 << 30) as f64,
+                    info.width,
+                    info.height,
+                    need.div_ceil(1 << 30)
+                );
+            }
+            let dem = orogen::raster::read_window::<f32>(
+                src.as_ref(),
+                orogen::raster::Window::full(info.width, info.height),
+            )?;
+            let opts = orogen::oro::PeakOptions {
+                min_prominence,
+                convention,
+                isolation: !no_isolation,
+            };
+            let list = orogen::oro::peaks(&dem, &info.georef, &opts)?;
+            let files = list.write_all(&output)?;
+            if !run.quiet {
+                eprintln!(
+                    "{} peaks with prominence >= {min_prominence}",
+                    list.tree.peaks.len()
+                );
+            }
+            for f in &files {
+                wrote(f);
             }
         }
         Cmd::Fill { input, out, run } => {

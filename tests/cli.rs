@@ -258,3 +258,29 @@ fn hydro_chain_is_identical_for_any_tile_size_and_equals_in_memory() {
     );
     assert!(e.contains("D8"), "{e}");
 }
+
+#[test]
+fn peaks_writes_a_tree_that_loads_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("peaks");
+    ok(orogen()
+        .arg("peaks")
+        .arg(data("bigtujunga_crop.tif"))
+        .args(["-q", "--min-prominence", "50", "-o"])
+        .arg(&out));
+    let csv = std::fs::read_to_string(out.join("peaks.csv")).unwrap();
+    let rows: Vec<&str> = csv.lines().skip(1).collect();
+    assert!(!rows.is_empty());
+    let tree = orogen::oro::DivideTree::load_json(&out.join("divide_tree.json")).unwrap();
+    assert_eq!(tree.peaks.len(), rows.len());
+    // Every kept peak has prominence >= 50; the highest is the DEM's maximum.
+    assert!(tree.peaks.iter().all(|p| p.prominence >= 50.0));
+    let e = fails(
+        orogen()
+            .arg("peaks")
+            .arg(data("bigtujunga_crop.tif"))
+            .args(["--edge", "moon", "-o"])
+            .arg(&out),
+    );
+    assert!(e.contains("--edge"), "{e}");
+}
