@@ -38,6 +38,13 @@ struct Out {
     /// Output: .tif (GeoTIFF), .tiles (tile store), .png (16-bit), .asc.
     #[arg(short, long)]
     output: PathBuf,
+    #[command(flatten)]
+    fmt: OutFmt,
+}
+
+/// Output format options (GeoTIFF and tile-store settings).
+#[derive(Args, Clone)]
+struct OutFmt {
     /// GeoTIFF compression.
     #[arg(long, value_enum, default_value_t = Compress::Deflate)]
     compress: Compress,
@@ -57,23 +64,6 @@ struct Out {
     #[arg(long)]
     zstd: bool,
     /// Replace an existing output tile store instead of resuming it.
-    #[arg(long)]
-    overwrite: bool,
-}
-
-/// Output format options without an output path (for commands writing several files).
-#[derive(Args, Clone)]
-struct OutFmt {
-    /// GeoTIFF compression.
-    #[arg(long, value_enum, default_value_t = Compress::Deflate)]
-    compress: Compress,
-    /// GeoTIFF predictor (1 none, 2 horizontal, 3 floating point; default: automatic).
-    #[arg(long)]
-    predictor: Option<u16>,
-    /// Tile-store tile size (for .tiles outputs).
-    #[arg(long, default_value_t = 1024)]
-    store_tile: usize,
-    /// Replace existing output tile stores instead of resuming them.
     #[arg(long)]
     overwrite: bool,
 }
@@ -370,7 +360,7 @@ fn engine(run: &Run) -> Result<EngineConfig> {
     })
 }
 
-fn output_options(o: &Out) -> Result<OutputOptions> {
+fn output_options(o: &OutFmt) -> Result<OutputOptions> {
     let compression = match o.compress {
         Compress::None => Compression::None,
         Compress::Deflate => Compression::Deflate { level: 6 },
@@ -491,13 +481,13 @@ fn run(cli: Cli) -> Result<()> {
                 },
             )?;
             warn_georef(src.as_ref());
-            let oo = output_options(&out)?;
+            let oo = output_options(&out.fmt)?;
             ops::convert(src.as_ref(), &out.output, &oo, run.tile, &engine(&run)?)?;
             wrote(&out.output);
         }
         Cmd::Export { input, out, run } => {
             let src = open(&input)?;
-            let oo = output_options(&out)?;
+            let oo = output_options(&out.fmt)?;
             ops::convert(src.as_ref(), &out.output, &oo, run.tile, &engine(&run)?)?;
             wrote(&out.output);
         }
@@ -585,17 +575,7 @@ fn run(cli: Cli) -> Result<()> {
             std::fs::create_dir_all(&dir)
                 .with_context(|| format!("{}: cannot create the output folder", dir.display()))?;
             let paths = orogen::metrics::output_paths(&specs, &dir, &format)?;
-            let full = Out {
-                output: dir.clone(),
-                compress: out.compress,
-                predictor: out.predictor,
-                block: 256,
-                bigtiff: "auto".into(),
-                store_tile: out.store_tile,
-                zstd: false,
-                overwrite: out.overwrite,
-            };
-            let oo = output_options(&full)?;
+            let oo = output_options(&out)?;
             orogen::metrics::compute(src.as_ref(), &specs, &paths, &oo, run.tile, &engine(&run)?)?;
             for p in &paths {
                 wrote(p);
@@ -750,7 +730,7 @@ fn local1<S: orogen::exec::LocalStep>(
     run: &Run,
     ty: (DType, Option<f64>),
 ) -> Result<()> {
-    let oo = output_options(out)?;
+    let oo = output_options(&out.fmt)?;
     ops::run_local_to_paths(
         step,
         &[src],
@@ -772,7 +752,7 @@ fn global1<S: orogen::exec::GlobalStep>(
     run: &Run,
     ty: (DType, Option<f64>),
 ) -> Result<()> {
-    let oo = output_options(out)?;
+    let oo = output_options(&out.fmt)?;
     ops::run_global_to_paths(
         step,
         inputs,
