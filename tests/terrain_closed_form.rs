@@ -175,3 +175,27 @@ fn fast_atan_is_within_its_bound() {
     assert_eq!(atan_nonneg(0.0), 0.0);
     assert!((atan_nonneg(f64::INFINITY) - std::f64::consts::FRAC_PI_2).abs() < 1e-15);
 }
+
+#[test]
+fn fast_atan2_matches_libm_in_every_octant() {
+    use orogen::metrics::terrain::atan2_fast;
+    let mut worst = 0f64;
+    for i in 0..720 {
+        for r in [1e-6, 0.3, 1.0, 7.5, 1e5] {
+            let th = (i as f64 + 0.37) * std::f64::consts::PI / 360.0;
+            let (y, x) = (r * th.sin(), r * th.cos());
+            worst = worst.max((atan2_fast(y, x) - y.atan2(x)).abs());
+        }
+    }
+    for (y, x) in [
+        (0.0, 1.0),
+        (1.0, 0.0),
+        (0.0, -1.0),
+        (-1.0, 0.0),
+        (1.0, 1.0),
+        (-2.0, -2.0),
+    ] {
+        worst = worst.max((atan2_fast(y, x) - f64::atan2(y, x)).abs());
+    }
+    assert!(worst < 1e-8, "max error {worst}");
+}

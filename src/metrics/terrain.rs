@@ -134,10 +134,33 @@ pub struct Aspect {
     pub zero_for_flat: bool,
 }
 
+/// `atan2(y, x)` in radians from [`atan_nonneg`] by octant reduction
+/// (max error 7e-9 rad; `atan2(0, 0)` = 0). Branch-light, so loops using it
+/// vectorise, unlike libm's `atan2`.
+#[inline]
+pub fn atan2_fast(y: f64, x: f64) -> f64 {
+    use std::f64::consts::{FRAC_PI_2, PI};
+    let (ax, ay) = (x.abs(), y.abs());
+    let (lo, hi) = if ay > ax { (ax, ay) } else { (ay, ax) };
+    let t = if hi == 0.0 { 0.0 } else { lo / hi };
+    let mut a = atan_nonneg(t);
+    if ay > ax {
+        a = FRAC_PI_2 - a;
+    }
+    if x < 0.0 {
+        a = PI - a;
+    }
+    if y < 0.0 {
+        -a
+    } else {
+        a
+    }
+}
+
 /// Azimuth of steepest descent for a gradient (east, north components).
 #[inline]
 pub fn aspect_deg(dzdx: f64, dzdy: f64) -> f64 {
-    let a = (-dzdx).atan2(-dzdy).to_degrees();
+    let a = atan2_fast(-dzdx, -dzdy).to_degrees();
     let a = if a < 0.0 { a + 360.0 } else { a };
     if a >= 360.0 {
         0.0
