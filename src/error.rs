@@ -7,11 +7,12 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
     /// An operating-system I/O error on a named file.
-    #[error("{}: {source}", path.display())]
+    #[error("{}: {err}", path.display())]
     Io {
         path: PathBuf,
-        #[source]
-        source: std::io::Error,
+        // Not a `source`: the message already includes it, and error chains
+        // printed by the CLI would repeat it.
+        err: std::io::Error,
     },
     /// A file whose content is corrupt, truncated or inconsistent.
     #[error("{}: {msg}", path.display())]
@@ -29,12 +30,13 @@ pub enum Error {
     #[error("{}: {msg}", path.display())]
     Store { path: PathBuf, msg: String },
     /// An error while processing one tile of a step (added by the engine).
-    #[error("{step}, tile {id}: {source}")]
+    #[error("{step}, tile {id}: {inner}")]
     Tile {
         step: String,
         id: usize,
-        #[source]
-        source: Box<Error>,
+        // Not a `source`: the message already includes it (no repetition in
+        // the CLI's error chain).
+        inner: Box<Error>,
     },
 }
 
@@ -46,7 +48,7 @@ impl Error {
     pub fn io(path: impl AsRef<Path>, source: std::io::Error) -> Self {
         Error::Io {
             path: path.as_ref().to_path_buf(),
-            source,
+            err: source,
         }
     }
     /// Corrupt or truncated content in `path`.
@@ -82,7 +84,7 @@ impl Error {
         Error::Tile {
             step: step.into(),
             id,
-            source: Box::new(source),
+            inner: Box::new(source),
         }
     }
     /// Invalid argument.

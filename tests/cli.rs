@@ -284,3 +284,20 @@ fn peaks_writes_a_tree_that_loads_back() {
     );
     assert!(e.contains("--edge"), "{e}");
 }
+
+#[test]
+fn errors_are_said_once_and_name_the_fix() {
+    let e = fails(orogen().args(["info", "/no/such/file.tif"]));
+    assert_eq!(e.matches("os error").count(), 1, "{e}");
+    assert_eq!(e.trim_end().lines().count(), 1, "one line: {e}");
+    let e = fails(
+        orogen()
+            .arg("slope")
+            .arg(data("whitebox_DEM.tif"))
+            .args(["-o", "/no/such/folder/s.tif"]),
+    );
+    assert!(
+        e.contains("/no/such/folder") && e.contains("does not exist"),
+        "{e}"
+    );
+}

@@ -473,9 +473,9 @@ fn step_error_stops_the_run_and_leaves_no_finished_store() {
             )
             .unwrap_err();
         match &err {
-            Error::Tile { id, source, .. } => {
+            Error::Tile { id, inner, .. } => {
                 assert_eq!(*id, 42);
-                assert!(source.to_string().contains("deliberate"));
+                assert!(inner.to_string().contains("deliberate"));
             }
             e => panic!("unexpected error {e}"),
         }

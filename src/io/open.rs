@@ -146,6 +146,15 @@ pub fn create_sink(
         .and_then(|e| e.to_str())
         .unwrap_or("")
         .to_ascii_lowercase();
+    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        if !parent.is_dir() {
+            return Err(Error::invalid(format!(
+                "{}: the output folder {} does not exist; create it first",
+                path.display(),
+                parent.display()
+            )));
+        }
+    }
     Ok(match ext.as_str() {
         "tif" | "tiff" => Box::new(GeoTiffWriter::create(
             path, width, height, dtype, georef, &oo.tiff,
