@@ -330,8 +330,8 @@ fn accumulate_core(flow: &FlowFractions, acc: &mut [f64]) -> Result<()> {
                 continue;
             }
             valid_cells += 1;
-            for d in 0..8 {
-                if frac[c][d] > 0.0 {
+            for (d, &f) in frac[c].iter().enumerate() {
+                if f > 0.0 {
                     if let Some(r) = neighbour(x, y, d, w, h) {
                         if is_valid(r) {
                             indeg[r] += 1;
@@ -348,8 +348,7 @@ fn accumulate_core(flow: &FlowFractions, acc: &mut [f64]) -> Result<()> {
         head += 1;
         let (x, y) = (c % w, c / w);
         let a = acc[c];
-        for d in 0..8 {
-            let f = frac[c][d];
+        for (d, &f) in frac[c].iter().enumerate() {
             if f <= 0.0 {
                 continue;
             }
