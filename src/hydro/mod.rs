@@ -31,8 +31,10 @@
 //!   off-raster neighbour (in the order above): its water leaves the DEM.
 
 pub mod accum;
+pub mod dinf;
 pub mod fill;
 pub mod flow;
+pub mod mfd;
 pub mod tiled;
 
 pub use accum::{accumulate, accumulate_weighted, WEIGHT_SCALE_BITS};
