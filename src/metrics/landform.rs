@@ -81,7 +81,10 @@ pub fn geomorphon_class(plus: usize, minus: usize) -> u8 {
 /// elevation angles (degrees) met along it: with zenith `φ = 90° − max` and
 /// nadir `ψ = 90° + min` (Jasiewicz & Stepinski 2013, sec. 2.1),
 /// `Δ = ψ − φ = max + min`; '+' (the surroundings rise) if `Δ > t`,
-/// '−' (they fall) if `Δ < −t`, '0' otherwise.
+/// '−' (they fall) if `Δ < −t`, '0' otherwise. This is the paper's rule;
+/// GRASS r.geomorphon's current code uses a variant (a line is non-flat when
+/// `|max|` or `|min|` exceeds `t`, signed by the larger of the two), so
+/// patterns may differ from GRASS near the threshold.
 pub fn ternary(max_deg: f64, min_deg: f64, flat_deg: f64) -> u32 {
     let d = max_deg + min_deg;
     if d > flat_deg {
@@ -96,7 +99,8 @@ pub fn ternary(max_deg: f64, min_deg: f64, flat_deg: f64) -> u32 {
 /// Geomorphons of every core cell of `view`: lines of sight along the 8
 /// [`GEOMORPHON_DIRS`] visit the cells at whole steps whose centres lie
 /// within `cutoff_m` metres (at most `steps` cells per axis, ≤ the halo;
-/// distances from the centre row's true cell sizes, as `horizon`). Nodata
+/// distances from the centre row's true cell sizes, as `horizon`; a cell at
+/// exactly `cutoff_m` is included, where GRASS stops before it). Nodata
 /// cells and cells beyond the raster are skipped; a line without any valid
 /// cell is '0'. Writes the class (1..=10) to `class` and the pattern code
 /// `Σ digit_i 3^i` (digits [`T_FLAT`], [`T_PLUS`], [`T_MINUS`]) to `pattern`.
