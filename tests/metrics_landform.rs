@@ -486,7 +486,7 @@ fn tiled_equals_untiled_bigtujunga() {
     let path = "tests/data/bigtujunga_crop.tif";
     let src = open_raster(Path::new(path), &OpenOptions::default()).unwrap();
     let src = src.as_ref();
-    let specs = "geomorphon:radius=300m,geomorphon_pattern:radius=6c:flat=2,weiss_landform:radius=3c:large=400m,dikau_form,dikau_form:radius=2c:threshold=0.0005";
+    let specs = "geomorphon:radius=300m,geomorphon_pattern:radius=6c:flat=2,geomorphon_pattern:radius=300m,weiss_landform:radius=3c:large=400m,dikau_form,dikau_form:radius=2c:threshold=0.0005";
     let info = src.info().clone();
     let bits = |v: &Vec<Vec<f32>>| -> Vec<Vec<u32>> {
         v.iter()

@@ -328,13 +328,37 @@ impl LocalStep for MultiMetric {
                 }
                 Relief => relief(view, m.radius_cells, o, &mut g1, &mut g2),
                 Geomorphon | GeomorphonPattern => {
+                    if done_horizon[k] {
+                        continue;
+                    }
                     let flat = m.spec.threshold.unwrap_or(1.0);
-                    let (c, p) = if m.spec.kind == Geomorphon {
-                        (Some(o), None)
+                    // One scan for a class and a pattern with the same rays.
+                    let key = (m.radius_cells, m.radius_m.to_bits(), flat.to_bits());
+                    let other = if m.spec.kind == Geomorphon {
+                        GeomorphonPattern
                     } else {
-                        (None, Some(o))
+                        Geomorphon
+                    };
+                    let twin = (k + 1..self.metrics.len()).find(|&j| {
+                        let n = &self.metrics[j];
+                        n.spec.kind == other
+                            && (
+                                n.radius_cells,
+                                n.radius_m.to_bits(),
+                                n.spec.threshold.unwrap_or(1.0).to_bits(),
+                            ) == key
+                    });
+                    let mut extra = twin.map(|_| Grid::new(cw, ch, nan));
+                    let (c, p) = if m.spec.kind == Geomorphon {
+                        (Some(&mut *o), extra.as_mut())
+                    } else {
+                        (extra.as_mut(), Some(&mut *o))
                     };
                     landform::geomorphon(view, m.radius_cells, m.radius_m, flat, c, p);
+                    if let (Some(j), Some(g)) = (twin, extra) {
+                        done_horizon[j] = true;
+                        out[j].data_mut().copy_from_slice(g.data());
+                    }
                 }
                 WeissLandform => {
                     let Some((big, sat)) = sat.as_ref() else {
