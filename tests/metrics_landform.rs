@@ -486,7 +486,7 @@ fn tiled_equals_untiled_bigtujunga() {
     let path = "tests/data/bigtujunga_crop.tif";
     let src = open_raster(Path::new(path), &OpenOptions::default()).unwrap();
     let src = src.as_ref();
-    let specs = "geomorphon:radius=300m,geomorphon_pattern:radius=6c:flat=2,geomorphon_pattern:radius=300m,weiss_landform:radius=3c:large=400m,dikau_form,dikau_form:radius=2c:threshold=0.0005";
+    let specs = "geomorphon:radius=300m,geomorphon_pattern:radius=6c:flat=2,geomorphon_pattern:radius=300m,geomorphon_canonical:radius=5c,weiss_landform:radius=3c:large=400m,dikau_form,dikau_form:radius=2c:threshold=0.0005";
     let info = src.info().clone();
     let bits = |v: &Vec<Vec<f32>>| -> Vec<Vec<u32>> {
         v.iter()
@@ -528,5 +528,48 @@ fn spec_parsing_and_labels() {
         "dikau_form:threshold=inf",
     ] {
         assert!(parse_specs(bad).is_err(), "{bad}");
+    }
+}
+
+/// Canonical codes by rotating and mirroring digit vectors explicitly: 498
+/// classes over the 6561 patterns (Jasiewicz & Stepinski 2013), each the
+/// smallest code of its orbit.
+#[test]
+fn canonical_patterns() {
+    use orogen::metrics::landform::canonical_code;
+    let enc = |d: &[u32]| d.iter().rev().fold(0u32, |a, &x| a * 3 + x);
+    let mut canon = std::collections::BTreeSet::new();
+    for c in 0..6561u32 {
+        let d: Vec<u32> = (0..8).map(|i| c / 3u32.pow(i) % 3).collect();
+        let mut orbit = Vec::new();
+        for base in [d.clone(), d.iter().rev().cloned().collect::<Vec<u32>>()] {
+            for r in 0..8 {
+                let mut v = base.clone();
+                v.rotate_left(r);
+                orbit.push(enc(&v));
+            }
+        }
+        let want = *orbit.iter().min().unwrap();
+        assert_eq!(canonical_code(c), want, "code {c}");
+        canon.insert(want);
+    }
+    assert_eq!(canon.len(), 498);
+    // On a DEM: the canonical output is the canonical form of the pattern.
+    let (w, h) = (31, 27);
+    let d = random_grid(w, h, 11);
+    let src = source(&d, w, h);
+    let out = run(
+        &src,
+        "geomorphon_pattern:radius=4c,geomorphon_canonical:radius=4c",
+        6,
+        2,
+    );
+    for i in 0..w * h {
+        let want = if out[0][i].is_nan() {
+            f32::NAN
+        } else {
+            canonical_code(out[0][i] as u32) as f32
+        };
+        assert!(same(&out[1][i..i + 1], &[want]), "cell {i}");
     }
 }

@@ -173,6 +173,39 @@ pub fn geomorphon(
     }
 }
 
+/// Canonical form of a pattern code (as [`geomorphon`] writes them): the
+/// smallest code among its 8 rotations (by 45°) and their mirror images, so
+/// patterns that differ only in orientation share one code. Over all 3^8
+/// patterns there are 498 canonical codes, the "geomorphons" of Jasiewicz &
+/// Stepinski 2013 (sec. 2.2). Codes ≥ 3^8 are returned unchanged.
+pub fn canonical_code(code: u32) -> u32 {
+    if code >= 6561 {
+        return code;
+    }
+    let mut d = [0u32; 8];
+    let mut c = code;
+    for v in d.iter_mut() {
+        *v = c % 3;
+        c /= 3;
+    }
+    let mut best = code;
+    for mirror in [false, true] {
+        for rot in 0..8 {
+            let mut v = 0u32;
+            for i in (0..8).rev() {
+                let src = if mirror {
+                    (8 - i + rot) % 8
+                } else {
+                    (i + rot) % 8
+                };
+                v = v * 3 + d[src];
+            }
+            best = best.min(v);
+        }
+    }
+    best
+}
+
 /// Weiss (2001) landform class from the standardised TPI at a small (`sn`)
 /// and a large (`ln`) scale and the slope in degrees, with thresholds ±1
 /// standard deviation and `slope_t` degrees separating plains from open

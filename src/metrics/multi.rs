@@ -360,6 +360,15 @@ impl LocalStep for MultiMetric {
                         out[j].data_mut().copy_from_slice(g.data());
                     }
                 }
+                GeomorphonCanonical => {
+                    let flat = m.spec.threshold.unwrap_or(1.0);
+                    landform::geomorphon(view, m.radius_cells, m.radius_m, flat, None, Some(o));
+                    for v in o.data_mut() {
+                        if !v.is_nan() {
+                            *v = landform::canonical_code(*v as u32) as f32;
+                        }
+                    }
+                }
                 WeissLandform => {
                     let Some((big, sat)) = sat.as_ref() else {
                         return Err(Error::invalid("metrics: summed-area table missing"));

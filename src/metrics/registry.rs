@@ -54,6 +54,7 @@ pub enum MetricKind {
     SkyViewApprox,
     Geomorphon,
     GeomorphonPattern,
+    GeomorphonCanonical,
     WeissLandform,
     DikauForm,
 }
@@ -487,6 +488,14 @@ pub const METRICS: &[MetricDef] = &[
         "Jasiewicz & Stepinski 2013, Geomorphology 182"
     ),
     def!(
+        GeomorphonCanonical,
+        "geomorphon_canonical",
+        &[RADIUS_GEOMORPHON, FLAT],
+        "0..6560",
+        "geomorphon_pattern reduced to its smallest code over 8 rotations and their mirrors (498 values)",
+        "Jasiewicz & Stepinski 2013, Geomorphology 182, sec. 2.2"
+    ),
+    def!(
         WeissLandform,
         "weiss_landform",
         &[RADIUS_SMALL, RADIUS_LARGE, SLOPE_T],
@@ -839,7 +848,7 @@ impl Resolved {
             // Normals need one more ring.
             Roughness => self.radius_cells + 1,
             k if is_curvature(k) => self.radius_cells.max(1),
-            Geomorphon | GeomorphonPattern => self.radius_cells,
+            Geomorphon | GeomorphonPattern | GeomorphonCanonical => self.radius_cells,
             WeissLandform => self.radius_cells.max(self.radius2_cells),
             DikauForm => self.radius_cells.max(1),
             _ => 1,
