@@ -1,6 +1,7 @@
 //! Terrain descriptors: pointwise metrics computed per tile with a halo.
 
 pub mod horizon;
+pub mod landform;
 pub mod multi;
 pub mod neighbourhood;
 pub mod quadric;

@@ -14,6 +14,7 @@
 //! and cells beyond the raster from their windows.
 
 use super::horizon::{horizon, HorizonOut};
+use super::landform;
 use super::neighbourhood::{walk_3x3, EdgeMode};
 use super::quadric::{laplacian, rugosity, tri_riley, tri_wilson, wood_fit, Quadric};
 use super::registry::{is_curvature, resolve, MetricKind, MetricSpec, Resolved};
@@ -85,6 +86,16 @@ impl MultiMetric {
         }) {
             // values (f64) + count (u32) + two i128 tables
             b += region(r) * (8 + 4 + 16 + 16);
+        }
+        if let Some(r) = self
+            .metrics
+            .iter()
+            .filter(|m| m.spec.kind == MetricKind::WeissLandform)
+            .map(|m| m.radius_cells.max(m.radius2_cells))
+            .max()
+        {
+            // summed-area tables as above plus two NTPI grids
+            b += region(r) * (8 + 4 + 16 + 16) + 2 * core * 4;
         }
         if let Some(r) = radius(&|k| k == MetricKind::Roughness) {
             // three normal components (f64) + three (count, i128) tables
@@ -177,7 +188,11 @@ impl LocalStep for MultiMetric {
         // Shared: quadric coefficients per curvature radius (Evans 3x3 for
         // radius 1, Wood's n x n fit beyond).
         let mut quads: Vec<(usize, Grid<Quadric>)> = Vec::new();
-        for m in self.metrics.iter().filter(|m| is_curvature(m.spec.kind)) {
+        for m in self
+            .metrics
+            .iter()
+            .filter(|m| is_curvature(m.spec.kind) || m.spec.kind == MetricKind::DikauForm)
+        {
             let r = m.radius_cells.max(1);
             if quads.iter().any(|q| q.0 == r) {
                 continue;
@@ -196,6 +211,12 @@ impl LocalStep for MultiMetric {
             .iter()
             .filter(|m| is_sat(m.spec.kind))
             .map(|m| m.radius_cells)
+            .chain(
+                self.metrics
+                    .iter()
+                    .filter(|m| m.spec.kind == MetricKind::WeissLandform)
+                    .map(|m| m.radius_cells.max(m.radius2_cells)),
+            )
             .max();
         let sat = match sat_r {
             Some(r) => {
@@ -203,7 +224,10 @@ impl LocalStep for MultiMetric {
                 let squares = self.metrics.iter().any(|m| {
                     matches!(
                         m.spec.kind,
-                        MetricKind::Stdev | MetricKind::Variance | MetricKind::Ntpi
+                        MetricKind::Stdev
+                            | MetricKind::Variance
+                            | MetricKind::Ntpi
+                            | MetricKind::WeissLandform
                     )
                 });
                 Some((
@@ -303,6 +327,76 @@ impl LocalStep for MultiMetric {
                     windowed_stat(view, sat, *big, m.radius_cells, m.spec.disk, m.spec.kind, o);
                 }
                 Relief => relief(view, m.radius_cells, o, &mut g1, &mut g2),
+                Geomorphon | GeomorphonPattern => {
+                    if done_horizon[k] {
+                        continue;
+                    }
+                    let flat = m.spec.threshold.unwrap_or(1.0);
+                    // One scan for a class and a pattern with the same rays.
+                    let key = (m.radius_cells, m.radius_m.to_bits(), flat.to_bits());
+                    let other = if m.spec.kind == Geomorphon {
+                        GeomorphonPattern
+                    } else {
+                        Geomorphon
+                    };
+                    let twin = (k + 1..self.metrics.len()).find(|&j| {
+                        let n = &self.metrics[j];
+                        n.spec.kind == other
+                            && (
+                                n.radius_cells,
+                                n.radius_m.to_bits(),
+                                n.spec.threshold.unwrap_or(1.0).to_bits(),
+                            ) == key
+                    });
+                    let mut extra = twin.map(|_| Grid::new(cw, ch, nan));
+                    let (c, p) = if m.spec.kind == Geomorphon {
+                        (Some(&mut *o), extra.as_mut())
+                    } else {
+                        (extra.as_mut(), Some(&mut *o))
+                    };
+                    landform::geomorphon(view, m.radius_cells, m.radius_m, flat, c, p);
+                    if let (Some(j), Some(g)) = (twin, extra) {
+                        done_horizon[j] = true;
+                        out[j].data_mut().copy_from_slice(g.data());
+                    }
+                }
+                GeomorphonCanonical => {
+                    let flat = m.spec.threshold.unwrap_or(1.0);
+                    landform::geomorphon(view, m.radius_cells, m.radius_m, flat, None, Some(o));
+                    for v in o.data_mut() {
+                        if !v.is_nan() {
+                            *v = landform::canonical_code(*v as u32) as f32;
+                        }
+                    }
+                }
+                WeissLandform => {
+                    let Some((big, sat)) = sat.as_ref() else {
+                        return Err(Error::invalid("metrics: summed-area table missing"));
+                    };
+                    let mut sn = Grid::new(cw, ch, nan);
+                    let mut ln = Grid::new(cw, ch, nan);
+                    windowed_stat(view, sat, *big, m.radius_cells, false, Ntpi, &mut sn);
+                    windowed_stat(view, sat, *big, m.radius2_cells, false, Ntpi, &mut ln);
+                    super::terrain::Slope::default().run(inputs, std::slice::from_mut(o))?;
+                    let t = m.spec.threshold.unwrap_or(5.0);
+                    for ((o, a), b) in o.data_mut().iter_mut().zip(sn.data()).zip(ln.data()) {
+                        *o = landform::weiss_class(*a as f64, *b as f64, *o as f64, t);
+                    }
+                }
+                DikauForm => {
+                    let r = m.radius_cells.max(1);
+                    let Some(qg) = quads.iter().find(|q| q.0 == r).map(|q| &q.1) else {
+                        return Err(Error::invalid("metrics: quadric table missing"));
+                    };
+                    let t = m.spec.threshold.unwrap_or(0.0);
+                    for (o, c) in o.data_mut().iter_mut().zip(qg.data()) {
+                        *o = if c.p.is_nan() {
+                            nan
+                        } else {
+                            landform::dikau_class(c.profile(), c.plan(), t)
+                        };
+                    }
+                }
                 SkyViewApprox => walk_3x3(view, o, EdgeMode::Nodata, nan, |w, ew, ns| {
                     let (p, q) = horn_gradient(w, ew, ns);
                     // cos β = 1/√(1+p²+q²)

@@ -52,6 +52,11 @@ pub enum MetricKind {
     OpennessNegative,
     SkyView,
     SkyViewApprox,
+    Geomorphon,
+    GeomorphonPattern,
+    GeomorphonCanonical,
+    WeissLandform,
+    DikauForm,
 }
 
 /// What a metric's parameters are.
@@ -65,6 +70,10 @@ pub enum ParamKind {
     SlopeUnits,
     /// Window shape: `square` or `disk`.
     Shape,
+    /// A second length (the large scale of Weiss's landforms), as `Radius`.
+    Radius2,
+    /// A non-negative number (threshold in the metric's units).
+    Threshold,
 }
 
 /// One parameter of a metric, as the registry describes it.
@@ -132,6 +141,43 @@ const UNITS: ParamDef = ParamDef {
     kind: ParamKind::SlopeUnits,
     default: "degrees",
     range: "degrees or percent",
+};
+
+const RADIUS_GEOMORPHON: ParamDef = ParamDef {
+    name: "radius",
+    kind: ParamKind::Radius,
+    default: "10c",
+    range: "1c..=2000c, or a length in m/km (> 0); the lookup distance L",
+};
+const FLAT: ParamDef = ParamDef {
+    name: "flat",
+    kind: ParamKind::Threshold,
+    default: "1",
+    range: "flatness threshold t in degrees, >= 0",
+};
+const RADIUS_SMALL: ParamDef = ParamDef {
+    name: "radius",
+    kind: ParamKind::Radius,
+    default: "3c",
+    range: "small-scale TPI radius: 1c..=2000c, or a length in m/km",
+};
+const RADIUS_LARGE: ParamDef = ParamDef {
+    name: "large",
+    kind: ParamKind::Radius2,
+    default: "10c",
+    range: "large-scale TPI radius: 1c..=2000c, or a length in m/km",
+};
+const SLOPE_T: ParamDef = ParamDef {
+    name: "slope",
+    kind: ParamKind::Threshold,
+    default: "5",
+    range: "slope (degrees, >= 0) separating plains (class 5) from open slopes (6)",
+};
+const CURV_T: ParamDef = ParamDef {
+    name: "threshold",
+    kind: ParamKind::Threshold,
+    default: "0.0016667",
+    range: "|curvature| (1/m, >= 0) counted as straight; default 1/600 m",
 };
 
 const HORN: &str = "Horn 1981, Proc. IEEE 69(1) (3x3 weighted gradient)";
@@ -425,6 +471,46 @@ pub const METRICS: &[MetricDef] = &[
         "(1 + cos slope)/2: the sky view of an infinite plane of that slope",
         "isotropic sky view of a tilted plane (Liu & Jordan 1963, Solar Energy 7(2)); Horn slope"
     ),
+    def!(
+        Geomorphon,
+        "geomorphon",
+        &[RADIUS_GEOMORPHON, FLAT],
+        "class 1..10",
+        "geomorphon landform: 1 flat, 2 peak, 3 ridge, 4 shoulder, 5 spur, 6 slope, 7 hollow, 8 footslope, 9 valley, 10 pit",
+        "Jasiewicz & Stepinski 2013, Geomorphology 182 (classes numbered as GRASS r.geomorphon)"
+    ),
+    def!(
+        GeomorphonPattern,
+        "geomorphon_pattern",
+        &[RADIUS_GEOMORPHON, FLAT],
+        "0..6560",
+        "geomorphon ternary pattern sum d_i 3^i, i = N,NE,..,NW clockwise; d = 0 flat, 1 '+', 2 '-' (not canonicalised)",
+        "Jasiewicz & Stepinski 2013, Geomorphology 182"
+    ),
+    def!(
+        GeomorphonCanonical,
+        "geomorphon_canonical",
+        &[RADIUS_GEOMORPHON, FLAT],
+        "0..6560",
+        "geomorphon_pattern reduced to its smallest code over 8 rotations and their mirrors (498 values)",
+        "Jasiewicz & Stepinski 2013, Geomorphology 182, sec. 2.2"
+    ),
+    def!(
+        WeissLandform,
+        "weiss_landform",
+        &[RADIUS_SMALL, RADIUS_LARGE, SLOPE_T],
+        "class 1..10",
+        "Weiss TPI landforms from NTPI at two scales (thresholds +-1) and Horn slope: 1 canyon .. 5 plain, 6 open slope .. 10 mountain top",
+        "Weiss 2001 (TPI poster, ESRI UC); standardised locally (NTPI) instead of over the whole raster"
+    ),
+    def!(
+        DikauForm,
+        "dikau_form",
+        &[RADIUS_QUADRIC, CURV_T],
+        "class 1..9",
+        "Dikau form 3p+q+1 from profile (p) and plan (q) curvature: 0 concave, 1 straight, 2 convex",
+        "Dikau 1989 (in Raper, 3D applications in GIS); curvatures of Evans/Wood as profile_curvature/plan_curvature"
+    ),
 ];
 
 /// The registry entry of `kind`.
@@ -480,6 +566,12 @@ pub struct MetricSpec {
     /// Disk window instead of the square (windowed statistics).
     #[serde(default)]
     pub disk: bool,
+    /// Second radius (large scale of `weiss_landform`).
+    #[serde(default)]
+    pub radius2: Option<Length>,
+    /// Threshold of the landform classes (flatness, slope or curvature).
+    #[serde(default)]
+    pub threshold: Option<f64>,
 }
 
 impl MetricSpec {
@@ -492,6 +584,8 @@ impl MetricSpec {
             directions: 8,
             units: SlopeUnits::Degrees,
             disk: false,
+            radius2: None,
+            threshold: None,
         };
         for p in d.params {
             // Defaults are registry constants, parsed by the unit tests.
@@ -511,8 +605,24 @@ impl MetricSpec {
         let mut s = self.def().name.to_string();
         if let Some(r) = self.radius {
             // Curvatures at their default (Evans 3x3) keep the plain name.
-            if !(is_curvature(self.kind) && r == Length::Cells(1)) {
+            if !((is_curvature(self.kind) || self.kind == MetricKind::DikauForm)
+                && r == Length::Cells(1))
+            {
                 s.push_str(&format!("_r{r}"));
+            }
+        }
+        if let Some(r) = self.radius2 {
+            s.push_str(&format!("_R{r}"));
+        }
+        if let (Some(t), Some(p)) = (
+            self.threshold,
+            self.def()
+                .params
+                .iter()
+                .find(|p| p.kind == ParamKind::Threshold),
+        ) {
+            if p.default.parse::<f64>().ok() != Some(t) {
+                s.push_str(&format!("_t{t}"));
             }
         }
         if self
@@ -536,6 +646,17 @@ impl MetricSpec {
     fn set(&mut self, p: &ParamDef, value: &str) -> std::result::Result<(), String> {
         match p.kind {
             ParamKind::Radius => self.radius = Some(parse_length(value)?),
+            ParamKind::Radius2 => self.radius2 = Some(parse_length(value)?),
+            ParamKind::Threshold => {
+                let v: f64 = value
+                    .trim()
+                    .parse()
+                    .map_err(|_| format!("'{value}' is not a number"))?;
+                if !(v.is_finite() && v >= 0.0) {
+                    return Err(format!("'{value}' must be finite and >= 0"));
+                }
+                self.threshold = Some(v);
+            }
             ParamKind::Directions => {
                 self.directions = match value {
                     "8" => 8,
@@ -709,6 +830,9 @@ pub struct Resolved {
     /// Radius as a distance in metres (horizon cutoff); for a radius given in
     /// cells, cells times the smallest true cell size.
     pub radius_m: f64,
+    /// Second radius in cells (`weiss_landform`'s large scale; else 0).
+    #[serde(default)]
+    pub radius2_cells: usize,
 }
 
 impl Resolved {
@@ -724,6 +848,9 @@ impl Resolved {
             // Normals need one more ring.
             Roughness => self.radius_cells + 1,
             k if is_curvature(k) => self.radius_cells.max(1),
+            Geomorphon | GeomorphonPattern | GeomorphonCanonical => self.radius_cells,
+            WeissLandform => self.radius_cells.max(self.radius2_cells),
+            DikauForm => self.radius_cells.max(1),
             _ => 1,
         }
     }
@@ -766,28 +893,32 @@ pub fn resolve(specs: &[MetricSpec], info: &RasterInfo) -> Result<Vec<Resolved>>
     specs
         .iter()
         .map(|s| {
-            let (cells, m) = match s.radius {
-                None => (0.0, 0.0),
-                Some(Length::Cells(c)) => (c as f64, c as f64 * cell),
-                Some(Length::Metres(m)) => ((m / cell).ceil().max(1.0), m),
+            let to_cells = |r: Option<Length>| -> Result<(usize, f64)> {
+                let (cells, m) = match r {
+                    None => (0.0, 0.0),
+                    Some(Length::Cells(c)) => (c as f64, c as f64 * cell),
+                    Some(Length::Metres(m)) => ((m / cell).ceil().max(1.0), m),
+                };
+                if r.is_some() && (cells > extent as f64 || cells > MAX_RADIUS_CELLS as f64) {
+                    return Err(Error::invalid(format!(
+                        "{}: radius {} of {} is {} cells (cell size {cell:.3} m), beyond the raster ({}x{} cells) or the limit of {MAX_RADIUS_CELLS} cells: use a smaller radius",
+                        info.path.display(),
+                        r.map(|r| r.to_string()).unwrap_or_default(),
+                        s.def().name,
+                        cells,
+                        info.width,
+                        info.height
+                    )));
+                }
+                Ok((cells as usize, m))
             };
-            let cells_f = cells;
-            if s.radius.is_some() && (cells_f > extent as f64 || cells_f > MAX_RADIUS_CELLS as f64)
-            {
-                return Err(Error::invalid(format!(
-                    "{}: radius {} of {} is {} cells (cell size {cell:.3} m), beyond the raster ({}x{} cells) or the limit of {MAX_RADIUS_CELLS} cells: use a smaller radius",
-                    info.path.display(),
-                    s.radius.map(|r| r.to_string()).unwrap_or_default(),
-                    s.def().name,
-                    cells_f,
-                    info.width,
-                    info.height
-                )));
-            }
+            let (radius_cells, radius_m) = to_cells(s.radius)?;
+            let (radius2_cells, _) = to_cells(s.radius2)?;
             Ok(Resolved {
                 spec: s.clone(),
-                radius_cells: cells_f as usize,
-                radius_m: m,
+                radius_cells,
+                radius_m,
+                radius2_cells,
             })
         })
         .collect()
@@ -808,6 +939,8 @@ mod tests {
                 directions: 8,
                 units: SlopeUnits::Degrees,
                 disk: false,
+                radius2: None,
+                threshold: None,
             };
             for p in d.params {
                 s.set(p, p.default).unwrap();

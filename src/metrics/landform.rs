@@ -1,0 +1,276 @@
+//! Landform classifications: geomorphons (Jasiewicz & Stepinski 2013,
+//! "Geomorphons — a pattern recognition approach to classification and
+//! mapping of landforms", Geomorphology 182, 147-156), Weiss's ten TPI
+//! landform classes (Weiss 2001, "Topographic position and landforms
+//! analysis", poster, ESRI User Conference) and Dikau's nine curvature forms
+//! (Dikau 1989, "The application of a digital relief model to landform
+//! analysis in geomorphology", in Raper (ed.), Three dimensional applications
+//! in GIS, 51-77).
+//!
+//! Class outputs are small integers stored in f32 (NaN = nodata).
+
+use crate::raster::{Grid, TileView};
+
+/// The 8 geomorphon directions (dx east, dy south in rows), clockwise from
+/// north: N, NE, E, SE, S, SW, W, NW. Pattern digit `i` is direction `i`.
+pub const GEOMORPHON_DIRS: [(i64, i64); 8] = [
+    (0, -1),
+    (1, -1),
+    (1, 0),
+    (1, 1),
+    (0, 1),
+    (-1, 1),
+    (-1, 0),
+    (-1, -1),
+];
+
+/// Geomorphon class numbers, as GRASS r.geomorphon numbers them.
+pub const FLAT: u8 = 1;
+pub const PEAK: u8 = 2;
+pub const RIDGE: u8 = 3;
+pub const SHOULDER: u8 = 4;
+pub const SPUR: u8 = 5;
+pub const SLOPE: u8 = 6;
+pub const HOLLOW: u8 = 7;
+pub const FOOTSLOPE: u8 = 8;
+pub const VALLEY: u8 = 9;
+pub const PIT: u8 = 10;
+
+/// The landform lookup table of Jasiewicz & Stepinski 2013 (Fig. 4),
+/// indexed `[number of −][number of +]`; 0 where `− + +` exceeds 8.
+pub const GEOMORPHON_TABLE: [[u8; 9]; 9] = {
+    const FL: u8 = FLAT;
+    const PK: u8 = PEAK;
+    const RI: u8 = RIDGE;
+    const SH: u8 = SHOULDER;
+    const SP: u8 = SPUR;
+    const SL: u8 = SLOPE;
+    const HL: u8 = HOLLOW;
+    const FS: u8 = FOOTSLOPE;
+    const VL: u8 = VALLEY;
+    const PT: u8 = PIT;
+    [
+        [FL, FL, FL, FS, FS, VL, VL, VL, PT],
+        [FL, FL, FS, FS, FS, VL, VL, VL, 0],
+        [FL, SH, SL, SL, HL, HL, VL, 0, 0],
+        [SH, SH, SL, SL, SL, HL, 0, 0, 0],
+        [SH, SH, SP, SL, SL, 0, 0, 0, 0],
+        [RI, RI, SP, SP, 0, 0, 0, 0, 0],
+        [RI, RI, RI, 0, 0, 0, 0, 0, 0],
+        [RI, RI, 0, 0, 0, 0, 0, 0, 0],
+        [PK, 0, 0, 0, 0, 0, 0, 0, 0],
+    ]
+};
+
+/// Ternary digit values in pattern codes.
+pub const T_FLAT: u32 = 0;
+pub const T_PLUS: u32 = 1;
+pub const T_MINUS: u32 = 2;
+
+/// Class of a pattern with `plus` '+' and `minus` '−' elements
+/// (`plus + minus ≤ 8`).
+pub fn geomorphon_class(plus: usize, minus: usize) -> u8 {
+    GEOMORPHON_TABLE
+        .get(minus)
+        .and_then(|r| r.get(plus))
+        .copied()
+        .unwrap_or(0)
+}
+
+/// Ternary element of one line of sight from the largest and smallest
+/// elevation angles (degrees) met along it: with zenith `φ = 90° − max` and
+/// nadir `ψ = 90° + min` (Jasiewicz & Stepinski 2013, sec. 2.1),
+/// `Δ = ψ − φ = max + min`; '+' (the surroundings rise) if `Δ > t`,
+/// '−' (they fall) if `Δ < −t`, '0' otherwise. This is the paper's rule;
+/// GRASS r.geomorphon's current code uses a variant (a line is non-flat when
+/// `|max|` or `|min|` exceeds `t`, signed by the larger of the two), so
+/// patterns may differ from GRASS near the threshold.
+pub fn ternary(max_deg: f64, min_deg: f64, flat_deg: f64) -> u32 {
+    let d = max_deg + min_deg;
+    if d > flat_deg {
+        T_PLUS
+    } else if d < -flat_deg {
+        T_MINUS
+    } else {
+        T_FLAT
+    }
+}
+
+/// Geomorphons of every core cell of `view`: lines of sight along the 8
+/// [`GEOMORPHON_DIRS`] visit the cells at whole steps whose centres lie
+/// within `cutoff_m` metres (at most `steps` cells per axis, ≤ the halo;
+/// distances from the centre row's true cell sizes, as `horizon`; a cell at
+/// exactly `cutoff_m` is included, where GRASS stops before it). Nodata
+/// cells and cells beyond the raster are skipped; a line without any valid
+/// cell is '0'. Writes the class (1..=10) to `class` and the pattern code
+/// `Σ digit_i 3^i` (digits [`T_FLAT`], [`T_PLUS`], [`T_MINUS`]) to `pattern`.
+/// A nodata centre is nodata.
+pub fn geomorphon(
+    view: &TileView<f32>,
+    steps: usize,
+    cutoff_m: f64,
+    flat_deg: f64,
+    mut class: Option<&mut Grid<f32>>,
+    mut pattern: Option<&mut Grid<f32>>,
+) {
+    let steps = steps.min(view.halo);
+    let h = view.halo;
+    let gw = view.grid.width();
+    let data = view.grid.data();
+    let limit = cutoff_m * (1.0 + 1e-12);
+    for y in 0..view.core.h {
+        let (ew, ns) = view.georef.cell_size_m(view.core.y + y as i64);
+        let mut plan = [(0isize, 0.0f64, 0usize); 8];
+        for (p, &(dx, dy)) in plan.iter_mut().zip(&GEOMORPHON_DIRS) {
+            let d = ((dx as f64 * ew).powi(2) + (dy as f64 * ns).powi(2)).sqrt();
+            let mut k = steps;
+            while k > 0 && k as f64 * d > limit {
+                k -= 1;
+            }
+            *p = (dy as isize * gw as isize + dx as isize, d, k);
+        }
+        for x in 0..view.core.w {
+            let c = (y + h) * gw + x + h;
+            let z0 = data[c] as f64;
+            let (cl, code) = if z0.is_nan() {
+                (f32::NAN, f32::NAN)
+            } else {
+                let (mut plus, mut minus, mut code, mut pow) = (0usize, 0usize, 0u32, 1u32);
+                for &(off, d, k) in &plan {
+                    let (mut hi, mut lo) = (f64::NEG_INFINITY, f64::INFINITY);
+                    let mut i = c as isize;
+                    for s in 1..=k {
+                        i += off;
+                        let z = data[i as usize] as f64;
+                        if !z.is_nan() {
+                            let t = (z - z0) / (s as f64 * d);
+                            hi = hi.max(t);
+                            lo = lo.min(t);
+                        }
+                    }
+                    let t = if hi == f64::NEG_INFINITY {
+                        T_FLAT
+                    } else {
+                        ternary(hi.atan().to_degrees(), lo.atan().to_degrees(), flat_deg)
+                    };
+                    match t {
+                        T_PLUS => plus += 1,
+                        T_MINUS => minus += 1,
+                        _ => {}
+                    }
+                    code += t * pow;
+                    pow *= 3;
+                }
+                (geomorphon_class(plus, minus) as f32, code as f32)
+            };
+            if let Some(g) = class.as_deref_mut() {
+                g.set(x, y, cl);
+            }
+            if let Some(g) = pattern.as_deref_mut() {
+                g.set(x, y, code);
+            }
+        }
+    }
+}
+
+/// Canonical form of a pattern code (as [`geomorphon`] writes them): the
+/// smallest code among its 8 rotations (by 45°) and their mirror images, so
+/// patterns that differ only in orientation share one code. Over all 3^8
+/// patterns there are 498 canonical codes, the "geomorphons" of Jasiewicz &
+/// Stepinski 2013 (sec. 2.2). Codes ≥ 3^8 are returned unchanged.
+pub fn canonical_code(code: u32) -> u32 {
+    if code >= 6561 {
+        return code;
+    }
+    let mut d = [0u32; 8];
+    let mut c = code;
+    for v in d.iter_mut() {
+        *v = c % 3;
+        c /= 3;
+    }
+    let mut best = code;
+    for mirror in [false, true] {
+        for rot in 0..8 {
+            let mut v = 0u32;
+            for i in (0..8).rev() {
+                let src = if mirror {
+                    (8 - i + rot) % 8
+                } else {
+                    (i + rot) % 8
+                };
+                v = v * 3 + d[src];
+            }
+            best = best.min(v);
+        }
+    }
+    best
+}
+
+/// Weiss (2001) landform class from the standardised TPI at a small (`sn`)
+/// and a large (`ln`) scale and the slope in degrees, with thresholds ±1
+/// standard deviation and `slope_t` degrees separating plains from open
+/// slopes:
+///
+/// | class | sn      | ln      | landform |
+/// |-------|---------|---------|----------|
+/// | 1 | ≤ −1 | ≤ −1 | canyons, deeply incised streams |
+/// | 2 | ≤ −1 | (−1, 1) | midslope drainages, shallow valleys |
+/// | 3 | ≤ −1 | ≥ 1 | upland drainages, headwaters |
+/// | 4 | (−1, 1) | ≤ −1 | U-shaped valleys |
+/// | 5 | (−1, 1) | (−1, 1), slope ≤ t | plains |
+/// | 6 | (−1, 1) | (−1, 1), slope > t | open slopes |
+/// | 7 | (−1, 1) | ≥ 1 | upper slopes, mesas |
+/// | 8 | ≥ 1 | ≤ −1 | local ridges, hills in valleys |
+/// | 9 | ≥ 1 | (−1, 1) | midslope ridges, small hills in plains |
+/// | 10 | ≥ 1 | ≥ 1 | mountain tops, high ridges |
+///
+/// NaN in any input gives NaN.
+pub fn weiss_class(sn: f64, ln: f64, slope_deg: f64, slope_t: f64) -> f32 {
+    if sn.is_nan() || ln.is_nan() || slope_deg.is_nan() {
+        return f32::NAN;
+    }
+    let band = |v: f64| {
+        if v <= -1.0 {
+            0
+        } else if v >= 1.0 {
+            2
+        } else {
+            1
+        }
+    };
+    let c = match (band(sn), band(ln)) {
+        (0, 0) => 1,
+        (0, 1) => 2,
+        (0, _) => 3,
+        (1, 0) => 4,
+        (1, 1) if slope_deg <= slope_t => 5,
+        (1, 1) => 6,
+        (1, _) => 7,
+        (_, 0) => 8,
+        (_, 1) => 9,
+        _ => 10,
+    };
+    c as f32
+}
+
+/// Dikau (1989) form class from profile (vertical) and plan curvature
+/// (convex positive) with a threshold `t` (1/m) below which a curvature
+/// counts as straight: `class = 3·p + q + 1` where p, q are 0 (concave,
+/// `k < −t`), 1 (straight, `|k| ≤ t`), 2 (convex, `k > t`) for profile and
+/// plan curvature: 1 concave/concave (hollow, V-V), 5 straight/straight
+/// (planar), 9 convex/convex (nose, X-X). NaN gives NaN.
+pub fn dikau_class(profile: f64, plan: f64, t: f64) -> f32 {
+    if profile.is_nan() || plan.is_nan() {
+        return f32::NAN;
+    }
+    let s = |k: f64| {
+        if k < -t {
+            0
+        } else if k > t {
+            2
+        } else {
+            1
+        }
+    };
+    (3 * s(profile) + s(plan) + 1) as f32
+}
