@@ -411,3 +411,62 @@ pub fn demo(
     ));
     Ok(files)
 }
+
+/// Multiple-flow routing for `orogen accumulate --method`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum FlowMethod {
+    /// D-infinity (Tarboton 1997).
+    Dinf,
+    /// MFD (Quinn et al. 1991, Holmgren 1994, Freeman 1991).
+    Mfd(crate::hydro::mfd::MfdMethod),
+}
+
+/// Bytes per cell the in-memory D∞/MFD accumulation needs (fractions, DEM,
+/// weights, result).
+pub const MULTI_FLOW_BYTES_PER_CELL: u64 = 88;
+
+/// D∞ or MFD accumulation of a (filled) DEM, in memory: reads the whole DEM
+/// (and weights), routes, accumulates (cells, or the weights' values) and
+/// writes `out` (f64, nodata -1). Refuses rasters whose working set would
+/// exceed `cfg.memory_budget`.
+pub fn accumulate_multi(
+    dem: &dyn RasterSource,
+    weights: Option<&dyn RasterSource>,
+    method: FlowMethod,
+    out: &Path,
+    oo: &OutputOptions,
+    cfg: &EngineConfig,
+) -> Result<()> {
+    let info = dem.info();
+    let need = (info.width as u64) * (info.height as u64) * MULTI_FLOW_BYTES_PER_CELL;
+    if need > cfg.memory_budget {
+        return Err(Error::invalid(format!(
+            "{}: D-infinity/MFD accumulation runs in memory for now and needs about {:.1} GiB for {}x{} cells; raise --memory or use the tiled D8 route (orogen flow + orogen accumulate)",
+            info.path.display(),
+            need as f64 / (1u64 << 30) as f64,
+            info.width,
+            info.height
+        )));
+    }
+    let full = crate::raster::Window::full(info.width, info.height);
+    let z = crate::raster::read_window::<f32>(dem, full)?;
+    let flow = match method {
+        FlowMethod::Dinf => crate::hydro::dinf::dinf(&z)?.flow,
+        FlowMethod::Mfd(m) => crate::hydro::mfd::mfd_flow(&z, m)?,
+    };
+    drop(z);
+    let acc = match weights {
+        Some(w) => {
+            check_inputs(&[dem, w])?;
+            let wg = crate::raster::read_window::<f32>(w, full)?;
+            crate::hydro::mfd::accumulate_fractions(&flow, &wg)?
+        }
+        None => crate::hydro::mfd::accumulate_cells(&flow)?,
+    };
+    drop(flow);
+    let acc = acc.map(|v| if v.is_nan() { -1.0 } else { v });
+    let georef = info.georef.clone().with_nodata(Some(-1.0));
+    let mem =
+        crate::raster::MemRaster::new(crate::raster::AnyGrid::F64(acc), georef, info.path.clone());
+    convert(&mem, out, oo, None, cfg)
+}

@@ -301,3 +301,52 @@ fn errors_are_said_once_and_name_the_fix() {
         "{e}"
     );
 }
+
+#[test]
+fn dinf_and_mfd_accumulation_from_the_cli() {
+    use orogen::io::{open_raster, OpenOptions};
+    use orogen::raster::{read_window, Window};
+    let dir = tempfile::tempdir().unwrap();
+    let filled = dir.path().join("f.tif");
+    ok(orogen()
+        .arg("fill")
+        .arg(data("bigtujunga_crop.tif"))
+        .args(["-q", "-o"])
+        .arg(&filled));
+    for m in ["dinf", "quinn", "holmgren", "freeman"] {
+        let a = dir.path().join(format!("{m}.tif"));
+        ok(orogen()
+            .arg("accumulate")
+            .arg(&filled)
+            .args(["--method", m, "-q", "-o"])
+            .arg(&a));
+        let src = open_raster(&a, &OpenOptions::default()).unwrap();
+        let g = read_window::<f64>(src.as_ref(), Window::full(301, 203)).unwrap();
+        // Every cell counts itself; nothing exceeds the number of cells.
+        assert!(
+            g.data()
+                .iter()
+                .all(|&v| (1.0..=61103.0 + 1e-6).contains(&v)),
+            "{m}"
+        );
+        let again = dir.path().join(format!("{m}2.tif"));
+        ok(orogen()
+            .arg("accumulate")
+            .arg(&filled)
+            .args(["--method", m, "--threads", "1", "-q", "-o"])
+            .arg(&again));
+        assert_eq!(
+            std::fs::read(&a).unwrap(),
+            std::fs::read(&again).unwrap(),
+            "{m} not deterministic"
+        );
+    }
+    let e = fails(
+        orogen()
+            .arg("accumulate")
+            .arg(&filled)
+            .args(["--method", "d16", "-o"])
+            .arg(dir.path().join("x.tif")),
+    );
+    assert!(e.contains("dinf") && e.contains("quinn"), "{e}");
+}
