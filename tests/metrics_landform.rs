@@ -6,7 +6,8 @@
 
 #![allow(clippy::needless_range_loop)] // index loops read like the definitions
 
-use orogen::exec::{Engine, EngineConfig, LocalEngine, MemSink, TileSink};
+use orogen::exec::run_local_to_memory;
+use orogen::exec::{EngineConfig, LocalEngine};
 use orogen::io::{open_raster, OpenOptions};
 use orogen::metrics::{parse_specs, MultiMetric};
 use orogen::raster::{Crs, DType, GeoRef, Grid, MemRaster, RasterSource, TileLayout};
@@ -26,27 +27,16 @@ fn run(src: &dyn RasterSource, specs: &str, tile: usize, threads: usize) -> Vec<
     let specs = parse_specs(specs).unwrap();
     let info = src.info();
     let step = MultiMetric::new(&specs, info).unwrap();
-    let mut sinks: Vec<Box<dyn TileSink>> = Vec::new();
-    let mut handles = Vec::new();
-    for _ in &specs {
-        let (s, h) = MemSink::new(info.width, info.height, DType::F32, None);
-        sinks.push(Box::new(s));
-        handles.push(h);
-    }
-    LocalEngine::new(EngineConfig {
+    let engine = LocalEngine::new(EngineConfig {
         threads,
         ..EngineConfig::default()
-    })
-    .run_local(
-        &step,
-        &[src],
-        TileLayout::new(info.width, info.height, tile),
-        sinks,
-    )
-    .unwrap();
-    handles
+    });
+    let layout = TileLayout::new(info.width, info.height, tile);
+    let types = vec![(DType::F32, None); specs.len()];
+    run_local_to_memory(&engine, &step, &[src], layout, &types)
+        .unwrap()
         .iter()
-        .map(|h| h.take().unwrap().to_typed::<f32>(None).into_vec())
+        .map(|g| g.to_typed::<f32>(None).into_vec())
         .collect()
 }
 

@@ -5,7 +5,8 @@
 
 #![allow(clippy::needless_range_loop)] // index loops read like the definitions
 
-use orogen::exec::{Engine, EngineConfig, LocalEngine, MemSink};
+use orogen::exec::run_local_to_memory;
+use orogen::exec::{EngineConfig, LocalEngine};
 use orogen::metrics::{parse_specs, MultiMetric};
 use orogen::raster::{Crs, DType, GeoRef, Grid, MemRaster, RasterSource, TileLayout};
 
@@ -36,27 +37,16 @@ fn run(src: &MemRaster, specs: &str, tile: usize, threads: usize) -> Vec<Vec<f32
     let specs = parse_specs(specs).unwrap();
     let info = src.info();
     let step = MultiMetric::new(&specs, info).unwrap();
-    let mut sinks: Vec<Box<dyn orogen::exec::TileSink>> = Vec::new();
-    let mut handles = Vec::new();
-    for _ in &specs {
-        let (s, h) = MemSink::new(info.width, info.height, DType::F32, None);
-        sinks.push(Box::new(s));
-        handles.push(h);
-    }
-    LocalEngine::new(EngineConfig {
+    let engine = LocalEngine::new(EngineConfig {
         threads,
         ..EngineConfig::default()
-    })
-    .run_local(
-        &step,
-        &[src as &dyn RasterSource],
-        TileLayout::new(info.width, info.height, tile),
-        sinks,
-    )
-    .unwrap();
-    handles
+    });
+    let layout = TileLayout::new(info.width, info.height, tile);
+    let types = vec![(DType::F32, None); specs.len()];
+    run_local_to_memory(&engine, &step, &[src as &dyn RasterSource], layout, &types)
+        .unwrap()
         .iter()
-        .map(|h| h.take().unwrap().to_typed::<f32>(None).into_vec())
+        .map(|g| g.to_typed::<f32>(None).into_vec())
         .collect()
 }
 

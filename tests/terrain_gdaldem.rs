@@ -2,7 +2,7 @@
 //! run bit for bit, and match gdaldem's output (recorded in tests/data/gdaldem,
 //! made by GDAL 3.6 `gdaldem` on tests/data/bigtujunga_crop.tif).
 
-use orogen::exec::{Engine, EngineConfig, LocalEngine, LocalStep, MemSink, TileSink};
+use orogen::exec::{run_local_to_memory, EngineConfig, LocalEngine, LocalStep};
 use orogen::io::{open_raster, OpenOptions};
 use orogen::metrics::{Aspect, EdgeMode, Hillshade, Slope};
 use orogen::raster::{AnyGrid, DType, Grid, RasterSource, TileLayout};
@@ -28,22 +28,15 @@ fn run<S: LocalStep>(
     nd: f64,
 ) -> AnyGrid {
     let info = src.info();
-    let (sink, handle) = MemSink::new(info.width, info.height, dtype, Some(nd));
-    let sink: Box<dyn TileSink> = Box::new(sink);
-    let cfg = EngineConfig {
+    let engine = LocalEngine::new(EngineConfig {
         threads,
         memory_budget: 64 << 20,
         progress: false,
-    };
-    LocalEngine::new(cfg)
-        .run_local(
-            step,
-            &[src],
-            TileLayout::new(info.width, info.height, tile),
-            vec![sink],
-        )
-        .unwrap();
-    handle.take().unwrap()
+    });
+    let layout = TileLayout::new(info.width, info.height, tile);
+    run_local_to_memory(&engine, step, &[src], layout, &[(dtype, Some(nd))])
+        .unwrap()
+        .remove(0)
 }
 
 fn check_tiling<S: LocalStep>(step: &S, dtype: DType, nd: f64) -> AnyGrid {

@@ -174,3 +174,31 @@ impl TileSink for MemSink {
         Ok(())
     }
 }
+
+/// Run a local step over `layout` and return its outputs assembled in memory,
+/// output `k` as `out_types[k]` (dtype, nodata). For small rasters and tests;
+/// big outputs go to a file or store sink instead.
+pub fn run_local_to_memory<S: super::LocalStep>(
+    engine: &LocalEngine,
+    step: &S,
+    inputs: &[&dyn RasterSource],
+    layout: TileLayout,
+    out_types: &[(DType, Option<f64>)],
+) -> Result<Vec<AnyGrid>> {
+    use super::Engine;
+    let mut sinks: Vec<Box<dyn TileSink>> = Vec::with_capacity(out_types.len());
+    let mut handles = Vec::with_capacity(out_types.len());
+    for &(dtype, nodata) in out_types {
+        let (s, h) = MemSink::new(layout.width, layout.height, dtype, nodata);
+        sinks.push(Box::new(s));
+        handles.push(h);
+    }
+    engine.run_local(step, inputs, layout, sinks)?;
+    handles
+        .iter()
+        .map(|h| {
+            h.take()
+                .ok_or_else(|| Error::invalid("internal: in-memory sink finished without a grid"))
+        })
+        .collect()
+}

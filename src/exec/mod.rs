@@ -156,5 +156,5 @@ mod copy;
 mod local;
 pub mod stats;
 
-pub use copy::{copy, ingest, MemSink, MemSinkHandle};
+pub use copy::{copy, ingest, run_local_to_memory, MemSink, MemSinkHandle};
 pub use local::{local_tile_bytes, roundtrip_summary, tiles_in_flight, LocalEngine};
