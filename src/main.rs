@@ -766,15 +766,7 @@ fn local1<S: orogen::exec::LocalStep>(
     ty: (DType, Option<f64>),
 ) -> Result<()> {
     let oo = output_options(&out.fmt)?;
-    ops::run_local_to_paths(
-        step,
-        &[src],
-        std::slice::from_ref(&out.output),
-        &[ty],
-        &oo,
-        run.tile,
-        &engine(run)?,
-    )?;
+    ops::run_local_to(step, src, &out.output, ty, &oo, run.tile, &engine(run)?)?;
     wrote(&out.output);
     Ok(())
 }
@@ -788,15 +780,7 @@ fn global1<S: orogen::exec::GlobalStep>(
     ty: (DType, Option<f64>),
 ) -> Result<()> {
     let oo = output_options(&out.fmt)?;
-    ops::run_global_to_paths(
-        step,
-        inputs,
-        std::slice::from_ref(&out.output),
-        &[ty],
-        &oo,
-        run.tile,
-        &engine(run)?,
-    )?;
+    ops::run_global_to(step, inputs, &out.output, ty, &oo, run.tile, &engine(run)?)?;
     wrote(&out.output);
     Ok(())
 }

@@ -154,6 +154,32 @@ pub fn run_global_to_paths<S: GlobalStep>(
     LocalEngine::new(cfg.clone()).run_global(step, inputs, layout, sinks)
 }
 
+/// [`run_local_to_paths`] for a one-output step on one input.
+pub fn run_local_to<S: LocalStep>(
+    step: &S,
+    src: &dyn RasterSource,
+    out: &Path,
+    ty: (DType, Option<f64>),
+    oo: &OutputOptions,
+    tile: Option<usize>,
+    cfg: &EngineConfig,
+) -> Result<()> {
+    run_local_to_paths(step, &[src], &[out.to_path_buf()], &[ty], oo, tile, cfg)
+}
+
+/// [`run_global_to_paths`] for a one-output step.
+pub fn run_global_to<S: GlobalStep>(
+    step: &S,
+    inputs: &[&dyn RasterSource],
+    out: &Path,
+    ty: (DType, Option<f64>),
+    oo: &OutputOptions,
+    tile: Option<usize>,
+    cfg: &EngineConfig,
+) -> Result<S::Solution> {
+    run_global_to_paths(step, inputs, &[out.to_path_buf()], &[ty], oo, tile, cfg)
+}
+
 /// Copy any raster (or mosaic) into `out` (a tile store, GeoTIFF, PNG or ASCII
 /// file) in its native type, tile by tile.
 pub fn convert(
@@ -329,44 +355,44 @@ pub fn demo(
     files.push((tif, "the terrain as a GeoTIFF (DEFLATE, tiled)"));
     let slope = dir.join("slope.tif");
     let f32_nd = (DType::F32, Some(crate::metrics::terrain::SLOPE_NODATA));
-    run_local_to_paths(
+    run_local_to(
         &crate::metrics::Slope::default(),
-        &[dem.as_ref()],
-        std::slice::from_ref(&slope),
-        &[f32_nd],
+        dem.as_ref(),
+        &slope,
+        f32_nd,
         &oo,
         None,
         cfg,
     )?;
     files.push((slope, "slope in degrees (Horn)"));
     let aspect = dir.join("aspect.tif");
-    run_local_to_paths(
+    run_local_to(
         &crate::metrics::Aspect::default(),
-        &[dem.as_ref()],
-        std::slice::from_ref(&aspect),
-        &[f32_nd],
+        dem.as_ref(),
+        &aspect,
+        f32_nd,
         &oo,
         None,
         cfg,
     )?;
     files.push((aspect, "aspect, degrees clockwise from north"));
     let shade = dir.join("hillshade.tif");
-    run_local_to_paths(
+    run_local_to(
         &crate::metrics::Hillshade::default(),
-        &[dem.as_ref()],
-        std::slice::from_ref(&shade),
-        &[(DType::U8, Some(0.0))],
+        dem.as_ref(),
+        &shade,
+        (DType::U8, Some(0.0)),
         &oo,
         None,
         cfg,
     )?;
     files.push((shade, "hillshade, light from 315 degrees at 45 degrees"));
     let filled = dir.join("filled.tif");
-    run_global_to_paths(
+    run_global_to(
         &crate::hydro::tiled::TiledFill,
         &[dem.as_ref()],
-        std::slice::from_ref(&filled),
-        &[f32_nd],
+        &filled,
+        f32_nd,
         &oo,
         None,
         cfg,
@@ -377,11 +403,11 @@ pub fn demo(
     ));
     let filled_src = io::open_raster(&filled, &io::OpenOptions::default())?;
     let d8 = dir.join("flow_d8.tif");
-    run_global_to_paths(
+    run_global_to(
         &crate::hydro::tiled::TiledD8,
         &[filled_src.as_ref()],
-        std::slice::from_ref(&d8),
-        &[(DType::U8, Some(crate::hydro::NODATA_DIR as f64))],
+        &d8,
+        (DType::U8, Some(crate::hydro::NODATA_DIR as f64)),
         &oo,
         Some(oo.store.tile),
         cfg,
@@ -389,11 +415,11 @@ pub fn demo(
     files.push((d8.clone(), "D8 flow directions (ESRI codes), flats drained"));
     let d8_src = io::open_raster(&d8, &io::OpenOptions::default())?;
     let acc = dir.join("accumulation.tif");
-    run_global_to_paths(
+    run_global_to(
         &crate::hydro::tiled::TiledAccumulation { weighted: false },
         &[d8_src.as_ref()],
-        std::slice::from_ref(&acc),
-        &[(DType::F64, Some(-1.0))],
+        &acc,
+        (DType::F64, Some(-1.0)),
         &oo,
         Some(oo.store.tile),
         cfg,
