@@ -641,7 +641,7 @@ fn run(cli: Cli) -> Result<()> {
         }
         Cmd::Fill { input, out, run } => {
             let src = open(&input)?;
-            let ty = (DType::F32, Some(orogen::metrics::terrain::SLOPE_NODATA));
+            let ty = (DType::F32, Some(orogen::hydro::FILL_NODATA));
             global1(
                 &orogen::hydro::tiled::TiledFill,
                 &[src.as_ref()],

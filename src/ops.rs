@@ -392,7 +392,7 @@ pub fn demo(
         &crate::hydro::tiled::TiledFill,
         &[dem.as_ref()],
         &filled,
-        f32_nd,
+        (DType::F32, Some(crate::hydro::FILL_NODATA)),
         &oo,
         None,
         cfg,

@@ -51,6 +51,8 @@ pub const D8_CODES: [u8; 8] = [1, 2, 4, 8, 16, 32, 64, 128];
 pub const NO_FLOW: u8 = 0;
 /// D8 code of a nodata cell.
 pub const NODATA_DIR: u8 = 255;
+/// Nodata value written for filled DEMs (f32 outputs): below any real elevation.
+pub const FILL_NODATA: f64 = -9999.0;
 
 /// Neighbour index (0..8, order E..NE) of an ESRI code, or `None` for 0, 255
 /// and any value that is not a single power of two.
