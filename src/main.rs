@@ -10,6 +10,8 @@ use orogen::ops;
 use orogen::raster::{DType, RasterSource};
 use std::path::{Path, PathBuf};
 
+mod cli;
+
 #[derive(Parser)]
 #[command(name = "orogen", version, about = "Out-of-core engine for digital elevation models", long_about = None)]
 struct Cli {

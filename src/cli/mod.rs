@@ -1,0 +1,5 @@
+//! Subcommands that live in their own files. Each file holds a clap `Args`
+//! struct per command and a `run` function; `main.rs` adds one `Cmd` variant
+//! (`Name(cli::file::NameArgs)`) and one match arm per command. Shared helpers
+//! (`In`, `Out`, `OutFmt`, `Run`, `engine`, `open`, `output_options`,
+//! `local1`, `global1`, `wrote`) are reachable as `crate::...`.
