@@ -304,7 +304,34 @@ fn compressed_and_raw_stores_read_identically_and_exactly() {
     }
     let e = raw.read_native(Window::new(-1, 0, 3, 3)).unwrap_err();
     assert!(matches!(e, Error::InvalidArgument(_)));
+
+    // A decoded-tile cache of two tiles (evicting all the time) reads the same.
+    let mut small = TileStore::open(&z_dir).unwrap();
+    small.set_cache_bytes(2 * 32 * 32 * 4);
+    for win in [
+        Window::full(w, h),
+        Window::new(20, 20, 50, 50),
+        Window::new(0, 0, 40, 40),
+    ] {
+        let want = src.grid().crop(win);
+        assert!(small.read_native(win).unwrap().as_le_bytes() == want.as_le_bytes());
+    }
+    // The cache serves tile 0 again without touching its file; without a cache
+    // the missing file is an error naming it.
+    let win = Window::new(0, 0, 8, 8);
+    let mut cached = TileStore::open(&z_dir).unwrap();
+    cached.read_native(win).unwrap();
+    let mut uncached = TileStore::open(&z_dir).unwrap();
+    uncached.set_cache_bytes(0);
+    let tile0 = orogen::store::tile_file(&z_dir, 0, 0);
+    std::fs::remove_file(&tile0).unwrap();
+    assert!(cached.read_native(win).unwrap().as_le_bytes() == src.grid().crop(win).as_le_bytes());
+    cached.set_cache_bytes(DEFAULT_CACHE);
+    assert!(cached.read_native(win).is_err());
+    assert!(uncached.read_native(win).is_err());
 }
+
+const DEFAULT_CACHE: u64 = orogen::store::DEFAULT_CACHE_BYTES;
 
 #[test]
 fn writer_checks_tiles_against_its_layout() {

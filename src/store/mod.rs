@@ -13,7 +13,7 @@ pub use manifest::{
     Compression, Manifest, Provenance, TileEntry, TileState, FORMAT, MAX_DIM, MAX_TILE, MAX_TILES,
     VERSION,
 };
-pub use reader::TileStore;
+pub use reader::{TileStore, DEFAULT_CACHE_BYTES};
 pub use tile::tile_file;
 pub use writer::{StoreOptions, StoreWriter};
 

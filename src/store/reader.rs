@@ -7,7 +7,21 @@ use crate::dispatch_any;
 use crate::error::{Error, Result};
 use crate::raster::{AnyGrid, RasterInfo, RasterSource, TileLayout, Window};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+
+/// Default byte budget of the decoded-tile cache of compressed stores.
+pub const DEFAULT_CACHE_BYTES: u64 = 64 << 20;
+
+/// Recently decompressed tiles of a compressed store, least recently used
+/// evicted first. A read with a halo touches up to nine tiles and the engine
+/// visits tiles in row-major order, so without it each zstd tile would be
+/// decompressed up to nine times per pass.
+#[derive(Debug, Default)]
+struct TileCache {
+    /// (tile id, raw bytes, last use tick).
+    slots: Vec<(usize, Arc<Vec<u8>>, u64)>,
+}
 
 /// A finished tile store opened for reading. Every read maps the tiles it
 /// touches one at a time, copies the needed cells and unmaps, so reading
@@ -22,6 +36,9 @@ pub struct TileStore {
     info: RasterInfo,
     verify: bool,
     verified: Vec<AtomicBool>,
+    cache: Mutex<TileCache>,
+    cache_tiles: usize,
+    tick: AtomicU64,
 }
 
 impl TileStore {
@@ -65,14 +82,70 @@ impl TileStore {
         let verified = (0..manifest.tiles.len())
             .map(|_| AtomicBool::new(false))
             .collect();
-        Ok(TileStore {
+        let mut store = TileStore {
             dir,
             manifest,
             layout,
             info,
             verify: true,
             verified,
-        })
+            cache: Mutex::new(TileCache::default()),
+            cache_tiles: 0,
+            tick: AtomicU64::new(0),
+        };
+        store.set_cache_bytes(DEFAULT_CACHE_BYTES);
+        Ok(store)
+    }
+
+    /// Byte budget of the decoded-tile cache (compressed stores only; raw
+    /// stores are memory-mapped and need none). 0 disables it.
+    pub fn set_cache_bytes(&mut self, bytes: u64) {
+        let tile_bytes = (self.manifest.tile * self.manifest.tile * self.info.dtype.size()) as u64;
+        self.cache_tiles = if self.manifest.compression == super::Compression::None {
+            0
+        } else {
+            (bytes / tile_bytes.max(1)) as usize
+        };
+        if let Ok(mut c) = self.cache.lock() {
+            c.slots.clear();
+        }
+    }
+
+    /// The decompressed bytes of tile `id`, from the cache or decoded now.
+    fn cached_raw(
+        &self,
+        id: usize,
+        path: &Path,
+        raw_len: usize,
+        verify: bool,
+    ) -> Result<Arc<Vec<u8>>> {
+        let tick = self.tick.fetch_add(1, Ordering::Relaxed);
+        if let Ok(mut c) = self.cache.lock() {
+            if let Some(slot) = c.slots.iter_mut().find(|s| s.0 == id) {
+                slot.2 = tick;
+                return Ok(slot.1.clone());
+            }
+        }
+        let entry = &self.manifest.tiles[id];
+        let raw = Arc::new(with_raw(
+            path,
+            entry,
+            raw_len,
+            self.manifest.compression,
+            verify,
+            |r| r.to_vec(),
+        )?);
+        if let Ok(mut c) = self.cache.lock() {
+            if !c.slots.iter().any(|s| s.0 == id) {
+                if c.slots.len() >= self.cache_tiles {
+                    if let Some(old) = (0..c.slots.len()).min_by_key(|&i| c.slots[i].2) {
+                        c.slots.swap_remove(old);
+                    }
+                }
+                c.slots.push((id, raw.clone(), tick));
+            }
+        }
+        Ok(raw)
     }
 
     /// Check each tile's CRC-32 when it is read (on by default).
@@ -130,23 +203,28 @@ impl RasterSource for TileStore {
             let tile_stride = core.w * cell;
             let row_bytes = part.w * cell;
             let verify = self.verify && !self.verified[id].load(Ordering::Relaxed);
-            with_raw(
-                &path,
-                entry,
-                core.len() * cell,
-                self.manifest.compression,
-                verify,
-                |raw| {
-                    for r in 0..part.h {
-                        let sy = (part.y - core.y) as usize + r;
-                        let sx = (part.x - core.x) as usize;
-                        let src = &raw[sy * tile_stride + sx * cell..][..row_bytes];
-                        let dy = (part.y - win.y) as usize + r;
-                        let dx = (part.x - win.x) as usize;
-                        out_bytes[dy * out_stride + dx * cell..][..row_bytes].copy_from_slice(src);
-                    }
-                },
-            )?;
+            let mut copy = |raw: &[u8]| {
+                for r in 0..part.h {
+                    let sy = (part.y - core.y) as usize + r;
+                    let sx = (part.x - core.x) as usize;
+                    let src = &raw[sy * tile_stride + sx * cell..][..row_bytes];
+                    let dy = (part.y - win.y) as usize + r;
+                    let dx = (part.x - win.x) as usize;
+                    out_bytes[dy * out_stride + dx * cell..][..row_bytes].copy_from_slice(src);
+                }
+            };
+            if self.cache_tiles > 0 {
+                copy(&self.cached_raw(id, &path, core.len() * cell, verify)?);
+            } else {
+                with_raw(
+                    &path,
+                    entry,
+                    core.len() * cell,
+                    self.manifest.compression,
+                    verify,
+                    copy,
+                )?;
+            }
             if verify {
                 self.verified[id].store(true, Ordering::Relaxed);
             }
