@@ -68,6 +68,12 @@ struct OutFmt {
     /// Replace an existing output tile store instead of resuming it.
     #[arg(long)]
     overwrite: bool,
+    /// Write .tif outputs as Cloud-Optimized GeoTIFFs (internal overviews).
+    #[arg(long)]
+    cog: bool,
+    /// COG overview resampling: average (continuous data) or nearest (classes, codes).
+    #[arg(long, default_value = "average")]
+    overviews: String,
 }
 
 #[derive(Args, Clone)]
@@ -410,7 +416,16 @@ fn output_options(o: &OutFmt) -> Result<OutputOptions> {
         orogen::store::Compression::None
     };
     store.overwrite = o.overwrite;
-    Ok(OutputOptions { tiff, store })
+    let cog = if o.cog {
+        Some(match o.overviews.as_str() {
+            "average" => orogen::io::geotiff::Resampling::Average,
+            "nearest" => orogen::io::geotiff::Resampling::Nearest,
+            r => bail!("--overviews {r:?}: use average (continuous data) or nearest (classes)"),
+        })
+    } else {
+        None
+    };
+    Ok(OutputOptions { tiff, store, cog })
 }
 
 fn open(i: &In) -> Result<Box<dyn RasterSource>> {

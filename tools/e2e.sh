@@ -28,3 +28,6 @@ bash tools/gdal_variants.sh
 
 echo "== slope/aspect/hillshade against gdaldem"
 bash tools/gdaldem_compare.sh
+
+echo "== Cloud-Optimized GeoTIFFs against GDAL's validator"
+bash tools/cog_validate.sh

@@ -122,6 +122,9 @@ pub struct OutputOptions {
     pub tiff: WriteOptions,
     /// Tile-store options (tile size, zstd, overwrite).
     pub store: StoreOptions,
+    /// Write `.tif` outputs as Cloud-Optimized GeoTIFFs with internal
+    /// overviews made this way (None: plain tiled GeoTIFF).
+    pub cog: Option<crate::io::geotiff::Resampling>,
 }
 
 /// True if `path` names a tile store output (`*.tiles`).
@@ -156,9 +159,14 @@ pub fn create_sink(
         }
     }
     Ok(match ext.as_str() {
-        "tif" | "tiff" => Box::new(GeoTiffWriter::create(
-            path, width, height, dtype, georef, &oo.tiff,
-        )?),
+        "tif" | "tiff" => match oo.cog {
+            Some(r) => Box::new(crate::io::geotiff::CogWriter::create(
+                path, width, height, dtype, georef, &oo.tiff, r,
+            )?),
+            None => Box::new(GeoTiffWriter::create(
+                path, width, height, dtype, georef, &oo.tiff,
+            )?),
+        },
         "tiles" => Box::new(StoreWriter::create(
             path,
             width,

@@ -9,10 +9,12 @@
 //! reported the way GDAL's `GetGeoTransform` reports it.
 
 mod cache;
+mod cog;
 mod georef;
 mod reader;
 mod writer;
 
+pub use cog::{CogWriter, Resampling};
 pub use georef::{format_nodata, parse_nodata};
 pub use reader::{GeoTiffReader, ReaderOptions};
 pub use writer::{write_geotiff, Compression, GeoTiffWriter, WriteOptions};

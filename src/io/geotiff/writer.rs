@@ -98,7 +98,7 @@ pub(crate) struct Entry {
 }
 
 impl Entry {
-    fn shorts(tag: u16, v: &[u16]) -> Entry {
+    pub(super) fn shorts(tag: u16, v: &[u16]) -> Entry {
         Entry {
             tag,
             typ: SHORT,
@@ -106,7 +106,7 @@ impl Entry {
             bytes: v.iter().flat_map(|x| x.to_le_bytes()).collect(),
         }
     }
-    fn long(tag: u16, v: u32) -> Entry {
+    pub(super) fn long(tag: u16, v: u32) -> Entry {
         Entry {
             tag,
             typ: LONG,
@@ -129,6 +129,20 @@ impl Entry {
             tag,
             typ: ASCII,
             count: bytes.len() as u64,
+            bytes,
+        }
+    }
+    /// Offsets or byte counts: LONG (classic TIFF) or LONG8 (BigTIFF) values.
+    pub(super) fn offsets(tag: u16, v: &[u64], bigtiff: bool) -> Entry {
+        let bytes: Vec<u8> = if bigtiff {
+            v.iter().flat_map(|x| x.to_le_bytes()).collect()
+        } else {
+            v.iter().flat_map(|x| (*x as u32).to_le_bytes()).collect()
+        };
+        Entry {
+            tag,
+            typ: if bigtiff { LONG8 } else { LONG },
+            count: v.len() as u64,
             bytes,
         }
     }
@@ -209,7 +223,7 @@ pub(crate) fn encode_ifd(
 
 /// GeoTIFF and GDAL tags for `georef` (none when not georeferenced, except
 /// GDAL_NODATA which is written whenever there is a nodata value).
-fn geo_entries(georef: &GeoRef) -> Vec<Entry> {
+pub(super) fn geo_entries(georef: &GeoRef) -> Vec<Entry> {
     let mut out = Vec::new();
     if georef.georeferenced {
         let mut t = georef.transform;
@@ -290,7 +304,7 @@ fn predict_float(row: &mut [u8], size: usize, tmp: &mut Vec<u8>) {
 }
 
 /// Predict and compress one block (`data` = block x block cells, LE bytes).
-fn encode_block(
+pub(super) fn encode_block(
     mut data: Vec<u8>,
     block: usize,
     size: usize,
@@ -322,6 +336,28 @@ fn encode_block(
             .encode(&data)
             .map_err(|e| Error::invalid(format!("LZW compression failed: {e}")))?,
         Compression::Zstd { level } => zstd::bulk::compress(&data, level).map_err(err)?,
+    })
+}
+
+/// The predictor written for `dtype` under `opts` (automatic choice: 2 for
+/// integers, 3 for floats; none when uncompressed, as libtiff and GDAL only
+/// apply predictors inside compression codecs).
+pub(super) fn resolve_predictor(opts: &WriteOptions, dtype: DType) -> Result<u16> {
+    let predictor = match opts.predictor {
+        Some(p @ (1 | 2)) => p,
+        Some(3) if dtype.is_float() => 3,
+        Some(p) => {
+            return Err(Error::invalid(format!(
+                "predictor {p} is not valid for {dtype}: use 1 or 2 (3 only for float32/float64)"
+            )))
+        }
+        None if dtype.is_float() => 3,
+        None => 2,
+    };
+    Ok(if opts.compression == Compression::None {
+        1
+    } else {
+        predictor
     })
 }
 
@@ -384,24 +420,7 @@ impl GeoTiffWriter {
                 "block size {block} must be a positive multiple of 16 (at most 32768)"
             )));
         }
-        let predictor = match opts.predictor {
-            Some(p @ (1 | 2)) => p,
-            Some(3) if dtype.is_float() => 3,
-            Some(p) => {
-                return Err(Error::invalid(format!(
-                "predictor {p} is not valid for {dtype}: use 1 or 2 (3 only for float32/float64)"
-            )))
-            }
-            None if dtype.is_float() => 3,
-            None => 2,
-        };
-        // libtiff (hence GDAL) applies predictors only inside compression
-        // codecs: an uncompressed file is always written without one.
-        let predictor = if opts.compression == Compression::None {
-            1
-        } else {
-            predictor
-        };
+        let predictor = resolve_predictor(opts, dtype)?;
         if let Some(nd) = georef.nodata {
             if !dtype.represents(nd) && !nd.is_nan() {
                 return Err(Error::invalid(format!(
