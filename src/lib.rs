@@ -13,10 +13,12 @@ pub mod error;
 pub mod exec;
 pub mod hydro;
 pub mod io;
+pub mod job;
 pub mod metrics;
 pub mod ops;
 pub mod oro;
 pub mod raster;
+pub mod report;
 pub mod store;
 pub mod synth;
 

@@ -316,6 +316,11 @@ enum Cmd {
         #[command(flatten)]
         run: Run,
     },
+    /// Run a batch job: steps (any orogen command) from a TOML file, resumable.
+    #[command(
+        after_help = "Examples:\n  orogen run configs/continent-analysis.toml\n  orogen run job.toml --memory 512MiB --log job.jsonl\n  orogen run job.toml --dry-run\nA rerun skips the steps already done (same command, same inputs) and resumes\ninterrupted tile stores. Writes report.html into the job's output_dir.\nExit codes: 0 success, 1 a step or the job file failed (the message names it),\n2 bad command-line usage."
+    )]
+    Run(cli::job::RunArgs),
     /// Generate a seeded terrain and run the pipeline on it into ./orogen-demo/.
     #[command(
         after_help = "Example:\n  orogen demo\n  orogen demo --size 4096 --seed 7 -o /tmp/demo"
@@ -476,6 +481,7 @@ fn main() {
 
 fn run(cli: Cli) -> Result<()> {
     match cli.cmd {
+        Cmd::Run(a) => cli::job::run(a)?,
         Cmd::Info {
             input,
             json,

@@ -31,7 +31,8 @@
 //! for classes and codes.
 
 use super::writer::{
-    encode_block, encode_ifd, geo_entries, resolve_predictor, Entry, WriteOptions,
+    clean_stale_temps, encode_block, encode_ifd, geo_entries, resolve_predictor, Entry,
+    WriteOptions,
 };
 use crate::error::{Error, IoContext, Result};
 use crate::exec::TileSink;
@@ -142,6 +143,7 @@ impl CogWriter {
             .ok_or_else(|| Error::invalid(format!("{}: not a file path", path.display())))?
             .to_string_lossy()
             .into_owned();
+        clean_stale_temps(&path);
         let (mut w, mut h) = (width, height);
         let mut levels = Vec::new();
         loop {

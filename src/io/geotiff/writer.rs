@@ -339,6 +339,35 @@ pub(super) fn encode_block(
     })
 }
 
+/// Remove temporary files that an earlier, killed writer of the same output
+/// left next to it (`.NAME.orogen-*-PID` whose process no longer runs).
+pub(super) fn clean_stale_temps(path: &Path) {
+    let (Some(dir), Some(name)) = (path.parent(), path.file_name()) else {
+        return;
+    };
+    let dir = if dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        dir
+    };
+    let prefix = format!(".{}.orogen-", name.to_string_lossy());
+    let Ok(rd) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for e in rd.flatten() {
+        let n = e.file_name().to_string_lossy().into_owned();
+        let Some(rest) = n.strip_prefix(&prefix) else {
+            continue;
+        };
+        let Some(pid) = rest.rsplit('-').next().and_then(|p| p.parse::<u32>().ok()) else {
+            continue;
+        };
+        if pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists() {
+            let _ = std::fs::remove_file(e.path());
+        }
+    }
+}
+
 /// The predictor written for `dtype` under `opts` (automatic choice: 2 for
 /// integers, 3 for floats; none when uncompressed, as libtiff and GDAL only
 /// apply predictors inside compression codecs).
@@ -485,6 +514,7 @@ impl GeoTiffWriter {
             .ok_or_else(|| Error::invalid(format!("{}: not a file path", path.display())))?
             .to_string_lossy()
             .into_owned();
+        clean_stale_temps(&path);
         let tmp = path.with_file_name(format!(".{file_name}.orogen-tmp-{}", std::process::id()));
         let f = File::create(&tmp).at(&tmp)?;
         let mut w = GeoTiffWriter {

@@ -1,0 +1,213 @@
+//! `orogen run job.toml`: batch jobs (see `orogen::job` for the file format).
+
+use anyhow::{anyhow, Context, Result};
+use clap::{Args, CommandFactory, Parser};
+use orogen::job::{self, CommandTable, StepRecord};
+use orogen::report::{self, Status, StepOutcome};
+use std::io::Write;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Arguments of `orogen run`.
+#[derive(Args, Clone)]
+pub struct RunArgs {
+    /// The job file (TOML).
+    pub job: PathBuf,
+    /// Memory budget for every step (overrides the job file's `memory`).
+    #[arg(long)]
+    pub memory: Option<String>,
+    /// Worker threads for every step (overrides the job file's `threads`).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Also write step events as JSON lines to this file.
+    #[arg(long)]
+    pub log: Option<PathBuf>,
+    /// Do not write report.html.
+    #[arg(long)]
+    pub no_report: bool,
+    /// Check the job file and print the steps' command lines without running them.
+    #[arg(long)]
+    pub dry_run: bool,
+    /// No progress bars.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// The CLI's commands, as a job sees them.
+struct ClapTable(clap::Command);
+
+impl CommandTable for ClapTable {
+    fn has(&self, name: &str) -> bool {
+        self.0.find_subcommand(name).is_some()
+    }
+    fn names(&self) -> Vec<String> {
+        self.0
+            .get_subcommands()
+            .map(|c| c.get_name().to_string())
+            .filter(|n| n != "run" && n != "help")
+            .collect()
+    }
+    fn accepts(&self, command: &str, opt: &str) -> bool {
+        self.0.find_subcommand(command).is_some_and(|c| {
+            c.get_arguments().any(|a| {
+                a.get_long() == Some(opt) || a.get_short().is_some_and(|s| opt == s.to_string())
+            })
+        })
+    }
+}
+
+/// Commands whose raster outputs are elevations (previewed with hillshade).
+const ELEVATION_COMMANDS: [&str; 8] = [
+    "fill", "breach", "export", "ingest", "demo", "synth", "erode", "convert",
+];
+
+fn log_line(log: &mut Option<std::fs::File>, v: serde_json::Value) {
+    if let Some(f) = log {
+        let _ = writeln!(f, "{v}");
+    }
+}
+
+pub fn run(a: RunArgs) -> Result<()> {
+    let table = ClapTable(crate::Cli::command());
+    let job = job::load(&a.job, &table, a.memory.as_deref(), a.threads)?;
+    let argv_of = |s: &job::Planned| {
+        let mut v = vec!["orogen".to_string()];
+        v.extend(s.argv.iter().cloned());
+        if a.quiet && table.accepts(&s.command, "quiet") {
+            v.push("--quiet".into());
+        }
+        v
+    };
+    // Every step's command line is checked before anything runs.
+    for s in &job.steps {
+        if let Err(e) = crate::Cli::try_parse_from(argv_of(s)) {
+            let msg = e.render().to_string();
+            let first = msg
+                .lines()
+                .next()
+                .unwrap_or("")
+                .trim_start_matches("error: ");
+            return Err(anyhow!(
+                "{}: step {:?}: {first}\n  command: orogen {}",
+                a.job.display(),
+                s.name,
+                s.argv.join(" ")
+            ));
+        }
+    }
+    if a.dry_run {
+        for (i, s) in job.steps.iter().enumerate() {
+            println!(
+                "[{}/{}] {}: orogen {}",
+                i + 1,
+                job.steps.len(),
+                s.name,
+                s.argv.join(" ")
+            );
+        }
+        return Ok(());
+    }
+    std::fs::create_dir_all(&job.output_dir)
+        .with_context(|| format!("creating the output folder {}", job.output_dir.display()))?;
+    let log_path = a.log.clone().or(job.log.clone());
+    let mut log = match &log_path {
+        Some(p) => Some(
+            std::fs::OpenOptions::new()
+                .create(true)
+                .append(true)
+                .open(p)
+                .with_context(|| format!("opening the log {}", p.display()))?,
+        ),
+        None => None,
+    };
+    let mut state = job.load_state();
+    let n = job.steps.len();
+    let mut outcomes: Vec<StepOutcome> = job
+        .steps
+        .iter()
+        .map(|s| StepOutcome {
+            name: s.name.clone(),
+            command_line: format!("orogen {}", s.argv.join(" ")),
+            status: Status::NotRun,
+            seconds: 0.0,
+            peak_rss_bytes: 0,
+            output: s.output.clone(),
+            elevation: ELEVATION_COMMANDS.contains(&s.command.as_str()),
+        })
+        .collect();
+    let mut failure = None;
+    for (i, s) in job.steps.iter().enumerate() {
+        if job.is_done(&state, i) {
+            eprintln!(
+                "[{}/{n}] {}: done in an earlier run, skipped",
+                i + 1,
+                s.name
+            );
+            outcomes[i].status = Status::Skipped;
+            log_line(
+                &mut log,
+                serde_json::json!({"event": "skipped", "step": s.name}),
+            );
+            continue;
+        }
+        eprintln!("[{}/{n}] {}: orogen {}", i + 1, s.name, s.argv.join(" "));
+        log_line(
+            &mut log,
+            serde_json::json!({"event": "start", "step": s.name, "command": s.argv}),
+        );
+        let fingerprint = job.fingerprint(i);
+        job::reset_peak_rss();
+        let t0 = Instant::now();
+        let cli = crate::Cli::try_parse_from(argv_of(s))?;
+        let result = crate::run(cli);
+        let seconds = t0.elapsed().as_secs_f64();
+        let peak = job::peak_rss();
+        outcomes[i].seconds = seconds;
+        outcomes[i].peak_rss_bytes = peak;
+        match result {
+            Ok(()) => {
+                outcomes[i].status = Status::Ran;
+                state.done.insert(
+                    s.name.clone(),
+                    StepRecord {
+                        fingerprint,
+                        seconds,
+                        peak_rss_bytes: peak,
+                    },
+                );
+                job.save_state(&state)?;
+                log_line(
+                    &mut log,
+                    serde_json::json!({"event": "done", "step": s.name, "seconds": seconds, "peak_rss_bytes": peak}),
+                );
+            }
+            Err(e) => {
+                let msg = format!("{e:#}");
+                outcomes[i].status = Status::Failed(msg.clone());
+                log_line(
+                    &mut log,
+                    serde_json::json!({"event": "failed", "step": s.name, "error": msg}),
+                );
+                failure = Some(e.context(format!(
+                    "{}: step {:?} (orogen {}) failed; fix it and rerun the job to continue from this step",
+                    a.job.display(),
+                    s.name,
+                    s.argv.join(" ")
+                )));
+                break;
+            }
+        }
+    }
+    if job.report && !a.no_report {
+        let path = job.output_dir.join("report.html");
+        let title = format!("orogen job {}", a.job.display());
+        match report::write_report(&title, &outcomes, &path) {
+            Ok(()) => crate::wrote(&path),
+            Err(e) => eprintln!("warning: report not written: {e}"),
+        }
+    }
+    match failure {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
+}

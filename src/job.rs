@@ -1,0 +1,506 @@
+//! Batch jobs: a TOML file naming inputs, a memory budget, threads and steps
+//! (any `orogen` command with its options), checked whole before anything
+//! runs, ordered by their dependencies, and resumable.
+//!
+//! ```toml
+//! memory = "1GiB"          # optional: budget passed to every step
+//! threads = 0              # optional: 0 = all cores
+//! output_dir = "out"       # optional: outputs go here (relative to this file)
+//!
+//! [inputs]
+//! dem = "../shared/data/srtm3_S33W071.tif"   # relative to this file
+//!
+//! [[step]]
+//! name = "filled"          # later steps refer to this step's output by name
+//! run = "fill"             # the orogen command
+//! input = "dem"            # an input or an earlier step (a list for several)
+//! output = "filled.tif"    # relative to output_dir
+//! args = { compress = "zstd", cog = true }   # the command's long options
+//! ```
+//!
+//! Option values: strings and numbers are passed as `--key value`, `true`
+//! as a flag `--key` (`false` leaves it out), arrays joined with commas
+//! (`metric = ["slope", "tpi:radius=500m"]`); a string `"@name"` is the path
+//! of the input or step called `name` (an extra dependency). Keys may use
+//! `_` or `-`.
+//!
+//! Resume: after each step the job records, in `output_dir/.orogen-job.json`,
+//! a fingerprint of the step's command line and of its input files (size and
+//! modification time). A rerun skips the steps whose fingerprint is unchanged
+//! and whose outputs exist; a step killed half-way runs again, and the tile
+//! stores it writes resume from their finished tiles. GeoTIFF outputs are
+//! renamed into place only when complete, so a killed job never leaves a
+//! partial file that looks finished.
+
+use crate::error::{Error, Result};
+use serde::{Deserialize, Serialize};
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+
+/// A job file as written.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JobFile {
+    /// Memory budget for every step, e.g. "512MiB".
+    pub memory: Option<String>,
+    /// Worker threads (0 = all cores).
+    pub threads: Option<usize>,
+    /// Work-tile size passed to every step that takes `--tile`.
+    pub tile: Option<usize>,
+    /// Folder for outputs, relative to the job file (default: the job file's folder).
+    pub output_dir: Option<PathBuf>,
+    /// JSON-lines log of step events, relative to `output_dir`.
+    pub log: Option<PathBuf>,
+    /// Write `report.html` into `output_dir` (default true).
+    pub report: Option<bool>,
+    /// Named input files, relative to the job file.
+    #[serde(default)]
+    pub inputs: BTreeMap<String, PathBuf>,
+    /// The steps, in any order consistent with their dependencies.
+    #[serde(default, rename = "step")]
+    pub steps: Vec<StepSpec>,
+}
+
+/// One `[[step]]` as written.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StepSpec {
+    /// Name other steps use to refer to this step's output.
+    pub name: String,
+    /// The orogen command (`fill`, `slope`, `metric`, …).
+    pub run: String,
+    /// Positional input(s): names of inputs or earlier steps.
+    #[serde(default)]
+    pub input: OneOrMany,
+    /// Output path (file or folder), relative to `output_dir`.
+    pub output: Option<PathBuf>,
+    /// The command's options (long names without `--`).
+    #[serde(default)]
+    pub args: BTreeMap<String, toml::Value>,
+}
+
+/// A name or a list of names.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(untagged)]
+pub enum OneOrMany {
+    #[default]
+    None,
+    One(String),
+    Many(Vec<String>),
+}
+
+impl OneOrMany {
+    fn names(&self) -> Vec<String> {
+        match self {
+            OneOrMany::None => vec![],
+            OneOrMany::One(s) => vec![s.clone()],
+            OneOrMany::Many(v) => v.clone(),
+        }
+    }
+}
+
+/// What the job needs to know about each command it may run.
+pub trait CommandTable {
+    /// True if `name` is a command a job may run.
+    fn has(&self, name: &str) -> bool;
+    /// The commands a job may run (for error messages).
+    fn names(&self) -> Vec<String>;
+    /// True if `command` accepts the long option `--opt`.
+    fn accepts(&self, command: &str, opt: &str) -> bool;
+}
+
+/// A checked step, ready to run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Planned {
+    pub name: String,
+    pub command: String,
+    /// Command line after the program name: command, inputs, `-o`, options.
+    pub argv: Vec<String>,
+    pub inputs: Vec<PathBuf>,
+    pub output: Option<PathBuf>,
+    /// Indices (into [`Job::steps`]) of the steps this one needs.
+    pub deps: Vec<usize>,
+}
+
+/// A checked job: steps in run order.
+#[derive(Debug, Clone)]
+pub struct Job {
+    pub path: PathBuf,
+    pub output_dir: PathBuf,
+    pub log: Option<PathBuf>,
+    pub report: bool,
+    pub steps: Vec<Planned>,
+}
+
+fn bad(path: &Path, msg: impl Into<String>) -> Error {
+    Error::invalid(format!("{}: {}", path.display(), msg.into()))
+}
+
+/// Parse and check the job file at `path` against the commands in `table`.
+/// `memory`/`threads` override the file's values. Every mistake (unknown
+/// key, unknown command or option, missing input, duplicate name, cycle)
+/// is one error naming the step.
+pub fn load(
+    path: &Path,
+    table: &dyn CommandTable,
+    memory: Option<&str>,
+    threads: Option<usize>,
+) -> Result<Job> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let file: JobFile = toml::from_str(&text).map_err(|e| bad(path, e.to_string().trim_end()))?;
+    plan(path, file, table, memory, threads)
+}
+
+/// Check a parsed job file (see [`load`]).
+pub fn plan(
+    path: &Path,
+    file: JobFile,
+    table: &dyn CommandTable,
+    memory: Option<&str>,
+    threads: Option<usize>,
+) -> Result<Job> {
+    let base = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."))
+        .to_path_buf();
+    let output_dir = match &file.output_dir {
+        Some(d) if d != Path::new(".") => base.join(d),
+        _ => base.clone(),
+    };
+    if file.steps.is_empty() {
+        return Err(bad(path, "the job has no [[step]]; add at least one"));
+    }
+    // Names: inputs and steps share one namespace.
+    let mut paths: HashMap<String, PathBuf> = HashMap::new();
+    for (k, v) in &file.inputs {
+        check_name(path, k)?;
+        paths.insert(k.clone(), base.join(v));
+    }
+    let mut step_of: HashMap<String, usize> = HashMap::new();
+    for (i, s) in file.steps.iter().enumerate() {
+        check_name(path, &s.name)?;
+        if paths.contains_key(&s.name) || step_of.contains_key(&s.name) {
+            return Err(bad(
+                path,
+                format!(
+                    "step name {:?} is used twice (inputs and steps share names)",
+                    s.name
+                ),
+            ));
+        }
+        step_of.insert(s.name.clone(), i);
+        if let Some(o) = &s.output {
+            paths.insert(s.name.clone(), output_dir.join(o));
+        }
+    }
+    let known = |k: &str| -> String {
+        let mut v: Vec<&String> = paths.keys().collect();
+        v.sort();
+        format!(
+            "{k:?} is neither an input nor a step with an output (known: {})",
+            v.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(", ")
+        )
+    };
+    let memory = memory.map(str::to_string).or(file.memory.clone());
+    let threads = threads.or(file.threads);
+    let mut planned = Vec::with_capacity(file.steps.len());
+    for s in &file.steps {
+        let at = |m: String| bad(path, format!("step {:?}: {m}", s.name));
+        if s.run == "run" || !table.has(&s.run) {
+            return Err(at(format!(
+                "unknown command {:?}; a step may run: {}",
+                s.run,
+                table.names().join(", ")
+            )));
+        }
+        let mut deps = vec![];
+        let mut inputs = vec![];
+        for n in s.input.names() {
+            let p = paths.get(&n).ok_or_else(|| at(known(&n)))?;
+            if let Some(&d) = step_of.get(&n) {
+                deps.push(d);
+            }
+            inputs.push(p.clone());
+        }
+        let mut argv = vec![s.run.clone()];
+        argv.extend(inputs.iter().map(|p| p.display().to_string()));
+        let output = s.output.as_ref().map(|o| output_dir.join(o));
+        if let Some(o) = &output {
+            argv.push("-o".into());
+            argv.push(o.display().to_string());
+        }
+        for (k, v) in &s.args {
+            let key = k.replace('_', "-");
+            if !table.accepts(&s.run, &key) {
+                return Err(at(format!(
+                    "`{}` has no option --{key}; see `orogen {} --help`",
+                    s.run, s.run
+                )));
+            }
+            let mut value = |v: &toml::Value| -> Result<Option<String>> {
+                Ok(match v {
+                    toml::Value::String(t) => match t.strip_prefix('@') {
+                        Some(n) => {
+                            let p = paths.get(n).ok_or_else(|| at(known(n)))?;
+                            if let Some(&d) = step_of.get(n) {
+                                deps.push(d);
+                            }
+                            Some(p.display().to_string())
+                        }
+                        None => Some(t.clone()),
+                    },
+                    toml::Value::Integer(i) => Some(i.to_string()),
+                    toml::Value::Float(f) => Some(f.to_string()),
+                    toml::Value::Boolean(_) => None,
+                    other => {
+                        return Err(at(format!(
+                            "option {k}: a {} is not a valid value (use a string, number, boolean or array of them)",
+                            other.type_str()
+                        )))
+                    }
+                })
+            };
+            match v {
+                toml::Value::Boolean(true) => argv.push(format!("--{key}")),
+                toml::Value::Boolean(false) => {}
+                toml::Value::Array(items) => {
+                    let mut parts = vec![];
+                    for it in items {
+                        match value(it)? {
+                            Some(p) => parts.push(p),
+                            None => {
+                                return Err(at(format!("option {k}: booleans cannot be listed")))
+                            }
+                        }
+                    }
+                    argv.push(format!("--{key}"));
+                    argv.push(parts.join(","));
+                }
+                v => {
+                    let p = value(v)?.unwrap_or_default();
+                    argv.push(format!("--{key}"));
+                    argv.push(p);
+                }
+            }
+        }
+        for (opt, val) in [
+            ("memory", memory.clone()),
+            ("threads", threads.map(|t| t.to_string())),
+            ("tile", file.tile.map(|t| t.to_string())),
+        ] {
+            if let Some(v) = val {
+                if table.accepts(&s.run, opt) && !s.args.contains_key(opt) {
+                    argv.push(format!("--{opt}"));
+                    argv.push(v);
+                }
+            }
+        }
+        deps.sort_unstable();
+        deps.dedup();
+        planned.push(Planned {
+            name: s.name.clone(),
+            command: s.run.clone(),
+            argv,
+            inputs,
+            output,
+            deps,
+        });
+    }
+    let order = topo_order(path, &planned)?;
+    // Renumber dependencies for the new order.
+    let mut pos = vec![0; planned.len()];
+    for (new, &old) in order.iter().enumerate() {
+        pos[old] = new;
+    }
+    let steps = order
+        .iter()
+        .map(|&i| {
+            let mut p = planned[i].clone();
+            p.deps = p.deps.iter().map(|&d| pos[d]).collect();
+            p
+        })
+        .collect();
+    Ok(Job {
+        path: path.to_path_buf(),
+        log: file.log.map(|l| output_dir.join(l)),
+        output_dir,
+        report: file.report.unwrap_or(true),
+        steps,
+    })
+}
+
+fn check_name(path: &Path, n: &str) -> Result<()> {
+    if n.is_empty()
+        || !n
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+    {
+        return Err(bad(
+            path,
+            format!("name {n:?} must be letters, digits, '_' or '-'"),
+        ));
+    }
+    Ok(())
+}
+
+/// Steps in file order as far as dependencies allow (Kahn's algorithm,
+/// always taking the first ready step); a cycle is an error naming it.
+fn topo_order(path: &Path, steps: &[Planned]) -> Result<Vec<usize>> {
+    let n = steps.len();
+    let mut done = vec![false; n];
+    let mut order = Vec::with_capacity(n);
+    while order.len() < n {
+        let next = (0..n).find(|&i| !done[i] && steps[i].deps.iter().all(|&d| done[d]));
+        match next {
+            Some(i) => {
+                done[i] = true;
+                order.push(i);
+            }
+            None => {
+                // Walk dependencies from a blocked step until one repeats.
+                let mut seen = vec![usize::MAX; n];
+                let mut at = (0..n).find(|&i| !done[i]).unwrap_or(0);
+                let mut chain = vec![];
+                while seen[at] == usize::MAX {
+                    seen[at] = chain.len();
+                    chain.push(at);
+                    at = steps[at]
+                        .deps
+                        .iter()
+                        .copied()
+                        .find(|&d| !done[d])
+                        .unwrap_or(at);
+                }
+                let cycle: Vec<&str> = chain[seen[at]..]
+                    .iter()
+                    .chain(std::iter::once(&at))
+                    .map(|&i| steps[i].name.as_str())
+                    .collect();
+                return Err(bad(
+                    path,
+                    format!(
+                        "the steps depend on each other in a cycle: {}",
+                        cycle.join(" -> ")
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(order)
+}
+
+/// What the job remembers between runs (`output_dir/.orogen-job.json`).
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct State {
+    /// Finished steps: name → record.
+    pub done: BTreeMap<String, StepRecord>,
+}
+
+/// A finished step.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct StepRecord {
+    pub fingerprint: String,
+    pub seconds: f64,
+    pub peak_rss_bytes: u64,
+}
+
+impl Job {
+    /// Path of the resume state file.
+    pub fn state_path(&self) -> PathBuf {
+        self.output_dir.join(".orogen-job.json")
+    }
+
+    /// The saved state (empty when missing or unreadable: everything reruns).
+    pub fn load_state(&self) -> State {
+        std::fs::read_to_string(self.state_path())
+            .ok()
+            .and_then(|t| serde_json::from_str(&t).ok())
+            .unwrap_or_default()
+    }
+
+    /// Save the state atomically (temporary file + rename).
+    pub fn save_state(&self, st: &State) -> Result<()> {
+        let p = self.state_path();
+        let tmp = p.with_extension("json.tmp");
+        let text = serde_json::to_string_pretty(st)
+            .map_err(|e| Error::invalid(format!("job state: {e}")))?;
+        std::fs::write(&tmp, text).map_err(|e| Error::io(&tmp, e))?;
+        std::fs::rename(&tmp, &p).map_err(|e| Error::io(&p, e))
+    }
+
+    /// Fingerprint of step `i`: its command line and the size and
+    /// modification time of every input (files, or the manifest of a tile
+    /// store / the entries of a folder).
+    pub fn fingerprint(&self, i: usize) -> String {
+        let s = &self.steps[i];
+        let mut h = crc32fast::Hasher::new();
+        for a in &s.argv {
+            h.update(a.as_bytes());
+            h.update(&[0]);
+        }
+        let mut stamp = |p: &Path| {
+            if let Ok(m) = std::fs::metadata(p) {
+                h.update(&m.len().to_le_bytes());
+                if let Ok(t) = m.modified() {
+                    if let Ok(d) = t.duration_since(std::time::UNIX_EPOCH) {
+                        h.update(&d.as_nanos().to_le_bytes());
+                    }
+                }
+            }
+        };
+        // Inputs, plus option values naming existing files (`@name` refs).
+        let mut roots: Vec<PathBuf> = s.inputs.clone();
+        roots.extend(
+            s.argv[1..]
+                .iter()
+                .map(PathBuf::from)
+                .filter(|p| p.exists() && !s.inputs.contains(p) && Some(p) != s.output.as_ref()),
+        );
+        let mut files = vec![];
+        for p in roots {
+            match std::fs::read_dir(&p) {
+                Ok(rd) => {
+                    let mut v: Vec<PathBuf> = rd.flatten().map(|e| e.path()).collect();
+                    v.sort();
+                    files.extend(v);
+                }
+                Err(_) => files.push(p),
+            }
+        }
+        for f in &files {
+            stamp(f);
+        }
+        format!("{:08x}-{}", h.finalize(), s.argv.len())
+    }
+
+    /// True if step `i` finished in an earlier run with the same fingerprint
+    /// and its output still exists.
+    pub fn is_done(&self, st: &State, i: usize) -> bool {
+        let s = &self.steps[i];
+        st.done
+            .get(&s.name)
+            .is_some_and(|r| r.fingerprint == self.fingerprint(i))
+            && s.output.as_ref().is_none_or(|o| o.exists())
+    }
+}
+
+/// Peak resident set size of this process so far (Linux `VmHWM`), in bytes.
+pub fn peak_rss() -> u64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .and_then(|l| l.split_whitespace().nth(1))
+                .and_then(|v| v.parse::<u64>().ok())
+        })
+        .map(|kb| kb * 1024)
+        .unwrap_or(0)
+}
+
+/// Reset the peak RSS counter (Linux ≥ 4.0: write 5 to clear_refs), so
+/// that [`peak_rss`] measures one step. Returns false where unsupported.
+pub fn reset_peak_rss() -> bool {
+    std::fs::write("/proc/self/clear_refs", "5").is_ok()
+}
