@@ -21,5 +21,6 @@ pub mod raster;
 pub mod report;
 pub mod store;
 pub mod synth;
+pub mod tiles;
 
 pub use error::{Error, Result};

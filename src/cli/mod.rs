@@ -5,3 +5,4 @@
 //! `local1`, `global1`, `wrote`) are reachable as `crate::...`.
 
 pub mod job;
+pub mod tiles;

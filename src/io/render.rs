@@ -236,6 +236,18 @@ fn named_ramp(name: &str) -> Result<Ramp> {
     })
 }
 
+/// A 256-entry lookup table of the named ramp (entry i = colour at i/255),
+/// for per-pixel colouring without interpolation cost.
+pub fn ramp_lut(name: &str) -> Result<[[u8; 3]; 256]> {
+    let r = named_ramp(name)?;
+    let mut lut = [[0u8; 3]; 256];
+    for (i, c) in lut.iter_mut().enumerate() {
+        let v = ramp_rgb(r, i as f64 / 255.0);
+        *c = v.map(|x| x.round().clamp(0.0, 255.0) as u8);
+    }
+    Ok(lut)
+}
+
 /// The first and last colour of a named ramp (for checks and legends).
 pub fn ramp_ends(name: &str) -> Result<([u8; 3], [u8; 3])> {
     let r = named_ramp(name)?;

@@ -1,0 +1,9 @@
+//! Tile-server outputs: web-map pyramids in Web Mercator ([`pyramid`]),
+//! packed as MBTiles and PMTiles ([`archive`]), with the projections they
+//! need ([`proj`]). Cloud-Optimized GeoTIFFs are in `io::geotiff::CogWriter`.
+
+pub mod archive;
+pub mod proj;
+pub mod pyramid;
+
+pub use pyramid::{build_pyramid, Encoding, PyramidInfo, PyramidOptions, Resampling};
