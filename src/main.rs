@@ -322,6 +322,11 @@ enum Cmd {
         after_help = "Examples:\n  orogen tiles dem.tif -o dem.pmtiles\n  orogen tiles dem.tiles -o tiles/ -o dem.mbtiles --encoding terrarium --max-zoom 12\n  orogen tiles shade.tif -o shade.pmtiles --encoding color --ramp grey --range 0,255\nInputs: geographic, UTM (WGS 84 / ETRS89) or EPSG:3857 rasters. Nodata is transparent."
     )]
     Tiles(cli::tiles::TilesArgs),
+    /// Serve a tile pyramid on localhost and show it as 3D terrain (MapLibre GL JS).
+    #[command(
+        after_help = "Examples:\n  orogen tiles dem.tif -o dem.pmtiles && orogen view dem.pmtiles\n  orogen view tiles/ --port 8080\nNeeds MapLibre GL JS from npm: bash tools/viewer_setup.sh (once)."
+    )]
+    View(cli::view::ViewArgs),
     /// Run a batch job: steps (any orogen command) from a TOML file, resumable.
     #[command(
         after_help = "Examples:\n  orogen run configs/continent-analysis.toml\n  orogen run job.toml --memory 512MiB --log job.jsonl\n  orogen run job.toml --dry-run\nA rerun skips the steps already done (same command, same inputs) and resumes\ninterrupted tile stores. Writes report.html into the job's output_dir.\nExit codes: 0 success, 1 a step or the job file failed (the message names it),\n2 bad command-line usage."
@@ -489,6 +494,7 @@ fn run(cli: Cli) -> Result<()> {
     match cli.cmd {
         Cmd::Run(a) => cli::job::run(a)?,
         Cmd::Tiles(a) => cli::tiles::run(a)?,
+        Cmd::View(a) => cli::view::run(a)?,
         Cmd::Info {
             input,
             json,

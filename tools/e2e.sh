@@ -31,3 +31,6 @@ bash tools/gdaldem_compare.sh
 
 echo "== Cloud-Optimized GeoTIFFs against GDAL's validator"
 bash tools/cog_validate.sh
+
+echo "== web tiles in the viewer (headless Chromium) and read back by independent readers"
+bash tools/viewer_e2e.sh

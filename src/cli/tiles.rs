@@ -54,7 +54,7 @@ pub fn run(a: TilesArgs) -> Result<()> {
                 .map(|s| s.trim().parse::<f64>())
                 .collect::<std::result::Result<_, _>>()
                 .with_context(|| format!("--range {r:?}: expected lo,hi"))?;
-            if v.len() != 2 || !(v[0] < v[1]) {
+            if v.len() != 2 || v[0].partial_cmp(&v[1]) != Some(std::cmp::Ordering::Less) {
                 bail!("--range {r:?}: expected two numbers lo,hi with lo < hi");
             }
             Some((v[0], v[1]))
