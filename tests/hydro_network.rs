@@ -153,7 +153,8 @@ fn hand_built_tree_orders_lengths_areas() {
             .unwrap_or_else(|| panic!("no link from ({sx},{sy})"))
     };
     // (start, strahler, shreve, length m, area cells)
-    let want: [((usize, usize), u32, u64, f64, u64); 11] = [
+    type Want = ((usize, usize), u32, u64, f64, u64);
+    let want: [Want; 11] = [
         ((3, 0), 1, 1, 20.0, 2),
         ((1, 0), 1, 1, 20.0 * SQ2, 2),
         ((5, 0), 1, 1, 20.0 * SQ2, 2),
@@ -170,7 +171,11 @@ fn hand_built_tree_orders_lengths_areas() {
         let l = find(sx, sy);
         assert_eq!(l.strahler, so, "strahler of link from ({sx},{sy})");
         assert_eq!(l.shreve, sh, "shreve of link from ({sx},{sy})");
-        assert!((l.length_m - len).abs() < 1e-9, "length ({sx},{sy}) {}", l.length_m);
+        assert!(
+            (l.length_m - len).abs() < 1e-9,
+            "length ({sx},{sy}) {}",
+            l.length_m
+        );
         assert_eq!(l.area_cells, area, "area of link from ({sx},{sy})");
         assert!((l.area_m2 - area as f64 * 100.0).abs() < 1e-6);
     }
@@ -337,7 +342,13 @@ fn check_downstream(w: usize, h: usize, vals: &[f32], tiles: &[usize]) {
     }
     let dsrc = mem(&d, Some(255.0));
     for &t in tiles {
-        let got = run_global(&TiledDownstream { seeds: Seeds::Outlets }, &[&dsrc], t);
+        let got = run_global(
+            &TiledDownstream {
+                seeds: Seeds::Outlets,
+            },
+            &[&dsrc],
+            t,
+        );
         for (i, (&g, &b)) in got.data().iter().zip(&brute).enumerate() {
             assert!(
                 g == b || (g.is_nan() && b.is_nan()),
@@ -366,7 +377,10 @@ fn check_downstream(w: usize, h: usize, vals: &[f32], tiles: &[usize]) {
     let hnd = hand(&z, &d, &streams).unwrap();
     let bh = brute_hand(&z, &d, &streams);
     for (i, (&a, &b)) in hnd.data().iter().zip(&bh).enumerate() {
-        assert!(a == b || (a.is_nan() && b.is_nan()), "hand cell {i}: {a} vs {b}");
+        assert!(
+            a == b || (a.is_nan() && b.is_nan()),
+            "hand cell {i}: {a} vs {b}"
+        );
     }
     let zsrc = mem(&z, None);
     let asrc = mem(&acc_f, None);
@@ -404,10 +418,19 @@ fn real_dem_basins_tiled_equal_untiled() {
     let labels = basin_labels(&d).unwrap();
     let brute = brute_labels(&d);
     let lf = labels.map(|v| if v == 0 { f64::NAN } else { v as f64 });
-    assert!(same_f64(&lf, &Grid::from_vec(i.width, i.height, brute).unwrap()));
+    assert!(same_f64(
+        &lf,
+        &Grid::from_vec(i.width, i.height, brute).unwrap()
+    ));
     let dsrc = mem(&d, Some(255.0));
     for t in [7, 37, 100] {
-        let got = run_global(&TiledDownstream { seeds: Seeds::Outlets }, &[&dsrc], t);
+        let got = run_global(
+            &TiledDownstream {
+                seeds: Seeds::Outlets,
+            },
+            &[&dsrc],
+            t,
+        );
         assert!(same_f64(&got, &lf), "tile {t}");
     }
 }
@@ -420,9 +443,14 @@ fn cycles_are_errors_across_tiles() {
     d.set(2, 0, 16);
     let dsrc = mem(&d, Some(255.0));
     let layout = TileLayout::new(4, 1, 2);
-    let step = TiledDownstream { seeds: Seeds::Outlets };
+    let step = TiledDownstream {
+        seeds: Seeds::Outlets,
+    };
     let sums: Vec<_> = (0..2)
-        .map(|id| step.map(&[read_view::<f64>(&dsrc, &layout, id, 1).unwrap()]).unwrap())
+        .map(|id| {
+            step.map(&[read_view::<f64>(&dsrc, &layout, id, 1).unwrap()])
+                .unwrap()
+        })
         .collect();
     assert!(step.reduce(&layout, sums).is_err());
     assert!(basin_labels(&d).is_err());
@@ -477,10 +505,18 @@ fn disk_circularity_and_cone_hypsometry() {
     assert!((m.area_m2 / area - 1.0).abs() < 0.01);
     // marching squares overestimates curved outlines by ≈ 5.5 % on average
     // (segments at 0/45/90°): circularity ≈ 1/1.055² ≈ 0.90. Bound: [0.85, 0.97].
-    assert!(m.circularity > 0.85 && m.circularity < 0.97, "{}", m.circularity);
+    assert!(
+        m.circularity > 0.85 && m.circularity < 0.97,
+        "{}",
+        m.circularity
+    );
     assert!((m.compactness - 1.0 / m.circularity.sqrt()).abs() < 1e-12);
     // cone: HI = 1/3 analytically; curve: area above relative height h is (1 - h)²
-    assert!((m.hypsometric_integral - 1.0 / 3.0).abs() < 0.01, "{}", m.hypsometric_integral);
+    assert!(
+        (m.hypsometric_integral - 1.0 / 3.0).abs() < 0.01,
+        "{}",
+        m.hypsometric_integral
+    );
     for (k, &v) in m.hypsometric_curve.iter().enumerate() {
         let hk = k as f64 / 20.0;
         assert!((v - (1.0 - hk).powi(2)).abs() < 0.03, "h {hk}: {v}");
@@ -500,7 +536,12 @@ fn local_indices_on_a_tilted_plane() {
     let dsrc = MemRaster::from_grid(dem.clone(), g.clone());
     let asrc = MemRaster::from_grid(acc.clone(), g.clone());
     let sinb = s / (1.0 + s * s).sqrt();
-    for kind in [IndexKind::Twi, IndexKind::Spi, IndexKind::Sti, IndexKind::Ls] {
+    for kind in [
+        IndexKind::Twi,
+        IndexKind::Spi,
+        IndexKind::Sti,
+        IndexKind::Ls,
+    ] {
         let step = HydroIndex::new(kind);
         for tile in [7, 16, 64] {
             let out = run_local_to_memory(
@@ -583,12 +624,12 @@ proptest! {
             }
             if !changed { break; }
         }
-        for c in 0..n {
-            let g = got.data()[c] as f64;
-            if cost[c].is_infinite() {
+        for (c, (&g, &want)) in got.data().iter().zip(&cost).enumerate() {
+            let g = g as f64;
+            if want.is_infinite() {
                 prop_assert!(g.is_nan());
             } else {
-                prop_assert!((g - cost[c]).abs() <= 1e-4 * cost[c].max(1.0), "cell {}: {} vs {}", c, g, cost[c]);
+                prop_assert!((g - want).abs() <= 1e-4 * want.max(1.0), "cell {}: {} vs {}", c, g, want);
             }
         }
     }
@@ -632,4 +673,278 @@ proptest! {
             }
         }
     }
+}
+
+// ---- end to end through the CLI ----
+
+fn orogen(args: &[&str], dir: &std::path::Path) -> String {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_orogen"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("orogen runs");
+    assert!(
+        out.status.success(),
+        "orogen {args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+fn read_json(p: &std::path::Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(p).unwrap()).expect("valid JSON")
+}
+
+#[test]
+fn cli_fill_flow_accumulate_streams_basins_indices() {
+    let t = tempfile::tempdir().unwrap();
+    let dir = t.path();
+    let dem = std::fs::canonicalize("tests/data/bigtujunga_crop.tif").unwrap();
+    let dem = dem.to_str().unwrap();
+    orogen(&["fill", dem, "-o", "f.tif", "-q"], dir);
+    orogen(&["flow", "f.tif", "-o", "d.tif", "-q"], dir);
+    orogen(&["accumulate", "d.tif", "-o", "a.tif", "-q"], dir);
+    orogen(
+        &[
+            "streams",
+            "d.tif",
+            "-o",
+            "s.geojson",
+            "--threshold",
+            "200",
+            "--raster",
+            "o.tif",
+            "--stats",
+            "st.json",
+            "--csv",
+            "l.csv",
+            "--nodes",
+            "n.geojson",
+            "-q",
+        ],
+        dir,
+    );
+    let gj = read_json(&dir.join("s.geojson"));
+    let feats = gj["features"].as_array().unwrap();
+    assert!(feats.len() > 20);
+    let mut max_order = 0;
+    for f in feats {
+        assert_eq!(f["geometry"]["type"], "LineString");
+        let c = f["geometry"]["coordinates"].as_array().unwrap();
+        assert!(c.len() >= 2);
+        let p = &f["properties"];
+        for k in [
+            "strahler",
+            "shreve",
+            "length_m",
+            "area_m2",
+            "from_node",
+            "to_node",
+        ] {
+            assert!(!p[k].is_null(), "property {k}");
+        }
+        // 30 m UTM cells: a link of n vertices is between 30(n-1) and 30√2(n-1) m long
+        let len = p["length_m"].as_f64().unwrap();
+        let n = (c.len() - 1) as f64;
+        assert!(len >= 30.0 * n - 1e-6 && len <= 30.0 * SQ2 * n + 1e-6);
+        // 200 cells of 900 m² at least drain through every channel cell
+        assert!(p["area_m2"].as_f64().unwrap() >= 200.0 * 900.0);
+        max_order = max_order.max(p["strahler"].as_u64().unwrap());
+    }
+    let st = read_json(&dir.join("st.json"));
+    assert_eq!(st["horton"]["max_order"].as_u64().unwrap(), max_order);
+    assert!(st["horton"]["bifurcation_ratio"].as_f64().unwrap() > 1.5);
+    // the stream raster's largest order is the network's
+    let o = orogen::io::open_raster(&dir.join("o.tif"), &Default::default()).unwrap();
+    let og = read_window::<f64>(o.as_ref(), Window::full(301, 203)).unwrap();
+    let omax = og
+        .data()
+        .iter()
+        .filter(|v| v.is_finite())
+        .fold(0.0f64, |a, &b| a.max(b));
+    assert_eq!(omax as u64, max_order);
+
+    // basins: tiled with an odd tile equals the in-memory labels
+    orogen(
+        &[
+            "basins",
+            "d.tif",
+            "-o",
+            "b.tif",
+            "--tile",
+            "37",
+            "--metrics",
+            "b.csv",
+            "--dem",
+            "f.tif",
+            "--min-cells",
+            "500",
+            "-q",
+        ],
+        dir,
+    );
+    let d = orogen::io::open_raster(&dir.join("d.tif"), &Default::default()).unwrap();
+    let dg: Grid<u8> = read_window::<u8>(d.as_ref(), Window::full(301, 203)).unwrap();
+    let want = basin_labels(&dg).unwrap();
+    let b = orogen::io::open_raster(&dir.join("b.tif"), &Default::default()).unwrap();
+    let bg = read_window::<f64>(b.as_ref(), Window::full(301, 203)).unwrap();
+    for (g, w) in bg.data().iter().zip(want.data()) {
+        assert_eq!(*g as u64, *w);
+    }
+    let csv = std::fs::read_to_string(dir.join("b.csv")).unwrap();
+    assert!(csv.lines().count() >= 2);
+    assert!(csv.starts_with("label,outlet_col,outlet_row"));
+    let bj = read_json(&dir.join("b.geojson"));
+    for f in bj["features"].as_array().unwrap() {
+        let p = &f["properties"];
+        assert!(p["cells"].as_u64().unwrap() >= 500);
+        let hi = p["hypsometric_integral"].as_f64().unwrap();
+        assert!((0.0..=1.0).contains(&hi));
+        assert_eq!(p["hypsometric_curve"].as_array().unwrap().len(), 21);
+    }
+
+    // pour points: a watershed of the largest-accumulation cell, snapped
+    let (ox, oy) = orogen::hydro::accumulate(&dg)
+        .unwrap()
+        .data()
+        .iter()
+        .enumerate()
+        .max_by_key(|p| (*p.1, std::cmp::Reverse(p.0)))
+        .map(|(i, _)| (i % 301, i / 301))
+        .unwrap();
+    let g = d.info().georef.clone();
+    let (mx, my) = g.pixel_to_map(ox as f64 + 1.5, oy as f64 + 0.5); // one cell off
+    std::fs::write(dir.join("p.csv"), format!("id,x,y\ngauge,{mx},{my}\n")).unwrap();
+    orogen(
+        &[
+            "basins", "d.tif", "--points", "p.csv", "--snap", "2", "--acc", "a.tif", "-o", "w.tif",
+            "-q",
+        ],
+        dir,
+    );
+    let wsrc = orogen::io::open_raster(&dir.join("w.tif"), &Default::default()).unwrap();
+    let wg = read_window::<f64>(wsrc.as_ref(), Window::full(301, 203)).unwrap();
+    let ws = watersheds(&dg, &[(ox, oy)]).unwrap();
+    for (g, w) in wg.data().iter().zip(ws.data()) {
+        assert_eq!(*g as u32, *w);
+    }
+
+    // indices
+    for i in ["twi", "spi", "sti", "ls"] {
+        orogen(
+            &[
+                "hydro-index",
+                "--index",
+                i,
+                "--dem",
+                "f.tif",
+                "--acc",
+                "a.tif",
+                "-o",
+                &format!("{i}.tif"),
+                "-q",
+            ],
+            dir,
+        );
+    }
+    orogen(
+        &[
+            "hydro-index",
+            "--index",
+            "hand",
+            "--dem",
+            "f.tif",
+            "--dirs",
+            "d.tif",
+            "--acc",
+            "a.tif",
+            "--threshold",
+            "200",
+            "--tile",
+            "50",
+            "-o",
+            "hand.tif",
+            "-q",
+        ],
+        dir,
+    );
+    let f = orogen::io::open_raster(&dir.join("f.tif"), &Default::default()).unwrap();
+    let fz = read_window::<f32>(f.as_ref(), Window::full(301, 203)).unwrap();
+    let acc = orogen::hydro::accumulate(&dg).unwrap();
+    let want = hand(&fz, &dg, &acc.map(|v| v >= 200)).unwrap();
+    let hs = orogen::io::open_raster(&dir.join("hand.tif"), &Default::default()).unwrap();
+    let hg = read_window::<f32>(hs.as_ref(), Window::full(301, 203)).unwrap();
+    for (g, w) in hg.data().iter().zip(want.data()) {
+        assert!(g == w || (g.is_nan() && w.is_nan()), "{g} vs {w}");
+    }
+    for (i, extra) in [
+        ("dtw", ["--dem", "f.tif"]),
+        ("branch-length", ["--dirs", "d.tif"]),
+    ] {
+        orogen(
+            &[
+                "hydro-index",
+                "--index",
+                i,
+                extra[0],
+                extra[1],
+                "--acc",
+                "a.tif",
+                "--threshold",
+                "200",
+                "-o",
+                &format!("{i}.tif"),
+                "-q",
+            ],
+            dir,
+        );
+        assert!(dir.join(format!("{i}.tif")).exists());
+    }
+}
+
+#[test]
+fn cli_errors_are_clear() {
+    let t = tempfile::tempdir().unwrap();
+    let dir = t.path();
+    let dem = std::fs::canonicalize("tests/data/bigtujunga_crop.tif").unwrap();
+    let run = |args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_orogen"))
+            .args(args)
+            .current_dir(dir)
+            .output()
+            .unwrap()
+    };
+    // elevations are not D8 codes
+    let o = run(&["streams", dem.to_str().unwrap(), "-o", "s.geojson"]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("not a D8 code"));
+    let o = run(&["hydro-index", "--index", "nope", "-o", "x.tif"]);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("use twi, spi"));
+    let o = run(&["hydro-index", "--index", "twi", "-o", "x.tif"]);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("needs --dem"));
+    std::fs::write(dir.join("p.csv"), "a,b\n1,2\n").unwrap();
+    let o = run(&[
+        "basins",
+        dem.to_str().unwrap(),
+        "--points",
+        "p.csv",
+        "-o",
+        "w.tif",
+    ]);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("x and y"));
+    // the memory guard names the fix: 600x600 cells x 64 B > 16 MiB
+    let big = MemRaster::from_grid(Grid::new(600, 600, 1u8), geo10().with_nodata(Some(255.0)));
+    orogen::ops::convert(
+        &big,
+        &dir.join("big.tif"),
+        &Default::default(),
+        None,
+        &EngineConfig::default(),
+    )
+    .unwrap();
+    let o = run(&["streams", "big.tif", "-o", "s.geojson", "--memory", "16MiB"]);
+    assert!(!o.status.success());
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(e.contains("raise --memory") && e.contains("big.tif"), "{e}");
+    assert!(!dir.join("s.geojson").exists());
 }

@@ -44,7 +44,7 @@ fn read_dirs(src: &dyn RasterSource) -> Result<Grid<u8>> {
     for (i, &v) in g.data().iter().enumerate() {
         let c = if v.is_nan() || v == NODATA_DIR as f64 {
             NODATA_DIR
-        } else if v >= 0.0 && v <= 128.0 && v.fract() == 0.0 {
+        } else if (0.0..=128.0).contains(&v) && v.fract() == 0.0 {
             let c = v as u8;
             if c != NO_FLOW && orogen::hydro::code_to_dir(c).is_none() {
                 bail!(
@@ -310,7 +310,14 @@ pub fn run_streams(a: StreamsArgs) -> Result<()> {
     }
     if let Some(p) = &a.raster {
         let mem = MemRaster::from_grid(net.order.clone(), info.georef.clone());
-        write_mem(mem, p, &a.fmt, &a.run, &cfg, (DType::U8, Some(NODATA_DIR as f64)))?;
+        write_mem(
+            mem,
+            p,
+            &a.fmt,
+            &a.run,
+            &cfg,
+            (DType::U8, Some(NODATA_DIR as f64)),
+        )?;
     }
     if !a.run.quiet {
         eprintln!(
@@ -416,7 +423,7 @@ pub fn run_hydro_index(a: HydroIndexArgs) -> Result<()> {
         orogen::ops::run_local_to_paths(
             &step,
             &[dem.as_ref(), acc.as_ref()],
-            &[a.out.output.clone()],
+            std::slice::from_ref(&a.out.output),
             &[f32_out],
             &oo,
             a.run.tile,
@@ -450,7 +457,12 @@ pub fn run_hydro_index(a: HydroIndexArgs) -> Result<()> {
             let dem = need(&a.dem, "--dem", "dtw")?;
             let st = need(&streams_path, "--streams or --acc", "dtw")?;
             same_size(dem.as_ref(), st.as_ref())?;
-            guard(dem.as_ref(), indices::DTW_BYTES_PER_CELL, "depth to water", &cfg)?;
+            guard(
+                dem.as_ref(),
+                indices::DTW_BYTES_PER_CELL,
+                "depth to water",
+                &cfg,
+            )?;
             let z = read_window::<f32>(dem.as_ref(), full(dem.as_ref()))?;
             let s = read_window::<f64>(st.as_ref(), full(st.as_ref()))?;
             let mask = s.map(|v| v >= a.threshold);

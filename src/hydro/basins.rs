@@ -228,7 +228,12 @@ pub fn watersheds(dirs: &Grid<u8>, points: &[(usize, usize)]) -> Result<Grid<u32
 /// the path meets no stream or `z` is nodata.
 pub fn hand(dem: &Grid<f32>, dirs: &Grid<u8>, streams: &Grid<bool>) -> Result<Grid<f32>> {
     same_size(dem.width(), dem.height(), dirs.width(), dirs.height())?;
-    same_size(streams.width(), streams.height(), dirs.width(), dirs.height())?;
+    same_size(
+        streams.width(),
+        streams.height(),
+        dirs.width(),
+        dirs.height(),
+    )?;
     let z = dem.data();
     let s = streams.data();
     let base = values(dirs, |c| (s[c] && z[c].is_finite()).then_some(z[c] as f64))?;
@@ -369,14 +374,15 @@ impl TiledDownstream {
                 return Ok(Class::Nodata);
             }
             let next = match step_of(code, x, y).map_err(|_| {
-                Error::invalid(format!("flow direction {code} at cell ({gx}, {gy}) is not a D8 code"))
+                Error::invalid(format!(
+                    "flow direction {code} at cell ({gx}, {gy}) is not a D8 code"
+                ))
             })? {
                 None => None,
                 Some((nx, ny)) => {
                     let (gnx, gny) = (ox + nx, oy + ny);
-                    if gnx < 0 || gny < 0 || gnx >= rw || gny >= rh {
-                        None
-                    } else if Self::code(d.at(nx, ny), gnx, gny)? == NODATA_DIR {
+                    let outside = gnx < 0 || gny < 0 || gnx >= rw || gny >= rh;
+                    if outside || Self::code(d.at(nx, ny), gnx, gny)? == NODATA_DIR {
                         None
                     } else {
                         Some((nx, ny))
@@ -508,7 +514,9 @@ impl GlobalStep for TiledDownstream {
             let mut target = vec![NONE; s.perimeter.len()];
             for &(k, gx, gy) in &s.exits {
                 let k = k as usize;
-                if k >= s.perimeter.len() || gx as usize >= layout.width || gy as usize >= layout.height
+                if k >= s.perimeter.len()
+                    || gx as usize >= layout.width
+                    || gy as usize >= layout.height
                 {
                     return Err(corrupt(t));
                 }
@@ -590,11 +598,7 @@ impl GlobalStep for TiledDownstream {
         for (c, cell) in o.data_mut().iter_mut().enumerate() {
             let v = match terms[c] {
                 Term::Val(v) => v,
-                Term::Exit(k) => slice
-                    .get(k as usize)
-                    .copied()
-                    .flatten()
-                    .unwrap_or(f64::NAN),
+                Term::Exit(k) => slice.get(k as usize).copied().flatten().unwrap_or(f64::NAN),
             };
             *cell = match self.seeds {
                 Seeds::Streams { .. } => {
@@ -738,7 +742,10 @@ fn points_csv(path: &Path, text: &str) -> Result<Vec<PourPoint>> {
     let iname = find(&["id", "name"]);
     let mut out = Vec::new();
     for (ln, line) in lines.enumerate() {
-        let f: Vec<&str> = line.split(sep).map(|s| s.trim().trim_matches('"')).collect();
+        let f: Vec<&str> = line
+            .split(sep)
+            .map(|s| s.trim().trim_matches('"'))
+            .collect();
         let num = |i: usize| -> Result<f64> {
             f.get(i)
                 .and_then(|s| s.parse::<f64>().ok())
@@ -799,7 +806,12 @@ pub fn locate_points(
                 Error::invalid("snapping pour points needs the flow accumulation raster")
             })?;
             let r = snap_radius as i64;
-            let win = Window::new(x as i64 - r, y as i64 - r, 2 * r as usize + 1, 2 * r as usize + 1);
+            let win = Window::new(
+                x as i64 - r,
+                y as i64 - r,
+                2 * r as usize + 1,
+                2 * r as usize + 1,
+            );
             let g = crate::raster::read_window::<f64>(a, win)?;
             let mut best: Option<(f64, i64, usize)> = None;
             for (k, &v) in g.data().iter().enumerate() {
@@ -860,7 +872,10 @@ mod tests {
         std::fs::write(&p, "id,x,y\na,1.5,2\nb,3,4\n").unwrap();
         let v = read_points(&p).unwrap();
         assert_eq!(v.len(), 2);
-        assert_eq!((v[1].x, v[1].y, v[1].name.as_deref()), (3.0, 4.0, Some("b")));
+        assert_eq!(
+            (v[1].x, v[1].y, v[1].name.as_deref()),
+            (3.0, 4.0, Some("b"))
+        );
         let g = dir.path().join("p.geojson");
         std::fs::write(
             &g,

@@ -215,7 +215,8 @@ pub fn depth_to_water(dem: &Grid<f32>, streams: &Grid<bool>, georef: &GeoRef) ->
                 continue;
             }
             let (ew, ns) = sizes[y as usize];
-            let len = ((super::DX[k] as f64 * ew).powi(2) + (super::DY[k] as f64 * ns).powi(2)).sqrt();
+            let len =
+                ((super::DX[k] as f64 * ew).powi(2) + (super::DY[k] as f64 * ns).powi(2)).sqrt();
             let nd = d + 0.5 * (tb[c] + tb[m]) * len;
             if nd < cost[m] {
                 cost[m] = nd;
@@ -314,7 +315,13 @@ pub fn max_branch_length(dirs: &Grid<u8>, georef: &GeoRef) -> Result<Grid<f32>> 
         h,
         best.iter()
             .zip(d)
-            .map(|(&v, &code)| if code == NODATA_DIR { f32::NAN } else { v as f32 })
+            .map(|(&v, &code)| {
+                if code == NODATA_DIR {
+                    f32::NAN
+                } else {
+                    v as f32
+                }
+            })
             .collect(),
     )
 }

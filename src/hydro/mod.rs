@@ -41,8 +41,8 @@ pub mod mfd;
 pub mod streams;
 pub mod tiled;
 
-pub use basins::{basin_labels, hand, watersheds};
 pub use accum::{accumulate, accumulate_weighted, WEIGHT_SCALE_BITS};
+pub use basins::{basin_labels, hand, watersheds};
 pub use fill::{fill, fill_epsilon, watershed_labels};
 pub use flow::d8_directions;
 

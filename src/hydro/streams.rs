@@ -139,7 +139,10 @@ impl Stream {
         let vi = self.valley_m / self.straight_m;
         let ssi = ci / vi;
         let (hsi, tsi) = if ci > 1.0 {
-            (100.0 * (ci - vi) / (ci - 1.0), 100.0 * (vi - 1.0) / (ci - 1.0))
+            (
+                100.0 * (ci - vi) / (ci - 1.0),
+                100.0 * (vi - 1.0) / (ci - 1.0),
+            )
         } else {
             (f64::NAN, f64::NAN)
         };
@@ -452,7 +455,13 @@ pub fn extract_network(
     for (i, nd) in nodes.iter().enumerate() {
         if nd.kind == "outlet" {
             let (m, k, _, _) = inc[i];
-            let v = if k == 0 { 1 } else if k >= 2 { m + 1 } else { m };
+            let v = if k == 0 {
+                1
+            } else if k >= 2 {
+                m + 1
+            } else {
+                m
+            };
             o[nd.y * w + nd.x] = v.min(254) as u8;
         }
     }
@@ -538,7 +547,11 @@ pub fn horton(net: &Network) -> Horton {
         area[i] += s.area_m2;
     }
     let mean_length_m: Vec<f64> = len.iter().zip(&count).map(|(l, &c)| l / c as f64).collect();
-    let mean_area_m2: Vec<f64> = area.iter().zip(&count).map(|(a, &c)| a / c as f64).collect();
+    let mean_area_m2: Vec<f64> = area
+        .iter()
+        .zip(&count)
+        .map(|(a, &c)| a / c as f64)
+        .collect();
     let om: Vec<f64> = (1..=max).map(|o| o as f64).collect();
     let lg = |v: &[f64]| -> Vec<f64> { v.iter().map(|x| x.log10()).collect() };
     let cf: Vec<f64> = count.iter().map(|&c| c as f64).collect();
@@ -600,16 +613,15 @@ pub fn tokunaga(net: &Network) -> Tokunaga {
     let mut t_k = Vec::new();
     for k in 1..max {
         let (mut num, mut den) = (0u64, 0u64);
-        for i in 1..=max - k {
-            let j = i + k;
-            num += side[i][j];
-            den += n_j[j];
+        for (i, row) in side.iter().enumerate().take(max - k + 1).skip(1) {
+            num += row[i + k];
+            den += n_j[i + k];
         }
         t_k.push(num as f64 / den as f64);
     }
-    for i in 1..=max {
+    for (i, row) in side.iter().enumerate().skip(1) {
         for j in i + 1..=max {
-            t.push((i as u32, j as u32, side[i][j] as f64 / n_j[j] as f64));
+            t.push((i as u32, j as u32, row[j] as f64 / n_j[j] as f64));
         }
     }
     let (ks, ls): (Vec<f64>, Vec<f64>) = t_k
