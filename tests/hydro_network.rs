@@ -948,3 +948,86 @@ fn cli_errors_are_clear() {
     assert!(e.contains("raise --memory") && e.contains("big.tif"), "{e}");
     assert!(!dir.join("s.geojson").exists());
 }
+
+#[test]
+fn tokunaga_parameters_of_a_comb() {
+    // Trunk down column 10 from (10,2), created by two order-2 rows (A from
+    // the west, B from the east, both along row 2); a third order-2 row C
+    // joins it from the west at row 8; two single heads join it from the east
+    // at rows 12 and 15. Each row is made by two heads and gets one side head.
+    let (w, h) = (20, 20);
+    let mut d = Grid::new(w, h, 255u8);
+    for y in 2..h {
+        d.set(10, y, 4);
+    }
+    let west_row = |d: &mut Grid<u8>, y: usize| {
+        for x in 3..10 {
+            d.set(x, y, 1);
+        }
+        d.set(2, y, 1);
+        d.set(2, y - 1, 2);
+        d.set(6, y - 1, 4);
+    };
+    west_row(&mut d, 2);
+    west_row(&mut d, 8);
+    for x in 11..18 {
+        d.set(x, 2, 16);
+    }
+    d.set(18, 2, 16);
+    d.set(18, 1, 8);
+    d.set(14, 1, 4);
+    d.set(11, 12, 16);
+    d.set(11, 15, 16);
+    let net = extract_network(
+        &d,
+        None,
+        &geo10(),
+        &NetworkOptions {
+            rule: ChannelRule::Cells(1.0),
+            valley_window: 2,
+        },
+    )
+    .unwrap();
+    let ho = horton(&net);
+    assert_eq!(ho.count, vec![11, 3, 1]);
+    assert!((ho.bifurcation_ratio - 11f64.sqrt()).abs() < 1e-9);
+    let tk = tokunaga(&net);
+    assert_eq!(tk.t, vec![(1, 2, 1.0), (1, 3, 2.0), (2, 3, 1.0)]);
+    assert_eq!(tk.t_k, vec![1.0, 2.0]);
+    assert!((tk.a - 1.0).abs() < 1e-12 && (tk.c - 2.0).abs() < 1e-12);
+    // trunk: straight, 17 cells from (10,2) to (10,19) = 170 m
+    let s3 = net.streams.iter().find(|s| s.order == 3).unwrap();
+    assert!((s3.length_m - 170.0).abs() < 1e-9 && (s3.straight_m - 170.0).abs() < 1e-9);
+}
+
+#[test]
+fn lengths_are_metric_on_geographic_grids() {
+    // 3" cells at 46°N: a link of 6 cells flowing east is 5 steps of the
+    // WGS 84 east-west cell size N(φ) cos φ Δλ at the row's latitude.
+    let cell = 1.0 / 1200.0;
+    let g = GeoRef::north_up(8.0, 46.0 + cell / 2.0, cell, Crs::wgs84());
+    let d = Grid::from_fn(6, 1, |_, _| 1u8);
+    let net = extract_network(
+        &d,
+        None,
+        &g,
+        &NetworkOptions {
+            rule: ChannelRule::Cells(1.0),
+            valley_window: 0,
+        },
+    )
+    .unwrap();
+    let (a, e2) = (6_378_137.0f64, 0.006_694_379_990_141_317f64);
+    let phi = 46f64.to_radians();
+    let nphi = a / (1.0 - e2 * phi.sin().powi(2)).sqrt();
+    let ew = nphi * phi.cos() * cell.to_radians();
+    assert_eq!(net.links.len(), 1);
+    let l = &net.links[0];
+    assert!(
+        (l.length_m - 5.0 * ew).abs() < 1e-6,
+        "{} vs {}",
+        l.length_m,
+        5.0 * ew
+    );
+    assert!((ew - 64.4).abs() < 0.5); // ≈ 64.4 m at 46°N
+}
