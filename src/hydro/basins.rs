@@ -866,6 +866,32 @@ mod tests {
     }
 
     #[test]
+    fn snapping_moves_to_the_largest_accumulation() {
+        use crate::raster::{Crs, GeoRef, MemRaster};
+        let g = GeoRef::north_up(100.0, 200.0, 10.0, Crs::projected(32633));
+        // accumulation: 5 at (4, 2), 9 at (7, 2) (3 cells away), 9 at (1, 2)
+        let mut a = Grid::new(10, 5, 1.0f64);
+        a.set(4, 2, 5.0);
+        a.set(7, 2, 9.0);
+        a.set(1, 2, 9.0);
+        let src = MemRaster::from_grid(a, g.clone());
+        let p = |x: f64, y: f64| PourPoint { x, y, name: None };
+        // cell (3, 2) has its centre at (135, 175)
+        let pts = [p(135.0, 175.0)];
+        assert_eq!(locate_points(&src, &pts, None, 0).unwrap(), vec![(3, 2)]);
+        assert_eq!(
+            locate_points(&src, &pts, Some(&src), 1).unwrap(),
+            vec![(4, 2)]
+        );
+        // radius 4: both 9s in reach, (1, 2) is nearer (2 vs 4 cells)
+        assert_eq!(
+            locate_points(&src, &pts, Some(&src), 4).unwrap(),
+            vec![(1, 2)]
+        );
+        assert!(locate_points(&src, &[p(0.0, 0.0)], None, 0).is_err());
+    }
+
+    #[test]
     fn csv_and_geojson_points() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("p.csv");
