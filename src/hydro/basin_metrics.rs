@@ -37,7 +37,6 @@ use super::NODATA_DIR;
 use crate::error::{Error, Result};
 use crate::raster::{GeoRef, Grid};
 use std::collections::BTreeMap;
-use std::io::Write;
 use std::path::Path;
 
 /// Bytes per cell the in-memory basin metrics need.
@@ -344,35 +343,33 @@ fn outlet_xy(g: &GeoRef, m: &BasinMetrics) -> (f64, f64) {
 
 /// Write one CSV row per basin; the hypsometric curve as columns `hyp_<h>`.
 pub fn write_csv(path: &Path, georef: &GeoRef, basins: &[BasinMetrics]) -> Result<()> {
-    let f = std::fs::File::create(path).map_err(|e| Error::io(path, e))?;
-    let mut f = std::io::BufWriter::new(f);
-    let io = |e| Error::io(path, e);
-    let s = basins.first().map_or(0, |b| b.hypsometric_curve.len());
-    let hyp: Vec<String> = (0..s)
-        .map(|k| format!("hyp_{:.3}", k as f64 / (s - 1).max(1) as f64))
-        .collect();
-    write!(f, "{COLS}").map_err(io)?;
-    for hname in &hyp {
-        write!(f, ",{hname}").map_err(io)?;
-    }
-    writeln!(f).map_err(io)?;
-    for m in basins {
-        let (x, y) = outlet_xy(georef, m);
-        write!(
-            f,
-            "{},{},{},{},{},{}",
-            m.label, m.outlet.0, m.outlet.1, x, y, m.cells
-        )
-        .map_err(io)?;
-        for v in &scalars(m)[..13] {
-            write!(f, ",{}", fmt(*v)).map_err(io)?;
+    super::streams::write_atomic(path, |f| {
+        let s = basins.first().map_or(0, |b| b.hypsometric_curve.len());
+        let hyp: Vec<String> = (0..s)
+            .map(|k| format!("hyp_{:.3}", k as f64 / (s - 1).max(1) as f64))
+            .collect();
+        write!(f, "{COLS}")?;
+        for hname in &hyp {
+            write!(f, ",{hname}")?;
         }
-        for v in &m.hypsometric_curve {
-            write!(f, ",{}", fmt(*v)).map_err(io)?;
+        writeln!(f)?;
+        for m in basins {
+            let (x, y) = outlet_xy(georef, m);
+            write!(
+                f,
+                "{},{},{},{},{},{}",
+                m.label, m.outlet.0, m.outlet.1, x, y, m.cells
+            )?;
+            for v in &scalars(m)[..13] {
+                write!(f, ",{}", fmt(*v))?;
+            }
+            for v in &m.hypsometric_curve {
+                write!(f, ",{}", fmt(*v))?;
+            }
+            writeln!(f)?;
         }
-        writeln!(f).map_err(io)?;
-    }
-    f.flush().map_err(io)
+        Ok(())
+    })
 }
 
 /// Write the basins as GeoJSON Points at their outlets with every metric as
@@ -403,5 +400,5 @@ pub fn write_geojson(path: &Path, georef: &GeoRef, basins: &[BasinMetrics]) -> R
         })
         .collect();
     let v = serde_json::json!({"type": "FeatureCollection", "features": feats});
-    std::fs::write(path, v.to_string()).map_err(|e| Error::io(path, e))
+    super::streams::write_atomic(path, |f| f.write_all(v.to_string().as_bytes()))
 }

@@ -641,6 +641,29 @@ pub fn tokunaga(net: &Network) -> Tokunaga {
     Tokunaga { t, t_k, a, c }
 }
 
+/// Write a file through `body` into `<path>.partial`, then rename it into
+/// place, so that a failed write never leaves a complete-looking output.
+pub(crate) fn write_atomic(
+    path: &Path,
+    body: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+) -> Result<()> {
+    let mut tmp = path.as_os_str().to_owned();
+    tmp.push(".partial");
+    let tmp = std::path::PathBuf::from(tmp);
+    let run = || -> std::io::Result<()> {
+        let f = std::fs::File::create(&tmp)?;
+        let mut f = std::io::BufWriter::new(f);
+        body(&mut f)?;
+        f.flush()?;
+        f.into_inner().map_err(|e| e.into_error())?.sync_all()?;
+        std::fs::rename(&tmp, path)
+    };
+    run().map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        Error::io(path, e)
+    })
+}
+
 fn num(v: f64) -> serde_json::Value {
     if v.is_finite() {
         serde_json::json!(v)
@@ -661,30 +684,29 @@ impl Network {
     /// Write the links as a GeoJSON FeatureCollection of LineStrings (map
     /// coordinates of cell centres) with their properties.
     pub fn write_geojson(&self, path: &Path) -> Result<()> {
-        let f = std::fs::File::create(path).map_err(|e| Error::io(path, e))?;
-        let mut f = std::io::BufWriter::new(f);
-        let io = |e| Error::io(path, e);
-        write!(f, "{{\"type\":\"FeatureCollection\",\"features\":[").map_err(io)?;
-        for (i, l) in self.links.iter().enumerate() {
-            let coords: Vec<[f64; 2]> = l.cells.iter().map(|&c| self.centre(c as usize)).collect();
-            let feat = serde_json::json!({
-                "type": "Feature",
-                "geometry": {"type": "LineString", "coordinates": coords},
-                "properties": {
-                    "id": l.id, "from_node": l.from, "to_node": l.to,
-                    "strahler": l.strahler, "shreve": l.shreve, "stream": l.stream,
-                    "length_m": num(l.length_m), "straight_m": num(l.straight_m),
-                    "sinuosity": num(l.sinuosity()),
-                    "area_m2": num(l.area_m2), "area_cells": l.area_cells,
+        write_atomic(path, |f| {
+            write!(f, "{{\"type\":\"FeatureCollection\",\"features\":[")?;
+            for (i, l) in self.links.iter().enumerate() {
+                let coords: Vec<[f64; 2]> =
+                    l.cells.iter().map(|&c| self.centre(c as usize)).collect();
+                let feat = serde_json::json!({
+                    "type": "Feature",
+                    "geometry": {"type": "LineString", "coordinates": coords},
+                    "properties": {
+                        "id": l.id, "from_node": l.from, "to_node": l.to,
+                        "strahler": l.strahler, "shreve": l.shreve, "stream": l.stream,
+                        "length_m": num(l.length_m), "straight_m": num(l.straight_m),
+                        "sinuosity": num(l.sinuosity()),
+                        "area_m2": num(l.area_m2), "area_cells": l.area_cells,
+                    }
+                });
+                if i > 0 {
+                    write!(f, ",")?;
                 }
-            });
-            if i > 0 {
-                write!(f, ",").map_err(io)?;
+                writeln!(f, "{feat}")?;
             }
-            writeln!(f, "{feat}").map_err(io)?;
-        }
-        write!(f, "]}}").map_err(io)?;
-        f.flush().map_err(io)
+            write!(f, "]}}")
+        })
     }
 
     /// Write nodes as a GeoJSON FeatureCollection of Points.
@@ -702,38 +724,35 @@ impl Network {
             })
             .collect();
         let v = serde_json::json!({"type": "FeatureCollection", "features": feats});
-        std::fs::write(path, v.to_string()).map_err(|e| Error::io(path, e))
+        write_atomic(path, |f| f.write_all(v.to_string().as_bytes()))
     }
 
     /// Write one CSV row per link.
     pub fn write_links_csv(&self, path: &Path) -> Result<()> {
-        let f = std::fs::File::create(path).map_err(|e| Error::io(path, e))?;
-        let mut f = std::io::BufWriter::new(f);
-        let io = |e| Error::io(path, e);
-        writeln!(
+        write_atomic(path, |f| {
+            writeln!(
             f,
             "id,from_node,to_node,strahler,shreve,stream,length_m,straight_m,sinuosity,area_m2,area_cells"
-        )
-        .map_err(io)?;
-        for l in &self.links {
-            writeln!(
-                f,
-                "{},{},{},{},{},{},{},{},{},{},{}",
-                l.id,
-                l.from,
-                l.to,
-                l.strahler,
-                l.shreve,
-                l.stream,
-                l.length_m,
-                l.straight_m,
-                l.sinuosity(),
-                l.area_m2,
-                l.area_cells
-            )
-            .map_err(io)?;
-        }
-        f.flush().map_err(io)
+        )?;
+            for l in &self.links {
+                writeln!(
+                    f,
+                    "{},{},{},{},{},{},{},{},{},{},{}",
+                    l.id,
+                    l.from,
+                    l.to,
+                    l.strahler,
+                    l.shreve,
+                    l.stream,
+                    l.length_m,
+                    l.straight_m,
+                    l.sinuosity(),
+                    l.area_m2,
+                    l.area_cells
+                )?;
+            }
+            Ok(())
+        })
     }
 
     /// Network statistics as JSON: Horton ratios, Tokunaga numbers and, per
