@@ -1031,3 +1031,121 @@ fn lengths_are_metric_on_geographic_grids() {
     );
     assert!((ew - 64.4).abs() < 0.5); // ≈ 64.4 m at 46°N
 }
+
+/// Per-cell Strahler order and Shreve magnitude by recursion over channel
+/// donors (cells whose D8 code points at the cell), with brute-force
+/// accumulation (cells whose path passes through) deciding the channels.
+fn brute_orders(d: &Grid<u8>, threshold: u64) -> (Vec<u32>, Vec<u64>, Vec<bool>) {
+    let (w, h) = (d.width(), d.height());
+    let mut acc = vec![0u64; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            if d.get(x, y) != 255 {
+                for (px, py) in path(d, x, y) {
+                    acc[py * w + px] += 1;
+                }
+            }
+        }
+    }
+    let chan: Vec<bool> = acc.iter().map(|&a| a >= threshold).collect();
+    fn rec(
+        c: usize,
+        d: &Grid<u8>,
+        chan: &[bool],
+        memo: &mut Vec<Option<(u32, u64)>>,
+    ) -> (u32, u64) {
+        if let Some(v) = memo[c] {
+            return v;
+        }
+        let w = d.width();
+        let (x, y) = (c % w, c / w);
+        let mut orders = Vec::new();
+        let mut shreve = 0;
+        for dy in -1i64..=1 {
+            for dx in -1i64..=1 {
+                let (nx, ny) = (x as i64 + dx, y as i64 + dy);
+                if (dx, dy) == (0, 0)
+                    || nx < 0
+                    || ny < 0
+                    || nx >= w as i64
+                    || ny >= d.height() as i64
+                {
+                    continue;
+                }
+                let (nx, ny) = (nx as usize, ny as usize);
+                let m = ny * w + nx;
+                if chan[m] && d.get(nx, ny) != 255 && down(d, nx, ny) == Some((x, y)) {
+                    let (o, s) = rec(m, d, chan, memo);
+                    orders.push(o);
+                    shreve += s;
+                }
+            }
+        }
+        let v = if orders.is_empty() {
+            (1, 1)
+        } else {
+            let m = *orders.iter().max().unwrap();
+            let k = orders.iter().filter(|&&o| o == m).count();
+            (if k >= 2 { m + 1 } else { m }, shreve)
+        };
+        memo[c] = Some(v);
+        v
+    }
+    let mut memo = vec![None; w * h];
+    let mut ord = vec![0u32; w * h];
+    let mut shr = vec![0u64; w * h];
+    for c in 0..w * h {
+        if chan[c] {
+            let (o, s) = rec(c, d, &chan, &mut memo);
+            ord[c] = o;
+            shr[c] = s;
+        }
+    }
+    (ord, shr, chan)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 32, .. ProptestConfig::default() })]
+    #[test]
+    fn network_orders_equal_per_cell_recursion(
+        w in 3usize..40, h in 3usize..40,
+        vals in prop::collection::vec(0.0f32..10.0, 1..300),
+        threshold in 1u64..6
+    ) {
+        let (_, d) = dem_and_dirs(w, h, &vals);
+        let net = extract_network(&d, None, &geo10(), &NetworkOptions {
+            rule: ChannelRule::Cells(threshold as f64), valley_window: 3,
+        }).unwrap();
+        let (ord, shr, chan) = brute_orders(&d, threshold);
+        for c in 0..w * h {
+            let got = net.order.data()[c];
+            if d.data()[c] == 255 {
+                prop_assert_eq!(got, 255);
+            } else if chan[c] {
+                prop_assert_eq!(got as u32, ord[c], "order of cell {}", c);
+            } else {
+                prop_assert_eq!(got, 0);
+            }
+        }
+        for l in &net.links {
+            let s = l.cells[0] as usize;
+            prop_assert_eq!(l.strahler, ord[s]);
+            prop_assert_eq!(l.shreve, shr[s]);
+            // every interior cell of a link has exactly one channel donor
+            prop_assert!(l.cells.len() >= 2);
+            let len: f64 = l.cells.windows(2).map(|p| {
+                let (a, b) = (p[0] as usize, p[1] as usize);
+                let dx = (a % w).abs_diff(b % w) as f64;
+                let dy = (a / w).abs_diff(b / w) as f64;
+                10.0 * (dx * dx + dy * dy).sqrt()
+            }).sum();
+            prop_assert!((l.length_m - len).abs() < 1e-9);
+        }
+        // Shreve at the outlets sums to the number of heads
+        let heads = net.nodes.iter().filter(|n| n.kind == "head").count() as u64;
+        let outlet_links: u64 = net.links.iter()
+            .filter(|l| net.nodes[l.to as usize].kind == "outlet")
+            .map(|l| l.shreve).sum();
+        prop_assert_eq!(outlet_links, heads);
+    }
+}
