@@ -32,8 +32,9 @@
 //!   (Dijkstra 1959 from all stream cells at once, 8 neighbours, each step
 //!   costing the mean of its two cells' `tan β` times its metric length).
 //! - **Maximum branch length** (Lindsay, J.B. & Seibert, J. 2013, "Measuring
-//!   the significance of a divide to local drainage patterns", Hydrol.
-//!   Processes 27, 1059–1064 ... see [`max_branch_length`]).
+//!   the significance of a divide to local drainage patterns", Hydrological
+//!   Processes 27; definition in [`max_branch_length`]). The per-pair branch
+//!   length `B(i, j)` is not written as a raster; `B_max` is.
 
 use super::streams::{receivers, row_sizes};
 use super::NODATA_DIR;
@@ -174,8 +175,9 @@ pub fn tan_beta_grid(dem: &Grid<f32>, georef: &GeoRef) -> Grid<f64> {
     })
 }
 
-/// Bytes per cell of [`depth_to_water`] (DEM, slope, costs, mask, heap).
-pub const DTW_BYTES_PER_CELL: u64 = 48;
+/// Bytes per cell of [`depth_to_water`] (DEM, stream raster, slope, costs,
+/// mask, and a heap of about two entries per cell).
+pub const DTW_BYTES_PER_CELL: u64 = 64;
 
 /// Depth to water (Murphy et al. 2009; module docs): least accumulated
 /// `tan β`-weighted distance (m) from each cell to a cell of `streams`
@@ -234,7 +236,7 @@ pub fn depth_to_water(dem: &Grid<f32>, streams: &Grid<bool>, georef: &GeoRef) ->
 }
 
 /// Bytes per cell of [`max_branch_length`].
-pub const BRANCH_BYTES_PER_CELL: u64 = 40;
+pub const BRANCH_BYTES_PER_CELL: u64 = 48;
 
 /// Maximum branch length `B_max` (Lindsay & Seibert 2013): for a cell `i`
 /// and a neighbour `j`, the branch length `B(i, j)` is the metric D8 flow
