@@ -249,6 +249,16 @@ pub fn basin_metrics(
         // area at or above each sample height: walk the sorted run from the top
         let mut curve = vec![0f64; samples];
         if !run.is_empty() && a.zarea > 0.0 {
+            // the total summed in the same (descending) order as `above`,
+            // so that the curve starts at exactly 1
+            let total: f64 = run
+                .iter()
+                .rev()
+                .map(|&c| {
+                    let (ew, ns) = sizes[c as usize / w];
+                    ew * ns
+                })
+                .sum();
             let mut above = 0.0;
             let mut i = run.len();
             for k in (0..samples).rev() {
@@ -267,7 +277,7 @@ pub fn basin_metrics(
                     above += ew * ns;
                     i -= 1;
                 }
-                curve[k] = above / a.zarea;
+                curve[k] = above / total;
             }
         } else {
             curve.iter_mut().for_each(|v| *v = f64::NAN);
