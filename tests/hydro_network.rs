@@ -796,6 +796,7 @@ fn cli_fill_flow_accumulate_streams_basins_indices() {
     assert!(csv.starts_with("label,outlet_col,outlet_row"));
     let bj = read_json(&dir.join("b.geojson"));
     for f in bj["features"].as_array().unwrap() {
+        assert_eq!(f["geometry"]["type"], "MultiPolygon");
         let p = &f["properties"];
         assert!(p["cells"].as_u64().unwrap() >= 500);
         let hi = p["hypsometric_integral"].as_f64().unwrap();
@@ -1147,5 +1148,98 @@ proptest! {
             .filter(|l| net.nodes[l.to as usize].kind == "outlet")
             .map(|l| l.shreve).sum();
         prop_assert_eq!(outlet_links, heads);
+    }
+}
+
+// ---- basin outlines ----
+
+/// Shoelace area of a closed ring of corner coordinates.
+fn ring_area(r: &[(usize, usize)]) -> f64 {
+    r.windows(2)
+        .map(|p| p[0].0 as f64 * p[1].1 as f64 - p[1].0 as f64 * p[0].1 as f64)
+        .sum::<f64>()
+        .abs()
+        / 2.0
+}
+
+#[test]
+fn outlines_of_a_rectangle_a_ring_and_a_diagonal_pair() {
+    use orogen::hydro::basin_metrics::basin_outlines;
+    let mut g = Grid::new(12, 10, 0u64);
+    for y in 2..6 {
+        for x in 3..9 {
+            g.set(x, y, 5);
+        }
+    }
+    let o = basin_outlines(&g).unwrap();
+    assert_eq!(o.len(), 1);
+    assert_eq!(o[0].0, 5);
+    assert_eq!(o[0].1.len(), 1);
+    let ring = &o[0].1[0][0];
+    assert_eq!(ring.len(), 5);
+    let mut corners: Vec<_> = ring[..4].to_vec();
+    corners.sort();
+    assert_eq!(corners, vec![(3, 2), (3, 6), (9, 2), (9, 6)]);
+    // a 5x5 block with a hole in the middle
+    let mut g = Grid::new(7, 7, 0u64);
+    for y in 1..6 {
+        for x in 1..6 {
+            g.set(x, y, 1);
+        }
+    }
+    g.set(3, 3, 0);
+    let o = basin_outlines(&g).unwrap();
+    let part = &o[0].1[0];
+    assert_eq!(part.len(), 2);
+    assert_eq!(ring_area(&part[0]), 25.0);
+    assert_eq!(ring_area(&part[1]), 1.0);
+    // cells touching at a corner are two parts
+    let mut g = Grid::new(3, 3, 0u64);
+    g.set(0, 0, 2);
+    g.set(1, 1, 2);
+    let o = basin_outlines(&g).unwrap();
+    assert_eq!(o[0].1.len(), 2);
+    // GeoJSON orientation: outer counter-clockwise in map coordinates (north up)
+    let c = orogen::hydro::basin_metrics::outline_coordinates(&geo10(), &o[0].1);
+    for part in &c {
+        let r = &part[0];
+        let a: f64 = r
+            .windows(2)
+            .map(|p| p[0][0] * p[1][1] - p[1][0] * p[0][1])
+            .sum();
+        assert!(a > 0.0);
+        assert_eq!(r.first(), r.last());
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, .. ProptestConfig::default() })]
+    #[test]
+    fn outline_areas_equal_cell_counts(
+        w in 1usize..20, h in 1usize..20,
+        vals in prop::collection::vec(0u64..4, 1..400)
+    ) {
+        let g = Grid::from_fn(w, h, |x, y| vals[(y * w + x) % vals.len()]);
+        let o = orogen::hydro::basin_metrics::basin_outlines(&g).unwrap();
+        for (label, parts) in &o {
+            let cells = g.data().iter().filter(|&&v| v == *label).count() as f64;
+            let mut area = 0.0;
+            for part in parts {
+                for (k, ring) in part.iter().enumerate() {
+                    prop_assert_eq!(ring.first(), ring.last());
+                    for p in ring.windows(2) {
+                        prop_assert!(p[0].0 == p[1].0 || p[0].1 == p[1].1, "axis-aligned edges");
+                    }
+                    let a = ring_area(ring);
+                    area += if k == 0 { a } else { -a };
+                }
+            }
+            prop_assert_eq!(area, cells, "label {}", label);
+        }
+        let labels: Vec<u64> = o.iter().map(|p| p.0).collect();
+        let mut want: Vec<u64> = g.data().iter().copied().filter(|&v| v != 0).collect();
+        want.sort();
+        want.dedup();
+        prop_assert_eq!(labels, want);
     }
 }

@@ -104,7 +104,8 @@ pub struct BasinsArgs {
     /// Flow accumulation (for --snap).
     #[arg(long)]
     pub acc: Option<PathBuf>,
-    /// Also write per-basin metrics to this CSV (and a GeoJSON of outlet points beside it); needs --dem.
+    /// Also write per-basin metrics to this CSV and, beside it (.geojson), the basins' outlines
+    /// as MultiPolygons with the metrics as properties; needs --dem.
     #[arg(long)]
     pub metrics: Option<PathBuf>,
     /// DEM (filled) for --metrics.
@@ -192,7 +193,8 @@ pub fn run_basins(a: BasinsArgs) -> Result<()> {
         basin_metrics::write_csv(mp, &info.georef, &m)?;
         crate::wrote(mp);
         let gj = mp.with_extension("geojson");
-        basin_metrics::write_geojson(&gj, &info.georef, &m)?;
+        let outlines = basin_metrics::basin_outlines(&labels)?;
+        basin_metrics::write_geojson(&gj, &info.georef, &m, Some(&outlines))?;
         crate::wrote(&gj);
     }
     Ok(())

@@ -382,9 +382,16 @@ pub fn write_csv(path: &Path, georef: &GeoRef, basins: &[BasinMetrics]) -> Resul
     })
 }
 
-/// Write the basins as GeoJSON Points at their outlets with every metric as
-/// a property (the hypsometric curve as an array).
-pub fn write_geojson(path: &Path, georef: &GeoRef, basins: &[BasinMetrics]) -> Result<()> {
+/// Write the basins as GeoJSON features with every metric as a property (the
+/// hypsometric curve as an array, the outlet's map coordinates as
+/// `outlet_x`/`outlet_y`): MultiPolygons of their outlines when `outlines`
+/// (from [`basin_outlines`]) are given, else Points at their outlets.
+pub fn write_geojson(
+    path: &Path,
+    georef: &GeoRef,
+    basins: &[BasinMetrics],
+    outlines: Option<&[(u64, Outline)]>,
+) -> Result<()> {
     let names: Vec<&str> = COLS.split(',').skip(6).collect();
     let feats: Vec<serde_json::Value> = basins
         .iter()
@@ -395,6 +402,8 @@ pub fn write_geojson(path: &Path, georef: &GeoRef, basins: &[BasinMetrics]) -> R
             props.insert("outlet_col".into(), serde_json::json!(m.outlet.0));
             props.insert("outlet_row".into(), serde_json::json!(m.outlet.1));
             props.insert("cells".into(), serde_json::json!(m.cells));
+            props.insert("outlet_x".into(), num(x));
+            props.insert("outlet_y".into(), num(y));
             for (name, v) in names.iter().zip(scalars(m)) {
                 props.insert((*name).into(), num(v));
             }
@@ -402,13 +411,239 @@ pub fn write_geojson(path: &Path, georef: &GeoRef, basins: &[BasinMetrics]) -> R
                 "hypsometric_curve".into(),
                 serde_json::Value::Array(m.hypsometric_curve.iter().map(|&v| num(v)).collect()),
             );
+            let outline = outlines.and_then(|o| {
+                o.binary_search_by_key(&m.label, |p| p.0)
+                    .ok()
+                    .map(|i| &o[i].1)
+            });
+            let geometry = match outline {
+                Some(o) => serde_json::json!({
+                    "type": "MultiPolygon",
+                    "coordinates": outline_coordinates(georef, o),
+                }),
+                None => serde_json::json!({"type": "Point", "coordinates": [x, y]}),
+            };
             serde_json::json!({
                 "type": "Feature",
-                "geometry": {"type": "Point", "coordinates": [x, y]},
+                "geometry": geometry,
                 "properties": props,
             })
         })
         .collect();
     let v = serde_json::json!({"type": "FeatureCollection", "features": feats});
     super::streams::write_atomic(path, |f| f.write_all(v.to_string().as_bytes()))
+}
+
+/// A basin outline: 4-connected parts, each an outer ring followed by its
+/// holes; rings are lists of cell-corner coordinates `(col, row)` (corner
+/// (0, 0) is the raster's top-left), closed (last = first), without
+/// collinear intermediate vertices.
+pub type Outline = Vec<Part>;
+
+/// One 4-connected part of an outline: its outer ring, then its holes.
+pub type Part = Vec<Vec<(usize, usize)>>;
+
+/// Outlines of every basin of `labels` (0 = none), sorted by label: the
+/// cell-edge boundaries ("crack" boundaries) traced into rings. Cells of a
+/// basin that touch only at a corner are separate parts. Memory: O(cells)
+/// for the part labels plus O(boundary) for the edges.
+pub fn basin_outlines(labels: &Grid<u64>) -> Result<Vec<(u64, Outline)>> {
+    let (w, h) = (labels.width(), labels.height());
+    let n = w * h;
+    if n >= u32::MAX as usize {
+        return Err(Error::invalid(
+            "basin outlines are limited to 2^32 cells in memory",
+        ));
+    }
+    let lab = labels.data();
+    // 4-connected parts, numbered in row-major order of their first cell
+    const NONE: u32 = u32::MAX;
+    let mut part = vec![NONE; n];
+    let mut part_label: Vec<u64> = Vec::new();
+    let mut stack = Vec::new();
+    for c0 in 0..n {
+        if lab[c0] == 0 || part[c0] != NONE {
+            continue;
+        }
+        let p = part_label.len() as u32;
+        part_label.push(lab[c0]);
+        part[c0] = p;
+        stack.push(c0);
+        while let Some(c) = stack.pop() {
+            let (x, y) = (c % w, c / w);
+            let mut visit = |m: usize| {
+                if lab[m] == lab[c0] && part[m] == NONE {
+                    part[m] = p;
+                    stack.push(m);
+                }
+            };
+            if x > 0 {
+                visit(c - 1);
+            }
+            if x + 1 < w {
+                visit(c + 1);
+            }
+            if y > 0 {
+                visit(c - w);
+            }
+            if y + 1 < h {
+                visit(c + w);
+            }
+        }
+    }
+    // boundary edges, clockwise around each cell on screen (y down)
+    let vid = |x: usize, y: usize| (y * (w + 1) + x) as u64;
+    let mut edges: Vec<(u32, u64, u64, u32)> = Vec::new(); // (part, from, to, cell)
+    for c in 0..n {
+        let l = lab[c];
+        if l == 0 {
+            continue;
+        }
+        let (x, y) = (c % w, c / w);
+        let other = |nx: i64, ny: i64| -> bool {
+            nx < 0
+                || ny < 0
+                || nx >= w as i64
+                || ny >= h as i64
+                || lab[ny as usize * w + nx as usize] != l
+        };
+        let (xi, yi) = (x as i64, y as i64);
+        let p = part[c];
+        if other(xi, yi - 1) {
+            edges.push((p, vid(x, y), vid(x + 1, y), c as u32));
+        }
+        if other(xi + 1, yi) {
+            edges.push((p, vid(x + 1, y), vid(x + 1, y + 1), c as u32));
+        }
+        if other(xi, yi + 1) {
+            edges.push((p, vid(x + 1, y + 1), vid(x, y + 1), c as u32));
+        }
+        if other(xi - 1, yi) {
+            edges.push((p, vid(x, y + 1), vid(x, y), c as u32));
+        }
+    }
+    edges.sort_unstable();
+    let mut used = vec![false; edges.len()];
+    let mut parts: Vec<(u64, Part)> = Vec::new();
+    let mut start = 0;
+    while start < edges.len() {
+        let p = edges[start].0;
+        let mut end = start;
+        while end < edges.len() && edges[end].0 == p {
+            end += 1;
+        }
+        let group = &edges[start..end];
+        let mut rings = Vec::new();
+        for e0 in 0..group.len() {
+            if used[start + e0] {
+                continue;
+            }
+            let mut ring: Vec<u64> = vec![group[e0].1];
+            let mut cur = e0;
+            loop {
+                used[start + cur] = true;
+                let v = group[cur].2;
+                if v == group[e0].1 {
+                    break; // closed; a touch at the start vertex starts another ring
+                }
+                // candidates leaving v (sorted by `from` within the part)
+                let lo = group.partition_point(|e| e.1 < v);
+                let mut next = None;
+                for (k, e) in group.iter().enumerate().skip(lo) {
+                    if e.1 != v {
+                        break;
+                    }
+                    if used[start + k] {
+                        continue;
+                    }
+                    // at a corner the part touches itself, go round the same cell
+                    if next.is_none() || e.3 == group[cur].3 {
+                        next = Some(k);
+                    }
+                }
+                match next {
+                    Some(k) => {
+                        ring.push(v);
+                        cur = k;
+                    }
+                    None => break,
+                }
+            }
+            ring.push(ring[0]);
+            let pts: Vec<(usize, usize)> = ring
+                .iter()
+                .map(|&v| ((v % (w as u64 + 1)) as usize, (v / (w as u64 + 1)) as usize))
+                .collect();
+            rings.push(simplify(&pts));
+        }
+        parts.push((part_label[p as usize], rings));
+        start = end;
+    }
+    // group parts by label, in label order (stable: parts in row-major order)
+    parts.sort_by_key(|p| p.0);
+    let mut out: Vec<(u64, Outline)> = Vec::new();
+    for (l, rings) in parts {
+        match out.last_mut() {
+            Some((ol, o)) if *ol == l => o.push(rings),
+            _ => out.push((l, vec![rings])),
+        }
+    }
+    Ok(out)
+}
+
+/// Drop vertices between two collinear edges of a closed ring.
+fn simplify(r: &[(usize, usize)]) -> Vec<(usize, usize)> {
+    let m = r.len() - 1; // distinct vertices (last = first)
+    let dir = |a: (usize, usize), b: (usize, usize)| {
+        (
+            (b.0 as i64 - a.0 as i64).signum(),
+            (b.1 as i64 - a.1 as i64).signum(),
+        )
+    };
+    let mut out: Vec<(usize, usize)> = Vec::with_capacity(m + 1);
+    for i in 0..m {
+        let prev = r[(i + m - 1) % m];
+        let next = r[i + 1];
+        if dir(prev, r[i]) != dir(r[i], next) {
+            out.push(r[i]);
+        }
+    }
+    if let Some(&f) = out.first() {
+        out.push(f);
+    }
+    out
+}
+
+/// Signed area (shoelace) of a closed ring in map coordinates.
+fn signed_area(r: &[[f64; 2]]) -> f64 {
+    r.windows(2)
+        .map(|p| p[0][0] * p[1][1] - p[1][0] * p[0][1])
+        .sum::<f64>()
+        / 2.0
+}
+
+/// GeoJSON MultiPolygon coordinates of an outline in map coordinates, outer
+/// rings counter-clockwise and holes clockwise (RFC 7946 §3.1.6).
+pub fn outline_coordinates(georef: &GeoRef, o: &Outline) -> Vec<Vec<Vec<[f64; 2]>>> {
+    o.iter()
+        .map(|part| {
+            part.iter()
+                .enumerate()
+                .map(|(k, ring)| {
+                    let mut r: Vec<[f64; 2]> = ring
+                        .iter()
+                        .map(|&(x, y)| {
+                            let (mx, my) = georef.pixel_to_map(x as f64, y as f64);
+                            [mx, my]
+                        })
+                        .collect();
+                    let a = signed_area(&r);
+                    if (k == 0) != (a > 0.0) {
+                        r.reverse();
+                    }
+                    r
+                })
+                .collect()
+        })
+        .collect()
 }
