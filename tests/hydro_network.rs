@@ -1243,3 +1243,45 @@ proptest! {
         prop_assert_eq!(labels, want);
     }
 }
+
+#[test]
+fn slope_area_channel_heads_on_a_plane() {
+    // rows flow east down a plane of slope 0.1 (10 m cells): at column x the
+    // drainage area is (x + 1)·100 m², so A·s² > 5.5 from x = 5 on (A·s² = x + 1)
+    let (w, h) = (12, 4);
+    let d = Grid::new(w, h, 1u8);
+    let z = Grid::from_fn(w, h, |x, _| (100.0 - 1.0 * x as f64) as f32);
+    let net = extract_network(
+        &d,
+        Some(&z),
+        &geo10(),
+        &NetworkOptions {
+            rule: ChannelRule::SlopeArea(5.5),
+            valley_window: 0,
+        },
+    )
+    .unwrap();
+    for y in 0..h {
+        for x in 0..w {
+            assert_eq!(net.order.get(x, y), u8::from(x >= 5), "({x},{y})");
+        }
+    }
+    assert_eq!(net.links.len(), h);
+    for l in &net.links {
+        assert!((l.length_m - 10.0 * (w - 1 - 5) as f64).abs() < 1e-9);
+        assert_eq!(l.area_cells, w as u64);
+    }
+    // area threshold: 600 m² = 6 cells -> from x = 5 as well
+    let net = extract_network(
+        &d,
+        None,
+        &geo10(),
+        &NetworkOptions {
+            rule: ChannelRule::Area(600.0),
+            valley_window: 0,
+        },
+    )
+    .unwrap();
+    assert_eq!(net.order.get(4, 0), 0);
+    assert_eq!(net.order.get(5, 0), 1);
+}
