@@ -295,6 +295,24 @@ enum Cmd {
         #[command(flatten)]
         run: Run,
     },
+    /// Basin labels of every outlet, or watersheds of pour points (exact across tiles),
+    /// optionally with per-basin metrics (area, perimeter, circularity, hypsometry, ...).
+    #[command(
+        after_help = "Examples:\n  orogen basins d8.tif -o basins.tif\n  orogen basins d8.tif --points gauges.csv --snap 5 --acc acc.tif -o watersheds.tif\n  orogen basins d8.tif -o basins.tif --metrics basins.csv --dem filled.tif --min-cells 1000\nLabels: a basin is labelled by its outlet's row-major cell index + 1; with --points by the\npoint's number (1 = first point). --metrics runs in memory (about 64 bytes per cell)."
+    )]
+    Basins(cli::hydro_net::BasinsArgs),
+    /// Stream network from D8 directions: GeoJSON links with Strahler order, Shreve magnitude,
+    /// length and drainage area; stream raster; Horton/Tokunaga statistics (in memory).
+    #[command(
+        after_help = "Examples:\n  orogen streams d8.tif -o streams.geojson --threshold 500 --raster order.tif --stats stats.json\n  orogen streams d8.tif -o streams.geojson --area 1e6 --csv links.csv --nodes nodes.geojson\n  orogen streams d8.tif --dem filled.tif --slope-area 200 -o streams.geojson\nRuns in memory (about 64 bytes per cell); --memory must allow it."
+    )]
+    Streams(cli::hydro_net::StreamsArgs),
+    /// Hydrological indices: twi, spi, sti, ls (tile by tile), hand (exact across tiles),
+    /// dtw (depth to water) and branch-length (maximum branch length), in memory.
+    #[command(
+        after_help = "Examples:\n  orogen hydro-index --index twi --dem filled.tif --acc acc.tif -o twi.tif\n  orogen hydro-index --index hand --dem filled.tif --dirs d8.tif --acc acc.tif --threshold 1000 -o hand.tif\n  orogen hydro-index --index dtw --dem filled.tif --streams order.tif --threshold 1 -o dtw.tif\n  orogen hydro-index --index branch-length --dirs d8.tif -o bmax.tif\nStreams are cells of --streams (default --acc) with a value >= --threshold."
+    )]
+    HydroIndex(cli::hydro_net::HydroIndexArgs),
     /// Render a preview PNG: hillshade blended with a hypsometric colour ramp.
     #[command(
         after_help = "Example:\n  orogen render dem.tiles -o preview.png --legend\n  orogen render slope.tif -o slope.png --grey"
@@ -752,6 +770,9 @@ fn run(cli: Cli) -> Result<()> {
             };
             global1(&step, &inputs, &out, &run, (DType::F64, Some(-1.0)))?;
         }
+        Cmd::Basins(a) => cli::hydro_net::run_basins(a)?,
+        Cmd::Streams(a) => cli::hydro_net::run_streams(a)?,
+        Cmd::HydroIndex(a) => cli::hydro_net::run_hydro_index(a)?,
         Cmd::Render {
             input,
             output,

@@ -7,3 +7,4 @@
 pub mod job;
 pub mod tiles;
 pub mod view;
+pub mod hydro_net;

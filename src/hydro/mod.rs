@@ -31,13 +31,18 @@
 //!   off-raster neighbour (in the order above): its water leaves the DEM.
 
 pub mod accum;
+pub mod basin_metrics;
+pub mod basins;
 pub mod dinf;
 pub mod fill;
 pub mod flow;
+pub mod indices;
 pub mod mfd;
+pub mod streams;
 pub mod tiled;
 
 pub use accum::{accumulate, accumulate_weighted, WEIGHT_SCALE_BITS};
+pub use basins::{basin_labels, hand, watersheds};
 pub use fill::{fill, fill_epsilon, watershed_labels};
 pub use flow::d8_directions;
 
