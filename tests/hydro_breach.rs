@@ -332,7 +332,7 @@ fn pits(g: &Grid<f32>) -> Vec<usize> {
     let z = g.data();
     (0..z.len())
         .filter(|&i| {
-            if !ok(z[i]) || !(f[i] > z[i]) {
+            if !ok(z[i]) || f[i].partial_cmp(&z[i]) != Some(std::cmp::Ordering::Greater) {
                 return false;
             }
             let (n, _) = nbrs(g, i % w, i / w);
@@ -352,6 +352,7 @@ fn brute_least_cost(g: &Grid<f32>, p: usize, dist: usize) -> Option<f64> {
         |q: usize| q != p && (z[q] < zp || (z[q] == zp && f[q] == z[q]) || nbrs(g, q % w, q / w).1);
     let mut best: Option<f64> = None;
     let mut on = vec![false; z.len()];
+    #[allow(clippy::too_many_arguments)]
     fn dfs(
         c: usize,
         acc: f64,

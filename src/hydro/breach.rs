@@ -384,7 +384,10 @@ pub(crate) fn least_cost_carve(
         for px in x0..x1.min(w) {
             let p = py * w + px;
             let zp = z[p];
-            if !valid(zp) || outlet[p] || !(filled[p] > zp) {
+            if !valid(zp)
+                || outlet[p]
+                || filled[p].partial_cmp(&zp) != Some(std::cmp::Ordering::Greater)
+            {
                 continue;
             }
             let mut lower = false;
