@@ -170,6 +170,23 @@ fn bad_breach_options_are_clear_errors() {
     }
     let e = run(
         orogen()
+            .arg("breach")
+            .arg(&dem_path)
+            .args([
+                "--method",
+                "least-cost",
+                "--dist",
+                "5000",
+                "--memory",
+                "64MiB",
+                "-o",
+            ])
+            .arg(&out),
+        false,
+    );
+    assert!(e.contains("lower --dist"), "{e}");
+    let e = run(
+        orogen()
             .arg("flow")
             .arg(&dem_path)
             .args(["--method", "rho9", "-o"])

@@ -5,6 +5,7 @@
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
+use orogen::exec::LocalStep;
 use orogen::hydro::tiled::TiledFill;
 use orogen::hydro::tiled_breach::TiledLeastCostBreach;
 use orogen::hydro::{BreachMethod, BreachOptions, FILL_NODATA};
@@ -142,6 +143,20 @@ fn chain(
     tmp_oo.store.tile = tile;
     tmp_oo.store.overwrite = true;
     tmp_oo.store.sync = false;
+    let step = TiledLeastCostBreach::from_options(opts)?;
+    // One tile in flight holds two halo-extended views (native + f32 copies)
+    // and the search scratch: refuse before allocating what --memory forbids.
+    let side = tile as u64 + 2 * step.halo() as u64;
+    let need = side * side * 2 * 12 + step.scratch_bytes(tile);
+    if need > cfg.memory_budget {
+        bail!(
+            "least-cost breaching with --dist {} on {tile}-cell tiles needs about {} MiB per tile \
+             (halo 2*dist+1 = {} cells); lower --dist or --tile, or raise --memory",
+            a.dist,
+            need >> 20,
+            step.halo()
+        );
+    }
     let filled_path = tmp.join("filled.tiles");
     ops::run_global_to(
         &TiledFill,
@@ -153,7 +168,6 @@ fn chain(
         cfg,
     )?;
     let filled = io::open_raster(&filled_path, &OpenOptions::default())?;
-    let step = TiledLeastCostBreach::from_options(opts)?;
     let inputs: [&dyn RasterSource; 2] = [src, filled.as_ref()];
     if opts.fill_remaining {
         let carved_path = tmp.join("carved.tiles");
