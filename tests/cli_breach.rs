@@ -151,6 +151,7 @@ fn bad_breach_options_are_clear_errors() {
         (vec!["--method", "hybrid"], "--max-depth"),
         (vec!["--method", "least-cost", "--dist", "0"], "distance"),
         (vec!["--max-depth", "2"], "hybrid only"),
+        (vec!["--fill-remaining"], "least-cost only"),
         (vec!["--method", "hybrid", "--max-depth=-1"], "max depth"),
         (
             vec!["--method", "hybrid", "--max-depth", "NaN"],

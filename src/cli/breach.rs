@@ -73,6 +73,9 @@ pub fn run(a: BreachArgs) -> Result<()> {
     if a.method != Method::Hybrid && (a.max_depth.is_some() || a.max_length.is_some()) {
         bail!("--max-depth and --max-length apply to --method hybrid only");
     }
+    if a.method != Method::LeastCost && a.fill_remaining {
+        bail!("--fill-remaining applies to --method least-cost only (breach and hybrid leave no depression)");
+    }
     let opts = BreachOptions {
         method,
         epsilon: a.epsilon,
