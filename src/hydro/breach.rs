@@ -69,7 +69,10 @@ pub enum BreachMethod {
     /// Definitions: `fill` is the priority-flood fill of the input. A *pit*
     /// is a valid cell with `fill > z` (it cannot drain), no neighbour lower
     /// than itself and at least one higher neighbour (single-cell pits, and
-    /// the rim cells of flat-bottomed pits). An *end* for a pit at level `p`
+    /// the rim cells of flat-bottomed pits). A search starts from each pit
+    /// that has no equal neighbour earlier in row-major order which is a pit
+    /// too (so a flat-bottomed pit is searched from one rim cell per run of
+    /// rim cells, not from all of them; a local rule, radius 2). An *end* for a pit at level `p`
     /// is a cell `q ≠ pit` with `z[q] < p`, or `z[q] == p` and `q` drains
     /// (`fill == z`), or an outlet cell. Entering a cell `q` costs
     /// `max(0, z[q] − p)`; the search stops at the first end popped (ties by
@@ -350,6 +353,31 @@ fn flood_breach(
     Ok(())
 }
 
+/// A pit of least-cost breaching: a valid non-outlet cell that cannot drain
+/// (`filled > z`), with no lower neighbour and at least one higher one.
+#[inline]
+fn is_pit(z: &[f32], filled: &[f32], outlet: &[bool], w: usize, h: usize, p: usize) -> bool {
+    let zp = z[p];
+    if !valid(zp) || outlet[p] || filled[p].partial_cmp(&zp) != Some(std::cmp::Ordering::Greater) {
+        return false;
+    }
+    let (px, py) = ((p % w) as i64, (p / w) as i64);
+    let mut higher = false;
+    for k in 0..8 {
+        let nx = px + DX[k];
+        let ny = py + DY[k];
+        if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
+            continue;
+        }
+        let v = z[ny as usize * w + nx as usize];
+        if v < zp {
+            return false;
+        }
+        higher |= v > zp;
+    }
+    higher
+}
+
 /// Least-cost breaching kernel (see [`BreachMethod::LeastCost`]): carves, on
 /// a copy of `z`, the least-cost path of every pit whose position lies in
 /// `region` = (x0, y0, x1, y1) (half-open), each computed on the input `z`
@@ -383,26 +411,26 @@ pub(crate) fn least_cost_carve(
     for py in y0..y1.min(h) {
         for px in x0..x1.min(w) {
             let p = py * w + px;
-            let zp = z[p];
-            if !valid(zp)
-                || outlet[p]
-                || filled[p].partial_cmp(&zp) != Some(std::cmp::Ordering::Greater)
-            {
+            if !is_pit(z, filled, outlet, w, h, p) {
                 continue;
             }
-            let mut lower = false;
-            let mut higher = false;
+            let zp = z[p];
+            // One search per run of rim cells of a flat-bottomed pit: skip
+            // `p` if an equal neighbour before it (row-major) is a pit too.
+            let mut later = false;
             for k in 0..8 {
                 let nx = px as i64 + DX[k];
                 let ny = py as i64 + DY[k];
                 if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
                     continue;
                 }
-                let v = z[ny as usize * w + nx as usize];
-                lower |= v < zp;
-                higher |= v > zp;
+                let q = ny as usize * w + nx as usize;
+                if q < p && z[q] == zp && is_pit(z, filled, outlet, w, h, q) {
+                    later = true;
+                    break;
+                }
             }
-            if lower || !higher {
+            if later {
                 continue;
             }
             // Dijkstra from the pit inside its window.
