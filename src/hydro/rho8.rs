@@ -5,7 +5,7 @@
 //! steepest of the 8 neighbours with diagonal distance √2, which biases flow
 //! paths towards the 8 directions; Rho8 instead scales the drop towards a
 //! diagonal neighbour by `ρ = 1/(2 − r)`, `r` uniform in [0, 1) drawn once
-//! per cell (E[ρ] = ln 2 ≈ 1/√2), so that, on average over many cells, flow
+//! per cell (the mean of ρ is ln 2 ≈ 1/√2), so that, on average over many cells, flow
 //! directions follow the true aspect.
 //!
 //! Determinism: `r` comes from a hash of the seed and the cell's *global*
