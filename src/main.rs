@@ -262,16 +262,28 @@ enum Cmd {
     /// D8 flow directions of a filled DEM (ESRI codes 1..128, 0 = no flow, 255 = nodata),
     /// flats drained per Barnes, Lehman & Mulla 2014, exact across tiles.
     #[command(
-        after_help = "Example:\n  orogen fill dem.tif -o filled.tif && orogen flow filled.tif -o d8.tif\nLarge flats (sea, lakes) that only partly cover a tile are slow across tiles;\nmask the sea as nodata or use a smaller --tile for this step."
+        after_help = "Example:\n  orogen fill dem.tif -o filled.tif && orogen flow filled.tif -o d8.tif\n  orogen flow filled.tif --method rho8 --seed 7 -o rho8.tif\nLarge flats (sea, lakes) that only partly cover a tile are slow across tiles;\nmask the sea as nodata or use a smaller --tile for this step."
     )]
     Flow {
         #[command(flatten)]
         input: In,
+        /// Routing: d8 (steepest descent) or rho8 (Fairfield & Leymarie 1991, stochastic, seeded).
+        #[arg(long, default_value = "d8")]
+        method: String,
+        /// Rho8 seed (same seed, same directions, whatever the tiling).
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
         #[command(flatten)]
         out: Out,
         #[command(flatten)]
         run: Run,
     },
+    /// Breach depressions: carve channels out of pits instead of filling them
+    /// (flood-order, Lindsay's selective hybrid, or least-cost within a distance).
+    #[command(
+        after_help = "Examples:\n  orogen breach dem.tif -o breached.tif\n  orogen breach dem.tif --method hybrid --max-depth 2 --max-length 50 -o hybrid.tif\n  orogen breach dem.tiles --method least-cost --dist 100 --fill-remaining -o breached.tiles\nbreach and hybrid run in memory (about 32 bytes per cell; see --memory); least-cost runs\nacross tiles and is exact for any tile size (halo 2*dist+1). Nodata and the edge are outlets."
+    )]
+    Breach(cli::breach::BreachArgs),
     /// Flow accumulation in cells (or weighted): D8 from `orogen flow` directions, exact
     /// across tiles (Barnes 2017); or D-infinity / MFD from a filled DEM (in memory).
     #[command(
@@ -704,17 +716,34 @@ fn run(cli: Cli) -> Result<()> {
                 ty,
             )?;
         }
-        Cmd::Flow { input, out, run } => {
+        Cmd::Flow {
+            input,
+            method,
+            seed,
+            out,
+            run,
+        } => {
             let src = open(&input)?;
             let ty = (DType::U8, Some(orogen::hydro::NODATA_DIR as f64));
-            global1(
-                &orogen::hydro::tiled::TiledD8,
-                &[src.as_ref()],
-                &out,
-                &run,
-                ty,
-            )?;
+            match method.as_str() {
+                "d8" => global1(
+                    &orogen::hydro::tiled::TiledD8,
+                    &[src.as_ref()],
+                    &out,
+                    &run,
+                    ty,
+                )?,
+                "rho8" => global1(
+                    &orogen::hydro::tiled_breach::TiledRho8 { seed },
+                    &[src.as_ref()],
+                    &out,
+                    &run,
+                    ty,
+                )?,
+                m => bail!("--method {m:?}: use d8 or rho8"),
+            }
         }
+        Cmd::Breach(args) => cli::breach::run(args)?,
         Cmd::Accumulate {
             input,
             method,

@@ -8,3 +8,4 @@ pub mod job;
 pub mod tiles;
 pub mod view;
 pub mod hydro_net;
+pub mod breach;

@@ -96,7 +96,7 @@ pub(crate) fn steepest_descent(z: &[f32], w: usize, h: usize) -> Vec<u8> {
 }
 
 /// Barnes et al. (2014) flat resolution, in place on `dir`.
-fn resolve_flats(z: &[f32], w: usize, h: usize, dir: &mut [u8]) {
+pub(crate) fn resolve_flats(z: &[f32], w: usize, h: usize, dir: &mut [u8]) {
     let n = z.len();
     // Algorithm 3 (FlatEdges): low edges drain and touch a same-elevation
     // NO_FLOW cell; high edges are NO_FLOW and touch a higher cell.

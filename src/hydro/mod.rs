@@ -33,18 +33,23 @@
 pub mod accum;
 pub mod basin_metrics;
 pub mod basins;
+pub mod breach;
 pub mod dinf;
 pub mod fill;
 pub mod flow;
 pub mod indices;
 pub mod mfd;
 pub mod streams;
+pub mod rho8;
 pub mod tiled;
+pub mod tiled_breach;
 
 pub use accum::{accumulate, accumulate_weighted, WEIGHT_SCALE_BITS};
 pub use basins::{basin_labels, hand, watersheds};
+pub use breach::{breach, breach_masked, BreachMethod, BreachOptions};
 pub use fill::{fill, fill_epsilon, watershed_labels};
 pub use flow::d8_directions;
+pub use rho8::rho8_directions;
 
 /// Column offsets of the 8 neighbours in the order E, SE, S, SW, W, NW, N, NE.
 pub const DX: [i64; 8] = [1, 1, 0, -1, -1, -1, 0, 1];
