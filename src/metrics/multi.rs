@@ -120,6 +120,23 @@ impl MultiMetric {
             rs.dedup();
             rs.len() as u64
         };
+        // visibility & solar: horizon tangents (f64, up and down), per-direction
+        // solar horizons (f32) and sky-view sums.
+        if self.metrics.iter().any(|m| {
+            use MetricKind::*;
+            matches!(
+                m.spec.kind,
+                HorizonAngle
+                    | Zenith
+                    | Nadir
+                    | Accessibility
+                    | SolarDirect
+                    | SolarGlobal
+                    | SolarAnnual
+            )
+        }) {
+            b += core * (2 * 8 + 16 * 4 + 8 + 4 + 3 * 8);
+        }
         b + quadrics * core * std::mem::size_of::<Quadric>() as u64 + 3 * core * 4
     }
 }
@@ -464,6 +481,46 @@ impl LocalStep for MultiMetric {
                         let data = grids[first].2.data().to_vec();
                         out[grids[i].1].data_mut().copy_from_slice(&data);
                     }
+                }
+                // visibility & solar
+                HorizonAngle | Zenith | Nadir | Accessibility => {
+                    let mut ho = super::horizon::HorizonExtra::default();
+                    let dir = m.spec.value("dir").and_then(super::visibility::lattice_dir);
+                    match m.spec.kind {
+                        Zenith => ho.zenith = Some(o),
+                        Nadir => ho.nadir = Some(o),
+                        Accessibility => ho.accessibility = Some(o),
+                        _ => ho.angle = Some((dir.unwrap_or(0), o)),
+                    }
+                    let dirs = if m.spec.kind == HorizonAngle {
+                        0
+                    } else {
+                        m.spec.directions
+                    };
+                    super::horizon::horizon_extra(
+                        view,
+                        m.radius_cells,
+                        m.radius_m,
+                        dirs,
+                        super::horizon::HorizonMethod::Sweep,
+                        ho,
+                    );
+                }
+                VisibilityIndex => super::visibility::visibility_index(
+                    view,
+                    m.radius_cells,
+                    m.radius_m,
+                    m.spec.directions,
+                    m.spec.value("height").unwrap_or(1.7),
+                    m.spec.value("target").unwrap_or(0.0),
+                    o,
+                ),
+                SolarDirect | SolarGlobal | SolarAnnual => super::solar::solar(view, m, o)?,
+                HeatIndex => {
+                    let amax = m.spec.value("alpha_max").unwrap_or(202.5);
+                    walk_3x3(view, o, EdgeMode::Nodata, nan, |w, ew, ns| {
+                        super::solar::heat_index(w, ew, ns, amax) as f32
+                    })
                 }
             }
         }
