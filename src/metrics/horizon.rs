@@ -501,47 +501,48 @@ pub fn horizon_extra(
     let mut nd = vec![0u32; n];
     let need_lower = out.nadir.is_some();
     let want_dir = out.angle.as_ref().map(|a| a.0);
-    // The direction of `angle` may lie beyond `directions`.
-    let dirs = directions.max(want_dir.map_or(0, |d| d + 1));
-    scan(
-        view,
-        steps,
-        cutoff_m,
-        dirs,
-        need_lower,
-        method,
-        |dir, up, down| {
-            if Some(dir) == want_dir {
-                if let Some((_, g)) = out.angle.as_mut() {
-                    for i in 0..n {
-                        let t = up[i];
-                        let v = if t.is_nan() || t == f64::NEG_INFINITY {
-                            f32::NAN
-                        } else {
-                            t.atan().to_degrees() as f32
-                        };
-                        g.set(i % cw, i / cw, v);
-                    }
+    // The direction of `angle` alone, or the first `directions` ones.
+    let list: Vec<usize> = match want_dir {
+        Some(d) if directions == 0 => vec![d],
+        _ => (0..directions.min(16)).collect(),
+    };
+    let mut up = vec![0.0; n];
+    let mut down = if need_lower { vec![0.0; n] } else { Vec::new() };
+    for &dir in &list {
+        tangents(view, steps, cutoff_m, dir, false, method, &mut up);
+        if need_lower {
+            tangents(view, steps, cutoff_m, dir, true, method, &mut down);
+        }
+        if Some(dir) == want_dir {
+            if let Some((_, g)) = out.angle.as_mut() {
+                for i in 0..n {
+                    let t = up[i];
+                    let v = if t.is_nan() || t == f64::NEG_INFINITY {
+                        f32::NAN
+                    } else {
+                        t.atan().to_degrees() as f32
+                    };
+                    g.set(i % cw, i / cw, v);
                 }
             }
-            if dir >= directions {
-                return;
+        }
+        if directions == 0 {
+            continue;
+        }
+        for i in 0..n {
+            let hi = up[i];
+            if hi.is_nan() || hi == f64::NEG_INFINITY {
+                continue;
             }
-            for i in 0..n {
-                let hi = up[i];
-                if hi.is_nan() || hi == f64::NEG_INFINITY {
-                    continue;
-                }
-                hi_max[i] = hi_max[i].max(hi);
-                if need_lower {
-                    lo_min[i] = lo_min[i].min(down[i]);
-                }
-                let c = hi.atan().max(0.0).cos();
-                acc[i] += c * c;
-                nd[i] += 1;
+            hi_max[i] = hi_max[i].max(hi);
+            if need_lower {
+                lo_min[i] = lo_min[i].min(down[i]);
             }
-        },
-    );
+            let c = hi.atan().max(0.0).cos();
+            acc[i] += c * c;
+            nd[i] += 1;
+        }
+    }
     for i in 0..n {
         let (x, y) = (i % cw, i / cw);
         let ok = nd[i] > 0;
