@@ -220,10 +220,10 @@ fn wall_casts_a_shadow_at_noon() {
 #[test]
 fn heat_index_tilted_planes() {
     let (w, h) = (7, 7);
-    for (a, b) in [(0.3, -0.2), (0.0, 0.5), (-0.7, 0.1), (0.0, 0.0)] {
+    for (a, b) in [(0.3f64, -0.2f64), (0.0, 0.5), (-0.7, 0.1), (0.0, 0.0)] {
         let src = source(&plane(w, h, a, b), w, h);
         let out = run(&src, "heat_index,heat_index:alpha_max=90", 3);
-        let slope = (a * a + b * b as f64).sqrt().atan();
+        let slope = (a * a + b * b).sqrt().atan();
         // Aspect: azimuth of steepest descent (−a east, −b north).
         let aspect = (-a).atan2(-b);
         for (k, amax) in [(0, 202.5f64), (1, 90.0)] {

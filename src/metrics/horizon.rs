@@ -50,6 +50,8 @@
 //! tile; where a geographic raster's cell sizes change `k` across a tile,
 //! that direction falls back to the rays (same result, slower).
 
+#![allow(clippy::needless_range_loop)] // index loops over parallel per-cell arrays
+
 use crate::raster::{Grid, TileView};
 
 /// The 16 ray steps (dx east, dy south in rows); the first 8 are the axes and diagonals.

@@ -46,6 +46,8 @@
 //! aspect, β the slope (radians) and α_max = 202.5° (as SAGA's tool); flat
 //! cells are 0.
 
+#![allow(clippy::needless_range_loop)] // index loops over parallel per-cell arrays
+
 use super::horizon::{scan, step_azimuth, HorizonMethod, DIRS};
 use super::registry::{MetricKind, ParamDef, ParamKind, Resolved};
 use super::terrain::horn_gradient;

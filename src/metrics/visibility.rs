@@ -36,6 +36,8 @@
 //! Along the axes and diagonals the rays pass through cell centres, so this is
 //! exactly R3 for those targets. O(r) per cell and direction; halo = cutoff.
 
+#![allow(clippy::needless_range_loop)] // index loops over parallel per-cell arrays
+
 use super::horizon::{step_azimuth, DIRS};
 use super::registry::{ParamDef, ParamKind};
 use crate::error::{Error, Result};
