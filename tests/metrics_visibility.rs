@@ -542,7 +542,52 @@ fn visibility_index_matches_r3_on_the_rays() {
     }
 }
 
-const NEW: &str = "horizon:radius=4c:dir=45,zenith:radius=40m,nadir:radius=4c:directions=16,accessibility:radius=4c,visibility_index:radius=3c:directions=16,solar_direct:lat=34.3:radius=4c:hour=9.5,solar_global:lat=34.3:radius=4c:step=60:day=355,solar_annual:lat=34.3:radius=3c:days=60:step=120:directions=8,heat_index";
+/// The exact visibility index against the share of R3-visible cells of the
+/// disk computed with the exact-integer line of sight of this file.
+#[test]
+fn visibility_index_exact_brute_force() {
+    let (w, h) = (19, 17);
+    let d: Vec<f32> = random_grid(w, h, 31, 80, 10)
+        .iter()
+        .enumerate()
+        .map(|(i, v)| v * 1.01317 + 0.0173 * (i % 7) as f32)
+        .collect();
+    let src = source(&d, w, h);
+    let out = run(
+        &src,
+        "visibility_index_exact:radius=42m:height=1.3:target=0.4",
+        6,
+        2,
+    );
+    let mut distinct = std::collections::BTreeSet::new();
+    for y in 0..h as i64 {
+        for x in 0..w as i64 {
+            let i = y as usize * w + x as usize;
+            if at(&d, w, h, x, y).is_nan() {
+                assert!(out[0][i].is_nan());
+                continue;
+            }
+            let (mut seen, mut n) = (0, 0);
+            for ty in 0..h as i64 {
+                for tx in 0..w as i64 {
+                    let dist2 = (((tx - x).pow(2) + (ty - y).pow(2)) as f64) * CELL * CELL;
+                    if (tx, ty) == (x, y) || dist2 > 42.0 * 42.0 || at(&d, w, h, tx, ty).is_nan() {
+                        continue;
+                    }
+                    n += 1;
+                    seen += usize::from(los_exact(&d, w, (x, y), (tx, ty), 1.3, 0.4));
+                }
+            }
+            let want = seen as f64 / n as f64;
+            let g = out[0][i] as f64;
+            assert!((g - want).abs() < 1e-6, "({x},{y}): {g} vs {want}");
+            distinct.insert(seen);
+        }
+    }
+    assert!(distinct.len() > 10, "a varied test: {distinct:?}");
+}
+
+const NEW: &str = "visibility_index_exact:radius=3c,horizon:radius=4c:dir=45,zenith:radius=40m,nadir:radius=4c:directions=16,accessibility:radius=4c,visibility_index:radius=3c:directions=16,solar_direct:lat=34.3:radius=4c:hour=9.5,solar_global:lat=34.3:radius=4c:step=60:day=355,solar_annual:lat=34.3:radius=3c:days=60:step=120:directions=8,heat_index";
 
 fn bits(v: &[Vec<f32>]) -> Vec<Vec<u32>> {
     v.iter()
@@ -635,6 +680,12 @@ fn bad_parameters() {
     assert!(e.contains("day") && e.contains("366"), "{e}");
     let e = err(&src, "solar_global");
     assert!(e.contains("lat="), "{e}");
+    let big = source(&vec![1.0; 150 * 150], 150, 150);
+    let e = err(&big, "visibility_index_exact:radius=120c");
+    assert!(
+        e.contains("above its limit") && e.contains("visibility_index"),
+        "{e}"
+    );
     let e = err(&src, "solar_global:lat=95");
     assert!(e.contains("-90"), "{e}");
     // Viewshed: observer outside, on nodata, bad radius and heights.

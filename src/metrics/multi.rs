@@ -516,6 +516,14 @@ impl LocalStep for MultiMetric {
                     o,
                 ),
                 SolarDirect | SolarGlobal | SolarAnnual => super::solar::solar(view, m, o)?,
+                VisibilityIndexExact => super::visibility::visibility_index_exact(
+                    view,
+                    m.radius_cells,
+                    m.radius_m,
+                    m.spec.value("height").unwrap_or(1.7),
+                    m.spec.value("target").unwrap_or(0.0),
+                    o,
+                ),
                 HeatIndex => {
                     let amax = m.spec.value("alpha_max").unwrap_or(202.5);
                     walk_3x3(view, o, EdgeMode::Nodata, nan, |w, ew, ns| {

@@ -67,6 +67,7 @@ pub enum MetricKind {
     SolarGlobal,
     SolarAnnual,
     HeatIndex,
+    VisibilityIndexExact,
 }
 
 /// What a metric's parameters are.
@@ -603,6 +604,18 @@ pub const METRICS: &[MetricDef] = &[
         "diurnal anisotropic heating cos(alpha_max - aspect) * atan(slope in radians); flat = 0",
         "Böhner & Antonić 2009 (in Hengl & Reuter, Geomorphometry, ch. 8), as SAGA"
     ),
+    def!(
+        VisibilityIndexExact,
+        "visibility_index_exact",
+        &[
+            super::visibility::RADIUS_EXACT,
+            super::visibility::HEIGHT,
+            super::visibility::TARGET
+        ],
+        "0..1",
+        "share of all cells within the cutoff disk visible (R3 line of sight) from the observer; O(r^3) per cell",
+        "Franklin & Ray 1994 (Proc. Spatial Data Handling) visibility index, R3 line of sight to every target"
+    ),
 ];
 
 /// The registry entry of `kind`.
@@ -982,7 +995,7 @@ impl Resolved {
             DikauForm => self.radius_cells.max(1),
             // visibility & solar
             HorizonAngle | Zenith | Nadir | Accessibility | VisibilityIndex | SolarDirect
-            | SolarGlobal | SolarAnnual => self.radius_cells.max(1),
+            | SolarGlobal | SolarAnnual | VisibilityIndexExact => self.radius_cells.max(1),
             _ => 1,
         }
     }

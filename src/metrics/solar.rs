@@ -128,8 +128,17 @@ pub const SOLAR_PARAMS: &[ParamDef] = &[DAY, HOUR, STEP, TAU, LAT, RADIUS, DIREC
 /// Parameters of `solar_annual`.
 pub const ANNUAL_PARAMS: &[ParamDef] = &[DAYS, STEP_ANNUAL, TAU, LAT, RADIUS, DIRECTIONS16];
 
-/// Refuse solar metrics without a latitude on projected rasters.
+/// Refuse solar metrics without a latitude on projected rasters, and exact
+/// visibility indices beyond [`super::visibility::MAX_EXACT_RADIUS`].
 pub fn check_resolved(r: &Resolved, info: &RasterInfo) -> Result<()> {
+    let max = super::visibility::MAX_EXACT_RADIUS;
+    if r.spec.kind == MetricKind::VisibilityIndexExact && r.radius_cells > max {
+        return Err(Error::invalid(format!(
+            "{}: visibility_index_exact radius is {} cells, above its limit of {max} (O(r^3) per cell): use visibility_index for larger radii",
+            info.path.display(),
+            r.radius_cells
+        )));
+    }
     let solar = matches!(
         r.spec.kind,
         MetricKind::SolarDirect | MetricKind::SolarGlobal | MetricKind::SolarAnnual

@@ -69,6 +69,16 @@ pub const TARGET: ParamDef = ParamDef {
     range: "target height above the cell, metres, 0..=10000",
 };
 
+/// Largest radius (cells) of `visibility_index_exact` (O(r³) per cell).
+pub const MAX_EXACT_RADIUS: usize = 100;
+/// `visibility_index_exact`'s radius.
+pub const RADIUS_EXACT: ParamDef = ParamDef {
+    name: "radius",
+    kind: ParamKind::Radius,
+    default: "5c",
+    range: "1c..=100c, or a length in m/km (> 0); the target disk",
+};
+
 /// Azimuths (square cells) of the 16 lattice directions, in `DIRS` order.
 fn lattice_azimuths() -> [f64; 16] {
     let mut a = [0.0; 16];
@@ -189,10 +199,9 @@ pub fn fuzzy_membership(d: f64, b1: f64, b2: f64) -> f64 {
 }
 
 /// R3 viewshed of the observer at cell `(ox, oy)` of `dem` (NaN = nodata),
-/// cells of `ew` x `ns` metres. Calls `f(x, y, visible, distance_m)` for every
-/// valid target cell within the radius (the observer's own cell is visible)
-/// — in parallel over rows, so `f` must be `Sync`; returns per-row results
-/// collected in order by [`viewshed`] and friends.
+/// cells of `ew` x `ns` metres: per row (in parallel, collected in order),
+/// `f(visible, distance_m)` for every valid target cell within the radius
+/// (the observer's own cell is visible) and `none` elsewhere.
 fn r3_rows<T: Send + Sync + Copy>(
     dem: &Grid<f32>,
     (ew, ns): (f64, f64),
@@ -226,38 +235,48 @@ fn r3_rows<T: Send + Sync + Copy>(
                     continue;
                 }
                 let target = zt + o.target_height - drop(dx, dy);
-                let rise = target - eye;
-                // Terrain at fraction t along the segment vs the sight line.
-                let blocks = |t: f64, z: f64| -> bool {
-                    !z.is_nan() && z - drop(t * dx, t * dy) > eye + t * rise
-                };
-                let mut visible = true;
-                // Crossings of columns strictly between.
-                let (x0, x1) = (ox.min(tx), ox.max(tx));
-                for c in x0 + 1..x1 {
-                    let t = (c as f64 - ox as f64) / dx;
-                    let y = oy as f64 + t * dy;
-                    if blocks(t, interp(data, w, c, y, true)) {
-                        visible = false;
-                        break;
-                    }
-                }
-                if visible {
-                    let (y0, y1) = (oy.min(ty), oy.max(ty));
-                    for r in y0 + 1..y1 {
-                        let t = (r as f64 - oy as f64) / dy;
-                        let x = ox as f64 + t * dx;
-                        if blocks(t, interp(data, w, r, x, false)) {
-                            visible = false;
-                            break;
-                        }
-                    }
-                }
+                let visible = r3_visible(data, w, (ox, oy), (tx, ty), eye, target, &drop);
                 *cell = f(visible, d2.sqrt());
             }
             row
         })
         .collect()
+}
+
+/// R3 line of sight on a row-major grid of width `w`: is the target at cell
+/// `t` with (curvature-corrected) elevation `target` visible from the eye at
+/// elevation `eye` above cell `o`? `drop(dx, dy)` lowers the terrain at an
+/// offset of (dx, dy) cells from the observer (0 without curvature).
+#[inline]
+fn r3_visible(
+    data: &[f32],
+    w: usize,
+    (ox, oy): (usize, usize),
+    (tx, ty): (usize, usize),
+    eye: f64,
+    target: f64,
+    drop: &impl Fn(f64, f64) -> f64,
+) -> bool {
+    let (dx, dy) = (tx as f64 - ox as f64, ty as f64 - oy as f64);
+    let rise = target - eye;
+    // Terrain at fraction t along the segment vs the sight line.
+    let blocks =
+        |t: f64, z: f64| -> bool { !z.is_nan() && z - drop(t * dx, t * dy) > eye + t * rise };
+    // Crossings of columns strictly between.
+    for c in ox.min(tx) + 1..ox.max(tx) {
+        let t = (c as f64 - ox as f64) / dx;
+        if blocks(t, interp(data, w, c, oy as f64 + t * dy, true)) {
+            return false;
+        }
+    }
+    // Crossings of rows strictly between.
+    for r in oy.min(ty) + 1..oy.max(ty) {
+        let t = (r as f64 - oy as f64) / dy;
+        if blocks(t, interp(data, w, r, ox as f64 + t * dx, false)) {
+            return false;
+        }
+    }
+    true
 }
 
 /// Elevation at the crossing of column `line` at fractional row `at`
@@ -406,6 +425,77 @@ pub fn visibility_index(
                     }
                     block = block.max((z - eye) / dist);
                 }
+            }
+            out.set(
+                x,
+                y,
+                if n == 0 {
+                    f32::NAN
+                } else {
+                    (seen as f64 / n as f64) as f32
+                },
+            );
+        }
+    }
+}
+
+/// Exact visibility index of every core cell of `view`: the share of the
+/// valid cells `t ≠ o` with `dx² + dy²` (metres) within `cutoff_m` (and at
+/// most `steps` cells per axis, ≤ the halo) that are visible by R3 line of
+/// sight from the eye `height` above the cell, targets `target` above
+/// theirs; no curvature. O(r³) per cell: for small radii and DEMs.
+pub fn visibility_index_exact(
+    view: &TileView<f32>,
+    steps: usize,
+    cutoff_m: f64,
+    height: f64,
+    target: f64,
+    out: &mut Grid<f32>,
+) {
+    assert!(
+        steps <= view.halo,
+        "visibility targets must stay inside the halo"
+    );
+    let h = view.halo;
+    let gw = view.grid.width();
+    let data = view.grid.data();
+    let limit = cutoff_m * cutoff_m * (1.0 + 1e-12);
+    let flat = |_: f64, _: f64| 0.0;
+    let r = steps as i64;
+    for y in 0..view.core.h {
+        let (ew, ns) = view.georef.cell_size_m(view.core.y + y as i64);
+        // Target offsets within the cutoff, in a fixed order.
+        let offs: Vec<(i64, i64)> = (-r..=r)
+            .flat_map(|dy| (-r..=r).map(move |dx| (dx, dy)))
+            .filter(|&(dx, dy)| {
+                (dx, dy) != (0, 0) && (dx as f64 * ew).powi(2) + (dy as f64 * ns).powi(2) <= limit
+            })
+            .collect();
+        for x in 0..view.core.w {
+            let (ox, oy) = (x + h, y + h);
+            let z0 = data[oy * gw + ox] as f64;
+            if z0.is_nan() {
+                out.set(x, y, f32::NAN);
+                continue;
+            }
+            let eye = z0 + height;
+            let (mut seen, mut n) = (0u32, 0u32);
+            for &(dx, dy) in &offs {
+                let (tx, ty) = ((ox as i64 + dx) as usize, (oy as i64 + dy) as usize);
+                let zt = data[ty * gw + tx] as f64;
+                if zt.is_nan() {
+                    continue;
+                }
+                n += 1;
+                seen += u32::from(r3_visible(
+                    data,
+                    gw,
+                    (ox, oy),
+                    (tx, ty),
+                    eye,
+                    zt + target,
+                    &flat,
+                ));
             }
             out.set(
                 x,
