@@ -632,7 +632,18 @@ fn tiled_equals_untiled_new_metrics() {
     // Tile size 1 on a random grid with holes.
     let (w, h) = (23, 17);
     let d = random_grid(w, h, 9, 300, 17);
-    check_tiled(&source(&d, w, h), NEW, &[1, 5]);
+    let small = source(&d, w, h);
+    check_tiled(&small, NEW, &[1, 5]);
+    // One pass (shared horizon scans) == each metric alone, duplicates included.
+    let specs = format!("{NEW},zenith:radius=4c,accessibility:radius=4c,nadir:radius=4c");
+    let whole = bits(&run(&small, &specs, 8, 1));
+    for (k, s) in specs.split(',').enumerate() {
+        let alone = bits(&run(&small, s, 8, 1));
+        assert!(
+            alone[0] == whole[k],
+            "{s} alone differs from the multi pass"
+        );
+    }
     // Geographic raster: per-row cell sizes and latitudes (lat=auto).
     let asc = orogen::io::open_raster(
         std::path::Path::new("tests/data/landlab_SRTMGL3_frontrange.asc"),

@@ -483,28 +483,65 @@ impl LocalStep for MultiMetric {
                     }
                 }
                 // visibility & solar
-                HorizonAngle | Zenith | Nadir | Accessibility => {
-                    let mut ho = super::horizon::HorizonExtra::default();
+                HorizonAngle => {
                     let dir = m.spec.value("dir").and_then(super::visibility::lattice_dir);
-                    match m.spec.kind {
-                        Zenith => ho.zenith = Some(o),
-                        Nadir => ho.nadir = Some(o),
-                        Accessibility => ho.accessibility = Some(o),
-                        _ => ho.angle = Some((dir.unwrap_or(0), o)),
-                    }
-                    let dirs = if m.spec.kind == HorizonAngle {
-                        0
-                    } else {
-                        m.spec.directions
+                    let ho = super::horizon::HorizonExtra {
+                        angle: Some((dir.unwrap_or(0), o)),
+                        ..Default::default()
                     };
                     super::horizon::horizon_extra(
                         view,
                         m.radius_cells,
                         m.radius_m,
-                        dirs,
+                        0,
                         super::horizon::HorizonMethod::Sweep,
                         ho,
                     );
+                }
+                Zenith | Nadir | Accessibility => {
+                    if done_horizon[k] {
+                        continue;
+                    }
+                    // One scan for every zenith/nadir/accessibility with the same rays.
+                    let key = (m.radius_cells, m.radius_m.to_bits(), m.spec.directions);
+                    let same: Vec<usize> = (k..self.metrics.len())
+                        .filter(|&j| {
+                            let n = &self.metrics[j];
+                            matches!(n.spec.kind, Zenith | Nadir | Accessibility)
+                                && (n.radius_cells, n.radius_m.to_bits(), n.spec.directions) == key
+                        })
+                        .collect();
+                    let mut grids: Vec<Grid<f32>> =
+                        same.iter().map(|_| Grid::new(cw, ch, nan)).collect();
+                    let mut ho = super::horizon::HorizonExtra::default();
+                    for (&j, g) in same.iter().zip(grids.iter_mut()) {
+                        done_horizon[j] = true;
+                        match self.metrics[j].spec.kind {
+                            Zenith if ho.zenith.is_none() => ho.zenith = Some(g),
+                            Nadir if ho.nadir.is_none() => ho.nadir = Some(g),
+                            Accessibility if ho.accessibility.is_none() => {
+                                ho.accessibility = Some(g)
+                            }
+                            _ => {}
+                        }
+                    }
+                    super::horizon::horizon_extra(
+                        view,
+                        m.radius_cells,
+                        m.radius_m,
+                        m.spec.directions,
+                        super::horizon::HorizonMethod::Sweep,
+                        ho,
+                    );
+                    // Duplicates of one kind copy the first grid of that kind.
+                    for (i, &j) in same.iter().enumerate() {
+                        let kind = self.metrics[j].spec.kind;
+                        let first = same
+                            .iter()
+                            .position(|&f| self.metrics[f].spec.kind == kind)
+                            .unwrap_or(i);
+                        out[j].data_mut().copy_from_slice(grids[first].data());
+                    }
                 }
                 VisibilityIndex => super::visibility::visibility_index(
                     view,
