@@ -182,16 +182,18 @@ pub fn run(a: ViewshedArgs) -> Result<()> {
     for s in &a.at {
         pts.push(pair(s, "--at")?);
     }
+    let n_at = pts.len();
     if let Some(p) = &a.points {
         pts.extend(read_points(p)?);
     }
     if pts.is_empty() {
         bail!("give an observer with --at X,Y (or --points FILE)");
     }
-    let pixel = a.pixel && a.points.is_none();
+    // --pixel applies to --at only; point files hold coordinates.
     let cells: Vec<(usize, usize)> = pts
         .iter()
-        .map(|&p| to_cell(&info, p, pixel))
+        .enumerate()
+        .map(|(i, &p)| to_cell(&info, p, a.pixel && i < n_at))
         .collect::<Result<_>>()?;
     let min_cell = orogen::metrics::registry::min_cell_size_m(&info);
     let radius_m = match parse_length(&a.radius).map_err(|e| anyhow::anyhow!("--radius: {e}"))? {

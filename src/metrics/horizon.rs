@@ -216,7 +216,7 @@ fn sweep(view: &TileView<f32>, dir: usize, lower: bool, rows: &[(f64, usize)], o
     };
     let inside = |x: i64, y: i64| x >= 0 && y >= 0 && x < gw && y < gh;
     let is_core = |x: i64, y: i64| x >= h && y >= h && x < h + cw && y < h + ch;
-    // Line buffers: signed elevations, view indices, core flags.
+    // Line buffers: signed elevations and view coordinates of the cells.
     let mut zs: Vec<f64> = Vec::new();
     let mut cells: Vec<(i64, i64)> = Vec::new();
     let mut best_a: Vec<usize> = Vec::new();
