@@ -362,6 +362,12 @@ enum Cmd {
         after_help = "Examples:\n  orogen run configs/continent-analysis.toml\n  orogen run job.toml --memory 512MiB --log job.jsonl\n  orogen run job.toml --dry-run\nA rerun skips the steps already done (same command, same inputs) and resumes\ninterrupted tile stores. Writes report.html into the job's output_dir.\nExit codes: 0 success, 1 a step or the job file failed (the message names it),\n2 bad command-line usage."
     )]
     Run(cli::job::RunArgs),
+    /// Viewshed of an observer (R3 line of sight, Franklin & Ray 1994), cumulative
+    /// viewshed of several, or Fisher's fuzzy viewshed.
+    #[command(
+        after_help = "Examples:\n  orogen viewshed dem.tif --at 352000,4590000 --observer-height 1.7 --radius 10km -o vis.tif\n  orogen viewshed srtm.tif --at=-105.2,39.7 --curvature -o vis.tif\n  orogen viewshed dem.tif --points towers.csv --radius 5km -o count.tif\n  orogen viewshed dem.tif --at 352000,4590000 --fuzzy 1000,2000 -o fuzzy.tif\nOne observer: u8, 1 visible, 0 hidden, 255 beyond the radius or nodata. Several: u16 count\nof observers seeing each cell. --fuzzy: f32 sum of memberships. The output covers the\nobservers' radius, clipped to the DEM. Coordinates are in the DEM's CRS (--pixel: col,row)."
+    )]
+    Viewshed(cli::viewshed::ViewshedArgs),
     /// Generate a seeded terrain and run the pipeline on it into ./orogen-demo/.
     #[command(
         after_help = "Example:\n  orogen demo\n  orogen demo --size 4096 --seed 7 -o /tmp/demo"
@@ -824,6 +830,7 @@ fn run(cli: Cli) -> Result<()> {
             orogen::io::render::render_preview(src.as_ref(), &output, &opts)?;
             wrote(&output);
         }
+        Cmd::Viewshed(args) => cli::viewshed::run(args)?,
         Cmd::Demo {
             output,
             size,

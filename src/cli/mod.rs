@@ -9,3 +9,4 @@ pub mod tiles;
 pub mod view;
 pub mod hydro_net;
 pub mod breach;
+pub mod viewshed;

@@ -8,6 +8,9 @@ pub mod quadric;
 pub mod registry;
 pub mod terrain;
 pub mod windowed;
+// visibility & solar
+pub mod solar;
+pub mod visibility;
 
 pub use multi::{compute, output_paths, MultiMetric, METRIC_NODATA};
 pub use neighbourhood::EdgeMode;

@@ -120,6 +120,23 @@ impl MultiMetric {
             rs.dedup();
             rs.len() as u64
         };
+        // visibility & solar: horizon tangents (f64, up and down), per-direction
+        // solar horizons (f32) and sky-view sums.
+        if self.metrics.iter().any(|m| {
+            use MetricKind::*;
+            matches!(
+                m.spec.kind,
+                HorizonAngle
+                    | Zenith
+                    | Nadir
+                    | Accessibility
+                    | SolarDirect
+                    | SolarGlobal
+                    | SolarAnnual
+            )
+        }) {
+            b += core * (2 * 8 + 16 * 4 + 8 + 4 + 3 * 8);
+        }
         b + quadrics * core * std::mem::size_of::<Quadric>() as u64 + 3 * core * 4
     }
 }
@@ -464,6 +481,91 @@ impl LocalStep for MultiMetric {
                         let data = grids[first].2.data().to_vec();
                         out[grids[i].1].data_mut().copy_from_slice(&data);
                     }
+                }
+                // visibility & solar
+                HorizonAngle => {
+                    let dir = m.spec.value("dir").and_then(super::visibility::lattice_dir);
+                    let ho = super::horizon::HorizonExtra {
+                        angle: Some((dir.unwrap_or(0), o)),
+                        ..Default::default()
+                    };
+                    super::horizon::horizon_extra(
+                        view,
+                        m.radius_cells,
+                        m.radius_m,
+                        0,
+                        super::horizon::HorizonMethod::Sweep,
+                        ho,
+                    );
+                }
+                Zenith | Nadir | Accessibility => {
+                    if done_horizon[k] {
+                        continue;
+                    }
+                    // One scan for every zenith/nadir/accessibility with the same rays.
+                    let key = (m.radius_cells, m.radius_m.to_bits(), m.spec.directions);
+                    let same: Vec<usize> = (k..self.metrics.len())
+                        .filter(|&j| {
+                            let n = &self.metrics[j];
+                            matches!(n.spec.kind, Zenith | Nadir | Accessibility)
+                                && (n.radius_cells, n.radius_m.to_bits(), n.spec.directions) == key
+                        })
+                        .collect();
+                    let mut grids: Vec<Grid<f32>> =
+                        same.iter().map(|_| Grid::new(cw, ch, nan)).collect();
+                    let mut ho = super::horizon::HorizonExtra::default();
+                    for (&j, g) in same.iter().zip(grids.iter_mut()) {
+                        done_horizon[j] = true;
+                        match self.metrics[j].spec.kind {
+                            Zenith if ho.zenith.is_none() => ho.zenith = Some(g),
+                            Nadir if ho.nadir.is_none() => ho.nadir = Some(g),
+                            Accessibility if ho.accessibility.is_none() => {
+                                ho.accessibility = Some(g)
+                            }
+                            _ => {}
+                        }
+                    }
+                    super::horizon::horizon_extra(
+                        view,
+                        m.radius_cells,
+                        m.radius_m,
+                        m.spec.directions,
+                        super::horizon::HorizonMethod::Sweep,
+                        ho,
+                    );
+                    // Duplicates of one kind copy the first grid of that kind.
+                    for (i, &j) in same.iter().enumerate() {
+                        let kind = self.metrics[j].spec.kind;
+                        let first = same
+                            .iter()
+                            .position(|&f| self.metrics[f].spec.kind == kind)
+                            .unwrap_or(i);
+                        out[j].data_mut().copy_from_slice(grids[first].data());
+                    }
+                }
+                VisibilityIndex => super::visibility::visibility_index(
+                    view,
+                    m.radius_cells,
+                    m.radius_m,
+                    m.spec.directions,
+                    m.spec.value("height").unwrap_or(1.7),
+                    m.spec.value("target").unwrap_or(0.0),
+                    o,
+                ),
+                SolarDirect | SolarGlobal | SolarAnnual => super::solar::solar(view, m, o)?,
+                VisibilityIndexExact => super::visibility::visibility_index_exact(
+                    view,
+                    m.radius_cells,
+                    m.radius_m,
+                    m.spec.value("height").unwrap_or(1.7),
+                    m.spec.value("target").unwrap_or(0.0),
+                    o,
+                ),
+                HeatIndex => {
+                    let amax = m.spec.value("alpha_max").unwrap_or(202.5);
+                    walk_3x3(view, o, EdgeMode::Nodata, nan, |w, ew, ns| {
+                        super::solar::heat_index(w, ew, ns, amax) as f32
+                    })
                 }
             }
         }

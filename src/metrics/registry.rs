@@ -57,6 +57,17 @@ pub enum MetricKind {
     GeomorphonCanonical,
     WeissLandform,
     DikauForm,
+    // visibility & solar
+    HorizonAngle,
+    Zenith,
+    Nadir,
+    Accessibility,
+    VisibilityIndex,
+    SolarDirect,
+    SolarGlobal,
+    SolarAnnual,
+    HeatIndex,
+    VisibilityIndexExact,
 }
 
 /// What a metric's parameters are.
@@ -74,6 +85,10 @@ pub enum ParamKind {
     Radius2,
     /// A non-negative number (threshold in the metric's units).
     Threshold,
+    // visibility & solar
+    /// A number stored by name in [`MetricSpec::values`], checked by
+    /// `visibility::check_value` (`auto` leaves it unset).
+    Value,
 }
 
 /// One parameter of a metric, as the registry describes it.
@@ -511,6 +526,96 @@ pub const METRICS: &[MetricDef] = &[
         "Dikau form 3p+q+1 from profile (p) and plan (q) curvature: 0 concave, 1 straight, 2 convex",
         "Dikau 1989 (in Raper, 3D applications in GIS); curvatures of Evans/Wood as profile_curvature/plan_curvature"
     ),
+    // visibility & solar
+    def!(
+        HorizonAngle,
+        "horizon",
+        &[RADIUS_HORIZON, super::visibility::DIR],
+        "degrees",
+        "horizon elevation angle (max atan(dz/d) within the cutoff) along one lattice direction",
+        "Dozier & Frew 1990, IEEE TGRS 28(5); exact lattice rays, line-sweep hulls after Stewart 1998, IEEE TVCG 4(1)"
+    ),
+    def!(
+        Zenith,
+        "zenith",
+        &[RADIUS_HORIZON, DIRECTIONS],
+        "degrees",
+        "zenith angle: min over directions of 90 - horizon elevation angle",
+        "Yokoyama, Shirasawa & Pike 2002, PE&RS 68(3) (per-direction zenith angle, min over directions)"
+    ),
+    def!(
+        Nadir,
+        "nadir",
+        &[RADIUS_HORIZON, DIRECTIONS],
+        "degrees",
+        "nadir angle: min over directions of 90 + lowest elevation angle",
+        "Yokoyama, Shirasawa & Pike 2002, PE&RS 68(3) (per-direction nadir angle, min over directions)"
+    ),
+    def!(
+        Accessibility,
+        "accessibility",
+        &[RADIUS_HORIZON, DIRECTIONS],
+        "0..1",
+        "ambient occlusion / accessibility: cosine-weighted visible sky mean cos^2(max(horizon angle, 0))",
+        "Dozier & Frew 1990, IEEE TGRS 28(5) (sky view of a horizontal surface)"
+    ),
+    def!(
+        VisibilityIndex,
+        "visibility_index",
+        &[
+            RADIUS_HORIZON,
+            DIRECTIONS,
+            super::visibility::HEIGHT,
+            super::visibility::TARGET
+        ],
+        "0..1",
+        "share of the cells on the lattice rays within the cutoff that the observer (height above the cell) sees",
+        "Franklin & Ray 1994 (Proc. Spatial Data Handling) visibility index, targets sampled along 8/16 exact rays"
+    ),
+    def!(
+        SolarDirect,
+        "solar_direct",
+        super::solar::SOLAR_PARAMS,
+        "Wh/m2 (day), W/m2 (hour)",
+        "clear-sky direct (beam) irradiation on the slope with cast shadows, for one solar hour or the whole day",
+        super::solar::SOLAR_CITE
+    ),
+    def!(
+        SolarGlobal,
+        "solar_global",
+        super::solar::SOLAR_PARAMS,
+        "Wh/m2 (day), W/m2 (hour)",
+        "clear-sky direct + isotropic diffuse (x sky-view factor) irradiation, one solar hour or the whole day",
+        super::solar::SOLAR_CITE
+    ),
+    def!(
+        SolarAnnual,
+        "solar_annual",
+        super::solar::ANNUAL_PARAMS,
+        "kWh/m2",
+        "clear-sky direct + isotropic diffuse irradiation over a year (sampled days, scaled to 365)",
+        super::solar::SOLAR_CITE
+    ),
+    def!(
+        HeatIndex,
+        "heat_index",
+        &[super::solar::ALPHA_MAX],
+        "-1.57..1.57",
+        "diurnal anisotropic heating cos(alpha_max - aspect) * atan(slope in radians); flat = 0",
+        "Böhner & Antonić 2009 (in Hengl & Reuter, Geomorphometry, ch. 8), as SAGA"
+    ),
+    def!(
+        VisibilityIndexExact,
+        "visibility_index_exact",
+        &[
+            super::visibility::RADIUS_EXACT,
+            super::visibility::HEIGHT,
+            super::visibility::TARGET
+        ],
+        "0..1",
+        "share of all cells within the cutoff disk visible (R3 line of sight) from the observer; O(r^3) per cell",
+        "Franklin & Ray 1994 (Proc. Spatial Data Handling) visibility index, R3 line of sight to every target"
+    ),
 ];
 
 /// The registry entry of `kind`.
@@ -572,6 +677,10 @@ pub struct MetricSpec {
     /// Threshold of the landform classes (flatness, slope or curvature).
     #[serde(default)]
     pub threshold: Option<f64>,
+    // visibility & solar
+    /// Named numeric parameters ([`ParamKind::Value`]); absent = `auto`.
+    #[serde(default)]
+    pub values: std::collections::BTreeMap<String, f64>,
 }
 
 impl MetricSpec {
@@ -586,6 +695,7 @@ impl MetricSpec {
             disk: false,
             radius2: None,
             threshold: None,
+            values: Default::default(),
         };
         for p in d.params {
             // Defaults are registry constants, parsed by the unit tests.
@@ -640,7 +750,30 @@ impl MetricSpec {
         if self.kind == MetricKind::Slope && self.units == SlopeUnits::Percent {
             s.push_str("_pct");
         }
+        // visibility & solar: non-default named values.
+        for p in self
+            .def()
+            .params
+            .iter()
+            .filter(|p| p.kind == ParamKind::Value)
+        {
+            let v = self.values.get(p.name).copied();
+            let dflt = super::visibility::parse_value(p.name, p.default)
+                .ok()
+                .flatten();
+            if v != dflt {
+                match v {
+                    Some(v) => s.push_str(&format!("_{}{v}", p.name)),
+                    None => s.push_str(&format!("_{}auto", p.name)),
+                }
+            }
+        }
         s
+    }
+
+    /// A named value ([`ParamKind::Value`]) or `None` (`auto`).
+    pub fn value(&self, name: &str) -> Option<f64> {
+        self.values.get(name).copied()
     }
 
     fn set(&mut self, p: &ParamDef, value: &str) -> std::result::Result<(), String> {
@@ -678,6 +811,15 @@ impl MetricSpec {
                     _ => return Err(format!("'{value}' is not degrees or percent")),
                 }
             }
+            // visibility & solar
+            ParamKind::Value => match super::visibility::parse_value(p.name, value)? {
+                Some(v) => {
+                    self.values.insert(p.name.to_string(), v);
+                }
+                None => {
+                    self.values.remove(p.name);
+                }
+            },
         }
         Ok(())
     }
@@ -851,6 +993,9 @@ impl Resolved {
             Geomorphon | GeomorphonPattern | GeomorphonCanonical => self.radius_cells,
             WeissLandform => self.radius_cells.max(self.radius2_cells),
             DikauForm => self.radius_cells.max(1),
+            // visibility & solar
+            HorizonAngle | Zenith | Nadir | Accessibility | VisibilityIndex | SolarDirect
+            | SolarGlobal | SolarAnnual | VisibilityIndexExact => self.radius_cells.max(1),
             _ => 1,
         }
     }
@@ -914,12 +1059,15 @@ pub fn resolve(specs: &[MetricSpec], info: &RasterInfo) -> Result<Vec<Resolved>>
             };
             let (radius_cells, radius_m) = to_cells(s.radius)?;
             let (radius2_cells, _) = to_cells(s.radius2)?;
-            Ok(Resolved {
+            let r = Resolved {
                 spec: s.clone(),
                 radius_cells,
                 radius_m,
                 radius2_cells,
-            })
+            };
+            // visibility & solar
+            super::solar::check_resolved(&r, info)?;
+            Ok(r)
         })
         .collect()
 }
@@ -941,6 +1089,7 @@ mod tests {
                 disk: false,
                 radius2: None,
                 threshold: None,
+                values: Default::default(),
             };
             for p in d.params {
                 s.set(p, p.default).unwrap();
