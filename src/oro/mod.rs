@@ -24,6 +24,8 @@
 //! then contracted away, so summaries stay O(boundary + open peaks).
 
 mod isolation;
+mod links;
+pub mod metrics;
 mod regions;
 mod tree;
 mod write;
