@@ -425,4 +425,21 @@ impl PlanarFrame {
         let (x, y) = self.georef.pixel_to_map(col + 0.5, row + 0.5);
         (x * self.kx, y * self.ky)
     }
+
+    /// Fractional (col, row) of the cell whose centre is at planar (x, y).
+    pub fn to_pixel(&self, x: f64, y: f64) -> Option<(f64, f64)> {
+        if !self.georef.georeferenced {
+            return Some((x - 0.5, -y - 0.5));
+        }
+        let (c, r) = self.georef.map_to_pixel(x / self.kx, y / self.ky)?;
+        Some((c - 0.5, r - 0.5))
+    }
+
+    /// Planar size (m) of one cell step along columns and rows at `row`.
+    pub fn cell_size_m(&self, row: f64) -> (f64, f64) {
+        let (a, b) = self.xy(0.0, row);
+        let (c, d) = self.xy(1.0, row);
+        let (e, f) = self.xy(0.0, row + 1.0);
+        ((c - a).hypot(d - b), (e - a).hypot(f - b))
+    }
 }

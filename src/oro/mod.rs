@@ -26,6 +26,8 @@
 mod isolation;
 mod links;
 pub mod metrics;
+pub mod stats;
+pub mod classify;
 mod regions;
 mod tree;
 mod write;
@@ -35,6 +37,7 @@ pub use tree::{CriticalPoints, DivideTree, EdgeConvention, Isolation, Peak, Sadd
 pub use write::{
     write_divide_tree_geojson, write_peaks_csv, write_peaks_geojson, write_saddles_geojson,
 };
+pub use write::{write_peaks_csv_with, write_peaks_geojson_with, EXTRA_COLUMNS};
 
 use crate::error::{Error, Result};
 use crate::raster::{GeoRef, Grid};
