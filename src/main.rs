@@ -251,6 +251,11 @@ enum Cmd {
         after_help = "Examples:\n  orogen classify evaluate alps.csv andes.csv poland.csv --repeats 10 -o confusion.csv\n  orogen classify train alps.csv andes.csv -o model.json\n  orogen classify predict model.json unknown.csv"
     )]
     Classify(cli::oro::ClassifyArgs),
+    /// Ridge networks: divide-tree ridges with hierarchy levels and orders, and PPA ridges.
+    #[command(
+        after_help = "Example:\n  orogen ridges ../shared/data/srtm3_S33W071.tif --min-prominence 100 -o ridges/\nWrites ridges.geojson (steepest-ascent paths saddle -> peak, with longest-path level and\nStrahler order), ridge_levels.tif, ridge_orders.tif (0 = no ridge) and ppa_ridges.tif\n(Chang et al. 1998 profile recognition + maximum spanning tree, 1 = ridge). Runs in memory."
+    )]
+    Ridges(cli::oro::RidgesArgs),
     /// Fill depressions (Priority-Flood; exact across tiles after Barnes 2016).
     #[command(
         after_help = "Example:\n  orogen fill dem.tif -o filled.tif\n  orogen fill poland.tiles -o filled.tiles --memory 512MiB\nNodata cells and the DEM's edge are outlets."
@@ -653,6 +658,7 @@ fn run(cli: Cli) -> Result<()> {
         }
         Cmd::Orostats(a) => cli::oro::run_orostats(a)?,
         Cmd::Classify(a) => cli::oro::run_classify(a)?,
+        Cmd::Ridges(a) => cli::oro::run_ridges(a)?,
         Cmd::Fill { input, out, run } => {
             let src = open(&input)?;
             let ty = (DType::F32, Some(orogen::hydro::FILL_NODATA));

@@ -317,3 +317,83 @@ pub fn run_classify(a: ClassifyArgs) -> Result<()> {
 fn write(p: &Path, s: &str) -> Result<()> {
     std::fs::write(p, s).with_context(|| format!("{}: cannot write", p.display()))
 }
+
+#[derive(Args)]
+pub struct RidgesArgs {
+    #[command(flatten)]
+    input: crate::In,
+    /// Ridges of peaks with at least this prominence.
+    #[arg(long, default_value_t = 30.0)]
+    min_prominence: f64,
+    /// Edge and nodata convention of the divide tree: sea-level or unknown.
+    #[arg(long, default_value = "sea-level")]
+    edge: String,
+    /// PPA profile half-length, cells.
+    #[arg(long, default_value_t = 3)]
+    half_window: usize,
+    /// PPA: remove side branches shorter than this many cells.
+    #[arg(long, default_value_t = 10)]
+    min_branch: usize,
+    /// Skip the PPA ridges.
+    #[arg(long)]
+    no_ppa: bool,
+    /// Output folder.
+    #[arg(short, long)]
+    output: PathBuf,
+    #[command(flatten)]
+    fmt: crate::OutFmt,
+    #[command(flatten)]
+    run: crate::Run,
+}
+
+fn write_u8(grid: Grid<u8>, georef: &GeoRef, path: &Path, a: &RidgesArgs) -> Result<()> {
+    let g = georef.clone().with_nodata(None);
+    let mem = orogen::raster::MemRaster::new(orogen::raster::AnyGrid::U8(grid), g, path);
+    let oo = crate::output_options(&a.fmt)?;
+    orogen::ops::convert(&mem, path, &oo, None, &crate::engine(&a.run)?)?;
+    crate::wrote(path);
+    Ok(())
+}
+
+pub fn run_ridges(a: RidgesArgs) -> Result<()> {
+    if !(a.min_prominence.is_finite() && a.min_prominence >= 0.0) {
+        bail!("--min-prominence {}: give a prominence of 0 or more", a.min_prominence);
+    }
+    let conv = convention(&a.edge)?;
+    let per_cell = if a.no_ppa { 40 } else { 40 + orogen::oro::ridges::PPA_BYTES_PER_CELL };
+    let (dem, georef) = read_dem(&a.input, &a.run, per_cell)?;
+    std::fs::create_dir_all(&a.output)
+        .with_context(|| format!("{}: cannot create the output folder", a.output.display()))?;
+    let opts = orogen::oro::PeakOptions {
+        min_prominence: a.min_prominence,
+        convention: conv,
+        isolation: false,
+    };
+    let list = orogen::oro::peaks(&dem, &georef, &opts)?;
+    let net = orogen::oro::ridges::divide_tree_ridges(&list.tree, &dem, &georef)?;
+    let gj = a.output.join("ridges.geojson");
+    net.write_geojson(&gj, &georef)?;
+    crate::wrote(&gj);
+    write_u8(net.rasterise_levels(), &georef, &a.output.join("ridge_levels.tif"), &a)?;
+    write_u8(net.rasterise_orders(), &georef, &a.output.join("ridge_orders.tif"), &a)?;
+    if !a.no_ppa {
+        let ppa = orogen::oro::ridges::ppa_ridges(
+            &dem,
+            &orogen::oro::ridges::PpaOptions {
+                half_window: a.half_window,
+                min_branch: a.min_branch,
+            },
+        )?;
+        write_u8(ppa, &georef, &a.output.join("ppa_ridges.tif"), &a)?;
+    }
+    if !a.run.quiet {
+        eprintln!(
+            "{} peaks (prominence >= {}), {} ridge segments, {} levels",
+            list.tree.peaks.len(),
+            a.min_prominence,
+            net.edges.len(),
+            net.edges.iter().map(|e| e.level).max().unwrap_or(0)
+        );
+    }
+    Ok(())
+}

@@ -29,8 +29,6 @@ use crate::raster::Grid;
 pub(crate) struct MergeEvent {
     /// Region of the saddle.
     pub saddle: u32,
-    /// Top peak region of the losing component.
-    pub loser_top: u32,
     /// Highest cell next to the saddle region in the losing component.
     pub loser_entry: u32,
     /// Highest cell next to the saddle region in the winning component.
@@ -42,8 +40,6 @@ pub(crate) struct Links {
     pub reg: Regions,
     /// Per region: the cell its steepest ascent moves to (NONE: a peak).
     pub exit: Vec<u32>,
-    /// Per region: position in the sweep order (smaller = higher).
-    pub pos: Vec<u32>,
     /// Per peak region: index into `events` of the merge it lost (NONE: it
     /// never lost, i.e. it is the top of its connected area).
     pub lost_at: Vec<u32>,
@@ -156,7 +152,6 @@ impl Links {
                 lost_at[t as usize] = events.len() as u32;
                 events.push(MergeEvent {
                     saddle: r,
-                    loser_top: t,
                     loser_entry: entry,
                     winner_entry: wentry,
                 });
@@ -168,7 +163,6 @@ impl Links {
         Ok(Links {
             reg,
             exit,
-            pos,
             lost_at,
             events,
         })
@@ -211,10 +205,5 @@ impl Links {
     pub fn ridge_next(&self, p: u32) -> Option<u32> {
         let e = self.lost_at[p as usize];
         (e != NONE).then(|| self.ascend(self.events[e as usize].winner_entry))
-    }
-
-    /// True if region `a` is higher than region `b` in the sweep order.
-    pub fn higher(&self, a: u32, b: u32) -> bool {
-        self.pos[a as usize] < self.pos[b as usize]
     }
 }

@@ -28,6 +28,7 @@ mod links;
 pub mod metrics;
 pub mod stats;
 pub mod classify;
+pub mod ridges;
 mod regions;
 mod tree;
 mod write;
