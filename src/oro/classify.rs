@@ -234,6 +234,16 @@ pub fn train(ds: &Dataset, params: &ForestParams) -> Result<Model> {
     })
 }
 
+impl std::fmt::Debug for Model {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Model")
+            .field("classes", &self.classes)
+            .field("features", &self.names.len())
+            .field("params", &self.params)
+            .finish_non_exhaustive()
+    }
+}
+
 impl Model {
     /// Predicted label of each row (rows must have the model's features).
     pub fn predict(&self, rows: &[Vec<f64>]) -> Result<Vec<String>> {

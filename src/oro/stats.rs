@@ -279,7 +279,8 @@ pub struct DiskFeatures {
     pub counts: Vec<f64>,
 }
 
-/// A histogram with its edges; `p` sums to 1 (or all 0 when empty).
+/// A histogram with its edges; `p` sums to 1 (or all 0 when empty). An
+/// open-ended last bin has the edge `f64::MAX` (JSON has no infinity).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Histogram {
     pub edges: Vec<f64>,
@@ -292,7 +293,10 @@ impl Histogram {
     fn from_counts(edges: &[f64], counts: &[f64]) -> Histogram {
         let n: f64 = counts.iter().sum();
         Histogram {
-            edges: edges.to_vec(),
+            edges: edges
+                .iter()
+                .map(|&e| if e.is_finite() { e } else { f64::MAX.copysign(e) })
+                .collect(),
             p: counts
                 .iter()
                 .map(|&c| if n > 0.0 { c / n } else { 0.0 })
