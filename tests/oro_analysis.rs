@@ -71,9 +71,11 @@ fn component(z: &[f32], w: usize, h: usize, seed: usize, level: f32, ge: bool) -
 fn brute_key_saddle(z: &[f32], w: usize, h: usize, p: usize) -> Option<usize> {
     let mut levels: Vec<usize> = (0..z.len()).filter(|&c| z[c] < z[p]).collect();
     levels.sort_by(|&a, &b| z[b].total_cmp(&z[a]));
-    levels
-        .into_iter()
-        .find(|&s| component(z, w, h, p, z[s], true).iter().any(|&c| z[c] > z[p]))
+    levels.into_iter().find(|&s| {
+        component(z, w, h, p, z[s], true)
+            .iter()
+            .any(|&c| z[c] > z[p])
+    })
 }
 
 fn brute_ascend(z: &[f32], w: usize, h: usize, mut c: usize) -> usize {
@@ -150,7 +152,10 @@ fn line_parent_matches_brute_force_on_random_grids() {
                     let q = &tree.peaks[q];
                     q.row as usize * w + q.col as usize
                 });
-                assert_eq!(got, want, "case {case} peak {i} at {c}, min prominence {min_prom}");
+                assert_eq!(
+                    got, want,
+                    "case {case} peak {i} at {c}, min prominence {min_prom}"
+                );
                 checked += usize::from(want.is_some());
             }
         }
@@ -168,10 +173,19 @@ fn line_parent_differs_from_prominence_parent_on_a_ridge() {
     let row = [0.0f32, 8.0, 3.0, 9.0, 4.0, 10.0, 0.0];
     let g = Grid::from_fn(7, 3, |x, y| if y == 1 { row[x] } else { row[x] - 0.5 });
     let tree = oro::divide_tree(&g, EdgeConvention::Unknown).unwrap();
-    let at = |c: u32| tree.peaks.iter().position(|p| p.col == c && p.row == 1).unwrap();
+    let at = |c: u32| {
+        tree.peaks
+            .iter()
+            .position(|p| p.col == c && p.row == 1)
+            .unwrap()
+    };
     let lp = metrics::line_parents(&tree, &g).unwrap();
     assert_eq!(lp[at(1)], Some(at(3)), "P -> Y");
-    assert_eq!(tree.peaks[at(1)].parent, Some(at(5)), "P's prominence parent is A");
+    assert_eq!(
+        tree.peaks[at(1)].parent,
+        Some(at(5)),
+        "P's prominence parent is A"
+    );
     assert_eq!(lp[at(3)], Some(at(5)), "Y -> A");
     assert_eq!(lp[at(5)], None, "A is the top");
     // Pruned at prominence 5.5 (Y has 5, P has 5 too: both go): nothing left but A.
@@ -180,7 +194,12 @@ fn line_parent_differs_from_prominence_parent_on_a_ridge() {
     // Pruned at 4.5: P (8 - 3 = 5) and Y (9 - 4 = 5) stay.
     let pr = tree.pruned(4.5);
     let lp = metrics::line_parents(&pr, &g).unwrap();
-    let at = |c: u32| pr.peaks.iter().position(|p| p.col == c && p.row == 1).unwrap();
+    let at = |c: u32| {
+        pr.peaks
+            .iter()
+            .position(|p| p.col == c && p.row == 1)
+            .unwrap()
+    };
     assert_eq!(lp[at(1)], Some(at(3)));
 }
 
@@ -212,7 +231,10 @@ fn relevance_by_hand() {
     // prominence 200 of max 800 -> 0.25; elevation 1500 in [1000, 3000] -> 0.25; sqrt(1/16) = 0.25.
     assert!((metrics::relevance(200.0, 800.0, 1500.0, 1000.0, 3000.0) - 0.25).abs() < 1e-12);
     // The highest, most prominent peak: 1.
-    assert_eq!(metrics::relevance(800.0, 800.0, 3000.0, 1000.0, 3000.0), 1.0);
+    assert_eq!(
+        metrics::relevance(800.0, 800.0, 3000.0, 1000.0, 3000.0),
+        1.0
+    );
     // No relief: 0, no NaN.
     assert_eq!(metrics::relevance(10.0, 10.0, 5.0, 5.0, 5.0), 0.0);
     assert_eq!(metrics::relevance(10.0, 0.0, 5.0, 0.0, 9.0), 0.0);
@@ -224,7 +246,12 @@ fn peak_metrics_key_saddle_distance_and_bearing() {
     // 20 m to the east, bearing 90.
     let row = [0.0f32, 3.0, 9.0, 5.0, 4.0, 6.0, 12.0, 1.0];
     let g = Grid::from_fn(8, 3, |x, y| if y == 1 { row[x] } else { row[x] - 0.5 });
-    let gr = GeoRef::north_up(500_000.0, 4_000_000.0, 10.0, orogen::raster::Crs::projected(32632));
+    let gr = GeoRef::north_up(
+        500_000.0,
+        4_000_000.0,
+        10.0,
+        orogen::raster::Crs::projected(32632),
+    );
     let tree = oro::divide_tree(&g, EdgeConvention::Unknown).unwrap();
     let i = tree.peaks.iter().position(|p| p.col == 2).unwrap();
     let s = &tree.saddles[tree.peaks[i].key_saddle.unwrap()];
@@ -260,7 +287,9 @@ fn anti_prominence_of_two_pits() {
     assert_eq!(pits[1].anti_prominence, 30.0, "40 m pit overflows at 70 m");
     assert_eq!(pits[1].key_saddle.map(|s| s.2), Some(70.0));
     // Flat DEM: no pits.
-    assert!(metrics::anti_prominence(&Grid::new(4, 4, 5.0f32), 0.0).unwrap().is_empty());
+    assert!(metrics::anti_prominence(&Grid::new(4, 4, 5.0f32), 0.0)
+        .unwrap()
+        .is_empty());
 }
 
 fn close(a: f64, b: f64, tol: f64) -> bool {
@@ -289,7 +318,10 @@ fn nni_of_lattices_and_poisson() {
     let hex: Vec<(f64, f64)> = (0..rows * cols)
         .map(|i| {
             let (c, r) = (i % cols, i / cols);
-            (c as f64 * d + if r % 2 == 1 { d / 2.0 } else { 0.0 }, r as f64 * dy)
+            (
+                c as f64 * d + if r % 2 == 1 { d / 2.0 } else { 0.0 },
+                r as f64 * dy,
+            )
         })
         .collect();
     let area = cols as f64 * d * rows as f64 * dy;
@@ -302,7 +334,11 @@ fn nni_of_lattices_and_poisson() {
     let m = 2000;
     let p: Vec<(f64, f64)> = (0..m).map(|_| (rng.unit(), rng.unit())).collect();
     let rp = metrics::nearest_neighbor_index(&p, 1.0, 4.0).unwrap();
-    assert!(close(rp.ratio_corrected, 1.0, 0.04), "corrected {}", rp.ratio_corrected);
+    assert!(
+        close(rp.ratio_corrected, 1.0, 0.04),
+        "corrected {}",
+        rp.ratio_corrected
+    );
     // Without correction the boundary inflates the mean distance.
     assert!(rp.ratio > rp.ratio_corrected);
     // Brute-force nearest distances.
@@ -352,10 +388,16 @@ fn poisson_disc_is_separated_deterministic_and_fills_the_box() {
     let mut rng = Rng(3);
     for _ in 0..500 {
         let (x, y) = (rng.unit() * 200.0, rng.unit() * 120.0);
-        let d = a.iter().map(|p| (p.0 - x).hypot(p.1 - y)).fold(f64::MAX, f64::min);
+        let d = a
+            .iter()
+            .map(|p| (p.0 - x).hypot(p.1 - y))
+            .fold(f64::MAX, f64::min);
         assert!(d < 2.0 * r, "hole at ({x}, {y}): {d}");
     }
-    assert_eq!(stats::poisson_disc(0.0, 0.0, 10.0, 10.0, 1.0, 1, 3).len(), 3);
+    assert_eq!(
+        stats::poisson_disc(0.0, 0.0, 10.0, 10.0, 1.0, 1, 3).len(),
+        3
+    );
     assert!(stats::poisson_disc(0.0, 0.0, 10.0, 10.0, f64::NAN, 1, 3).is_empty());
 }
 
@@ -439,7 +481,8 @@ fn orostats_on_cones_matches_hand_histograms() {
             .filter(|(nm, _)| nm.starts_with("saddle_"))
             .all(|(_, &v)| v == 0.0));
         // Prominence = height: 200..600 fall in bins 200-300, 300-400, 400-600 (twice), 600-800.
-        let frac = |lo: f32, hi: f32| inside.iter().filter(|&&z| z >= lo && z < hi).count() as f64 / n;
+        let frac =
+            |lo: f32, hi: f32| inside.iter().filter(|&&z| z >= lo && z < hi).count() as f64 / n;
         assert!((d.values[col("prominence_m:200-300")] - frac(200.0, 300.0)).abs() < 1e-12);
         assert!((d.values[col("prominence_m:400-600")] - frac(400.0, 600.0)).abs() < 1e-12);
         assert!((d.values[col("prominence_m:600-800")] - frac(600.0, 800.0)).abs() < 1e-12);
@@ -505,10 +548,15 @@ fn orostats_bad_input() {
     let st = stats::orostats(&flat, &gr, &o, "", "").unwrap();
     assert_eq!(st.profile.n_peaks, 0);
     assert!(!st.disks.is_empty());
-    assert!(st.disks.iter().all(|d| d.n_peaks == 0 && d.values.iter().all(|&v| v == 0.0)));
+    assert!(st
+        .disks
+        .iter()
+        .all(|d| d.n_peaks == 0 && d.values.iter().all(|&v| v == 0.0)));
     // All nodata: a clear error.
     let none = Grid::new(100, 100, f32::NAN);
-    let e = stats::orostats(&none, &gr, &o, "", "").unwrap_err().to_string();
+    let e = stats::orostats(&none, &gr, &o, "", "")
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("no valid cells"), "{e}");
     // Radius larger than the DEM.
     let e = stats::orostats(&flat, &gr, &StatsOptions::new(9000.0), "", "")
@@ -558,13 +606,22 @@ fn classifier_separates_separable_classes_and_is_deterministic() {
     };
     let ev = classify::evaluate(&ds, &p, 5, 0.2, 3).unwrap();
     assert_eq!(ev.accuracies.len(), 5);
-    assert!(ev.accuracies.iter().all(|&a| a == 1.0), "{:?}", ev.accuracies);
+    assert!(
+        ev.accuracies.iter().all(|&a| a == 1.0),
+        "{:?}",
+        ev.accuracies
+    );
     assert_eq!(ev.mean, 1.0);
     assert_eq!(ev.sd, 0.0);
     // Stratified 20 %: 6 of each class per repetition, all on the diagonal.
-    assert_eq!(ev.confusion, vec![vec![30, 0, 0], vec![0, 30, 0], vec![0, 0, 30]]);
+    assert_eq!(
+        ev.confusion,
+        vec![vec![30, 0, 0], vec![0, 30, 0], vec![0, 0, 30]]
+    );
     assert_eq!(classify::evaluate(&ds, &p, 5, 0.2, 3).unwrap(), ev);
-    assert!(ev.confusion_csv().starts_with("true\\predicted,alps,andes,plains\nalps,30,0,0\n"));
+    assert!(ev
+        .confusion_csv()
+        .starts_with("true\\predicted,alps,andes,plains\nalps,30,0,0\n"));
     // Train, save, load, predict.
     let m = classify::train(&ds, &p).unwrap();
     let test = separable(5, 77);
@@ -589,7 +646,9 @@ fn classifier_separates_separable_classes_and_is_deterministic() {
 fn classifier_bad_input() {
     let mut ds = separable(5, 1);
     ds.labels.iter_mut().for_each(|l| *l = "alps".into());
-    let e = classify::train(&ds, &ForestParams::default()).unwrap_err().to_string();
+    let e = classify::train(&ds, &ForestParams::default())
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("two"), "{e}");
     let mut ds = separable(5, 1);
     ds.rows[3][1] = f64::NAN;
@@ -612,8 +671,17 @@ fn classifier_bad_input() {
 fn ppa_finds_the_crest_of_a_single_ridge() {
     // z = 500 − 20·|x − 30| + 0.5·y: one straight crest on column 30, rising southwards.
     let (w, h) = (61, 80);
-    let g = Grid::from_fn(w, h, |x, y| 500.0 - 20.0 * (x as f32 - 30.0).abs() + 0.5 * y as f32);
-    let r = ridges::ppa_ridges(&g, &ridges::PpaOptions { half_window: 3, min_branch: 10 }).unwrap();
+    let g = Grid::from_fn(w, h, |x, y| {
+        500.0 - 20.0 * (x as f32 - 30.0).abs() + 0.5 * y as f32
+    });
+    let r = ridges::ppa_ridges(
+        &g,
+        &ridges::PpaOptions {
+            half_window: 3,
+            min_branch: 10,
+        },
+    )
+    .unwrap();
     for y in 0..h {
         for x in 0..w {
             if r.get(x, y) == 1 && (5..h - 5).contains(&y) {
@@ -623,7 +691,14 @@ fn ppa_finds_the_crest_of_a_single_ridge() {
     }
     let on: usize = (5..h - 5).filter(|&y| r.get(30, y) == 1).count();
     assert_eq!(on, h - 10, "crest covered");
-    assert!(ridges::ppa_ridges(&g, &ridges::PpaOptions { half_window: 0, min_branch: 1 }).is_err());
+    assert!(ridges::ppa_ridges(
+        &g,
+        &ridges::PpaOptions {
+            half_window: 0,
+            min_branch: 1
+        }
+    )
+    .is_err());
 }
 
 #[test]
@@ -635,9 +710,17 @@ fn ppa_finds_the_edges_of_a_pyramid() {
     let n = 81;
     let c = 40i64;
     let g = Grid::from_fn(n, n, |x, y| {
-        { let (dx, dy) = ((x as i64 - c).abs(), (y as i64 - c).abs()); 1000.0 - 10.0 * dx.max(dy) as f32 + 0.5 * (dx + dy) as f32 }
+        let (dx, dy) = ((x as i64 - c).abs(), (y as i64 - c).abs());
+        1000.0 - 10.0 * dx.max(dy) as f32 + 0.5 * (dx + dy) as f32
     });
-    let r = ridges::ppa_ridges(&g, &ridges::PpaOptions { half_window: 3, min_branch: 8 }).unwrap();
+    let r = ridges::ppa_ridges(
+        &g,
+        &ridges::PpaOptions {
+            half_window: 3,
+            min_branch: 8,
+        },
+    )
+    .unwrap();
     let mut on_diag = 0;
     for y in 0..n {
         for x in 0..n {
@@ -659,10 +742,25 @@ fn ppa_finds_the_edges_of_a_pyramid() {
 fn divide_tree_ridges_follow_the_crest() {
     // A crest on column 20 with two summits (rows 10 and 40) and a col between.
     let (w, h) = (41, 51);
-    let crest = |y: f32| 300.0 + 200.0 * (-(y - 10.0).powi(2) / 60.0).exp() + 150.0 * (-(y - 40.0).powi(2) / 60.0).exp();
-    let g = Grid::from_fn(w, h, |x, y| crest(y as f32) - 15.0 * (x as f32 - 20.0).abs());
+    let crest = |y: f32| {
+        300.0
+            + 200.0 * (-(y - 10.0).powi(2) / 60.0).exp()
+            + 150.0 * (-(y - 40.0).powi(2) / 60.0).exp()
+    };
+    let g = Grid::from_fn(w, h, |x, y| {
+        crest(y as f32) - 15.0 * (x as f32 - 20.0).abs()
+    });
     let gr = GeoRef::north_up(0.0, 0.0, 10.0, Crs::projected(32633));
-    let list = oro::peaks(&g, &gr, &oro::PeakOptions { min_prominence: 20.0, convention: EdgeConvention::Unknown, isolation: false }).unwrap();
+    let list = oro::peaks(
+        &g,
+        &gr,
+        &oro::PeakOptions {
+            min_prominence: 20.0,
+            convention: EdgeConvention::Unknown,
+            isolation: false,
+        },
+    )
+    .unwrap();
     assert_eq!(list.tree.peaks.len(), 2);
     let net = ridges::divide_tree_ridges(&list.tree, &g, &gr).unwrap();
     assert_eq!(net.edges.len(), 2, "one saddle, two ascents");
@@ -695,7 +793,15 @@ fn hierarchy_levels_and_orders_by_hand() {
     // Longest path: 0-1-2-5-6 (10+10+25+1 = 46); 3..6 is 36, 0..3 is 30.
     // So level 1: edges 0-1, 1-2, 2-5, 5-6; level 2: 2-3 and 1-4; 7-8 is
     // its own tree's level 1.
-    let e = [(0, 1, 10.0), (1, 2, 10.0), (2, 3, 10.0), (1, 4, 3.0), (2, 5, 25.0), (5, 6, 1.0), (7, 8, 2.0)];
+    let e = [
+        (0, 1, 10.0),
+        (1, 2, 10.0),
+        (2, 3, 10.0),
+        (1, 4, 3.0),
+        (2, 5, 25.0),
+        (5, 6, 1.0),
+        (7, 8, 2.0),
+    ];
     let lv = ridges::longest_path_levels(9, &e).unwrap();
     assert_eq!(lv, vec![1, 1, 2, 2, 1, 1, 1]);
     // A branch of a branch is level 3: hang 9 from 3 (2-3 is level 2).
@@ -714,4 +820,53 @@ fn hierarchy_levels_and_orders_by_hand() {
     assert_eq!(so, vec![2, 2, 1, 1, 1, 1, 1]);
     // Cycles are refused.
     assert!(ridges::longest_path_levels(3, &[(0, 1, 1.0), (1, 2, 1.0), (2, 0, 1.0)]).is_err());
+}
+
+#[test]
+fn peaks_csv_and_geojson_carry_the_new_columns() {
+    let row = [0.0f32, 8.0, 3.0, 9.0, 4.0, 10.0, 0.0];
+    let g = Grid::from_fn(7, 3, |x, y| if y == 1 { row[x] } else { row[x] - 0.5 });
+    let gr = GeoRef::north_up(500_000.0, 4_000_000.0, 10.0, Crs::projected(32632));
+    let opts = oro::PeakOptions {
+        min_prominence: 1.0,
+        convention: EdgeConvention::Unknown,
+        isolation: true,
+    };
+    let list = oro::peaks(&g, &gr, &opts).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let files = list.write_all_with_dem(dir.path(), &g).unwrap();
+    let csv = std::fs::read_to_string(&files[0]).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert!(header.ends_with(&oro::EXTRA_COLUMNS.split(',').collect::<Vec<_>>()));
+    let col = |n: &str| header.iter().position(|h| *h == n).unwrap();
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 3);
+    // Line order: A (10), Y (9), P (8). P's line parent is Y (line 1), Y's is A (line 0).
+    assert_eq!(rows[2][col("line_parent")], "1");
+    assert_eq!(rows[1][col("line_parent")], "0");
+    assert_eq!(rows[0][col("line_parent")], "");
+    // P: key saddle at col 2, 10 m east of col 1 -> 0.01 km, bearing 90.
+    assert_eq!(rows[2][col("key_saddle_km")], "0.01");
+    assert_eq!(rows[2][col("key_saddle_bearing")], "90");
+    let gj: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&files[1]).unwrap()).unwrap();
+    assert_eq!(gj["features"][2]["properties"]["line_parent"], 1);
+    // The tree-only writer leaves the DEM columns empty but keeps the layout.
+    let p = dir.path().join("plain.csv");
+    oro::write_peaks_csv(&p, &list.tree, &gr).unwrap();
+    let plain = std::fs::read_to_string(&p).unwrap();
+    assert_eq!(
+        plain.lines().next().unwrap().split(',').count(),
+        header.len()
+    );
+    assert_eq!(
+        plain
+            .lines()
+            .nth(3)
+            .unwrap()
+            .split(',')
+            .nth(col("line_parent")),
+        Some("")
+    );
 }

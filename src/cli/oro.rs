@@ -39,7 +39,11 @@ fn convention(edge: &str) -> Result<EdgeConvention> {
 }
 
 /// Read a whole DEM as f32 (NaN = nodata), refusing what the memory budget cannot hold.
-pub(crate) fn read_dem(input: &crate::In, run: &crate::Run, bytes_per_cell: u64) -> Result<(Grid<f32>, GeoRef)> {
+pub(crate) fn read_dem(
+    input: &crate::In,
+    run: &crate::Run,
+    bytes_per_cell: u64,
+) -> Result<(Grid<f32>, GeoRef)> {
     let cfg = crate::engine(run)?;
     let src = crate::open(input)?;
     let info = src.info().clone();
@@ -54,7 +58,8 @@ pub(crate) fn read_dem(input: &crate::In, run: &crate::Run, bytes_per_cell: u64)
             need.div_ceil(1 << 30)
         );
     }
-    let dem = orogen::raster::read_window::<f32>(src.as_ref(), Window::full(info.width, info.height))?;
+    let dem =
+        orogen::raster::read_window::<f32>(src.as_ref(), Window::full(info.width, info.height))?;
     Ok((dem, info.georef))
 }
 
@@ -100,10 +105,16 @@ pub fn run_orostats(a: OrostatsArgs) -> Result<()> {
         opts.separation_m = parse_distance(s)?;
     }
     if !(a.min_prominence.is_finite() && a.min_prominence >= 0.0) {
-        bail!("--min-prominence {}: give a prominence of 0 or more", a.min_prominence);
+        bail!(
+            "--min-prominence {}: give a prominence of 0 or more",
+            a.min_prominence
+        );
     }
     if !(0.0..=1.0).contains(&a.min_valid) {
-        bail!("--min-valid {}: give a fraction between 0 and 1", a.min_valid);
+        bail!(
+            "--min-valid {}: give a fraction between 0 and 1",
+            a.min_valid
+        );
     }
     opts.seed = a.seed;
     opts.min_prominence = a.min_prominence;
@@ -303,7 +314,8 @@ pub fn run_classify(a: ClassifyArgs) -> Result<()> {
             output,
         } => {
             let ds = load_all(&features)?;
-            let ev = classify::evaluate(&ds, &forest.params(), repeats, test_fraction, forest.seed)?;
+            let ev =
+                classify::evaluate(&ds, &forest.params(), repeats, test_fraction, forest.seed)?;
             print!("{}", ev.summary());
             if let Some(p) = &output {
                 write(p, &ev.confusion_csv())?;
@@ -357,10 +369,17 @@ fn write_u8(grid: Grid<u8>, georef: &GeoRef, path: &Path, a: &RidgesArgs) -> Res
 
 pub fn run_ridges(a: RidgesArgs) -> Result<()> {
     if !(a.min_prominence.is_finite() && a.min_prominence >= 0.0) {
-        bail!("--min-prominence {}: give a prominence of 0 or more", a.min_prominence);
+        bail!(
+            "--min-prominence {}: give a prominence of 0 or more",
+            a.min_prominence
+        );
     }
     let conv = convention(&a.edge)?;
-    let per_cell = if a.no_ppa { 40 } else { 40 + orogen::oro::ridges::PPA_BYTES_PER_CELL };
+    let per_cell = if a.no_ppa {
+        40
+    } else {
+        40 + orogen::oro::ridges::PPA_BYTES_PER_CELL
+    };
     let (dem, georef) = read_dem(&a.input, &a.run, per_cell)?;
     std::fs::create_dir_all(&a.output)
         .with_context(|| format!("{}: cannot create the output folder", a.output.display()))?;
@@ -374,8 +393,18 @@ pub fn run_ridges(a: RidgesArgs) -> Result<()> {
     let gj = a.output.join("ridges.geojson");
     net.write_geojson(&gj, &georef)?;
     crate::wrote(&gj);
-    write_u8(net.rasterise_levels(), &georef, &a.output.join("ridge_levels.tif"), &a)?;
-    write_u8(net.rasterise_orders(), &georef, &a.output.join("ridge_orders.tif"), &a)?;
+    write_u8(
+        net.rasterise_levels(),
+        &georef,
+        &a.output.join("ridge_levels.tif"),
+        &a,
+    )?;
+    write_u8(
+        net.rasterise_orders(),
+        &georef,
+        &a.output.join("ridge_orders.tif"),
+        &a,
+    )?;
     if !a.no_ppa {
         let ppa = orogen::oro::ridges::ppa_ridges(
             &dem,

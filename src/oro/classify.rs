@@ -75,18 +75,35 @@ impl Dataset {
             if f.len() != cols.len() {
                 return Err(Error::corrupt(
                     path,
-                    format!("line {}: {} fields, the header has {}", i + 2, f.len(), cols.len()),
+                    format!(
+                        "line {}: {} fields, the header has {}",
+                        i + 2,
+                        f.len(),
+                        cols.len()
+                    ),
                 ));
             }
             let mut row = Vec::with_capacity(f.len() - 5);
             for (j, v) in f[5..].iter().enumerate() {
                 let x: f64 = v.trim().parse().map_err(|_| {
-                    Error::corrupt(path, format!("line {}: {:?} in column {} is not a number", i + 2, v, cols[5 + j]))
+                    Error::corrupt(
+                        path,
+                        format!(
+                            "line {}: {:?} in column {} is not a number",
+                            i + 2,
+                            v,
+                            cols[5 + j]
+                        ),
+                    )
                 })?;
                 if !x.is_finite() {
                     return Err(Error::corrupt(
                         path,
-                        format!("line {}: column {} is {x}; features must be finite", i + 2, cols[5 + j]),
+                        format!(
+                            "line {}: column {} is {x}; features must be finite",
+                            i + 2,
+                            cols[5 + j]
+                        ),
                     ));
                 }
                 row.push(x);
@@ -182,7 +199,10 @@ pub struct Model {
     forest: Forest,
 }
 
-fn guarded<T>(what: &str, f: impl FnOnce() -> std::result::Result<T, smartcore::error::Failed>) -> Result<T> {
+fn guarded<T>(
+    what: &str,
+    f: impl FnOnce() -> std::result::Result<T, smartcore::error::Failed>,
+) -> Result<T> {
     match std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)) {
         Ok(Ok(v)) => Ok(v),
         Ok(Err(e)) => Err(Error::invalid(format!("random forest {what}: {e}"))),
@@ -281,10 +301,16 @@ impl Model {
         }
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
         let m: Model = serde_json::from_str(&text).map_err(|e| {
-            Error::corrupt(path, format!("not a classifier written by `orogen classify train`: {e}"))
+            Error::corrupt(
+                path,
+                format!("not a classifier written by `orogen classify train`: {e}"),
+            )
         })?;
         if m.format != "orogen-oroclassifier" || m.version != 1 {
-            return Err(Error::unsupported(path, "unknown classifier format or version"));
+            return Err(Error::unsupported(
+                path,
+                "unknown classifier format or version",
+            ));
         }
         Ok(m)
     }
@@ -338,7 +364,10 @@ pub fn evaluate(
     let mut confusion = vec![vec![0u64; k]; k];
     let mut accuracies = Vec::with_capacity(repeats);
     for rep in 0..repeats {
-        let mut rng = SplitMix64(seed.wrapping_mul(0x2545_F491_4F6C_DD1D).wrapping_add(rep as u64));
+        let mut rng = SplitMix64(
+            seed.wrapping_mul(0x2545_F491_4F6C_DD1D)
+                .wrapping_add(rep as u64),
+        );
         let (mut train_i, mut test_i) = (Vec::new(), Vec::new());
         for members in &by_class {
             let mut m = members.clone();
@@ -417,7 +446,13 @@ impl Evaluation {
 
     /// Human-readable summary: accuracy mean ± sd and the matrix.
     pub fn summary(&self) -> String {
-        let w = self.classes.iter().map(|c| c.len()).max().unwrap_or(4).max(6);
+        let w = self
+            .classes
+            .iter()
+            .map(|c| c.len())
+            .max()
+            .unwrap_or(4)
+            .max(6);
         let mut s = format!(
             "accuracy {:.3} ± {:.3} over {} repetitions ({:.0}% held out)\nconfusion (rows: true, columns: predicted)\n{:w$}",
             self.mean,

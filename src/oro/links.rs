@@ -81,11 +81,13 @@ impl Links {
                 }
                 let n = ny as usize * w + nx as usize;
                 let nz = data[n];
-                if !(nz > z) {
+                if nz.is_nan() || nz <= z {
                     continue;
                 }
                 let e = &mut exit[r as usize];
-                if *e == NONE || nz > data[*e as usize] || (nz == data[*e as usize] && (n as u32) < *e)
+                if *e == NONE
+                    || nz > data[*e as usize]
+                    || (nz == data[*e as usize] && (n as u32) < *e)
                 {
                     *e = n as u32;
                 }
@@ -120,7 +122,7 @@ impl Links {
                     }
                     let n = ny as usize * w + nx as usize;
                     let nz = data[n];
-                    if !(nz > z) {
+                    if nz.is_nan() || nz <= z {
                         continue;
                     }
                     let root = uf.find(reg.label[n]);

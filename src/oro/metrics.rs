@@ -35,7 +35,7 @@ pub const JURGALSKI_NAMES: [&str; 8] = [
 /// Jurgalski dominance group (0 = D2 ... 7 = A1) of a dominance given as a
 /// fraction (prominence / elevation); None for NaN or negative values.
 pub fn dominance_group(dominance: f64) -> Option<u8> {
-    if !(dominance >= 0.0) {
+    if dominance.is_nan() || dominance < 0.0 {
         return None;
     }
     let pct = dominance * 100.0;
@@ -50,7 +50,13 @@ pub fn dominance_group(dominance: f64) -> Option<u8> {
 /// the domain; relative elevation = (h − zmin) / (zmax − zmin) with zmin, zmax
 /// the lowest and highest valid DEM cell of the domain. Both are clamped to
 /// [0, 1]; a domain with no relief (zmax = zmin) or no prominence gives 0.
-pub fn relevance(prominence: f64, max_prominence: f64, elevation: f64, zmin: f64, zmax: f64) -> f64 {
+pub fn relevance(
+    prominence: f64,
+    max_prominence: f64,
+    elevation: f64,
+    zmin: f64,
+    zmax: f64,
+) -> f64 {
     let rp = if max_prominence > 0.0 {
         (prominence / max_prominence).clamp(0.0, 1.0)
     } else {
@@ -156,7 +162,11 @@ pub(crate) fn line_parents_with(tree: &DivideTree, links: &Links) -> Result<Vec<
 }
 
 /// All metrics of [`PeakMetrics`] for `tree`, built from `dem` with `georef`.
-pub fn peak_metrics(tree: &DivideTree, dem: &Grid<f32>, georef: &GeoRef) -> Result<Vec<PeakMetrics>> {
+pub fn peak_metrics(
+    tree: &DivideTree,
+    dem: &Grid<f32>,
+    georef: &GeoRef,
+) -> Result<Vec<PeakMetrics>> {
     let links = Links::new(dem)?;
     let lp = line_parents_with(tree, &links)?;
     let (zmin, zmax) = dem_range(dem);
@@ -200,14 +210,23 @@ pub fn dem_range(dem: &Grid<f32>) -> (Option<f64>, Option<f64>) {
 
 /// The metrics that need only the tree and the georeference (line parent and
 /// relevance stay None). `dem` is used only for distance geometry.
-fn peak_metrics_without_dem(tree: &DivideTree, georef: &GeoRef, dem: &Grid<f32>) -> Vec<PeakMetrics> {
+fn peak_metrics_without_dem(
+    tree: &DivideTree,
+    georef: &GeoRef,
+    dem: &Grid<f32>,
+) -> Vec<PeakMetrics> {
     let geo = IsolationIndex::new(dem, georef);
     let maxp = max_prominence(tree);
     tree.peaks
         .iter()
         .map(|p| {
             let ks = p.key_saddle.and_then(|s| tree.saddles.get(s)).map(|s| {
-                geo.distance_bearing(p.col as usize, p.row as usize, s.col as usize, s.row as usize)
+                geo.distance_bearing(
+                    p.col as usize,
+                    p.row as usize,
+                    s.col as usize,
+                    s.row as usize,
+                )
             });
             PeakMetrics {
                 line_parent: None,
@@ -299,7 +318,8 @@ pub struct Nni {
 /// distance 0. None with fewer than 2 points or a non-positive area.
 pub fn nearest_neighbor_index(points: &[(f64, f64)], area: f64, perimeter: f64) -> Option<Nni> {
     let n = points.len();
-    if n < 2 || !(area > 0.0) || !area.is_finite() {
+    let usable = area > 0.0 && area.is_finite();
+    if n < 2 || !usable {
         return None;
     }
     let nn = nearest_distances(points);

@@ -23,13 +23,13 @@
 //! Kruskal sweep on the small contracted graph; seams that become interior are
 //! then contracted away, so summaries stay O(boundary + open peaks).
 
+pub mod classify;
 mod isolation;
 mod links;
 pub mod metrics;
-pub mod stats;
-pub mod classify;
-pub mod ridges;
 mod regions;
+pub mod ridges;
+pub mod stats;
 mod tree;
 mod write;
 

@@ -84,7 +84,11 @@ pub struct RidgeNetwork {
 }
 
 /// Ridges of `tree` (built from `dem`, possibly pruned): see the module doc.
-pub fn divide_tree_ridges(tree: &DivideTree, dem: &Grid<f32>, georef: &GeoRef) -> Result<RidgeNetwork> {
+pub fn divide_tree_ridges(
+    tree: &DivideTree,
+    dem: &Grid<f32>,
+    georef: &GeoRef,
+) -> Result<RidgeNetwork> {
     let links = Links::new(dem)?;
     check_dims(tree, links.reg.width, links.reg.height)?;
     let idx = tree_index(tree, &links);
@@ -193,11 +197,16 @@ fn forest(n: usize, edges: &[(usize, usize, f64)]) -> Result<Vec<Vec<(usize, usi
     }
     for (i, &(a, b, _)) in edges.iter().enumerate() {
         if a >= n || b >= n {
-            return Err(Error::invalid(format!("ridge edge {i} names node {} of {n}", a.max(b))));
+            return Err(Error::invalid(format!(
+                "ridge edge {i} names node {} of {n}",
+                a.max(b)
+            )));
         }
         let (ra, rb) = (find(&mut uf, a), find(&mut uf, b));
         if ra == rb {
-            return Err(Error::invalid(format!("ridge edges form a cycle at edge {i}")));
+            return Err(Error::invalid(format!(
+                "ridge edges form a cycle at edge {i}"
+            )));
         }
         uf[ra] = rb;
         adj[a].push((b, i));
@@ -207,7 +216,11 @@ fn forest(n: usize, edges: &[(usize, usize, f64)]) -> Result<Vec<Vec<(usize, usi
 }
 
 /// BFS order from `root` with parent edge per node (usize::MAX for root).
-fn bfs(adj: &[Vec<(usize, usize)>], root: usize, seen: &mut [bool]) -> (Vec<usize>, Vec<(usize, usize)>) {
+fn bfs(
+    adj: &[Vec<(usize, usize)>],
+    root: usize,
+    seen: &mut [bool],
+) -> (Vec<usize>, Vec<(usize, usize)>) {
     let mut order = vec![root];
     let mut par = HashMap::new();
     seen[root] = true;
@@ -551,7 +564,13 @@ pub fn ppa_ridges(dem: &Grid<f32>, opts: &PpaOptions) -> Result<Grid<u8>> {
     // 4. Branch reduction on each tree rooted at an end of its longest path.
     let levels = longest_path_levels(cells.len(), &tree_edges)?;
     let mut keep_edge = vec![true; tree_edges.len()];
-    prune_branches(cells.len(), &tree_edges, &levels, opts.min_branch, &mut keep_edge)?;
+    prune_branches(
+        cells.len(),
+        &tree_edges,
+        &levels,
+        opts.min_branch,
+        &mut keep_edge,
+    )?;
     let mut out = Grid::new(w, h, 0u8);
     for (e, &(a, b, _)) in tree_edges.iter().enumerate() {
         if keep_edge[e] {

@@ -100,9 +100,11 @@ pub fn bin_of(edges: &[f64], v: f64) -> Option<usize> {
 
 /// Sector 0..8 of a bearing (degrees from north): 0 = N (337.5°–22.5°), 1 = NE, ...
 pub fn sector(bearing_deg: f64) -> Option<f64> {
-    bearing_deg
-        .is_finite()
-        .then(|| (((bearing_deg + 22.5).rem_euclid(360.0)) / 45.0).floor().min(7.0))
+    bearing_deg.is_finite().then(|| {
+        (((bearing_deg + 22.5).rem_euclid(360.0)) / 45.0)
+            .floor()
+            .min(7.0)
+    })
 }
 
 /// Column names of a feature vector: `name:lo-hi` per bin (the bin [lo, hi)), then [`SCALARS`].
@@ -161,7 +163,8 @@ pub fn poisson_disc(
     max_points: usize,
 ) -> Vec<(f64, f64)> {
     const K: usize = 30;
-    if !(r > 0.0) || !(x1 >= x0) || !(y1 >= y0) || max_points == 0 || !r.is_finite() {
+    let usable = r > 0.0 && r.is_finite() && x1 >= x0 && y1 >= y0 && max_points > 0;
+    if !usable {
         return Vec::new();
     }
     let cs = r / std::f64::consts::SQRT_2;
@@ -295,7 +298,13 @@ impl Histogram {
         Histogram {
             edges: edges
                 .iter()
-                .map(|&e| if e.is_finite() { e } else { f64::MAX.copysign(e) })
+                .map(|&e| {
+                    if e.is_finite() {
+                        e
+                    } else {
+                        f64::MAX.copysign(e)
+                    }
+                })
                 .collect(),
             p: counts
                 .iter()
@@ -401,7 +410,12 @@ pub fn orostats(
         .map(|p| {
             let (x, y) = frame.xy(p.col as f64, p.row as f64);
             let ks = p.key_saddle.and_then(|s| tree.saddles.get(s)).map(|s| {
-                geo.distance_bearing(p.col as usize, p.row as usize, s.col as usize, s.row as usize)
+                geo.distance_bearing(
+                    p.col as usize,
+                    p.row as usize,
+                    s.col as usize,
+                    s.row as usize,
+                )
             });
             PeakRec {
                 x,
@@ -486,9 +500,13 @@ pub fn orostats(
         let area_km2 = std::f64::consts::PI * r * r / 1e6 * valid as f64 / total as f64;
         values.push(inside.len() as f64 / area_km2 * 100.0);
         let pts: Vec<(f64, f64)> = inside.iter().map(|p| (p.x, p.y)).collect();
-        let nni = nearest_neighbor_index(&pts, std::f64::consts::PI * r * r, std::f64::consts::TAU * r)
-            .map(|n| n.ratio_corrected)
-            .unwrap_or(0.0);
+        let nni = nearest_neighbor_index(
+            &pts,
+            std::f64::consts::PI * r * r,
+            std::f64::consts::TAU * r,
+        )
+        .map(|n| n.ratio_corrected)
+        .unwrap_or(0.0);
         values.push(nni);
         disks.push(DiskFeatures {
             label: label.to_string(),
@@ -525,7 +543,9 @@ pub fn orostats(
     }
     let nbe = 20;
     let span = (dzmax - dzmin).max(1e-9);
-    let edges: Vec<f64> = (0..=nbe).map(|i| dzmin + span * i as f64 / nbe as f64).collect();
+    let edges: Vec<f64> = (0..=nbe)
+        .map(|i| dzmin + span * i as f64 / nbe as f64)
+        .collect();
     let mut ec = vec![0.0; nbe];
     for p in &recs {
         if let Some(b) = bin_of(&edges, p.elevation) {
@@ -583,7 +603,13 @@ fn disk_counts(inside: &[&PeakRec], zmin: f64, zmax: f64, nh: usize) -> Vec<f64>
             p.iso_dir,
             p.saddle_km,
             p.saddle_dir,
-            Some(metrics::relevance(p.prominence, maxp, p.elevation, zmin, zmax)),
+            Some(metrics::relevance(
+                p.prominence,
+                maxp,
+                p.elevation,
+                zmin,
+                zmax,
+            )),
         ];
         let mut off = 0;
         for (f, v) in FEATURES.iter().zip(vals) {
@@ -627,17 +653,28 @@ impl OroProfile {
         }
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
         let p: OroProfile = serde_json::from_str(&text).map_err(|e| {
-            Error::corrupt(path, format!("not an orometry profile written by orogen: {e}"))
+            Error::corrupt(
+                path,
+                format!("not an orometry profile written by orogen: {e}"),
+            )
         })?;
         if p.format != "orogen-oroprofile" || p.version != 1 {
             return Err(Error::unsupported(
                 path,
-                format!("profile format {:?} version {}; expected orogen-oroprofile 1", p.format, p.version),
+                format!(
+                    "profile format {:?} version {}; expected orogen-oroprofile 1",
+                    p.format, p.version
+                ),
             ));
         }
         for hst in p.histograms.values().chain([&p.elevation]) {
-            if hst.edges.len() != hst.p.len() + 1 || hst.p.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
-                return Err(Error::corrupt(path, "a histogram has inconsistent edges or invalid probabilities"));
+            if hst.edges.len() != hst.p.len() + 1
+                || hst.p.iter().any(|v| !(v.is_finite() && *v >= 0.0))
+            {
+                return Err(Error::corrupt(
+                    path,
+                    "a histogram has inconsistent edges or invalid probabilities",
+                ));
             }
         }
         Ok(p)
@@ -695,7 +732,13 @@ pub fn write_features_csv(path: &Path, disks: &[DiskFeatures]) -> Result<()> {
 /// simple CSV: they are replaced by '_'.
 fn csv_field(s: &str) -> String {
     s.chars()
-        .map(|c| if matches!(c, ',' | '"' | '\n' | '\r') { '_' } else { c })
+        .map(|c| {
+            if matches!(c, ',' | '"' | '\n' | '\r') {
+                '_'
+            } else {
+                c
+            }
+        })
         .collect()
 }
 

@@ -73,7 +73,9 @@ pub fn write_peaks_csv_with(
             p.row,
             p.parent.map(|q| q.to_string()).unwrap_or_default(),
             pm.line_parent.map(|q| q.to_string()).unwrap_or_default(),
-            pm.dominance_group.map(|q| q.to_string()).unwrap_or_default(),
+            pm.dominance_group
+                .map(|q| q.to_string())
+                .unwrap_or_default(),
             opt(pm.key_saddle_distance_m.map(|d| d / 1000.0)),
             opt(pm.key_saddle_bearing_deg),
             opt(p.isolation.map(|i| i.bearing_deg)),
