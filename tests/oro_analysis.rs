@@ -870,3 +870,46 @@ fn peaks_csv_and_geojson_carry_the_new_columns() {
         Some("")
     );
 }
+
+#[test]
+fn line_parents_on_a_real_dem_are_higher_ridge_neighbours() {
+    // bigtujunga_crop (SRTM 30 m, sea-level convention): every line parent is
+    // at least as high as its peak, and no higher than the prominence parent's
+    // component allows (the prominence parent is the highest of that component).
+    let src = orogen::io::open_raster(
+        std::path::Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/tests/data/bigtujunga_crop.tif"
+        )),
+        &Default::default(),
+    )
+    .unwrap();
+    let info = src.info().clone();
+    let g = orogen::raster::read_window::<f32>(
+        src.as_ref(),
+        orogen::raster::Window::full(info.width, info.height),
+    )
+    .unwrap();
+    let tree = oro::divide_tree(&g, EdgeConvention::SeaLevel)
+        .unwrap()
+        .pruned(20.0);
+    let lp = metrics::line_parents(&tree, &g).unwrap();
+    let mut n = 0;
+    for (i, p) in tree.peaks.iter().enumerate() {
+        match (p.key_saddle, lp[i]) {
+            (Some(_), Some(q)) => {
+                let (pe, qe) = (p.elevation, tree.peaks[q].elevation);
+                assert!(qe >= pe, "peak {i}: line parent lower");
+                let pp = p.parent.unwrap();
+                assert!(
+                    tree.peaks[pp].elevation >= qe,
+                    "peak {i}: line parent above the prominence parent"
+                );
+                n += 1;
+            }
+            (None, lp) => assert_eq!(lp, None),
+            (Some(_), None) => panic!("peak {i} has a key saddle but no line parent"),
+        }
+    }
+    assert!(n > 10, "{n}");
+}
