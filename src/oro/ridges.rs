@@ -215,32 +215,50 @@ fn forest(n: usize, edges: &[(usize, usize, f64)]) -> Result<Vec<Vec<(usize, usi
     Ok(adj)
 }
 
-/// BFS order from `root` with parent edge per node (usize::MAX for root).
-fn bfs(
-    adj: &[Vec<(usize, usize)>],
-    root: usize,
-    seen: &mut [bool],
-) -> (Vec<usize>, Vec<(usize, usize)>) {
-    let mut order = vec![root];
-    let mut par = HashMap::new();
-    seen[root] = true;
-    let mut i = 0;
-    while i < order.len() {
-        let u = order[i];
-        i += 1;
-        for &(v, e) in &adj[u] {
-            if !seen[v] {
-                seen[v] = true;
-                par.insert(v, (u, e));
-                order.push(v);
-            }
+/// Scratch for repeated BFS over the components of one forest: visit
+/// stamps instead of clearing, so each component costs only its own size.
+struct Walk {
+    stamp: Vec<u32>,
+    cur: u32,
+    /// Position of each node in the order of the latest BFS that reached it.
+    pos: Vec<usize>,
+}
+
+impl Walk {
+    fn new(n: usize) -> Walk {
+        Walk {
+            stamp: vec![0; n],
+            cur: 0,
+            pos: vec![0; n],
         }
     }
-    let parents = order
-        .iter()
-        .map(|v| par.get(v).copied().unwrap_or((usize::MAX, usize::MAX)))
-        .collect();
-    (order, parents)
+
+    /// BFS order from `root` with each node's (parent, edge) (usize::MAX for root).
+    fn bfs(
+        &mut self,
+        adj: &[Vec<(usize, usize)>],
+        root: usize,
+    ) -> (Vec<usize>, Vec<(usize, usize)>) {
+        self.cur += 1;
+        let mut order = vec![root];
+        let mut parents = vec![(usize::MAX, usize::MAX)];
+        self.stamp[root] = self.cur;
+        self.pos[root] = 0;
+        let mut i = 0;
+        while i < order.len() {
+            let u = order[i];
+            i += 1;
+            for &(v, e) in &adj[u] {
+                if self.stamp[v] != self.cur {
+                    self.stamp[v] = self.cur;
+                    self.pos[v] = order.len();
+                    order.push(v);
+                    parents.push((u, e));
+                }
+            }
+        }
+        (order, parents)
+    }
 }
 
 /// Longest-path level of every edge of a forest (edges `(a, b, length)`):
@@ -251,36 +269,35 @@ pub fn longest_path_levels(n: usize, edges: &[(usize, usize, f64)]) -> Result<Ve
     let adj = forest(n, edges)?;
     let mut level = vec![0u32; edges.len()];
     let mut seen = vec![false; n];
+    let mut walk = Walk::new(n);
     for start in 0..n {
         if seen[start] || adj[start].is_empty() {
             continue;
         }
         // One end of the longest path: the farthest node from `start`.
-        let far = |root: usize, seen: &mut [bool]| {
-            let (order, parents) = bfs(&adj, root, seen);
-            let mut dist: HashMap<usize, f64> = HashMap::new();
-            dist.insert(root, 0.0);
-            let mut best = (0.0, root);
-            for (k, &v) in order.iter().enumerate().skip(1) {
-                let (p, e) = parents[k];
-                let d = dist[&p] + edges[e].2;
-                dist.insert(v, d);
-                if d > best.0 || (d == best.0 && v < best.1) {
-                    best = (d, v);
-                }
+        let (order, parents) = walk.bfs(&adj, start);
+        let mut dist = vec![0.0f64; order.len()];
+        let mut best = (0.0, start);
+        for (k, &v) in order.iter().enumerate().skip(1) {
+            let (p, e) = parents[k];
+            let d = dist[walk.pos[p]] + edges[e].2;
+            dist[k] = d;
+            if d > best.0 || (d == best.0 && v < best.1) {
+                best = (d, v);
             }
-            best.1
-        };
-        let mut tmp = seen.clone();
-        let end = far(start, &mut tmp);
+        }
+        let end = best.1;
         // Root at that end; height = longest path down to a leaf.
-        let (order, parents) = bfs(&adj, end, &mut seen);
-        let pos: HashMap<usize, usize> = order.iter().enumerate().map(|(k, &v)| (v, k)).collect();
+        let (order, parents) = walk.bfs(&adj, end);
+        for &v in &order {
+            seen[v] = true;
+        }
+        let pos = &walk.pos;
         let mut height = vec![0.0f64; order.len()];
         let mut best_child = vec![usize::MAX; order.len()]; // position of child on the longest path
         for k in (1..order.len()).rev() {
             let (p, e) = parents[k];
-            let pk = pos[&p];
+            let pk = pos[p];
             let hk = height[k] + edges[e].2;
             let bc = best_child[pk];
             if bc == usize::MAX || hk > height[pk] || (hk == height[pk] && order[k] < order[bc]) {
@@ -292,7 +309,7 @@ pub fn longest_path_levels(n: usize, edges: &[(usize, usize, f64)]) -> Result<Ve
         let mut node_level = vec![1u32; order.len()];
         for k in 1..order.len() {
             let (p, e) = parents[k];
-            let pk = pos[&p];
+            let pk = pos[p];
             let l = if best_child[pk] == k {
                 node_level[pk]
             } else {
@@ -312,18 +329,21 @@ pub fn strahler_orders(n: usize, edges: &[(usize, usize, f64)], elev: &[f64]) ->
     let adj = forest(n, edges)?;
     let mut order_e = vec![0u32; edges.len()];
     let mut seen = vec![false; n];
+    let mut walk = Walk::new(n);
     for start in 0..n {
         if seen[start] || adj[start].is_empty() {
             continue;
         }
-        let mut tmp = seen.clone();
-        let (comp, _) = bfs(&adj, start, &mut tmp);
+        let (comp, _) = walk.bfs(&adj, start);
         let root = *comp
             .iter()
             .max_by(|&&a, &&b| elev[a].total_cmp(&elev[b]).then(b.cmp(&a)))
             .expect("non-empty");
-        let (order, parents) = bfs(&adj, root, &mut seen);
-        let pos: HashMap<usize, usize> = order.iter().enumerate().map(|(k, &v)| (v, k)).collect();
+        let (order, parents) = walk.bfs(&adj, root);
+        for &v in &order {
+            seen[v] = true;
+        }
+        let pos = &walk.pos;
         let mut max_child = vec![0u32; order.len()];
         let mut count_max = vec![0u32; order.len()];
         let mut node_order = vec![0u32; order.len()];
@@ -338,7 +358,7 @@ pub fn strahler_orders(n: usize, edges: &[(usize, usize, f64)], elev: &[f64]) ->
             if k > 0 {
                 let (p, e) = parents[k];
                 order_e[e] = node_order[k];
-                let pk = pos[&p];
+                let pk = pos[p];
                 if node_order[k] > max_child[pk] {
                     max_child[pk] = node_order[k];
                     count_max[pk] = 1;
@@ -540,9 +560,9 @@ pub fn ppa_ridges(dem: &Grid<f32>, opts: &PpaOptions) -> Result<Grid<u8>> {
         }
         x
     }
-    let mut adj: HashMap<u32, Vec<u32>> = HashMap::new();
     let mut tree_edges: Vec<(usize, usize, f64)> = Vec::new();
-    let mut id: HashMap<u32, usize> = HashMap::new();
+    // Node id of each candidate cell in the forest (u32::MAX: not in it).
+    let mut id: Vec<u32> = vec![u32::MAX; n];
     let mut cells: Vec<u32> = Vec::new();
     for &(_, a, b) in &segs {
         let (ra, rb) = (find(&mut uf, a), find(&mut uf, b));
@@ -550,17 +570,17 @@ pub fn ppa_ridges(dem: &Grid<f32>, opts: &PpaOptions) -> Result<Grid<u8>> {
             continue;
         }
         uf[ra as usize] = rb;
-        adj.entry(a).or_default().push(b);
-        adj.entry(b).or_default().push(a);
         for c in [a, b] {
-            id.entry(c).or_insert_with(|| {
+            if id[c as usize] == u32::MAX {
+                id[c as usize] = cells.len() as u32;
                 cells.push(c);
-                cells.len() - 1
-            });
+            }
         }
-        tree_edges.push((id[&a], id[&b], 1.0));
+        tree_edges.push((id[a as usize] as usize, id[b as usize] as usize, 1.0));
     }
     drop(segs);
+    drop(uf);
+    drop(id);
     // 4. Branch reduction on each tree rooted at an end of its longest path.
     let levels = longest_path_levels(cells.len(), &tree_edges)?;
     let mut keep_edge = vec![true; tree_edges.len()];
@@ -596,29 +616,29 @@ fn prune_branches(
 ) -> Result<()> {
     let adj = forest(n, edges)?;
     let mut seen = vec![false; n];
+    let mut walk = Walk::new(n);
     for start in 0..n {
         if seen[start] || adj[start].is_empty() {
             continue;
         }
         // Root at a node on a level-1 edge that is a path end (degree 1 in level-1 edges).
-        let mut tmp = seen.clone();
-        let (comp, _) = bfs(&adj, start, &mut tmp);
+        let (comp, _) = walk.bfs(&adj, start);
         let root = comp
             .iter()
             .copied()
-            .find(|&v| {
-                let l1: Vec<_> = adj[v].iter().filter(|&&(_, e)| levels[e] == 1).collect();
-                l1.len() == 1
-            })
+            .find(|&v| adj[v].iter().filter(|&&(_, e)| levels[e] == 1).count() == 1)
             .unwrap_or(start);
-        let (order, parents) = bfs(&adj, root, &mut seen);
-        let pos: HashMap<usize, usize> = order.iter().enumerate().map(|(k, &v)| (v, k)).collect();
+        let (order, parents) = walk.bfs(&adj, root);
+        for &v in &order {
+            seen[v] = true;
+        }
+        let pos = &walk.pos;
         // Branch length: the run of same-level edges starting below a level change.
         // Compute for each node the longest same-level chain below it.
         let mut chain = vec![0usize; order.len()];
         for k in (1..order.len()).rev() {
             let (p, e) = parents[k];
-            let pk = pos[&p];
+            let pk = pos[p];
             // Continue a chain only along edges of the same level as the parent's incoming edge.
             let below = chain[k] + 1;
             let pe_level = if pk == 0 { 1 } else { levels[parents[pk].1] };
@@ -640,7 +660,7 @@ fn prune_branches(
         }
         for k in 1..order.len() {
             let (p, e) = parents[k];
-            let pk = pos[&p];
+            let pk = pos[p];
             let pe_level = if pk == 0 { 1 } else { levels[parents[pk].1] };
             let starts_branch = levels[e] != pe_level;
             let ok = node_kept[pk] && (!starts_branch || chain[k] + 1 >= min_len);
