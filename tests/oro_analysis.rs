@@ -913,3 +913,9 @@ fn line_parents_on_a_real_dem_are_higher_ridge_neighbours() {
     }
     assert!(n > 10, "{n}");
 }
+
+#[test]
+fn poisson_disc_refuses_absurd_grids() {
+    // 1e6 x 1e6 with r = 1: 2e12 background cells; no allocation, no points.
+    assert!(stats::poisson_disc(0.0, 0.0, 1e6, 1e6, 1.0, 1, 10).is_empty());
+}

@@ -168,10 +168,14 @@ pub fn poisson_disc(
         return Vec::new();
     }
     let cs = r / std::f64::consts::SQRT_2;
-    let gw = (((x1 - x0) / cs).floor() as usize + 1).min(1 << 14);
-    let gh = (((y1 - y0) / cs).floor() as usize + 1).min(1 << 14);
-    if gw * gh > 1 << 24 {
-        // Too fine a grid for the domain: cap by thinning through max_points.
+    let (gwf, ghf) = (
+        ((x1 - x0) / cs).floor() + 1.0,
+        ((y1 - y0) / cs).floor() + 1.0,
+    );
+    let (gw, gh) = (gwf as usize, ghf as usize);
+    if gwf * ghf > (1u64 << 24) as f64 {
+        // Over 16 M background cells (r tiny against the domain): refuse
+        // rather than allocate; callers report "no disk".
         return Vec::new();
     }
     let mut grid = vec![u32::MAX; gw * gh];
@@ -460,6 +464,14 @@ pub fn orostats(
         opts.seed,
         opts.max_disks,
     );
+    if centres.is_empty() {
+        return Err(Error::invalid(format!(
+            "orostats: a separation of {} m is too small for a {:.0} x {:.0} m DEM (over 16 M sampler cells); give a larger separation or radius",
+            opts.separation_m,
+            x1 - x0,
+            y1 - y0
+        )));
+    }
     let nh: usize = FEATURES.iter().map(|f| f.edges.len() - 1).sum();
     let mut disks = Vec::new();
     for (cx, cy) in centres {
