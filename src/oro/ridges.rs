@@ -487,7 +487,7 @@ impl Default for PpaOptions {
 }
 
 /// Bytes of working memory per cell of [`ppa_ridges`] (edge list and forest).
-pub const PPA_BYTES_PER_CELL: u64 = 80;
+pub const PPA_BYTES_PER_CELL: u64 = 100;
 
 /// PPA ridge cells of `dem` (NaN = nodata): 1 ridge, 0 not (see module doc).
 pub fn ppa_ridges(dem: &Grid<f32>, opts: &PpaOptions) -> Result<Grid<u8>> {
