@@ -247,6 +247,21 @@ enum Cmd {
         #[command(flatten)]
         run: Run,
     },
+    /// Orometric feature vectors over blue-noise disks (Argudo et al. 2019, Table 1) and a region profile.
+    #[command(
+        after_help = "Example:\n  orogen orostats ../shared/data/srtm3_N46E008.tif -R 10km --label alps -o alps.csv --profile alps.json\nOne feature vector per disk: histograms of normalised elevation, prominence, relative prominence,\ndominance, Jurgalski dominance groups, isolation and key-saddle distance and direction, relevance;\npeak density and nearest-neighbour index. Runs in memory (about 40 bytes per cell)."
+    )]
+    Orostats(cli::oro::OrostatsArgs),
+    /// Region classifier: random forest over `orostats` feature vectors (train, predict, evaluate).
+    #[command(
+        after_help = "Examples:\n  orogen classify evaluate alps.csv andes.csv poland.csv --repeats 10 -o confusion.csv\n  orogen classify train alps.csv andes.csv -o model.json\n  orogen classify predict model.json unknown.csv"
+    )]
+    Classify(cli::oro::ClassifyArgs),
+    /// Ridge networks: divide-tree ridges with hierarchy levels and orders, and PPA ridges.
+    #[command(
+        after_help = "Example:\n  orogen ridges ../shared/data/srtm3_S33W071.tif --min-prominence 100 -o ridges/\nWrites ridges.geojson (steepest-ascent paths saddle -> peak, with longest-path level and\nStrahler order), ridge_levels.tif, ridge_orders.tif (0 = no ridge) and ppa_ridges.tif\n(Chang et al. 1998 profile recognition + maximum spanning tree, 1 = ridge). Runs in memory."
+    )]
+    Ridges(cli::oro::RidgesArgs),
     /// Fill depressions (Priority-Flood; exact across tiles after Barnes 2016).
     #[command(
         after_help = "Example:\n  orogen fill dem.tif -o filled.tif\n  orogen fill poland.tiles -o filled.tiles --memory 512MiB\nNodata cells and the DEM's edge are outlets."
@@ -711,6 +726,9 @@ fn run(cli: Cli) -> Result<()> {
                 wrote(f);
             }
         }
+        Cmd::Orostats(a) => cli::oro::run_orostats(a)?,
+        Cmd::Classify(a) => cli::oro::run_classify(a)?,
+        Cmd::Ridges(a) => cli::oro::run_ridges(a)?,
         Cmd::Fill { input, out, run } => {
             let src = open(&input)?;
             let ty = (DType::F32, Some(orogen::hydro::FILL_NODATA));

@@ -10,3 +10,4 @@ pub mod view;
 pub mod hydro_net;
 pub mod breach;
 pub mod viewshed;
+pub mod oro;

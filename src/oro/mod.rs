@@ -23,8 +23,13 @@
 //! Kruskal sweep on the small contracted graph; seams that become interior are
 //! then contracted away, so summaries stay O(boundary + open peaks).
 
+pub mod classify;
 mod isolation;
+mod links;
+pub mod metrics;
 mod regions;
+pub mod ridges;
+pub mod stats;
 mod tree;
 mod write;
 
@@ -33,6 +38,7 @@ pub use tree::{CriticalPoints, DivideTree, EdgeConvention, Isolation, Peak, Sadd
 pub use write::{
     write_divide_tree_geojson, write_peaks_csv, write_peaks_geojson, write_saddles_geojson,
 };
+pub use write::{write_peaks_csv_with, write_peaks_geojson_with, EXTRA_COLUMNS};
 
 use crate::error::{Error, Result};
 use crate::raster::{GeoRef, Grid};

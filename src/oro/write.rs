@@ -2,12 +2,14 @@
 //! Coordinates are cell centres in the DEM's CRS (longitude/latitude for
 //! geographic CRSs, as RFC 7946 GeoJSON expects; projected x/y otherwise).
 
+use super::metrics::{peak_metrics, peak_metrics_tree_only, PeakMetrics};
 use super::tree::DivideTree;
+use super::PeakList;
 use crate::error::{Error, Result};
-use crate::raster::GeoRef;
+use crate::raster::{GeoRef, Grid};
 use serde_json::{json, Value};
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 fn centre(g: &GeoRef, col: u32, row: u32) -> (f64, f64) {
     g.pixel_to_map(col as f64 + 0.5, row as f64 + 0.5)
@@ -22,15 +24,37 @@ fn opt(v: Option<f64>) -> String {
 /// isolation_km,dominance,col,row,parent` (`y,x,...,saddle_y,saddle_x` for
 /// projected CRSs); empty fields where there is no key saddle, isolation,
 /// dominance or parent. `parent` is the 0-based line number of the parent.
+/// Then the columns of [`PeakMetrics`] ([`EXTRA_COLUMNS`]): those that need the
+/// DEM (`line_parent`, `normalised_elevation`, `relevance`) are empty here;
+/// [`write_peaks_csv_with`] fills them.
 pub fn write_peaks_csv(path: &Path, tree: &DivideTree, georef: &GeoRef) -> Result<()> {
+    write_peaks_csv_with(path, tree, georef, &peak_metrics_tree_only(tree, georef))
+}
+
+/// Columns appended to peaks.csv after `parent`: line parent (0-based line
+/// number), Jurgalski dominance group (0 = D2 ... 7 = A1), key-saddle distance
+/// (km) and bearing (degrees from north), isolation bearing, normalised
+/// elevation, relative prominence, relevance (see [`super::metrics`]).
+pub const EXTRA_COLUMNS: &str = "line_parent,dominance_group,key_saddle_km,key_saddle_bearing,isolation_bearing,normalised_elevation,relative_prominence,relevance";
+
+/// peaks.csv with the metrics `m` (one per peak, from [`peak_metrics`]).
+pub fn write_peaks_csv_with(
+    path: &Path,
+    tree: &DivideTree,
+    georef: &GeoRef,
+    m: &[PeakMetrics],
+) -> Result<()> {
+    check_len(tree, m)?;
     let geo = georef.georeferenced && georef.crs.geographic;
     let mut out = String::new();
     out.push_str(if geo {
-        "lat,lon,elevation,prominence,saddle_lat,saddle_lon,saddle_elevation,isolation_km,dominance,col,row,parent\n"
+        "lat,lon,elevation,prominence,saddle_lat,saddle_lon,saddle_elevation,isolation_km,dominance,col,row,parent,"
     } else {
-        "y,x,elevation,prominence,saddle_y,saddle_x,saddle_elevation,isolation_km,dominance,col,row,parent\n"
+        "y,x,elevation,prominence,saddle_y,saddle_x,saddle_elevation,isolation_km,dominance,col,row,parent,"
     });
-    for p in &tree.peaks {
+    out.push_str(EXTRA_COLUMNS);
+    out.push('\n');
+    for (p, pm) in tree.peaks.iter().zip(m) {
         let (x, y) = centre(georef, p.col, p.row);
         let (sy, sx, se) = match p.key_saddle.and_then(|s| tree.saddles.get(s)) {
             Some(s) => {
@@ -40,17 +64,51 @@ pub fn write_peaks_csv(path: &Path, tree: &DivideTree, georef: &GeoRef) -> Resul
             None => (String::new(), String::new(), String::new()),
         };
         out.push_str(&format!(
-            "{y},{x},{},{},{sy},{sx},{se},{},{},{},{},{}\n",
+            "{y},{x},{},{},{sy},{sx},{se},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             p.elevation,
             p.prominence,
             opt(p.isolation.map(|i| i.distance_m / 1000.0)),
             opt(p.dominance()),
             p.col,
             p.row,
-            p.parent.map(|q| q.to_string()).unwrap_or_default()
+            p.parent.map(|q| q.to_string()).unwrap_or_default(),
+            pm.line_parent.map(|q| q.to_string()).unwrap_or_default(),
+            pm.dominance_group
+                .map(|q| q.to_string())
+                .unwrap_or_default(),
+            opt(pm.key_saddle_distance_m.map(|d| d / 1000.0)),
+            opt(pm.key_saddle_bearing_deg),
+            opt(p.isolation.map(|i| i.bearing_deg)),
+            opt(pm.normalised_elevation),
+            pm.relative_prominence,
+            opt(pm.relevance),
         ));
     }
     write(path, out.as_bytes())
+}
+
+fn check_len(tree: &DivideTree, m: &[PeakMetrics]) -> Result<()> {
+    if m.len() != tree.peaks.len() {
+        return Err(Error::invalid(format!(
+            "peak metrics: {} values for {} peaks; compute them from this tree",
+            m.len(),
+            tree.peaks.len()
+        )));
+    }
+    Ok(())
+}
+
+impl PeakList {
+    /// Like [`PeakList::write_all`], with the DEM the list was computed from,
+    /// so that peaks.csv and peaks.geojson also carry line parents,
+    /// normalised elevation and relevance.
+    pub fn write_all_with_dem(&self, dir: &Path, dem: &Grid<f32>) -> Result<Vec<PathBuf>> {
+        let files = self.write_all(dir)?;
+        let m = peak_metrics(&self.tree, dem, &self.georef)?;
+        write_peaks_csv_with(&files[0], &self.tree, &self.georef, &m)?;
+        write_peaks_geojson_with(&files[1], &self.tree, &self.georef, &m)?;
+        Ok(files)
+    }
 }
 
 fn write(path: &Path, bytes: &[u8]) -> Result<()> {
@@ -72,13 +130,26 @@ fn num(v: f64) -> Value {
 }
 
 /// peaks.geojson: Points with elevation, prominence, key saddle elevation,
-/// isolation (km), dominance, parent index.
+/// isolation (km), dominance, parent index, and the tree-only metrics of
+/// [`EXTRA_COLUMNS`] (see [`write_peaks_geojson_with`] for all of them).
 pub fn write_peaks_geojson(path: &Path, tree: &DivideTree, georef: &GeoRef) -> Result<()> {
+    write_peaks_geojson_with(path, tree, georef, &peak_metrics_tree_only(tree, georef))
+}
+
+/// peaks.geojson with the metrics `m` (one per peak) as extra properties.
+pub fn write_peaks_geojson_with(
+    path: &Path,
+    tree: &DivideTree,
+    georef: &GeoRef,
+    m: &[PeakMetrics],
+) -> Result<()> {
+    check_len(tree, m)?;
     let feats = tree
         .peaks
         .iter()
+        .zip(m)
         .enumerate()
-        .map(|(i, p)| {
+        .map(|(i, (p, pm))| {
             let (x, y) = centre(georef, p.col, p.row);
             json!({
                 "type": "Feature",
@@ -93,6 +164,14 @@ pub fn write_peaks_geojson(path: &Path, tree: &DivideTree, georef: &GeoRef) -> R
                     "parent": p.parent,
                     "col": p.col,
                     "row": p.row,
+                    "line_parent": pm.line_parent,
+                    "dominance_group": pm.dominance_group,
+                    "key_saddle_km": pm.key_saddle_distance_m.map(|d| num(d / 1000.0)),
+                    "key_saddle_bearing": pm.key_saddle_bearing_deg.map(num),
+                    "isolation_bearing": p.isolation.map(|s| num(s.bearing_deg)),
+                    "normalised_elevation": pm.normalised_elevation.map(num),
+                    "relative_prominence": num(pm.relative_prominence),
+                    "relevance": pm.relevance.map(num),
                 }
             })
         })
