@@ -57,6 +57,15 @@ pub enum MetricKind {
     GeomorphonCanonical,
     WeissLandform,
     DikauForm,
+    // more descriptors
+    DirectionalSlope,
+    AverageSlope,
+    FractionalLaplacian,
+    HillslopeAsymmetry,
+    SharyLandform,
+    Ors,
+    Jut,
+    Rut,
 }
 
 /// What a metric's parameters are.
@@ -74,6 +83,11 @@ pub enum ParamKind {
     Radius2,
     /// A non-negative number (threshold in the metric's units).
     Threshold,
+    // more descriptors
+    /// An azimuth in degrees clockwise from north (any finite value, taken mod 360).
+    Azimuth,
+    /// An exponent strictly between 0 and 1 (the fractional Laplacian's s).
+    Exponent,
 }
 
 /// One parameter of a metric, as the registry describes it.
@@ -178,6 +192,39 @@ const CURV_T: ParamDef = ParamDef {
     kind: ParamKind::Threshold,
     default: "0.0016667",
     range: "|curvature| (1/m, >= 0) counted as straight; default 1/600 m",
+};
+
+// more descriptors
+const AZIMUTH: ParamDef = ParamDef {
+    name: "azimuth",
+    kind: ParamKind::Azimuth,
+    default: "0",
+    range: "degrees clockwise from north, any finite number (taken mod 360)",
+};
+const RADIUS_CUTOFF: ParamDef = ParamDef {
+    name: "radius",
+    kind: ParamKind::Radius,
+    default: "10c",
+    range: "1c..=2000c, or a length in m/km (> 0); the disk cutoff (O(r²) per cell)",
+};
+const EXPONENT: ParamDef = ParamDef {
+    name: "s",
+    kind: ParamKind::Exponent,
+    default: "0.5",
+    range: "fractional order s, 0 < s < 1",
+};
+const TOLERANCE: ParamDef = ParamDef {
+    name: "tolerance",
+    kind: ParamKind::Threshold,
+    default: "45",
+    range:
+        "half-width in degrees (0 < t <= 90) of the aspect sectors around azimuth and azimuth+180",
+};
+const SHARY_T: ParamDef = ParamDef {
+    name: "threshold",
+    kind: ParamKind::Threshold,
+    default: "0",
+    range: "|curvature| (1/m, >= 0; 1/m^2 squared for K) counted as zero: such cells are class 0",
 };
 
 const HORN: &str = "Horn 1981, Proc. IEEE 69(1) (3x3 weighted gradient)";
@@ -511,6 +558,71 @@ pub const METRICS: &[MetricDef] = &[
         "Dikau form 3p+q+1 from profile (p) and plan (q) curvature: 0 concave, 1 straight, 2 convex",
         "Dikau 1989 (in Raper, 3D applications in GIS); curvatures of Evans/Wood as profile_curvature/plan_curvature"
     ),
+    // more descriptors
+    def!(
+        DirectionalSlope,
+        "directional_slope",
+        &[AZIMUTH],
+        "z/m",
+        "slope along an azimuth: grad z . (sin a, cos a), positive uphill (Horn gradient)",
+        "directional derivative (Argudo et al. survey sec. 3.1); Horn 1981 gradient"
+    ),
+    def!(
+        AverageSlope,
+        "average_slope",
+        &[RADIUS],
+        "degrees",
+        "mean Horn slope angle of the valid cells of the square window (exact SAT)",
+        "average slope (Argudo et al. survey sec. 3.1); summed-area tables, Crow 1984"
+    ),
+    def!(
+        FractionalLaplacian,
+        "fractional_laplacian",
+        &[RADIUS_CUTOFF, EXPONENT],
+        "z/m^2s",
+        "(-Laplacian)^s z = C(s) sum over 0<|y|<=R of (z(x)-z(x+y))/|y|^(2+2s) * cell area (disk cutoff)",
+        "integral form, Di Nezza, Palatucci & Valdinoci 2012, Bull. Sci. Math. 136(5), eq. 3.1; C(s) of their eq. 3.2 for n = 2"
+    ),
+    def!(
+        HillslopeAsymmetry,
+        "hillslope_asymmetry",
+        &[RADIUS, AZIMUTH, TOLERANCE],
+        "log10 ratio",
+        "log10(mean gradient of cells facing azimuth / mean gradient of cells facing azimuth+180) in the square window; cells under 5% gradient left out",
+        "Poulos, Pierce, Flores & Benner 2012, GRL 39 L06406 (medians there; means as in the Argudo et al. survey code)"
+    ),
+    def!(
+        SharyLandform,
+        "shary_landform",
+        &[RADIUS_QUADRIC, SHARY_T],
+        "class 0..12",
+        "Shary's 12 types from the signs of K, H, kh (tangential) and kv (profile): see metrics::shary; 0 where one is zero",
+        "Shary 1995, Mathematical Geology 27(3); Shary, Sharaya & Mitusov 2002, Geoderma 107; curvatures of Evans/Wood"
+    ),
+    def!(
+        Ors,
+        "ors",
+        &[RADIUS_CUTOFF],
+        "z",
+        "omni-directional relief and steepness sqrt(sum over lower cells in the disk of f(drop/distance) * cell area)",
+        "Earl & Metzler 2015, Quaestiones Geographicae 34(4) (ORS); disk cutoff"
+    ),
+    def!(
+        Jut,
+        "jut",
+        &[RADIUS_CUTOFF],
+        "z",
+        "max over the disk of the angle-reduced height dz*|dz|/d3 of the cell above others (planar, >= 0)",
+        "Xu 2022, Datumless topography (arXiv 2208.01600), planar form; disk cutoff"
+    ),
+    def!(
+        Rut,
+        "rut",
+        &[RADIUS_CUTOFF],
+        "z",
+        "max over the disk of the angle-reduced height dz*|dz|/d3 of others above the cell (planar, >= 0)",
+        "Xu 2022, Datumless topography (arXiv 2208.01600), planar form; disk cutoff"
+    ),
 ];
 
 /// The registry entry of `kind`.
@@ -572,6 +684,13 @@ pub struct MetricSpec {
     /// Threshold of the landform classes (flatness, slope or curvature).
     #[serde(default)]
     pub threshold: Option<f64>,
+    // more descriptors
+    /// Azimuth in degrees clockwise from north, in [0, 360).
+    #[serde(default)]
+    pub azimuth: Option<f64>,
+    /// Exponent of the fractional Laplacian, in (0, 1).
+    #[serde(default)]
+    pub exponent: Option<f64>,
 }
 
 impl MetricSpec {
@@ -586,6 +705,8 @@ impl MetricSpec {
             disk: false,
             radius2: None,
             threshold: None,
+            azimuth: None,
+            exponent: None,
         };
         for p in d.params {
             // Defaults are registry constants, parsed by the unit tests.
@@ -605,7 +726,9 @@ impl MetricSpec {
         let mut s = self.def().name.to_string();
         if let Some(r) = self.radius {
             // Curvatures at their default (Evans 3x3) keep the plain name.
-            if !((is_curvature(self.kind) || self.kind == MetricKind::DikauForm)
+            if !((is_curvature(self.kind)
+                || self.kind == MetricKind::DikauForm
+                || self.kind == MetricKind::SharyLandform)
                 && r == Length::Cells(1))
             {
                 s.push_str(&format!("_r{r}"));
@@ -639,6 +762,13 @@ impl MetricSpec {
         }
         if self.kind == MetricKind::Slope && self.units == SlopeUnits::Percent {
             s.push_str("_pct");
+        }
+        // more descriptors
+        if let Some(a) = self.azimuth.filter(|&a| a != 0.0) {
+            s.push_str(&format!("_a{a}"));
+        }
+        if let Some(e) = self.exponent.filter(|&e| e != 0.5) {
+            s.push_str(&format!("_s{e}"));
         }
         s
     }
@@ -677,6 +807,27 @@ impl MetricSpec {
                     "percent" | "pct" => SlopeUnits::Percent,
                     _ => return Err(format!("'{value}' is not degrees or percent")),
                 }
+            }
+            // more descriptors
+            ParamKind::Azimuth => {
+                let v: f64 = value
+                    .trim()
+                    .parse()
+                    .map_err(|_| format!("'{value}' is not a number of degrees"))?;
+                if !v.is_finite() {
+                    return Err(format!("'{value}' must be finite"));
+                }
+                self.azimuth = Some(v.rem_euclid(360.0));
+            }
+            ParamKind::Exponent => {
+                let v: f64 = value
+                    .trim()
+                    .parse()
+                    .map_err(|_| format!("'{value}' is not a number"))?;
+                if !(v > 0.0 && v < 1.0) {
+                    return Err(format!("'{value}' is not strictly between 0 and 1"));
+                }
+                self.exponent = Some(v);
             }
         }
         Ok(())
@@ -851,6 +1002,10 @@ impl Resolved {
             Geomorphon | GeomorphonPattern | GeomorphonCanonical => self.radius_cells,
             WeissLandform => self.radius_cells.max(self.radius2_cells),
             DikauForm => self.radius_cells.max(1),
+            // more descriptors
+            AverageSlope | HillslopeAsymmetry => self.radius_cells + 1,
+            FractionalLaplacian | Ors | Jut | Rut => self.radius_cells,
+            SharyLandform => self.radius_cells.max(1),
             _ => 1,
         }
     }
@@ -914,6 +1069,15 @@ pub fn resolve(specs: &[MetricSpec], info: &RasterInfo) -> Result<Vec<Resolved>>
             };
             let (radius_cells, radius_m) = to_cells(s.radius)?;
             let (radius2_cells, _) = to_cells(s.radius2)?;
+            // more descriptors
+            if s.kind == MetricKind::HillslopeAsymmetry {
+                let t = s.threshold.unwrap_or(45.0);
+                if !(t > 0.0 && t <= 90.0) {
+                    return Err(Error::invalid(format!(
+                        "hillslope_asymmetry:tolerance={t} is out of range: use 0 < tolerance <= 90 (degrees)"
+                    )));
+                }
+            }
             Ok(Resolved {
                 spec: s.clone(),
                 radius_cells,
@@ -941,6 +1105,8 @@ mod tests {
                 disk: false,
                 radius2: None,
                 threshold: None,
+                azimuth: None,
+                exponent: None,
             };
             for p in d.params {
                 s.set(p, p.default).unwrap();
