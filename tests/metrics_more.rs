@@ -753,3 +753,40 @@ fn correlation_matrix_and_cost_table_on_a_small_dem() {
     assert!(md.contains("| jut |") && md.lines().count() == 5, "{md}");
     assert!(table::cost_csv(&rows).lines().count() == 8);
 }
+
+#[test]
+fn tiled_equals_untiled_on_a_real_dem() {
+    use orogen::io::{open_raster, OpenOptions};
+    let src = open_raster(
+        std::path::Path::new("tests/data/whitebox_DEM.tif"),
+        &OpenOptions::default(),
+    )
+    .unwrap();
+    let specs = "directional_slope:azimuth=200,average_slope:radius=300m,fractional_laplacian:radius=4c,hillslope_asymmetry:radius=6c,shary_landform:radius=2c,ors:radius=400m,jut:radius=4c,rut:radius=4c";
+    let runt = |tile: usize| -> Vec<Vec<u32>> {
+        let sp = parse_specs(specs).unwrap();
+        let info = src.info();
+        let step = MultiMetric::new(&sp, info).unwrap();
+        let engine = LocalEngine::new(EngineConfig {
+            threads: 2,
+            ..EngineConfig::default()
+        });
+        let layout = TileLayout::new(info.width, info.height, tile);
+        let types = vec![(DType::F32, None); sp.len()];
+        run_local_to_memory(&engine, &step, &[src.as_ref()], layout, &types)
+            .unwrap()
+            .iter()
+            .map(|g| {
+                g.to_typed::<f32>(None)
+                    .data()
+                    .iter()
+                    .map(|v| if v.is_nan() { u32::MAX } else { v.to_bits() })
+                    .collect()
+            })
+            .collect()
+    };
+    let whole = runt(256);
+    for tile in [9, 37, 100] {
+        assert!(runt(tile) == whole, "tile {tile}");
+    }
+}
