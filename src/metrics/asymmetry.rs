@@ -26,7 +26,8 @@ pub const MIN_GRADIENT: f64 = 0.05;
 /// the opposite azimuth, `None` otherwise or when flatter than [`MIN_GRADIENT`].
 #[inline]
 pub fn facing(p: f64, q: f64, azimuth_deg: f64, tolerance_deg: f64) -> Option<bool> {
-    if !((p * p + q * q).sqrt() > MIN_GRADIENT) {
+    let g = (p * p + q * q).sqrt();
+    if g.is_nan() || g <= MIN_GRADIENT {
         return None;
     }
     let aspect = (-p).atan2(-q).to_degrees();

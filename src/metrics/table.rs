@@ -352,60 +352,65 @@ pub fn corr_colour(c: f64) -> [u8; 3] {
     }
 }
 
+/// Set pixel (x, y) of a `w x h` RGB image (ignored outside).
+fn set_px(px: &mut [u8], w: usize, h: usize, x: usize, y: usize, c: [u8; 3]) {
+    if x < w && y < h {
+        px[(y * w + x) * 3..(y * w + x) * 3 + 3].copy_from_slice(&c);
+    }
+}
+
+/// Draw decimal digits `s` in black with the 3x5 font scaled by `scale`,
+/// top-left corner at (x0, y0).
+fn draw_digits(px: &mut [u8], w: usize, h: usize, s: &str, x0: usize, y0: usize, scale: usize) {
+    for (k, ch) in s.bytes().filter(u8::is_ascii_digit).enumerate() {
+        let g = DIGITS[(ch - b'0') as usize];
+        for (row, bits) in g.iter().enumerate() {
+            for col in 0..3 {
+                if bits & (4 >> col) == 0 {
+                    continue;
+                }
+                for sy in 0..scale {
+                    for sx in 0..scale {
+                        let (x, y) = (x0 + (k * 4 + col) * scale + sx, y0 + row * scale + sy);
+                        set_px(px, w, h, x, y, [0, 0, 0]);
+                    }
+                }
+            }
+        }
+    }
+}
+
 /// Heat map of an n x n matrix as RGB pixels: `cell` pixels per entry,
 /// rows and columns labelled by their 1-based index in a built-in 3x5 digit
 /// font (the legend CSV maps indices to metric names). Returns (w, h, rgb).
 pub fn heatmap_rgb(m: &[f64], n: usize, cell: usize) -> (usize, usize, Vec<u8>) {
     let scale = 2;
-    let digits = (n.max(1)).to_string().len();
+    let digits = n.max(1).to_string().len();
     let margin = digits * 4 * scale + 2 * scale;
     let (w, h) = (margin + n * cell, margin + n * cell);
     let mut px = vec![255u8; w * h * 3];
-    let mut put = |x: usize, y: usize, c: [u8; 3], px: &mut Vec<u8>| {
-        if x < w && y < h {
-            px[(y * w + x) * 3..(y * w + x) * 3 + 3].copy_from_slice(&c);
-        }
-    };
-    let text = |s: &str,
-                x0: usize,
-                y0: usize,
-                px: &mut Vec<u8>,
-                put: &mut dyn FnMut(usize, usize, [u8; 3], &mut Vec<u8>)| {
-        for (k, ch) in s.bytes().enumerate() {
-            let g = DIGITS[(ch - b'0') as usize];
-            for (row, bits) in g.iter().enumerate() {
-                for col in 0..3 {
-                    if bits & (4 >> col) != 0 {
-                        for sy in 0..scale {
-                            for sx in 0..scale {
-                                put(
-                                    x0 + (k * 4 + col) * scale + sx,
-                                    y0 + row * scale + sy,
-                                    [0, 0, 0],
-                                    px,
-                                );
-                            }
-                        }
-                    }
-                }
-            }
-        }
-    };
     for i in 0..n {
         for j in 0..n {
             let c = corr_colour(m[i * n + j]);
             for y in 0..cell {
                 for x in 0..cell {
-                    put(margin + j * cell + x, margin + i * cell + y, c, &mut px);
+                    set_px(
+                        &mut px,
+                        w,
+                        h,
+                        margin + j * cell + x,
+                        margin + i * cell + y,
+                        c,
+                    );
                 }
             }
         }
         let label = (i + 1).to_string();
         // Row label at the left, column label at the top (centred in the cell).
         let ty = margin + i * cell + cell.saturating_sub(5 * scale) / 2;
-        text(&label, scale, ty, &mut px, &mut put);
+        draw_digits(&mut px, w, h, &label, scale, ty, scale);
         let tx = margin + i * cell + cell.saturating_sub(label.len() * 4 * scale) / 2;
-        text(&label, tx, scale, &mut px, &mut put);
+        draw_digits(&mut px, w, h, &label, tx, scale, scale);
     }
     (w, h, px)
 }
