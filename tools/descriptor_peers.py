@@ -42,8 +42,10 @@ def cmp(name, ours, theirs, conv=lambda x: x, note=""):
     x, y = a[ok], b[ok]
     r = np.corrcoef(x, y)[0, 1] if x.size > 2 else float("nan")
     diff = np.abs(x - y)
+    # Least-squares scale of the peer against orogen (1 = same units).
+    k = float((x * y).sum() / (x * x).sum()) if (x * x).sum() > 0 else float("nan")
     print(
-        f"{name:<44} n={x.size:>7} r={r:+.4f} max|d|={diff.max():.4g} "
+        f"{name:<44} n={x.size:>7} r={r:+.4f} scale={k:.4g} max|d|={diff.max():.4g} "
         f"mean|d|={diff.mean():.4g} p99|d|={np.percentile(diff, 99):.4g} {note}"
     )
 
@@ -60,13 +62,12 @@ def agree(name, ours, theirs, note=""):
 
 print("== agreement (orogen vs peer)")
 cmp("profile_curvature vs r.slope.aspect pcurv", "profile_curvature.tif", "g_pc.tif",
-    lambda v: -v, "(GRASS pcurvature is concave-positive: sign flipped)")
-cmp("tangential_curvature vs r.slope.aspect tcurv", "tangential_curvature.tif", "g_tc.tif",
-    lambda v: -v, "(sign flipped as above)")
+    note="(GRASS: 3x3 finite differences, convex positive)")
+cmp("tangential_curvature vs r.slope.aspect tcurv", "tangential_curvature.tif", "g_tc.tif")
 cmp("profile_curvature vs r.param.scale profc", "profile_curvature.tif", "g_profc.tif",
-    lambda v: -v, "(Wood 3x3; sign flipped)")
+    note="(Wood quadric on 3x3)")
 cmp("plan_curvature vs r.param.scale planc", "plan_curvature.tif", "g_planc.tif",
-    lambda v: -v, "(sign flipped)")
+    lambda v: -v, "(r.param.scale planc is concave-positive: sign flipped)")
 agree("geomorphon vs r.geomorphon", f"geomorphon_r{R}c.tif", "g_gm.tif")
 cmp("openness vs SAGA positive openness (deg)", f"openness_r{R}c.tif", "s_pos.sdat")
 cmp("openness_neg vs SAGA negative openness (deg)", f"openness_neg_r{R}c.tif", "s_neg.sdat")

@@ -51,16 +51,16 @@ done
 # GRASS, in a temporary location made from the DEM.
 cat > "$tmp/grass.sh" <<G
 set -e
-r.in.gdal -q input=$tmp/dem.tif output=dem
+r.in.gdal --q input=$tmp/dem.tif output=dem
 g.region raster=dem
 t() { local l=\$1; shift; local t0=\$(date +%s.%N); "\$@" >/dev/null 2>&1; local t1=\$(date +%s.%N); echo "\$l \$(python3 -c "print(\$t1-\$t0)")" >> $times; }
 t grass:curvatures r.slope.aspect elevation=dem pcurvature=pc tcurvature=tc --o
 t grass:param_scale r.param.scale input=dem output=profc method=profc size=3 --o
 r.param.scale input=dem output=planc method=planc size=3 --o >/dev/null 2>&1
 t grass:geomorphon r.geomorphon elevation=dem forms=gm search=$R skip=0 flat=1 dist=0 --o
-for m in pc tc profc planc gm; do r.out.gdal -q -f input=\$m output=$tmp/g_\$m.tif type=Float32 --o >/dev/null 2>&1; done
+for m in pc tc profc planc gm; do r.out.gdal --q -f input=\$m output=$tmp/g_\$m.tif type=Float32 --o >/dev/null 2>&1; done
 G
-grass --tmp-location "$tmp/dem.tif" --exec bash "$tmp/grass.sh" >/dev/null 2>&1
+grass --tmp-location "$tmp/dem.tif" --exec bash "$tmp/grass.sh" > "$tmp/grass.log" 2>&1 || { echo "GRASS failed:"; tail -5 "$tmp/grass.log"; }
 # SAGA.
 timed saga:openness saga_cmd ta_lighting 5 -DEM "$tmp/dem.tif" -POS "$tmp/s_pos.sdat" -NEG "$tmp/s_neg.sdat" -RADIUS "$RM" -NDIRS 8 -METHOD 1 -UNIT 1 -NADIR 1
 timed saga:sky_view saga_cmd ta_lighting 3 -DEM "$tmp/dem.tif" -SVF "$tmp/s_svf.sdat" -VISIBLE "$tmp/s_vis.sdat" -RADIUS "$RM" -NDIRS 8 -METHOD 0

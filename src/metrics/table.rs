@@ -171,6 +171,9 @@ pub fn cost_table(
         .map(|r| r.seconds)
         .fold(slope_t, f64::min);
     for r in rows.iter_mut() {
+        if r.name == "slope" {
+            r.seconds = base;
+        }
         r.relative = r.seconds / base;
     }
     Ok(rows)
