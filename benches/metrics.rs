@@ -50,6 +50,7 @@ fn bench(c: &mut Criterion) {
         "shary_landform:radius=5c",
         "ors:radius=10c",
         "jut:radius=10c,rut:radius=10c",
+        "fuzzy_landform:class=ridge:scales=1/2/4",
     ] {
         let specs_v = parse_specs(specs).unwrap();
         let step = MultiMetric::new(&specs_v, src.info()).unwrap();

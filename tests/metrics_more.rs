@@ -791,3 +791,148 @@ fn tiled_equals_untiled_on_a_real_dem() {
         assert!(runt(tile) == whole, "tile {tile}");
     }
 }
+
+// ---------- fuzzy landforms ----------
+
+/// Wood's feature of a cell from its own Evans 3x3 derivatives, written out
+/// here (convex positive): the oracle for radius-1 scales.
+fn wood_feature_3x3(d: &[f32], w: usize, h: usize, x: i64, y: i64, t: f64) -> Option<usize> {
+    let z = |dx: i64, dy: i64| get(d, w, h, x + dx, y + dy);
+    let mut s = 0.0;
+    for dy in -1..=1 {
+        for dx in -1..=1 {
+            s += z(dx, dy);
+        }
+    }
+    if s.is_nan() {
+        return None;
+    }
+    let c2 = CELL * CELL;
+    // x east, y north (dy = −1 is north).
+    let p = (z(1, -1) + z(1, 0) + z(1, 1) - z(-1, -1) - z(-1, 0) - z(-1, 1)) / (6.0 * CELL);
+    let q = (z(-1, -1) + z(0, -1) + z(1, -1) - z(-1, 1) - z(0, 1) - z(1, 1)) / (6.0 * CELL);
+    let r = (z(-1, -1) + z(1, -1) + z(-1, 0) + z(1, 0) + z(-1, 1) + z(1, 1)
+        - 2.0 * (z(0, -1) + z(0, 0) + z(0, 1)))
+        / (3.0 * c2);
+    let tt = (z(-1, -1) + z(0, -1) + z(1, -1) + z(-1, 1) + z(0, 1) + z(1, 1)
+        - 2.0 * (z(-1, 0) + z(0, 0) + z(1, 0)))
+        / (3.0 * c2);
+    let sxy = (z(1, -1) + z(-1, 1) - z(-1, -1) - z(1, 1)) / (4.0 * c2);
+    let g2 = p * p + q * q;
+    if g2.sqrt().atan().to_degrees() > 1.0 {
+        let kh = -(q * q * r - 2.0 * p * q * sxy + p * p * tt) / (g2 * (1.0 + g2).sqrt());
+        return Some(if kh > t {
+            1
+        } else if kh < -t {
+            4
+        } else {
+            3
+        });
+    }
+    // Principal curvatures from the shape operator's eigenvalues.
+    let g = 1.0 + g2;
+    let hm = -((1.0 + q * q) * r - 2.0 * p * q * sxy + (1.0 + p * p) * tt) / (2.0 * g * g.sqrt());
+    let k = (r * tt - sxy * sxy) / (g * g);
+    let dd = (hm * hm - k).max(0.0).sqrt();
+    let (kmin, kmax) = (hm - dd, hm + dd);
+    Some(if kmin > t {
+        0
+    } else if kmax < -t {
+        5
+    } else if kmax > t && kmin < -t {
+        2
+    } else if kmax > t {
+        1
+    } else if kmin < -t {
+        4
+    } else {
+        3
+    })
+}
+
+#[test]
+fn fuzzy_landform_closed_forms_and_brute_force() {
+    let (w, h) = (21, 21);
+    let c = 10.0;
+    // A paraboloid hill, a bowl and a plane: at the centre every scale
+    // agrees (peak, pit), so the membership is exactly 1.
+    let hill: Vec<f32> = (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as f64 - c, (i / w) as f64 - c);
+            (100.0 - 0.05 * (x * x + y * y)) as f32
+        })
+        .collect();
+    let bowl: Vec<f32> = hill.iter().map(|z| 200.0 - z).collect();
+    let plane: Vec<f32> = (0..w * h).map(|i| (0.5 * (i % w) as f64) as f32).collect();
+    let ci = 10 * w + 10;
+    let o = run(
+        &source(&hill, w, h),
+        "fuzzy_landform:class=peak:scales=1/2/4,fuzzy_landform:class=pit",
+        8,
+        2,
+    );
+    assert_eq!((o[0][ci], o[1][ci]), (1.0, 0.0));
+    let o = run(
+        &source(&bowl, w, h),
+        "fuzzy_landform:class=pit:scales=1/3/5,fuzzy_landform:class=peak",
+        8,
+        2,
+    );
+    assert_eq!((o[0][ci], o[1][ci]), (1.0, 0.0));
+    let o = run1(
+        &source(&plane, w, h),
+        "fuzzy_landform:class=plane:scales=1/2/3",
+    );
+    for y in 3..h - 3 {
+        for x in 3..w - 3 {
+            assert_eq!(o[y * w + x], 1.0);
+        }
+    }
+    // Brute force at a single 3x3 scale: membership is 0 or 1 by the oracle.
+    let data = random_grid(23, 19, 41, 0.05);
+    let src = source(&data, 23, 19);
+    for (k, name) in ["peak", "ridge", "pass", "plane", "channel", "pit"]
+        .iter()
+        .enumerate()
+    {
+        let got = run1(
+            &src,
+            &format!("fuzzy_landform:class={name}:scales=1:threshold=0.001"),
+        );
+        let want: Vec<f64> = (0..23 * 19)
+            .map(|i| {
+                let (x, y) = ((i % 23) as i64, (i / 23) as i64);
+                if data[i].is_nan() {
+                    return f64::NAN;
+                }
+                match wood_feature_3x3(&data, 23, 19, x, y, 0.001) {
+                    None => f64::NAN,
+                    Some(f) => (f == k) as u8 as f64,
+                }
+            })
+            .collect();
+        check(name, &got, &want, 23, 0.0, 0.0);
+    }
+    // Tiled == untiled with several scales.
+    let specs = "fuzzy_landform:class=ridge:scales=1/2/5,fuzzy_landform:class=channel:scales=2/3";
+    let a = run(&src, specs, 64, 1);
+    let b = run(&src, specs, 7, 2);
+    for (x, y) in a.iter().zip(&b) {
+        assert!(x
+            .iter()
+            .zip(y)
+            .all(|(p, q)| p.to_bits() == q.to_bits() || (p.is_nan() && q.is_nan())));
+    }
+    // Bad values list what is accepted.
+    let e = err("fuzzy_landform:class=summit");
+    assert!(
+        e.contains("peak, ridge, pass, plane, channel or pit"),
+        "{e}"
+    );
+    let e = err("fuzzy_landform:scales=1,2");
+    assert!(e.contains("unknown metric") || e.contains("scales"), "{e}");
+    let e = err("fuzzy_landform:scales=1/x");
+    assert!(e.contains("not a radius in cells"), "{e}");
+    let e = err("fuzzy_landform:scales=2/40");
+    assert!(e.contains("beyond the raster"), "{e}");
+}

@@ -17,6 +17,7 @@ pub use terrain::{Aspect, Hillshade, Slope, SlopeUnits};
 pub mod asymmetry;
 pub mod directional;
 pub mod fractional;
+pub mod fuzzy;
 pub mod relief_shape;
 pub mod shary;
 pub mod table;

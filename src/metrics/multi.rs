@@ -506,6 +506,13 @@ impl LocalStep for MultiMetric {
                     };
                     relief_shape(view, m.radius_cells, m.radius_m, which, o);
                 }
+                FuzzyLandform => super::fuzzy::fuzzy_membership(
+                    view,
+                    m.spec.scales.as_deref().unwrap_or(&[1, 2, 4]),
+                    m.spec.feature.unwrap_or(0),
+                    m.spec.threshold.unwrap_or(1e-4),
+                    o,
+                ),
                 SharyLandform => {
                     let r = m.radius_cells.max(1);
                     let Some(qg) = quads.iter().find(|q| q.0 == r).map(|q| &q.1) else {

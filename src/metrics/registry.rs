@@ -66,6 +66,7 @@ pub enum MetricKind {
     Ors,
     Jut,
     Rut,
+    FuzzyLandform,
 }
 
 /// What a metric's parameters are.
@@ -88,6 +89,10 @@ pub enum ParamKind {
     Azimuth,
     /// An exponent strictly between 0 and 1 (the fractional Laplacian's s).
     Exponent,
+    /// One of Wood's features: peak, ridge, pass, plane, channel, pit.
+    Feature,
+    /// Window radii in cells separated by '/', e.g. `1/2/4`.
+    Scales,
 }
 
 /// One parameter of a metric, as the registry describes it.
@@ -219,6 +224,24 @@ const TOLERANCE: ParamDef = ParamDef {
     default: "45",
     range:
         "half-width in degrees (0 < t <= 90) of the aspect sectors around azimuth and azimuth+180",
+};
+const FEATURE: ParamDef = ParamDef {
+    name: "class",
+    kind: ParamKind::Feature,
+    default: "peak",
+    range: "peak, ridge, pass, plane, channel or pit",
+};
+const SCALES: ParamDef = ParamDef {
+    name: "scales",
+    kind: ParamKind::Scales,
+    default: "1/2/4",
+    range: "window radii in cells separated by '/', each 1..=2000 (e.g. 1/2/4/8)",
+};
+const FUZZY_T: ParamDef = ParamDef {
+    name: "threshold",
+    kind: ParamKind::Threshold,
+    default: "0.0001",
+    range: "curvature tolerance (1/m, >= 0) of Wood's features",
 };
 const SHARY_T: ParamDef = ParamDef {
     name: "threshold",
@@ -623,6 +646,14 @@ pub const METRICS: &[MetricDef] = &[
         "max over the disk of the angle-reduced height dz*|dz|/d3 of others above the cell (planar, >= 0)",
         "Xu 2022, Datumless topography (arXiv 2208.01600), planar form; disk cutoff"
     ),
+    def!(
+        FuzzyLandform,
+        "fuzzy_landform",
+        &[FEATURE, SCALES, FUZZY_T],
+        "0..1",
+        "share of the window radii (scales) at which Wood's feature classification gives the class",
+        "Fisher, Wood & Cheng 2004, Trans. IBG 29(1); features of Wood 1996 (PhD thesis, Leicester), as r.param.scale"
+    ),
 ];
 
 /// The registry entry of `kind`.
@@ -691,6 +722,12 @@ pub struct MetricSpec {
     /// Exponent of the fractional Laplacian, in (0, 1).
     #[serde(default)]
     pub exponent: Option<f64>,
+    /// Wood's feature code (index into `fuzzy::FEATURES`).
+    #[serde(default)]
+    pub feature: Option<u8>,
+    /// Window radii in cells (fuzzy landforms).
+    #[serde(default)]
+    pub scales: Option<Vec<usize>>,
 }
 
 impl MetricSpec {
@@ -707,6 +744,8 @@ impl MetricSpec {
             threshold: None,
             azimuth: None,
             exponent: None,
+            feature: None,
+            scales: None,
         };
         for p in d.params {
             // Defaults are registry constants, parsed by the unit tests.
@@ -770,6 +809,14 @@ impl MetricSpec {
         if let Some(e) = self.exponent.filter(|&e| e != 0.5) {
             s.push_str(&format!("_s{e}"));
         }
+        if let Some(f) = self.feature {
+            let name = crate::metrics::fuzzy::FEATURES.get(f as usize).copied();
+            s.push_str(&format!("_{}", name.unwrap_or("?")));
+        }
+        if let Some(sc) = self.scales.as_ref().filter(|v| v.as_slice() != [1, 2, 4]) {
+            let v: Vec<String> = sc.iter().map(|c| c.to_string()).collect();
+            s.push_str(&format!("_sc{}", v.join("-")));
+        }
         s
     }
 
@@ -828,6 +875,29 @@ impl MetricSpec {
                     return Err(format!("'{value}' is not strictly between 0 and 1"));
                 }
                 self.exponent = Some(v);
+            }
+            ParamKind::Feature => {
+                let f = crate::metrics::fuzzy::FEATURES
+                    .iter()
+                    .position(|n| *n == value.trim())
+                    .ok_or_else(|| format!("'{value}' is not a feature"))?;
+                self.feature = Some(f as u8);
+            }
+            ParamKind::Scales => {
+                let mut v = Vec::new();
+                for part in value.split('/') {
+                    let c: usize =
+                        part.trim().trim_end_matches('c').parse().map_err(|_| {
+                            format!("'{part}' in '{value}' is not a radius in cells")
+                        })?;
+                    if !(1..=MAX_RADIUS_CELLS).contains(&c) {
+                        return Err(format!("scale {c} is out of 1..={MAX_RADIUS_CELLS}"));
+                    }
+                    v.push(c);
+                }
+                v.sort_unstable();
+                v.dedup();
+                self.scales = Some(v);
             }
         }
         Ok(())
@@ -1006,6 +1076,12 @@ impl Resolved {
             AverageSlope | HillslopeAsymmetry => self.radius_cells + 1,
             FractionalLaplacian | Ors | Jut | Rut => self.radius_cells,
             SharyLandform => self.radius_cells.max(1),
+            FuzzyLandform => self
+                .spec
+                .scales
+                .as_ref()
+                .and_then(|v| v.iter().max().copied())
+                .unwrap_or(1),
             _ => 1,
         }
     }
@@ -1070,6 +1146,17 @@ pub fn resolve(specs: &[MetricSpec], info: &RasterInfo) -> Result<Vec<Resolved>>
             let (radius_cells, radius_m) = to_cells(s.radius)?;
             let (radius2_cells, _) = to_cells(s.radius2)?;
             // more descriptors
+            if let Some(&big) = s.scales.as_ref().and_then(|v| v.iter().max()) {
+                if big > extent {
+                    return Err(Error::invalid(format!(
+                        "{}: scale {big}c of {} is beyond the raster ({}x{} cells): use smaller scales",
+                        info.path.display(),
+                        s.def().name,
+                        info.width,
+                        info.height
+                    )));
+                }
+            }
             if s.kind == MetricKind::HillslopeAsymmetry {
                 let t = s.threshold.unwrap_or(45.0);
                 if !(t > 0.0 && t <= 90.0) {
@@ -1107,6 +1194,8 @@ mod tests {
                 threshold: None,
                 azimuth: None,
                 exponent: None,
+                feature: None,
+                scales: None,
             };
             for p in d.params {
                 s.set(p, p.default).unwrap();
