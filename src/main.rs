@@ -455,7 +455,10 @@ fn main() {
     // `orogen metric table ...` has its own parser (cli/metric_table.rs).
     let argv: Vec<std::ffi::OsString> = std::env::args_os().collect();
     if argv.get(1).is_some_and(|a| a == "metric") && argv.get(2).is_some_and(|a| a == "table") {
-        let args = cli::metric_table::MetricTableArgs::parse_from(&argv[2..]);
+        let args = cli::metric_table::MetricTableArgs::parse_from(
+            std::iter::once(std::ffi::OsString::from("orogen metric table"))
+                .chain(argv[3..].iter().cloned()),
+        );
         if let Err(e) = cli::metric_table::run(args) {
             eprintln!("error: {e:#}");
             std::process::exit(1);

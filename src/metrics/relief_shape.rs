@@ -9,7 +9,7 @@
 //! For the cell `p` and every other valid cell `q` with horizontal distance
 //! `0 < d ≤ R` (true metres) and height difference `Δ = z_p − z_q`:
 //! - ORS `= √(Σ_{Δ>0} f(Δ/d) ΔA)` with Earl & Metzler's convergent kernel
-//!   `f(u) = 4/π³ (2u atan u − ln(1+u²) − atan² u)` (≥ 0; ~ u²·4/π³ for small
+//!   `f(u) = 4/π³ (2u atan u − ln(1+u²) − atan² u)` (≥ 0; ~ 2u⁴/π³ for small
 //!   u, ~ 4u/π² for large u);
 //! - jut `= max(0, max_q Δ|Δ|/√(d²+Δ²))`: the height of `p` above `q`
 //!   reduced by the sine of the angle between them (cliffs jut most);
