@@ -2,7 +2,9 @@
 //! terrain (single-threaded kernel cost, no I/O). The windowed statistics
 //! (SAT) and relief (van Herk/Gil-Werman) are run at two radii to show that
 //! their cost per cell does not grow with the radius; the horizon scan's does
-//! (O(r) per direction).
+//! (O(r) per direction). The disk descriptors (fractional Laplacian, ORS,
+//! jut, rut) cost O(r²) per cell; average slope and hillslope asymmetry
+//! use summed-area tables (radius-independent).
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use orogen::exec::LocalStep;
@@ -36,6 +38,19 @@ fn bench(c: &mut Criterion) {
         "roughness:radius=100c",
         "openness:radius=10c,sky_view:radius=10c",
         "openness:radius=50c,sky_view:radius=50c",
+        // more descriptors: one group per family
+        "directional_slope:azimuth=30",
+        "average_slope:radius=5c",
+        "average_slope:radius=100c",
+        "hillslope_asymmetry:radius=5c",
+        "hillslope_asymmetry:radius=100c",
+        "fractional_laplacian:radius=5c",
+        "fractional_laplacian:radius=20c",
+        "shary_landform",
+        "shary_landform:radius=5c",
+        "ors:radius=10c",
+        "jut:radius=10c,rut:radius=10c",
+        "fuzzy_landform:class=ridge:scales=1/2/4",
     ] {
         let specs_v = parse_specs(specs).unwrap();
         let step = MultiMetric::new(&specs_v, src.info()).unwrap();

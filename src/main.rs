@@ -204,7 +204,7 @@ enum Cmd {
     },
     /// Terrain descriptors: `orogen metric list`, or several metrics in one pass over the tiles.
     #[command(
-        after_help = "Examples:\n  orogen metric list\n  orogen metric dem.tif --metric slope,aspect,tpi:radius=500m,openness:radius=1km -o out/\n  orogen metric dem.tiles --metric curv_mean:radius=5c,relief:radius=300m -o out/ --format tiles\nOne file per metric is written into the output folder, named after the metric and its parameters."
+        after_help = "Examples:\n  orogen metric list\n  orogen metric table [DEM] -o table/   (cost table and correlation matrix; see orogen metric table --help)\n  orogen metric dem.tif --metric slope,aspect,tpi:radius=500m,openness:radius=1km -o out/\n  orogen metric dem.tiles --metric curv_mean:radius=5c,relief:radius=300m -o out/ --format tiles\nOne file per metric is written into the output folder, named after the metric and its parameters."
     )]
     Metric {
         /// Input raster, or `list` to print the metrics and their parameters.
@@ -534,6 +534,19 @@ fn wrote(p: &Path) {
 }
 
 fn main() {
+    // `orogen metric table ...` has its own parser (cli/metric_table.rs).
+    let argv: Vec<std::ffi::OsString> = std::env::args_os().collect();
+    if argv.get(1).is_some_and(|a| a == "metric") && argv.get(2).is_some_and(|a| a == "table") {
+        let args = cli::metric_table::MetricTableArgs::parse_from(
+            std::iter::once(std::ffi::OsString::from("orogen metric table"))
+                .chain(argv[3..].iter().cloned()),
+        );
+        if let Err(e) = cli::metric_table::run(args) {
+            eprintln!("error: {e:#}");
+            std::process::exit(1);
+        }
+        return;
+    }
     let cli = Cli::parse();
     if let Err(e) = run(cli) {
         eprintln!("error: {e:#}");

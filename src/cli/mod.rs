@@ -11,3 +11,4 @@ pub mod hydro_net;
 pub mod breach;
 pub mod viewshed;
 pub mod oro;
+pub mod metric_table;

@@ -16,3 +16,11 @@ pub use multi::{compute, output_paths, MultiMetric, METRIC_NODATA};
 pub use neighbourhood::EdgeMode;
 pub use registry::{list, parse_specs, MetricKind, MetricSpec};
 pub use terrain::{Aspect, Hillshade, Slope, SlopeUnits};
+// more descriptors
+pub mod asymmetry;
+pub mod directional;
+pub mod fractional;
+pub mod fuzzy;
+pub mod relief_shape;
+pub mod shary;
+pub mod table;

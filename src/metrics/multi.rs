@@ -137,6 +137,12 @@ impl MultiMetric {
         }) {
             b += core * (2 * 8 + 16 * 4 + 8 + 4 + 3 * 8);
         }
+        // more descriptors: gradients, slopes and two tables per window metric
+        if let Some(r) =
+            radius(&|k| matches!(k, MetricKind::AverageSlope | MetricKind::HillslopeAsymmetry))
+        {
+            b += region(r) * (4 * 8 + 2 * (4 + 16));
+        }
         b + quadrics * core * std::mem::size_of::<Quadric>() as u64 + 3 * core * 4
     }
 }
@@ -205,11 +211,11 @@ impl LocalStep for MultiMetric {
         // Shared: quadric coefficients per curvature radius (Evans 3x3 for
         // radius 1, Wood's n x n fit beyond).
         let mut quads: Vec<(usize, Grid<Quadric>)> = Vec::new();
-        for m in self
-            .metrics
-            .iter()
-            .filter(|m| is_curvature(m.spec.kind) || m.spec.kind == MetricKind::DikauForm)
-        {
+        for m in self.metrics.iter().filter(|m| {
+            is_curvature(m.spec.kind)
+                || m.spec.kind == MetricKind::DikauForm
+                || m.spec.kind == MetricKind::SharyLandform
+        }) {
             let r = m.radius_cells.max(1);
             if quads.iter().any(|q| q.0 == r) {
                 continue;
@@ -566,6 +572,68 @@ impl LocalStep for MultiMetric {
                     walk_3x3(view, o, EdgeMode::Nodata, nan, |w, ew, ns| {
                         super::solar::heat_index(w, ew, ns, amax) as f32
                     })
+                }
+                // more descriptors
+                DirectionalSlope => {
+                    let a = m.spec.azimuth.unwrap_or(0.0);
+                    walk_3x3(view, o, EdgeMode::Nodata, nan, |w, ew, ns| {
+                        let (p, q) = horn_gradient(w, ew, ns);
+                        super::directional::directional_slope(p, q, a) as f32
+                    })
+                }
+                AverageSlope => {
+                    super::directional::average_slope(view, m.radius_cells, &self.path, o)?
+                }
+                HillslopeAsymmetry => super::asymmetry::hillslope_asymmetry(
+                    view,
+                    m.radius_cells,
+                    m.spec.azimuth.unwrap_or(0.0),
+                    m.spec.threshold.unwrap_or(45.0),
+                    &self.path,
+                    o,
+                )?,
+                FractionalLaplacian => super::fractional::fractional_laplacian(
+                    view,
+                    m.radius_cells,
+                    m.radius_m,
+                    m.spec.exponent.unwrap_or(0.5),
+                    o,
+                ),
+                Ors | Jut | Rut => {
+                    use super::relief_shape::{relief_shape, ReliefShape};
+                    let which = match m.spec.kind {
+                        Ors => ReliefShape::Ors,
+                        Jut => ReliefShape::Jut,
+                        _ => ReliefShape::Rut,
+                    };
+                    relief_shape(view, m.radius_cells, m.radius_m, which, o);
+                }
+                FuzzyLandform => super::fuzzy::fuzzy_membership(
+                    view,
+                    m.spec.scales.as_deref().unwrap_or(&[1, 2, 4]),
+                    m.spec.feature.unwrap_or(0),
+                    m.spec.threshold.unwrap_or(1e-4),
+                    o,
+                ),
+                SharyLandform => {
+                    let r = m.radius_cells.max(1);
+                    let Some(qg) = quads.iter().find(|q| q.0 == r).map(|q| &q.1) else {
+                        return Err(Error::invalid("metrics: quadric table missing"));
+                    };
+                    let t = m.spec.threshold.unwrap_or(0.0);
+                    for (o, c) in o.data_mut().iter_mut().zip(qg.data()) {
+                        *o = if c.p.is_nan() {
+                            nan
+                        } else {
+                            super::shary::shary_class(
+                                c.gaussian(),
+                                c.mean(),
+                                c.tangential(),
+                                c.profile(),
+                                t,
+                            )
+                        };
+                    }
                 }
             }
         }

@@ -68,6 +68,16 @@ pub enum MetricKind {
     SolarAnnual,
     HeatIndex,
     VisibilityIndexExact,
+    // more descriptors
+    DirectionalSlope,
+    AverageSlope,
+    FractionalLaplacian,
+    HillslopeAsymmetry,
+    SharyLandform,
+    Ors,
+    Jut,
+    Rut,
+    FuzzyLandform,
 }
 
 /// What a metric's parameters are.
@@ -89,6 +99,15 @@ pub enum ParamKind {
     /// A number stored by name in [`MetricSpec::values`], checked by
     /// `visibility::check_value` (`auto` leaves it unset).
     Value,
+    // more descriptors
+    /// An azimuth in degrees clockwise from north (any finite value, taken mod 360).
+    Azimuth,
+    /// An exponent strictly between 0 and 1 (the fractional Laplacian's s).
+    Exponent,
+    /// One of Wood's features: peak, ridge, pass, plane, channel, pit.
+    Feature,
+    /// Window radii in cells separated by '/', e.g. `1/2/4`.
+    Scales,
 }
 
 /// One parameter of a metric, as the registry describes it.
@@ -193,6 +212,57 @@ const CURV_T: ParamDef = ParamDef {
     kind: ParamKind::Threshold,
     default: "0.0016667",
     range: "|curvature| (1/m, >= 0) counted as straight; default 1/600 m",
+};
+
+// more descriptors
+const AZIMUTH: ParamDef = ParamDef {
+    name: "azimuth",
+    kind: ParamKind::Azimuth,
+    default: "0",
+    range: "degrees clockwise from north, any finite number (taken mod 360)",
+};
+const RADIUS_CUTOFF: ParamDef = ParamDef {
+    name: "radius",
+    kind: ParamKind::Radius,
+    default: "10c",
+    range: "1c..=2000c, or a length in m/km (> 0); the disk cutoff (O(r²) per cell)",
+};
+const EXPONENT: ParamDef = ParamDef {
+    name: "s",
+    kind: ParamKind::Exponent,
+    default: "0.5",
+    range: "fractional order s, 0 < s < 1",
+};
+const TOLERANCE: ParamDef = ParamDef {
+    name: "tolerance",
+    kind: ParamKind::Threshold,
+    default: "45",
+    range:
+        "half-width in degrees (0 < t <= 90) of the aspect sectors around azimuth and azimuth+180",
+};
+const FEATURE: ParamDef = ParamDef {
+    name: "class",
+    kind: ParamKind::Feature,
+    default: "peak",
+    range: "peak, ridge, pass, plane, channel or pit",
+};
+const SCALES: ParamDef = ParamDef {
+    name: "scales",
+    kind: ParamKind::Scales,
+    default: "1/2/4",
+    range: "window radii in cells separated by '/', each 1..=2000 (e.g. 1/2/4/8)",
+};
+const FUZZY_T: ParamDef = ParamDef {
+    name: "threshold",
+    kind: ParamKind::Threshold,
+    default: "0.0001",
+    range: "curvature tolerance (1/m, >= 0) of Wood's features",
+};
+const SHARY_T: ParamDef = ParamDef {
+    name: "threshold",
+    kind: ParamKind::Threshold,
+    default: "0",
+    range: "|curvature| (1/m, >= 0; 1/m^2 squared for K) counted as zero: such cells are class 0",
 };
 
 const HORN: &str = "Horn 1981, Proc. IEEE 69(1) (3x3 weighted gradient)";
@@ -616,6 +686,79 @@ pub const METRICS: &[MetricDef] = &[
         "share of all cells within the cutoff disk visible (R3 line of sight) from the observer; O(r^3) per cell",
         "Franklin & Ray 1994 (Proc. Spatial Data Handling) visibility index, R3 line of sight to every target"
     ),
+    // more descriptors
+    def!(
+        DirectionalSlope,
+        "directional_slope",
+        &[AZIMUTH],
+        "z/m",
+        "slope along an azimuth: grad z . (sin a, cos a), positive uphill (Horn gradient)",
+        "directional derivative (Argudo et al. survey sec. 3.1); Horn 1981 gradient"
+    ),
+    def!(
+        AverageSlope,
+        "average_slope",
+        &[RADIUS],
+        "degrees",
+        "mean Horn slope angle of the valid cells of the square window (exact SAT)",
+        "average slope (Argudo et al. survey sec. 3.1); summed-area tables, Crow 1984"
+    ),
+    def!(
+        FractionalLaplacian,
+        "fractional_laplacian",
+        &[RADIUS_CUTOFF, EXPONENT],
+        "z/m^2s",
+        "(-Laplacian)^s z = C(s) sum over 0<|y|<=R of (z(x)-z(x+y))/|y|^(2+2s) * cell area (disk cutoff)",
+        "integral form, Di Nezza, Palatucci & Valdinoci 2012, Bull. Sci. Math. 136(5), eq. 3.1; C(s) of their eq. 3.2 for n = 2"
+    ),
+    def!(
+        HillslopeAsymmetry,
+        "hillslope_asymmetry",
+        &[RADIUS, AZIMUTH, TOLERANCE],
+        "log10 ratio",
+        "log10(mean gradient of cells facing azimuth / mean gradient of cells facing azimuth+180) in the square window; cells under 5% gradient left out",
+        "Poulos, Pierce, Flores & Benner 2012, GRL 39 L06406 (medians there; means as in the Argudo et al. survey code)"
+    ),
+    def!(
+        SharyLandform,
+        "shary_landform",
+        &[RADIUS_QUADRIC, SHARY_T],
+        "class 0..12",
+        "Shary's 12 types from the signs of K, H, kh (tangential) and kv (profile): see metrics::shary; 0 where one is zero",
+        "Shary 1995, Mathematical Geology 27(3); Shary, Sharaya & Mitusov 2002, Geoderma 107; curvatures of Evans/Wood"
+    ),
+    def!(
+        Ors,
+        "ors",
+        &[RADIUS_CUTOFF],
+        "z",
+        "omni-directional relief and steepness sqrt(sum over lower cells in the disk of f(drop/distance) * cell area)",
+        "Earl & Metzler 2015, Quaestiones Geographicae 34(4) (ORS); disk cutoff"
+    ),
+    def!(
+        Jut,
+        "jut",
+        &[RADIUS_CUTOFF],
+        "z",
+        "max over the disk of the angle-reduced height dz*|dz|/d3 of the cell above others (planar, >= 0)",
+        "Xu 2022, Datumless topography (arXiv 2208.01600), planar form; disk cutoff"
+    ),
+    def!(
+        Rut,
+        "rut",
+        &[RADIUS_CUTOFF],
+        "z",
+        "max over the disk of the angle-reduced height dz*|dz|/d3 of others above the cell (planar, >= 0)",
+        "Xu 2022, Datumless topography (arXiv 2208.01600), planar form; disk cutoff"
+    ),
+    def!(
+        FuzzyLandform,
+        "fuzzy_landform",
+        &[FEATURE, SCALES, FUZZY_T],
+        "0..1",
+        "share of the window radii (scales) at which Wood's feature classification gives the class",
+        "Fisher, Wood & Cheng 2004, Trans. IBG 29(1); features of Wood 1996 (PhD thesis, Leicester), as r.param.scale"
+    ),
 ];
 
 /// The registry entry of `kind`.
@@ -681,6 +824,19 @@ pub struct MetricSpec {
     /// Named numeric parameters ([`ParamKind::Value`]); absent = `auto`.
     #[serde(default)]
     pub values: std::collections::BTreeMap<String, f64>,
+    // more descriptors
+    /// Azimuth in degrees clockwise from north, in [0, 360).
+    #[serde(default)]
+    pub azimuth: Option<f64>,
+    /// Exponent of the fractional Laplacian, in (0, 1).
+    #[serde(default)]
+    pub exponent: Option<f64>,
+    /// Wood's feature code (index into `fuzzy::FEATURES`).
+    #[serde(default)]
+    pub feature: Option<u8>,
+    /// Window radii in cells (fuzzy landforms).
+    #[serde(default)]
+    pub scales: Option<Vec<usize>>,
 }
 
 impl MetricSpec {
@@ -696,6 +852,10 @@ impl MetricSpec {
             radius2: None,
             threshold: None,
             values: Default::default(),
+            azimuth: None,
+            exponent: None,
+            feature: None,
+            scales: None,
         };
         for p in d.params {
             // Defaults are registry constants, parsed by the unit tests.
@@ -715,7 +875,9 @@ impl MetricSpec {
         let mut s = self.def().name.to_string();
         if let Some(r) = self.radius {
             // Curvatures at their default (Evans 3x3) keep the plain name.
-            if !((is_curvature(self.kind) || self.kind == MetricKind::DikauForm)
+            if !((is_curvature(self.kind)
+                || self.kind == MetricKind::DikauForm
+                || self.kind == MetricKind::SharyLandform)
                 && r == Length::Cells(1))
             {
                 s.push_str(&format!("_r{r}"));
@@ -767,6 +929,21 @@ impl MetricSpec {
                     None => s.push_str(&format!("_{}auto", p.name)),
                 }
             }
+        }
+        // more descriptors
+        if let Some(a) = self.azimuth.filter(|&a| a != 0.0) {
+            s.push_str(&format!("_a{a}"));
+        }
+        if let Some(e) = self.exponent.filter(|&e| e != 0.5) {
+            s.push_str(&format!("_s{e}"));
+        }
+        if let Some(f) = self.feature {
+            let name = crate::metrics::fuzzy::FEATURES.get(f as usize).copied();
+            s.push_str(&format!("_{}", name.unwrap_or("?")));
+        }
+        if let Some(sc) = self.scales.as_ref().filter(|v| v.as_slice() != [1, 2, 4]) {
+            let v: Vec<String> = sc.iter().map(|c| c.to_string()).collect();
+            s.push_str(&format!("_sc{}", v.join("-")));
         }
         s
     }
@@ -820,6 +997,50 @@ impl MetricSpec {
                     self.values.remove(p.name);
                 }
             },
+            // more descriptors
+            ParamKind::Azimuth => {
+                let v: f64 = value
+                    .trim()
+                    .parse()
+                    .map_err(|_| format!("'{value}' is not a number of degrees"))?;
+                if !v.is_finite() {
+                    return Err(format!("'{value}' must be finite"));
+                }
+                self.azimuth = Some(v.rem_euclid(360.0));
+            }
+            ParamKind::Exponent => {
+                let v: f64 = value
+                    .trim()
+                    .parse()
+                    .map_err(|_| format!("'{value}' is not a number"))?;
+                if !(v > 0.0 && v < 1.0) {
+                    return Err(format!("'{value}' is not strictly between 0 and 1"));
+                }
+                self.exponent = Some(v);
+            }
+            ParamKind::Feature => {
+                let f = crate::metrics::fuzzy::FEATURES
+                    .iter()
+                    .position(|n| *n == value.trim())
+                    .ok_or_else(|| format!("'{value}' is not a feature"))?;
+                self.feature = Some(f as u8);
+            }
+            ParamKind::Scales => {
+                let mut v = Vec::new();
+                for part in value.split('/') {
+                    let c: usize =
+                        part.trim().trim_end_matches('c').parse().map_err(|_| {
+                            format!("'{part}' in '{value}' is not a radius in cells")
+                        })?;
+                    if !(1..=MAX_RADIUS_CELLS).contains(&c) {
+                        return Err(format!("scale {c} is out of 1..={MAX_RADIUS_CELLS}"));
+                    }
+                    v.push(c);
+                }
+                v.sort_unstable();
+                v.dedup();
+                self.scales = Some(v);
+            }
         }
         Ok(())
     }
@@ -996,6 +1217,16 @@ impl Resolved {
             // visibility & solar
             HorizonAngle | Zenith | Nadir | Accessibility | VisibilityIndex | SolarDirect
             | SolarGlobal | SolarAnnual | VisibilityIndexExact => self.radius_cells.max(1),
+            // more descriptors
+            AverageSlope | HillslopeAsymmetry => self.radius_cells + 1,
+            FractionalLaplacian | Ors | Jut | Rut => self.radius_cells,
+            SharyLandform => self.radius_cells.max(1),
+            FuzzyLandform => self
+                .spec
+                .scales
+                .as_ref()
+                .and_then(|v| v.iter().max().copied())
+                .unwrap_or(1),
             _ => 1,
         }
     }
@@ -1059,8 +1290,48 @@ pub fn resolve(specs: &[MetricSpec], info: &RasterInfo) -> Result<Vec<Resolved>>
             };
             let (radius_cells, radius_m) = to_cells(s.radius)?;
             let (radius2_cells, _) = to_cells(s.radius2)?;
+            // more descriptors
+            if let Some(&big) = s.scales.as_ref().and_then(|v| v.iter().max()) {
+                if big > extent {
+                    return Err(Error::invalid(format!(
+                        "{}: scale {big}c of {} is beyond the raster ({}x{} cells): use smaller scales",
+                        info.path.display(),
+                        s.def().name,
+                        info.width,
+                        info.height
+                    )));
+                }
+            }
+            if s.kind == MetricKind::HillslopeAsymmetry {
+                let t = s.threshold.unwrap_or(45.0);
+                if !(t > 0.0 && t <= 90.0) {
+                    return Err(Error::invalid(format!(
+                        "hillslope_asymmetry:tolerance={t} is out of range: use 0 < tolerance <= 90 (degrees)"
+                    )));
+                }
+            }
+            let mut spec = s.clone();
+            // Solar metrics on a projected raster whose CRS orogen can invert
+            // (UTM, Web Mercator) default to the latitude of the raster's centre.
+            if matches!(
+                spec.kind,
+                MetricKind::SolarDirect | MetricKind::SolarGlobal | MetricKind::SolarAnnual
+            ) && spec.value("lat").is_none()
+                && info.georef.georeferenced
+                && !info.georef.crs.geographic
+            {
+                if let Ok(crs) = crate::tiles::proj::SourceCrs::of(&info.georef, &info.path) {
+                    let t = info.georef.transform;
+                    let (c, r) = (info.width as f64 / 2.0, info.height as f64 / 2.0);
+                    let (x, y) = (t[0] + c * t[1] + r * t[2], t[3] + c * t[4] + r * t[5]);
+                    let (_, lat) = crs.to_lonlat(x, y);
+                    if lat.is_finite() {
+                        spec.values.insert("lat".to_string(), lat);
+                    }
+                }
+            }
             let r = Resolved {
-                spec: s.clone(),
+                spec,
                 radius_cells,
                 radius_m,
                 radius2_cells,
@@ -1090,6 +1361,10 @@ mod tests {
                 radius2: None,
                 threshold: None,
                 values: Default::default(),
+                azimuth: None,
+                exponent: None,
+                feature: None,
+                scales: None,
             };
             for p in d.params {
                 s.set(p, p.default).unwrap();

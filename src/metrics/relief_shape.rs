@@ -1,0 +1,93 @@
+//! Relief-and-steepness descriptors over a disk with a distance cutoff:
+//! ORS, the omni-directional relief and steepness of Earl & Metzler (2015,
+//! "Cloud-capped towers: capturing terrain characteristics using topographic
+//! functionals", Quaestiones Geographicae 34(4)), and jut and rut, the
+//! angle-reduced heights of Xu (2022, "Datumless topography: a universally
+//! consistent way to quantify relief", arXiv 2208.01600), in their planar
+//! form as the survey of Argudo et al. (sec. 3.5) uses them.
+//!
+//! For the cell `p` and every other valid cell `q` with horizontal distance
+//! `0 < d ≤ R` (true metres) and height difference `Δ = z_p − z_q`:
+//! - ORS `= √(Σ_{Δ>0} f(Δ/d) ΔA)` with Earl & Metzler's convergent kernel
+//!   `f(u) = 4/π³ (2u atan u − ln(1+u²) − atan² u)` (≥ 0; ~ 2u⁴/π³ for small
+//!   u, ~ 4u/π² for large u);
+//! - jut `= max(0, max_q Δ|Δ|/√(d²+Δ²))`: the height of `p` above `q`
+//!   reduced by the sine of the angle between them (cliffs jut most);
+//! - rut `= max(0, max_q (−Δ)|Δ|/√(d²+Δ²))`: the same for cells above `p`.
+//!
+//! Halo = cutoff, so the values within the cutoff are exact in tiles.
+
+use super::fractional::disk_offsets;
+use crate::raster::{Grid, TileView};
+
+/// Earl & Metzler's ORS kernel `f(u)`, clamped at 0 against rounding.
+#[inline]
+pub fn ors_kernel(u: f64) -> f64 {
+    let a = u.atan();
+    (4.0 / std::f64::consts::PI.powi(3) * (2.0 * u * a - u.mul_add(u, 1.0).ln() - a * a)).max(0.0)
+}
+
+/// Which of the three descriptors to compute.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ReliefShape {
+    Ors,
+    Jut,
+    Rut,
+}
+
+/// ORS, jut or rut of every core cell with cutoff `radius_m` (at most `rc`
+/// cells per axis, `rc ≤` the view's halo). Nodata cells are nodata and are
+/// left out of the neighbourhoods.
+pub fn relief_shape(
+    view: &TileView<f32>,
+    rc: usize,
+    radius_m: f64,
+    which: ReliefShape,
+    o: &mut Grid<f32>,
+) {
+    let (h, gw) = (view.halo, view.grid.width());
+    let data = view.grid.data();
+    for y in 0..view.core.h {
+        let row = view.core.y + y as i64;
+        let (off, dist) = disk_offsets(view, rc, radius_m, row);
+        let (ew, ns) = view.georef.cell_size_m(row);
+        let area = ew * ns;
+        for x in 0..view.core.w {
+            let ci = (y + h) * gw + x + h;
+            let z = data[ci] as f64;
+            if z.is_nan() {
+                o.set(x, y, f32::NAN);
+                continue;
+            }
+            let mut acc = 0.0f64;
+            for (&k, &d) in off.iter().zip(&dist) {
+                let v = data[(ci as isize + k) as usize] as f64;
+                // NaN neighbours fail every comparison below.
+                let dz = z - v;
+                match which {
+                    ReliefShape::Ors => {
+                        if dz > 0.0 {
+                            acc += ors_kernel(dz / d);
+                        }
+                    }
+                    ReliefShape::Jut => {
+                        if dz > 0.0 {
+                            acc = acc.max(dz * dz / d.hypot(dz));
+                        }
+                    }
+                    ReliefShape::Rut => {
+                        if dz < 0.0 {
+                            acc = acc.max(dz * dz / d.hypot(dz));
+                        }
+                    }
+                }
+            }
+            let v = if which == ReliefShape::Ors {
+                (acc * area).sqrt()
+            } else {
+                acc
+            };
+            o.set(x, y, v as f32);
+        }
+    }
+}
