@@ -4,8 +4,12 @@
 //! JSON as a distributed engine would ship them.
 
 use orogen::exec::GlobalStep;
-use orogen::hydro::tiled::{TiledAccumulation, TiledD8, TiledFill};
-use orogen::hydro::{accumulate, accumulate_weighted, d8_directions, fill, NODATA_DIR};
+use orogen::hydro::flow::outlet_labels;
+use orogen::hydro::tiled::{TiledAccumulation, TiledD8, TiledEpsilon, TiledFill, TiledLabels};
+use orogen::hydro::{
+    accumulate, accumulate_weighted, d8_directions, fill, fill_epsilon, watershed_labels,
+    NODATA_DIR,
+};
 use orogen::raster::{
     read_view, Cell, GeoRef, Grid, IntoAny, MemRaster, RasterSource, TileLayout, TileView,
 };
@@ -63,11 +67,173 @@ fn bits64(g: &Grid<f64>) -> Vec<u64> {
         .collect()
 }
 
-/// Check fill and (weighted) accumulation, tiled vs in memory, for `tiles`.
+const NB: [(i64, i64); 8] = [
+    (1, 0),
+    (1, 1),
+    (0, 1),
+    (-1, 1),
+    (-1, 0),
+    (-1, -1),
+    (0, -1),
+    (1, -1),
+];
+
+/// The next f32 above `z` by bit manipulation (the test's own oracle).
+fn up(z: f32) -> f32 {
+    if z == 0.0 {
+        f32::from_bits(1)
+    } else if z > 0.0 {
+        f32::from_bits(z.to_bits() + 1)
+    } else {
+        f32::from_bits(z.to_bits() - 1)
+    }
+}
+
+fn cell_ok(g: &Grid<f32>, x: i64, y: i64) -> bool {
+    x >= 0
+        && y >= 0
+        && (x as usize) < g.width()
+        && (y as usize) < g.height()
+        && g.get(x as usize, y as usize).is_finite()
+}
+
+fn is_outlet(g: &Grid<f32>, x: usize, y: usize) -> bool {
+    NB.iter()
+        .any(|&(dx, dy)| !cell_ok(g, x as i64 + dx, y as i64 + dy))
+}
+
+/// Brute-force epsilon surface of a filled DEM `f`, straight from the
+/// definition: k = shortest 8-connected path length, through cells of the
+/// same level that have no lower neighbour and are not outlets, to a cell of
+/// that level that has one (or is an outlet); level raised k times by one ULP.
+fn brute_epsilon(f: &Grid<f32>) -> Grid<f32> {
+    let (w, h) = (f.width(), f.height());
+    let drains = |x: usize, y: usize| -> bool {
+        is_outlet(f, x, y)
+            || NB.iter().any(|&(dx, dy)| {
+                let (nx, ny) = (x as i64 + dx, y as i64 + dy);
+                cell_ok(f, nx, ny) && f.get(nx as usize, ny as usize) < f.get(x, y)
+            })
+    };
+    let mut k = vec![u32::MAX; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            if f.get(x, y).is_finite() && drains(x, y) {
+                k[y * w + x] = 0;
+            }
+        }
+    }
+    // Bellman-Ford relaxation until stable
+    loop {
+        let mut changed = false;
+        for y in 0..h {
+            for x in 0..w {
+                if !f.get(x, y).is_finite() || k[y * w + x] == 0 {
+                    continue;
+                }
+                for &(dx, dy) in &NB {
+                    let (nx, ny) = (x as i64 + dx, y as i64 + dy);
+                    if !cell_ok(f, nx, ny) {
+                        continue;
+                    }
+                    let (nx, ny) = (nx as usize, ny as usize);
+                    let kn = k[ny * w + nx];
+                    if f.get(nx, ny) == f.get(x, y) && kn != u32::MAX && kn + 1 < k[y * w + x] {
+                        k[y * w + x] = kn + 1;
+                        changed = true;
+                    }
+                }
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+    Grid::from_fn(w, h, |x, y| {
+        let mut z = f.get(x, y);
+        if !z.is_finite() {
+            return f32::NAN;
+        }
+        for _ in 0..k[y * w + x] {
+            z = up(z);
+        }
+        z
+    })
+}
+
+/// Brute-force labels: walk each cell's D8 path to its end.
+fn brute_labels(d: &Grid<u8>) -> Vec<u32> {
+    let (w, h) = (d.width(), d.height());
+    let mut out = vec![0u32; w * h];
+    for y0 in 0..h {
+        for x0 in 0..w {
+            if d.get(x0, y0) == NODATA_DIR {
+                continue;
+            }
+            let (mut x, mut y) = (x0, y0);
+            for _ in 0..=w * h {
+                let code = d.get(x, y);
+                if code == 0 {
+                    break;
+                }
+                let (dx, dy) = NB[code.trailing_zeros() as usize];
+                let (nx, ny) = (x as i64 + dx, y as i64 + dy);
+                if nx < 0
+                    || ny < 0
+                    || nx >= w as i64
+                    || ny >= h as i64
+                    || d.get(nx as usize, ny as usize) == NODATA_DIR
+                {
+                    break;
+                }
+                x = nx as usize;
+                y = ny as usize;
+            }
+            out[y0 * w + x0] = (y * w + x) as u32 + 1;
+        }
+    }
+    out
+}
+
+/// Check fill, epsilon fill, labels, D8 and (weighted) accumulation, tiled
+/// vs in memory, for `tiles`.
 fn check_all(g: &Grid<f32>, tiles: &[usize]) -> Result<(), TestCaseError> {
     let (w, h) = (g.width(), g.height());
     let want_fill = fill(g).unwrap();
     let dirs = d8_directions(&want_fill);
+    // epsilon fill: the definition, and strict drainage
+    let want_eps = fill_epsilon(g);
+    let brute = brute_epsilon(&want_fill);
+    let strict = (0..h).all(|y| {
+        (0..w).all(|x| {
+            let e = brute.get(x, y);
+            !e.is_finite()
+                || is_outlet(g, x, y)
+                || NB.iter().any(|&(dx, dy)| {
+                    let (nx, ny) = (x as i64 + dx, y as i64 + dy);
+                    cell_ok(g, nx, ny) && brute.get(nx as usize, ny as usize) < e
+                })
+        })
+    });
+    match &want_eps {
+        Ok(e) => {
+            prop_assert!(strict, "the definition drains strictly when no error");
+            prop_assert_eq!(bits32(e), bits32(&brute), "epsilon = definition");
+        }
+        Err(_) => prop_assert!(
+            !strict,
+            "epsilon errs only when the definition does not drain"
+        ),
+    }
+    // labels: path walking, and watershed_labels on the DEM
+    let want_lab = outlet_labels(&dirs).unwrap();
+    prop_assert_eq!(
+        want_lab.data(),
+        &brute_labels(&dirs)[..],
+        "labels = path walk"
+    );
+    let (ws, _) = watershed_labels(g).unwrap();
+    prop_assert_eq!(ws.data(), want_lab.data());
     let counts = accumulate(&dirs).expect("acyclic");
     let want_acc = Grid::from_fn(w, h, |x, y| {
         if dirs.get(x, y) == NODATA_DIR {
@@ -88,6 +254,19 @@ fn check_all(g: &Grid<f32>, tiles: &[usize]) -> Result<(), TestCaseError> {
         prop_assert_eq!(bits32(&got), bits32(&want_fill), "fill, tile {}", t);
         let got = run_global(&TiledD8, &[&fsrc], t).expect("tiled d8");
         prop_assert_eq!(got.data(), dirs.data(), "d8 on the filled DEM, tile {}", t);
+        let got = run_global(&TiledEpsilon, &[&fsrc], t);
+        match (&got, &want_eps) {
+            (Ok(a), Ok(b)) => prop_assert_eq!(bits32(a), bits32(b), "epsilon, tile {}", t),
+            (Err(_), Err(_)) => {}
+            _ => prop_assert!(
+                false,
+                "epsilon: tiled {:?} vs in memory {:?}",
+                got.is_ok(),
+                want_eps.is_ok()
+            ),
+        }
+        let got = run_global(&TiledLabels, &[&dsrc], t).expect("tiled labels");
+        prop_assert_eq!(got.data(), want_lab.data(), "labels, tile {}", t);
         let got = run_global(&TiledD8, &[&src], t).expect("tiled d8");
         prop_assert_eq!(
             got.data(),
