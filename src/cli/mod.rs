@@ -3,3 +3,6 @@
 //! (`Name(cli::file::NameArgs)`) and one match arm per command. Shared helpers
 //! (`In`, `Out`, `OutFmt`, `Run`, `engine`, `open`, `output_options`,
 //! `local1`, `global1`, `wrote`) are reachable as `crate::...`.
+
+pub mod fill_epsilon;
+pub mod watersheds;
