@@ -443,3 +443,130 @@ fn bad_directions_and_summaries_are_errors() {
     sums[2].perimeter[0].0 = 99; // a label the tile does not have
     assert!(TiledFill.reduce(&layout, sums).is_err());
 }
+
+/// Larger grids made of plateaus (blocks of equal height), negative
+/// elevations and NaN holes: flats that cross tiles of 7, 37 and 100.
+fn plateau_dem() -> impl Strategy<Value = Grid<f32>> {
+    (20usize..90, 20usize..80, 3usize..12).prop_flat_map(|(w, h, b)| {
+        let bw = w.div_ceil(b);
+        let bh = h.div_ceil(b);
+        let block = prop_oneof![
+            10 => (-3i32..4).prop_map(|v| v as f32 * 10.0),
+            1 => Just(f32::NAN),
+        ];
+        (
+            proptest::collection::vec(block, bw * bh),
+            proptest::collection::vec((0usize..w * h, -2i32..3), 0..20),
+        )
+            .prop_map(move |(blocks, bumps)| {
+                let mut g = Grid::from_fn(w, h, |x, y| blocks[(y / b) * bw + x / b]);
+                for (i, dz) in bumps {
+                    let v = g.data()[i];
+                    g.data_mut()[i] = v + dz as f32;
+                }
+                g
+            })
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 16, .. ProptestConfig::default() })]
+
+    #[test]
+    fn plateaus_across_odd_tiles(g in plateau_dem()) {
+        check_all(&g, &[7, 37, 100])?;
+    }
+}
+
+#[test]
+fn nodata_tiles_and_hole_outlets() {
+    // left third all nodata (whole tiles of 7 and 9 are empty), the rest a
+    // bowl whose only outlets are the nodata region and one interior hole
+    let (w, h) = (45, 30);
+    let g = Grid::from_fn(w, h, |x, y| {
+        if x < 15 || (x, y) == (32, 14) {
+            f32::NAN
+        } else {
+            let dx = x as f32 - 32.0;
+            let dy = y as f32 - 14.0;
+            -50.0 + (dx * dx + dy * dy).sqrt().floor()
+        }
+    });
+    check_all(&g, &[7, 9, 16, 45]).unwrap();
+    // a clipped island: nodata border, a pit, outlets only at the border
+    let g = Grid::from_fn(24, 21, |x, y| {
+        if x == 0 || y == 0 || x == 23 || y == 20 {
+            f32::NAN
+        } else if (x, y) == (6, 6) {
+            1.0
+        } else {
+            5.0
+        }
+    });
+    check_all(&g, &[1, 5, 7, 24]).unwrap();
+}
+
+#[test]
+fn constant_dem_labels_each_cell_by_its_edge_exit() {
+    let g = Grid::new(15, 11, 3.0f32);
+    check_all(&g, &[4, 7]).unwrap();
+    let dirs = d8_directions(&fill(&g).unwrap());
+    let labels = outlet_labels(&dirs).unwrap();
+    // every label is an edge cell's index + 1
+    for &l in labels.data() {
+        let i = l as usize - 1;
+        let (x, y) = (i % 15, i / 15);
+        assert!(x == 0 || y == 0 || x == 14 || y == 10, "({x},{y})");
+    }
+}
+
+#[test]
+fn epsilon_errors_agree_tiled_and_in_memory() {
+    // unfilled input (a pit): the tiled epsilon step refuses it
+    let mut v = vec![5.0f32; 25];
+    v[12] = 1.0;
+    let pit = Grid::from_vec(5, 5, v).unwrap();
+    for t in [2, 5] {
+        assert!(run_global(&TiledEpsilon, &[&mem(&pit, None)], t).is_err());
+    }
+    // a flat too wide for the step above it: both refuse
+    let up = |z: f32| f32::from_bits(z.to_bits() + 1);
+    let w = 8;
+    let mut v = vec![9.0f32; w * 3];
+    v[w] = 0.5;
+    for x in 1..6 {
+        v[w + x] = 1.0;
+    }
+    v[w + 6] = up(up(1.0));
+    let g = Grid::from_vec(w, 3, v).unwrap();
+    assert!(fill_epsilon(&g).is_err());
+    for t in [1, 2, 3, 8] {
+        assert!(run_global(&TiledEpsilon, &[&mem(&g, None)], t).is_err());
+    }
+}
+
+#[test]
+fn bad_label_inputs_are_errors() {
+    // a cycle across two tiles, a value that is no D8 code
+    let d = Grid::from_vec(2, 1, vec![1.0f32, 16.0]).unwrap();
+    for t in [1, 2] {
+        assert!(run_global(&TiledLabels, &[&mem(&d, None)], t).is_err());
+    }
+    let d = Grid::from_vec(3, 1, vec![1.0f32, 3.0, 0.0]).unwrap();
+    assert!(run_global(&TiledLabels, &[&mem(&d, None)], 1).is_err());
+    let layout = TileLayout::new(4, 4, 2);
+    assert!(TiledLabels.reduce(&layout, Vec::new()).is_err());
+    assert!(TiledEpsilon.reduce(&layout, Vec::new()).is_err());
+    // a flats summary with runs outside its tile
+    let g = Grid::new(4, 4, 1.0f32);
+    let src = mem(&g, None);
+    let mut sums: Vec<_> = (0..4)
+        .map(|id| {
+            TiledD8
+                .map(&[read_view::<f32>(&src, &layout, id, 2).unwrap()])
+                .unwrap()
+        })
+        .collect();
+    sums[1].runs = vec![(3, 9)];
+    assert!(TiledD8.reduce(&layout, sums).is_err());
+}
