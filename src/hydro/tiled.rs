@@ -745,43 +745,7 @@ impl GlobalStep for TiledAccumulation {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn perimeter_enumeration_matches_index() {
-        for w in 1..6 {
-            for h in 1..6 {
-                let cells: Vec<_> = perimeter_cells(w, h).collect();
-                assert_eq!(cells.len(), perimeter_len(w, h), "{w}x{h}");
-                for (k, &(x, y)) in cells.iter().enumerate() {
-                    assert_eq!(perimeter_index(w, h, x, y), Some(k), "{w}x{h} ({x},{y})");
-                }
-                for y in 0..h {
-                    for x in 0..w {
-                        let on = x == 0 || y == 0 || x + 1 == w || y + 1 == h;
-                        assert_eq!(perimeter_index(w, h, x, y).is_some(), on);
-                    }
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn summaries_round_trip_through_json() {
-        let s = AccumSummary {
-            w: 2,
-            h: 1,
-            perimeter: vec![(1i128 << 100, Link::Cross(3, 4)), (-5, Link::Perim(0))],
-        };
-        let j = serde_json::to_string(&s).unwrap();
-        let back: AccumSummary = serde_json::from_str(&j).unwrap();
-        assert_eq!(back, s);
-    }
-}
-
-// ------------------------------------------------------ D8 directions ----
+// ---------------------------------------------------- cross-tile pairs ----
 
 /// Calls `f(tile_a, (xa, ya), tile_b, (xb, yb))` for every pair of
 /// 8-adjacent cells that lie in different tiles (tile-local coordinates),
@@ -820,5 +784,41 @@ pub(crate) fn cross_tile_pairs(
                 }
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn perimeter_enumeration_matches_index() {
+        for w in 1..6 {
+            for h in 1..6 {
+                let cells: Vec<_> = perimeter_cells(w, h).collect();
+                assert_eq!(cells.len(), perimeter_len(w, h), "{w}x{h}");
+                for (k, &(x, y)) in cells.iter().enumerate() {
+                    assert_eq!(perimeter_index(w, h, x, y), Some(k), "{w}x{h} ({x},{y})");
+                }
+                for y in 0..h {
+                    for x in 0..w {
+                        let on = x == 0 || y == 0 || x + 1 == w || y + 1 == h;
+                        assert_eq!(perimeter_index(w, h, x, y).is_some(), on);
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn summaries_round_trip_through_json() {
+        let s = AccumSummary {
+            w: 2,
+            h: 1,
+            perimeter: vec![(1i128 << 100, Link::Cross(3, 4)), (-5, Link::Perim(0))],
+        };
+        let j = serde_json::to_string(&s).unwrap();
+        let back: AccumSummary = serde_json::from_str(&j).unwrap();
+        assert_eq!(back, s);
     }
 }
