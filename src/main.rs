@@ -299,6 +299,18 @@ enum Cmd {
         after_help = "Examples:\n  orogen breach dem.tif -o breached.tif\n  orogen breach dem.tif --method hybrid --max-depth 2 --max-length 50 -o hybrid.tif\n  orogen breach dem.tiles --method least-cost --dist 100 --fill-remaining -o breached.tiles\nbreach and hybrid run in memory (about 32 bytes per cell; see --memory); least-cost runs\nacross tiles and is exact for any tile size (halo 2*dist+1). Nodata and the edge are outlets."
     )]
     Breach(cli::breach::BreachArgs),
+    /// Fill depressions to a strictly draining epsilon surface: each flat cell rises
+    /// k ULPs above its fill level, k = its distance to the flat's exit; exact across tiles.
+    #[command(
+        after_help = "Example:\n  orogen fill-epsilon dem.tif -o eps.tif\nErrors (instead of raising terrain) where a flat is too wide for f32 steps;\nthen use fill + flow."
+    )]
+    FillEpsilon(cli::fill_epsilon::FillEpsilonArgs),
+    /// Watershed labels from D8 directions: each cell gets the row-major index + 1 of
+    /// the cell where its flow leaves the DEM (u32, 0 = nodata); exact across tiles.
+    #[command(
+        after_help = "Example:\n  orogen fill dem.tif -o f.tif && orogen flow f.tif -o d8.tif\n  orogen watersheds d8.tif -o basins.tif"
+    )]
+    Watersheds(cli::watersheds::WatershedsArgs),
     /// Flow accumulation in cells (or weighted): D8 from `orogen flow` directions, exact
     /// across tiles (Barnes 2017); or D-infinity / MFD from a filled DEM (in memory).
     #[command(
@@ -781,6 +793,8 @@ fn run(cli: Cli) -> Result<()> {
             }
         }
         Cmd::Breach(args) => cli::breach::run(args)?,
+        Cmd::FillEpsilon(a) => cli::fill_epsilon::run(a)?,
+        Cmd::Watersheds(a) => cli::watersheds::run(a)?,
         Cmd::Accumulate {
             input,
             method,

@@ -12,3 +12,5 @@ pub mod breach;
 pub mod viewshed;
 pub mod oro;
 pub mod metric_table;
+pub mod fill_epsilon;
+pub mod watersheds;

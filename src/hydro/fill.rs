@@ -6,16 +6,20 @@
 //! - [`fill`]: Algorithm 2, "Improved Priority-Flood": a priority queue for
 //!   cells above the current water level plus a plain FIFO for cells inside a
 //!   depression (they are raised to the level of the cell that reached them).
-//! - [`fill_epsilon`]: Algorithm 3, each cell raised to the next representable
-//!   f32 above the cell that reached it, so every cell drains strictly.
-//! - [`watershed_labels`]: Algorithm 4/5, the label of the outlet cell each
-//!   cell drains to.
+//! - [`fill_epsilon`] / [`epsilon_surface`]: a strictly draining surface in
+//!   the spirit of Algorithm 3 (Priority-Flood+ε), redefined so that it does
+//!   not depend on flood order and has an exact tiled form
+//!   ([`super::tiled::TiledEpsilon`]); see [`epsilon_surface`].
+//! - [`watershed_labels`]: the outlet cell each cell's water leaves the DEM
+//!   through, following the D8 directions of the filled DEM (canonical
+//!   numbering: row-major index of that outlet + 1), equal to the tiled
+//!   [`super::tiled::TiledLabels`].
 //!
 //! The filled elevation of a cell is the minimax over all 8-connected paths to
 //! an outlet cell (see the module conventions in [`crate::hydro`]) of the
 //! highest elevation along the path; outlet cells keep their own elevation.
-//! Priority ties are broken by the cell's row-major index, so labels and
-//! epsilon-filled values are deterministic.
+//! Priority ties are broken by the cell's row-major index, so the flood is
+//! deterministic.
 //!
 //! Peer check (`tools/richdem_compare.py`): [`fill`] equals RichDEM 0.3.4's
 //! `FillDepressions` bit for bit on DEMs without nodata (bigtujunga 1197x643,
@@ -24,7 +28,7 @@
 //! higher near the voids (SRTM3 N46E008: 2170 cells) — the documented
 //! convention difference.
 
-use super::{next_up, order_key, outlet_cells, valid, DX, DY};
+use super::{order_key, outlet_cells, valid, DX, DY, NODATA_DIR, NO_FLOW};
 use crate::error::{Error, Result};
 use crate::raster::Grid;
 use std::cmp::Reverse;
@@ -168,99 +172,174 @@ pub fn fill(dem: &Grid<f32>) -> Result<Grid<f32>> {
     Grid::from_vec(w, h, z)
 }
 
-/// Watershed labels (Barnes et al. 2014, Algorithms 4/5): each outlet cell
-/// gets its own label, 1, 2, … in row-major order, and every valid cell the
-/// label of the outlet its water leaves the DEM through after filling
-/// (0 = nodata). Returns the labels and the filled DEM. Errors for grids of
-/// more than 2^32 cells.
+/// Watershed labels: every valid cell gets the label of the outlet cell its
+/// water leaves the DEM through, following the D8 directions
+/// ([`super::d8_directions`], flats drained after Barnes, Lehman & Mulla
+/// 2014) of the filled DEM ([`fill`]); 0 = nodata. Labels are canonical:
+/// the row-major index of that outlet cell plus 1 (see
+/// [`super::flow::outlet_labels`]), so the tiled
+/// [`super::tiled::TiledLabels`] gives the same numbers.
+///
+/// This differs from the flood labels of Barnes et al. (2014, Alg. 4/5),
+/// where a cell takes the label of whichever outlet's flood reaches it first:
+/// on a filled flat that choice depends on flood order, which a tiled run
+/// cannot reproduce; D8 paths are a property of the surface. Returns the
+/// labels and the filled DEM. Errors for grids of 2^32 cells or more.
 pub fn watershed_labels(dem: &Grid<f32>) -> Result<(Grid<u32>, Grid<f32>)> {
-    let (w, h) = (dem.width(), dem.height());
-    too_many(w, h)?;
-    let mut z = dem.data().to_vec();
-    let outlets = outlet_cells(&z, w, h);
-    let mut labels = vec![UNLABELLED; z.len()];
-    let mut seeds = Vec::new();
-    let mut next = 1u32;
-    for (i, &o) in outlets.iter().enumerate() {
-        if o {
-            labels[i] = next;
-            next = next.wrapping_add(1).max(1);
-            seeds.push(i);
-        }
+    let f = fill(dem)?;
+    let labels = super::flow::outlet_labels(&super::flow::d8_directions(&f))?;
+    Ok((labels, f))
+}
+
+/// `next_up` applied `k` times (finite `z`; ±0 step to the smallest
+/// subnormal as in [`super::next_up`]), in O(1): the IEEE 754 order keys of
+/// consecutive floats are consecutive integers, with −0 and +0 merged.
+/// Returns +∞ past `f32::MAX`.
+pub(crate) fn next_up_n(z: f32, k: u32) -> f32 {
+    if k == 0 || !z.is_finite() {
+        return z;
     }
-    flood_labelled(&mut z, w, h, &mut labels, &seeds, |_, _, _| {});
-    for v in z.iter_mut() {
-        if !valid(*v) {
-            *v = f32::NAN;
-        }
+    let b = z.to_bits();
+    // merged key: +0 and -0 both 0x8000_0000
+    let key: u64 = if b & 0x8000_0000 != 0 {
+        (!b) as u64 + 1
+    } else {
+        (b | 0x8000_0000) as u64
+    };
+    let r = key + k as u64;
+    if r > 0xFF7F_FFFF {
+        f32::INFINITY
+    } else if r > 0x8000_0000 {
+        f32::from_bits((r & 0x7FFF_FFFF) as u32)
+    } else if r == 0x8000_0000 {
+        // landed on zero: only reachable from below, as next_up gives -0
+        -0.0
+    } else {
+        f32::from_bits(!((r - 1) as u32))
     }
-    Ok((Grid::from_vec(w, h, labels)?, Grid::from_vec(w, h, z)?))
+}
+
+pub(crate) fn not_filled((x, y): (i64, i64)) -> Error {
+    Error::invalid(format!(
+        "epsilon fill: cell ({x}, {y}) lies in a flat or pit with no drainage; the input \
+         must be a filled DEM (the output of fill)"
+    ))
+}
+
+pub(crate) fn eps_overflow((x, y): (i64, i64)) -> Error {
+    Error::invalid(format!(
+        "epsilon fill: cell ({x}, {y}) would have to rise above f32::MAX; rescale the elevations"
+    ))
+}
+
+pub(crate) fn eps_too_wide((x, y): (i64, i64), z: f32) -> Error {
+    Error::invalid(format!(
+        "epsilon fill: cell ({x}, {y}) at {z} would lose its strictly lower neighbour: the flat \
+         below it is so wide that its epsilon rise reaches this level at f32 resolution; \
+         use fill and flow (flats drained without epsilon) instead"
+    ))
 }
 
 /// Fill depressions so that every valid cell that is not an outlet cell has a
-/// strictly lower neighbour on a path to an outlet: Barnes et al. (2014),
-/// Algorithm 3 ("Priority-Flood+ε"), each cell raised to the next
-/// representable f32 above the cell that reached it (the smallest possible
-/// epsilon, so the surface stays within a few ULPs of [`fill`] per cell of
-/// flat). Errors if a cell would have to rise above `f32::MAX`.
+/// strictly lower neighbour: `epsilon_surface(fill(dem))`. Errors as
+/// [`epsilon_surface`], and for grids of more than 2^32 cells.
 pub fn fill_epsilon(dem: &Grid<f32>) -> Result<Grid<f32>> {
-    let (w, h) = (dem.width(), dem.height());
+    epsilon_surface(&fill(dem)?)
+}
+
+/// The epsilon surface of a filled DEM (the output of [`fill`]): every valid
+/// cell becomes `next_up^k(F)`, with `F` its fill level and `k` its
+/// geodesic (8-connected, unit-step) distance inside its flat to the flat's
+/// draining edge — a *flat* being a connected set of cells of equal level
+/// without a lower neighbour that are not outlet cells, its draining edge the
+/// cells of the same level next to it that drain (`k` = the towards-lower
+/// distance of Barnes, Lehman & Mulla 2014, minus one). Cells outside flats
+/// keep their level. Each flat cell thus has a neighbour exactly one ULP-step
+/// lower towards the exit, so the surface drains strictly.
+///
+/// Differences from RichDEM's Priority-Flood+ε (Barnes et al. 2014, Alg. 3),
+/// where a cell is one ULP above the cell that reached it in flood order:
+/// the rise depends only on the distance to the exit, not on the order in
+/// which the flood happened to reach the flat (so the tiled form
+/// [`super::tiled::TiledEpsilon`] can equal it bit for bit), and it is the
+/// smallest such rise along shortest paths. When a wide flat's rise
+/// `k` ULPs reaches the level of terrain draining into it (f32 spacing near
+/// `F` times `k` ≥ the step to the next level: e.g. 164 cells for a 1 cm step
+/// at 1000 m), Alg. 3 silently raises that terrain too; here that terrain
+/// would lose its strictly lower neighbour, and the function returns an
+/// error instead (the surface returned is always strictly draining). Errors
+/// also if a cell would rise above `f32::MAX`, or if the input has a flat or
+/// pit without drainage (it was not filled).
+pub fn epsilon_surface(filled: &Grid<f32>) -> Result<Grid<f32>> {
+    let (w, h) = (filled.width(), filled.height());
     too_many(w, h)?;
-    let mut z = dem.data().to_vec();
-    let outlets = outlet_cells(&z, w, h);
-    let mut closed = vec![false; z.len()];
-    let mut open: BinaryHeap<Reverse<u64>> = BinaryHeap::new();
-    let mut pit: VecDeque<usize> = VecDeque::new();
-    for (i, &o) in outlets.iter().enumerate() {
-        if o {
-            closed[i] = true;
-            open.push(Reverse(pack(z[i], i)));
-        }
-    }
+    let z = filled.data();
+    let codes = super::flow::steepest_descent(z, w, h);
+    let n = z.len();
+    const UNSET: u32 = u32::MAX;
+    // k: breadth-first distance over NO_FLOW cells from the draining edge
+    let mut k = vec![UNSET; n];
+    let mut cur = Vec::new();
     let mut nb = [0usize; 8];
-    let mut overflow = false;
-    loop {
-        // Alg. 3: a queued cell at the same elevation as the pit front goes
-        // first, so that it is not raised needlessly by the pit.
-        let idx = |k: u64| (k & 0xFFFF_FFFF) as usize;
-        let c = match (pit.front(), open.peek()) {
-            (Some(&p), Some(Reverse(k))) if (*k >> 32) as u32 == order_key(z[p]) => {
-                open.pop().map(|Reverse(k)| idx(k))
-            }
-            (Some(_), _) => pit.pop_front(),
-            (None, _) => open.pop().map(|Reverse(k)| idx(k)),
-        };
-        let Some(c) = c else { break };
-        let up = next_up(z[c]);
-        let count = neighbours(c, w, h, &mut nb);
-        for &n in &nb[..count] {
-            if closed[n] || !valid(z[n]) {
-                continue;
-            }
-            closed[n] = true;
-            if z[n] <= up {
-                if up == f32::INFINITY {
-                    overflow = true;
+    for c in 0..n {
+        if codes[c] != NO_FLOW {
+            continue;
+        }
+        let cnt = neighbours(c, w, h, &mut nb);
+        if nb[..cnt]
+            .iter()
+            .any(|&m| codes[m] != NO_FLOW && codes[m] != NODATA_DIR && z[m] == z[c])
+        {
+            k[c] = 1;
+            cur.push(c);
+        }
+    }
+    let mut level = 1u32;
+    let mut nxt = Vec::new();
+    while !cur.is_empty() {
+        level += 1;
+        for &c in &cur {
+            let cnt = neighbours(c, w, h, &mut nb);
+            for &m in &nb[..cnt] {
+                if codes[m] == NO_FLOW && k[m] == UNSET {
+                    k[m] = level;
+                    nxt.push(m);
                 }
-                z[n] = up;
-                pit.push_back(n);
-            } else {
-                open.push(Reverse(pack(z[n], n)));
             }
         }
+        std::mem::swap(&mut cur, &mut nxt);
+        nxt.clear();
     }
-    if overflow {
-        return Err(Error::invalid(
-            "epsilon fill: a depression reaches f32::MAX and cannot be raised further; \
-             rescale the elevations",
-        ));
-    }
-    for v in z.iter_mut() {
-        if !valid(*v) {
-            *v = f32::NAN;
+    let pos = |c: usize| ((c % w.max(1)) as i64, (c / w.max(1)) as i64);
+    let mut e = vec![f32::NAN; n];
+    for c in 0..n {
+        if !valid(z[c]) {
+            continue;
+        }
+        let kc = if codes[c] == NO_FLOW {
+            if k[c] == UNSET {
+                return Err(not_filled(pos(c)));
+            }
+            k[c]
+        } else {
+            0
+        };
+        e[c] = next_up_n(z[c], kc);
+        if e[c] == f32::INFINITY {
+            return Err(eps_overflow(pos(c)));
         }
     }
-    Grid::from_vec(w, h, z)
+    let outlets = outlet_cells(z, w, h);
+    for c in 0..n {
+        if !valid(z[c]) || codes[c] == NO_FLOW || outlets[c] {
+            continue;
+        }
+        let cnt = neighbours(c, w, h, &mut nb);
+        if !nb[..cnt].iter().any(|&m| e[m] < z[c]) {
+            return Err(eps_too_wide(pos(c), z[c]));
+        }
+    }
+    Grid::from_vec(w, h, e)
 }
 
 #[cfg(test)]
@@ -293,8 +372,11 @@ mod tests {
             9.0, 9.0, 9.0, 9.0]);
         let f = fill_epsilon(&d).unwrap();
         assert_eq!(f.get(3, 1), 2.0);
-        assert_eq!(f.get(2, 1), next_up(2.0));
-        assert_eq!(f.get(1, 1), next_up(next_up(2.0)));
+        assert_eq!(f.get(2, 1), super::super::next_up(2.0));
+        assert_eq!(
+            f.get(1, 1),
+            super::super::next_up(super::super::next_up(2.0))
+        );
     }
 
     #[test]
@@ -318,6 +400,44 @@ mod tests {
     }
 
     #[test]
+    fn next_up_n_equals_iterated_next_up() {
+        for z in [
+            -3.5f32, -4e-45, -1e-45, -0.0, 0.0, 1e-45, 1.0, 12345.678, -7e20,
+        ] {
+            let mut it = z;
+            for k in 0..40u32 {
+                let got = next_up_n(z, k);
+                assert_eq!(got.to_bits(), it.to_bits(), "{z} + {k}");
+                it = super::super::next_up(it);
+            }
+        }
+        assert_eq!(next_up_n(f32::MAX, 1), f32::INFINITY);
+        assert_eq!(next_up_n(f32::MAX, 0), f32::MAX);
+        assert_eq!(next_up_n(f32::MIN, u32::MAX), f32::INFINITY);
+        assert_eq!(next_up_n(1.0, 1 << 23), 2.0);
+    }
+
+    #[test]
+    fn too_wide_flat_is_an_error_not_a_non_draining_surface() {
+        // a corridor flat at 1.0 draining west (to 0.5); its far end (k = 4)
+        // is the only lower neighbour of a cell at 1.0 + 2 ulp
+        let up2 = super::super::next_up(super::super::next_up(1.0));
+        let w = 8;
+        let mut v = vec![9.0f32; w * 3];
+        v[w] = 0.5;
+        for x in 1..6 {
+            v[w + x] = 1.0;
+        }
+        v[w + 6] = up2;
+        let d = g(w, 3, &v);
+        assert_eq!(fill(&d).unwrap(), d, "nothing to fill");
+        // one ulp less and it drains
+        v[w + 6] = next_up_n(1.0, 5);
+        assert!(fill_epsilon(&g(w, 3, &v)).is_ok());
+        assert!(fill_epsilon(&d).is_err());
+    }
+
+    #[test]
     fn watershed_labels_follow_outlets() {
         // two valleys draining west and east, divide in the middle column
         #[rustfmt::skip]
@@ -329,6 +449,9 @@ mod tests {
         let west = l.get(0, 1);
         let east = l.get(4, 1);
         assert_ne!(west, east);
+        // canonical numbering: row-major index of the outlet cell + 1
+        assert_eq!(west, 5 + 1);
+        assert_eq!(east, 9 + 1);
         assert_eq!(l.get(1, 1), west);
         assert_eq!(l.get(3, 1), east);
     }

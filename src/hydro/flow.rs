@@ -16,7 +16,8 @@
 //! Module conventions in [`crate::hydro`]: outlet cells without a lower
 //! neighbour drain off the DEM; codes are the ESRI powers of two.
 
-use super::{valid, D8_CODES, DX, DY, NODATA_DIR, NO_FLOW};
+use super::{code_to_dir, valid, D8_CODES, DX, DY, NODATA_DIR, NO_FLOW};
+use crate::error::{Error, Result};
 use crate::raster::Grid;
 
 const DIST: [f64; 8] = [
@@ -39,6 +40,69 @@ pub fn d8_directions(dem: &Grid<f32>) -> Grid<u8> {
     let mut dir = steepest_descent(z, w, h);
     resolve_flats(z, w, h, &mut dir);
     Grid::from_vec(w, h, dir).expect("same size as the input")
+}
+
+/// Watershed label of every cell of a D8 direction grid: the row-major
+/// index plus 1 of the *terminal* cell its flow path ends at — a cell whose
+/// code points beyond the grid or at a nodata cell (an outlet), or a
+/// [`NO_FLOW`] cell (a pit of an unfilled DEM) — and 0 for nodata. Paths are
+/// followed once (memoised), so the cost is linear. The numbering depends
+/// only on the directions, which makes it canonical: the tiled
+/// [`super::tiled::TiledLabels`] gives the same numbers. Errors for codes
+/// that are not D8 codes, cycles, and grids of 2^32 cells or more.
+pub fn outlet_labels(dirs: &Grid<u8>) -> Result<Grid<u32>> {
+    let (w, h) = (dirs.width(), dirs.height());
+    let n = w
+        .checked_mul(h)
+        .filter(|&n| n <= u32::MAX as usize)
+        .ok_or_else(|| {
+            Error::invalid(format!(
+                "{w}x{h} cells: watershed labels need fewer than 2^32 cells"
+            ))
+        })?;
+    let d = dirs.data();
+    let mut lab = vec![0u32; n];
+    // 0 = not visited, 1 = on the current path, 2 = labelled
+    let mut state = vec![0u8; n];
+    let mut path = Vec::new();
+    for s in 0..n {
+        if d[s] == NODATA_DIR || state[s] == 2 {
+            continue;
+        }
+        let mut c = s;
+        let label = loop {
+            if state[c] == 2 {
+                break lab[c];
+            }
+            let (x, y) = (c % w, c / w);
+            if state[c] == 1 {
+                return Err(Error::invalid(format!(
+                    "flow directions contain a cycle through cell ({x}, {y})"
+                )));
+            }
+            state[c] = 1;
+            path.push(c);
+            let code = d[c];
+            if code == NO_FLOW {
+                break c as u32 + 1;
+            }
+            let dir = code_to_dir(code).ok_or_else(|| {
+                Error::invalid(format!(
+                    "flow direction {code} at cell ({x}, {y}) is not a D8 code"
+                ))
+            })?;
+            match neighbour(x, y, dir, w, h) {
+                Some(m) if d[m] != NODATA_DIR => c = m,
+                _ => break c as u32 + 1,
+            }
+        };
+        for &p in &path {
+            lab[p] = label;
+            state[p] = 2;
+        }
+        path.clear();
+    }
+    Grid::from_vec(w, h, lab)
 }
 
 /// Index of neighbour `d` of cell (x, y), or `None` beyond the grid.

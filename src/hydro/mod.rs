@@ -43,6 +43,8 @@ pub mod streams;
 pub mod rho8;
 pub mod tiled;
 pub mod tiled_breach;
+pub mod tiled_flats;
+pub mod tiled_labels;
 
 pub use accum::{accumulate, accumulate_weighted, WEIGHT_SCALE_BITS};
 pub use basins::{basin_labels, hand, watersheds};
@@ -98,6 +100,7 @@ pub(crate) fn order_key(z: f32) -> u32 {
 /// by integer manipulation of the IEEE 754 bits (Rust's `f32::next_up` needs
 /// a newer toolchain than the crate's MSRV).
 #[inline]
+#[allow(dead_code)] // the library steps by many ULPs at once (fill::next_up_n)
 pub(crate) fn next_up(z: f32) -> f32 {
     if z.is_nan() || z == f32::INFINITY {
         return z;

@@ -27,19 +27,27 @@
 //!   exact integers (see [`super::accum`]), so the result equals
 //!   [`super::accumulate`] / [`super::accumulate_weighted`] bit for bit.
 //!
-//! - [`TiledD8`]: D8 directions with flats resolved exactly across tiles
-//!   (Barnes, Lehman & Mulla 2014 gradients as shortest distances over
-//!   perimeter "portals"; see its docs). Equal to [`super::d8_directions`].
+//! - [`TiledD8`] and [`TiledEpsilon`] (in [`super::tiled_flats`]): D8
+//!   directions with flats resolved exactly across tiles, and the epsilon
+//!   surface of a filled DEM (Barnes, Lehman & Mulla 2014 distances solved
+//!   over perimeter "portals" and run-length encoded flat shapes). Equal to
+//!   [`super::d8_directions`] and [`super::fill_epsilon`].
+//! - [`TiledLabels`] (in [`super::tiled_labels`]): watershed labels from D8
+//!   directions, equal to [`super::flow::outlet_labels`] (and so to
+//!   [`super::watershed_labels`] on the directions of the filled DEM).
 //!
 //! All read their inputs as f32 (NaN = nodata), with a halo of 1 (fill,
-//! accumulation) or 2 (D8).
+//! accumulation, labels) or 2 (D8, epsilon).
 //!
-//! Not (yet) tiled: epsilon filling and watershed labels. Epsilon fill's
-//! values depend on the order in which the in-memory flood reaches each cell
-//! of a flat, which a per-tile flood cannot reproduce; an exact tiled form
-//! needs the epsilon surface redefined as `next_up^k(fill level)` with `k`
-//! a geodesic distance inside each flat (computable with the portal
-//! machinery of [`TiledD8`]) and the in-memory version changed to match.
+//! Epsilon filling across tiles is two passes: [`TiledFill`] then
+//! [`TiledEpsilon`] on its output (the epsilon surface is defined from the
+//! fill levels and distances inside flats, see
+//! [`super::fill::epsilon_surface`]).
+
+pub use super::tiled_flats::{
+    D8Slice, D8Solution, D8Summary, FlatSlice, FlatSolution, FlatSummary, TiledD8, TiledEpsilon,
+};
+pub use super::tiled_labels::TiledLabels;
 
 use super::accum::{accumulate_core, bad_code, fixed_to_f64, receiver, weight_to_fixed};
 use super::fill::{flood_labelled, UNLABELLED};
@@ -737,48 +745,12 @@ impl GlobalStep for TiledAccumulation {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn perimeter_enumeration_matches_index() {
-        for w in 1..6 {
-            for h in 1..6 {
-                let cells: Vec<_> = perimeter_cells(w, h).collect();
-                assert_eq!(cells.len(), perimeter_len(w, h), "{w}x{h}");
-                for (k, &(x, y)) in cells.iter().enumerate() {
-                    assert_eq!(perimeter_index(w, h, x, y), Some(k), "{w}x{h} ({x},{y})");
-                }
-                for y in 0..h {
-                    for x in 0..w {
-                        let on = x == 0 || y == 0 || x + 1 == w || y + 1 == h;
-                        assert_eq!(perimeter_index(w, h, x, y).is_some(), on);
-                    }
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn summaries_round_trip_through_json() {
-        let s = AccumSummary {
-            w: 2,
-            h: 1,
-            perimeter: vec![(1i128 << 100, Link::Cross(3, 4)), (-5, Link::Perim(0))],
-        };
-        let j = serde_json::to_string(&s).unwrap();
-        let back: AccumSummary = serde_json::from_str(&j).unwrap();
-        assert_eq!(back, s);
-    }
-}
-
-// ------------------------------------------------------ D8 directions ----
+// ---------------------------------------------------- cross-tile pairs ----
 
 /// Calls `f(tile_a, (xa, ya), tile_b, (xb, yb))` for every pair of
 /// 8-adjacent cells that lie in different tiles (tile-local coordinates),
 /// each pair once.
-fn cross_tile_pairs(
+pub(crate) fn cross_tile_pairs(
     layout: &TileLayout,
     mut f: impl FnMut(usize, (usize, usize), usize, (usize, usize)),
 ) {
@@ -815,503 +787,38 @@ fn cross_tile_pairs(
     }
 }
 
-/// D8 flow directions with flats resolved exactly across tiles (equal to
-/// [`super::d8_directions`] bit for bit). Input: a filled DEM (f32, NaN =
-/// nodata), halo 2; output: ESRI codes (u8, [`NODATA_DIR`] for nodata).
-///
-/// Steepest descent is local (halo 1, plus 1 to know the halo cells' own
-/// codes). Flats need the two breadth-first distances of Barnes, Lehman &
-/// Mulla (2014) — towards lower terrain and away from higher terrain — which
-/// are geodesic distances through the flat's NO_FLOW cells and so cross
-/// tiles. Each source distance is a local fact (a NO_FLOW cell next to a
-/// draining cell of the same height starts at 2, one next to higher ground at
-/// 1), so the distances are a multi-source shortest-path problem, solved as a
-/// global step: *map* computes, per tile, the local distances of the
-/// perimeter NO_FLOW cells ("portals") and the geodesic distance inside the
-/// tile between every two portals of the same flat; *reduce* runs Dijkstra
-/// over portals (in-tile portal pairs plus unit edges between adjacent
-/// portals of neighbouring tiles); *apply* seeds a tile's search with its
-/// portals' global distances, reads the distances of the ring of cells
-/// around the tile from the slice, and picks directions exactly as the
-/// in-memory algorithm does. Within a flat only differences of the combined
-/// mask matter, so the flat's height term of the paper (a per-flat maximum,
-/// global) cancels and is not needed: cells compare `2·towards − away`, and
-/// a cell next to a low edge drains to its first low edge.
-///
-/// Cost: the portal-pair distances take one search per portal over its flat
-/// inside the tile, and the summary holds one entry per pair of portals of
-/// the same flat: O(perimeter) for tiles that flats do not cross, but up to
-/// O(perimeter²) for a tile covered by one flat (a filled lake). Keep tiles
-/// moderate (≤ 512) on DEMs with very large flats.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct TiledD8;
+#[cfg(test)]
+mod tests {
+    use super::*;
 
-/// Per-tile summary of [`TiledD8`].
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct D8Summary {
-    pub w: usize,
-    pub h: usize,
-    /// (perimeter index, local towards distance, local away distance) of each
-    /// perimeter NO_FLOW cell; `u32::MAX` = not reached inside the tile.
-    pub portals: Vec<(u32, u32, u32)>,
-    /// (i, j, d): portals i < j (indices into `portals`) are `d` steps apart
-    /// through the tile's NO_FLOW cells.
-    pub pairs: Vec<(u32, u32, u32)>,
-    /// The whole tile is NO_FLOW (a flat covers it: sea, a filled lake):
-    /// `pairs` is left empty, every two portals are their Chebyshev distance
-    /// apart (an obstacle-free rectangle), and the reduce relaxes them
-    /// directly instead of storing O(perimeter²) pairs.
-    pub open: bool,
-}
-
-/// Reduced solution of [`TiledD8`]: global distances of every portal.
-#[derive(Debug, Clone)]
-pub struct D8Solution {
-    layout: TileLayout,
-    /// Per tile, per perimeter index: portal node or `u32::MAX`.
-    node_of: Vec<Vec<u32>>,
-    towards: Vec<u32>,
-    away: Vec<u32>,
-}
-
-/// What one tile needs: (towards, away) of its own perimeter cells and of the
-/// ring of cells around it (perimeter order of the box grown by 1).
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct D8Slice {
-    pub own: Vec<(u32, u32)>,
-    pub ring: Vec<(u32, u32)>,
-}
-
-const FAR: u32 = u32::MAX;
-
-/// Steepest-descent codes over a tile view plus which core cells are NO_FLOW
-/// and their local seed distances.
-struct D8Prep {
-    w: usize,
-    h: usize,
-    gw: usize,
-    hl: usize,
-    codes: Vec<u8>,
-    /// core-indexed: NO_FLOW
-    nf: Vec<bool>,
-    /// core-indexed seed distances (towards: 2 next to a draining cell of the
-    /// same height; away: 1 next to a higher cell), FAR otherwise
-    seed_t: Vec<u32>,
-    seed_a: Vec<u32>,
-}
-
-impl D8Prep {
-    fn new(v: &TileView<f32>) -> Result<D8Prep> {
-        if v.halo < 2 {
-            return Err(Error::invalid("d8: tile views need a halo of at least 2"));
-        }
-        let (w, h) = (v.core.w, v.core.h);
-        let gw = v.grid.width();
-        let gh = v.grid.height();
-        let hl = v.halo;
-        let z = v.grid.data();
-        let codes = super::flow::steepest_descent(z, gw, gh);
-        let mut nf = vec![false; w * h];
-        let mut seed_t = vec![FAR; w * h];
-        let mut seed_a = vec![FAR; w * h];
-        for y in 0..h {
-            for x in 0..w {
-                let vi = (y + hl) * gw + x + hl;
-                if codes[vi] != super::NO_FLOW {
-                    continue;
+    #[test]
+    fn perimeter_enumeration_matches_index() {
+        for w in 1..6 {
+            for h in 1..6 {
+                let cells: Vec<_> = perimeter_cells(w, h).collect();
+                assert_eq!(cells.len(), perimeter_len(w, h), "{w}x{h}");
+                for (k, &(x, y)) in cells.iter().enumerate() {
+                    assert_eq!(perimeter_index(w, h, x, y), Some(k), "{w}x{h} ({x},{y})");
                 }
-                let c = y * w + x;
-                nf[c] = true;
-                for d in 0..8 {
-                    let n = ((y + hl) as i64 + DY[d]) as usize * gw
-                        + ((x + hl) as i64 + DX[d]) as usize;
-                    let cn = codes[n];
-                    if cn == NODATA_DIR {
-                        continue;
-                    }
-                    if cn != super::NO_FLOW && z[n] == z[vi] {
-                        seed_t[c] = 2;
-                    }
-                    if z[n] > z[vi] {
-                        seed_a[c] = 1;
+                for y in 0..h {
+                    for x in 0..w {
+                        let on = x == 0 || y == 0 || x + 1 == w || y + 1 == h;
+                        assert_eq!(perimeter_index(w, h, x, y).is_some(), on);
                     }
                 }
             }
         }
-        Ok(D8Prep {
-            w,
-            h,
-            gw,
-            hl,
-            codes,
-            nf,
-            seed_t,
-            seed_a,
-        })
     }
 
-    /// Shortest distances over NO_FLOW core cells from seeds (unit steps).
-    fn distances(&self, seeds: &[u32]) -> Vec<u32> {
-        let mut dist = seeds.to_vec();
-        let mut heap: BinaryHeap<Reverse<(u32, usize)>> = seeds
-            .iter()
-            .enumerate()
-            .filter(|(_, &d)| d != FAR)
-            .map(|(i, &d)| Reverse((d, i)))
-            .collect();
-        while let Some(Reverse((d, c))) = heap.pop() {
-            if d != dist[c] {
-                continue;
-            }
-            self.for_nf_neighbours(c, |n| {
-                if d + 1 < dist[n] {
-                    dist[n] = d + 1;
-                    heap.push(Reverse((d + 1, n)));
-                }
-            });
-        }
-        dist
-    }
-
-    #[inline]
-    fn for_nf_neighbours(&self, c: usize, mut f: impl FnMut(usize)) {
-        let (x, y) = ((c % self.w) as i64, (c / self.w) as i64);
-        for d in 0..8 {
-            let nx = x + DX[d];
-            let ny = y + DY[d];
-            if nx >= 0 && ny >= 0 && nx < self.w as i64 && ny < self.h as i64 {
-                let n = ny as usize * self.w + nx as usize;
-                if self.nf[n] {
-                    f(n);
-                }
-            }
-        }
-    }
-}
-
-impl GlobalStep for TiledD8 {
-    type In = f32;
-    type Out = u8;
-    type Summary = D8Summary;
-    type Solution = D8Solution;
-    type Slice = D8Slice;
-
-    fn name(&self) -> String {
-        "d8".into()
-    }
-    fn params(&self) -> serde_json::Value {
-        serde_json::json!({"algorithm": "D8 steepest descent, flats after Barnes, Lehman & Mulla 2014"})
-    }
-    fn halo(&self) -> usize {
-        2
-    }
-
-    fn map(&self, inputs: &[TileView<f32>]) -> Result<D8Summary> {
-        let v = inputs
-            .first()
-            .ok_or_else(|| Error::invalid("d8 needs one input (the filled DEM)"))?;
-        let p = D8Prep::new(v)?;
-        let (w, h) = (p.w, p.h);
-        let lt = p.distances(&p.seed_t);
-        let la = p.distances(&p.seed_a);
-        let mut portals = Vec::new();
-        let mut cells = Vec::new();
-        for (k, (x, y)) in perimeter_cells(w, h).enumerate() {
-            let c = y * w + x;
-            if p.nf[c] {
-                portals.push((k as u32, lt[c], la[c]));
-                cells.push(c);
-            }
-        }
-        let open = p.nf.iter().all(|&b| b);
-        if open {
-            return Ok(D8Summary {
-                w,
-                h,
-                portals,
-                pairs: Vec::new(),
-                open,
-            });
-        }
-        // portal-pair distances: one BFS per portal, reusing the buffers
-        let mut portal_at = vec![FAR; w * h];
-        for (i, &c) in cells.iter().enumerate() {
-            portal_at[c] = i as u32;
-        }
-        let mut dist = vec![FAR; w * h];
-        let mut touched: Vec<usize> = Vec::new();
-        let mut pairs = Vec::new();
-        for (i, &start) in cells.iter().enumerate() {
-            for &t in &touched {
-                dist[t] = FAR;
-            }
-            touched.clear();
-            dist[start] = 0;
-            touched.push(start);
-            let mut head = 0;
-            while head < touched.len() {
-                let c = touched[head];
-                head += 1;
-                let dc = dist[c];
-                p.for_nf_neighbours(c, |n| {
-                    if dist[n] == FAR {
-                        dist[n] = dc + 1;
-                        touched.push(n);
-                    }
-                });
-            }
-            for &c in &touched {
-                let j = portal_at[c];
-                if j != FAR && j as usize > i {
-                    pairs.push((i as u32, j, dist[c]));
-                }
-            }
-        }
-        pairs.sort_unstable();
-        Ok(D8Summary {
-            w,
-            h,
-            portals,
-            pairs,
-            open,
-        })
-    }
-
-    fn reduce(&self, layout: &TileLayout, summaries: Vec<D8Summary>) -> Result<D8Solution> {
-        if summaries.len() != layout.count() {
-            return Err(Error::invalid(format!(
-                "d8 reduce: {} summaries for {} tiles",
-                summaries.len(),
-                layout.count()
-            )));
-        }
-        let mut node_of = Vec::with_capacity(summaries.len());
-        let mut first = Vec::with_capacity(summaries.len());
-        let mut init_t = Vec::new();
-        let mut init_a = Vec::new();
-        // tile and (x, y) of every node, for the Chebyshev relaxation of open tiles
-        let mut node_pos: Vec<(u32, u32, u32)> = Vec::new();
-        for (t, s) in summaries.iter().enumerate() {
-            let win = layout.window(t);
-            let plen = perimeter_len(win.w, win.h);
-            if s.w != win.w || s.h != win.h {
-                return Err(Error::invalid(format!(
-                    "d8 reduce: summary of tile {t} does not match the layout"
-                )));
-            }
-            let mut map = vec![FAR; plen];
-            first.push(init_t.len());
-            let cells: Vec<(usize, usize)> = perimeter_cells(win.w, win.h).collect();
-            if s.open && s.portals.len() != plen {
-                return Err(Error::invalid(format!(
-                    "d8 reduce: open tile {t} without all its portals"
-                )));
-            }
-            for &(k, dt, da) in &s.portals {
-                if k as usize >= plen || map[k as usize] != FAR {
-                    return Err(Error::invalid(format!("d8 reduce: bad portal in tile {t}")));
-                }
-                map[k as usize] = init_t.len() as u32;
-                let (x, y) = cells[k as usize];
-                node_pos.push((t as u32, x as u32, y as u32));
-                init_t.push(dt);
-                init_a.push(da);
-            }
-            node_of.push(map);
-        }
-        let total = init_t.len();
-        let mut edges: Vec<(usize, usize, u32)> = Vec::new();
-        for (t, s) in summaries.iter().enumerate() {
-            for &(i, j, d) in &s.pairs {
-                if i as usize >= s.portals.len() || j as usize >= s.portals.len() {
-                    return Err(Error::invalid(format!(
-                        "d8 reduce: bad portal pair in tile {t}"
-                    )));
-                }
-                edges.push((first[t] + i as usize, first[t] + j as usize, d));
-            }
-        }
-        let win_of: Vec<_> = (0..layout.count()).map(|t| layout.window(t)).collect();
-        cross_tile_pairs(layout, |ta, (xa, ya), tb, (xb, yb)| {
-            let ka = perimeter_index(win_of[ta].w, win_of[ta].h, xa, ya);
-            let kb = perimeter_index(win_of[tb].w, win_of[tb].h, xb, yb);
-            if let (Some(ka), Some(kb)) = (ka, kb) {
-                let (na, nb) = (node_of[ta][ka], node_of[tb][kb]);
-                if na != FAR && nb != FAR {
-                    edges.push((na as usize, nb as usize, 1));
-                }
-            }
-        });
-        let mut start = vec![0usize; total + 1];
-        for &(a, b, _) in &edges {
-            start[a + 1] += 1;
-            start[b + 1] += 1;
-        }
-        for i in 0..total {
-            start[i + 1] += start[i];
-        }
-        let mut at = start.clone();
-        let mut adj = vec![(0usize, 0u32); start[total]];
-        for &(a, b, d) in &edges {
-            adj[at[a]] = (b, d);
-            at[a] += 1;
-            adj[at[b]] = (a, d);
-            at[b] += 1;
-        }
-        drop(edges);
-        let dijkstra = |init: Vec<u32>| -> Vec<u32> {
-            let mut dist = init;
-            let mut heap: BinaryHeap<Reverse<(u32, usize)>> = dist
-                .iter()
-                .enumerate()
-                .filter(|(_, &d)| d != FAR)
-                .map(|(i, &d)| Reverse((d, i)))
-                .collect();
-            while let Some(Reverse((d, u))) = heap.pop() {
-                if d != dist[u] {
-                    continue;
-                }
-                for &(v, e) in &adj[start[u]..start[u + 1]] {
-                    let nd = d.saturating_add(e);
-                    if nd < dist[v] {
-                        dist[v] = nd;
-                        heap.push(Reverse((nd, v)));
-                    }
-                }
-                let (t, ux, uy) = node_pos[u];
-                let s = &summaries[t as usize];
-                if s.open {
-                    let f = first[t as usize];
-                    for v in f..f + s.portals.len() {
-                        let (_, vx, vy) = node_pos[v];
-                        let nd = d.saturating_add(ux.abs_diff(vx).max(uy.abs_diff(vy)));
-                        if nd < dist[v] {
-                            dist[v] = nd;
-                            heap.push(Reverse((nd, v)));
-                        }
-                    }
-                }
-            }
-            dist
+    #[test]
+    fn summaries_round_trip_through_json() {
+        let s = AccumSummary {
+            w: 2,
+            h: 1,
+            perimeter: vec![(1i128 << 100, Link::Cross(3, 4)), (-5, Link::Perim(0))],
         };
-        let towards = dijkstra(init_t);
-        let away = dijkstra(init_a);
-        Ok(D8Solution {
-            layout: *layout,
-            node_of,
-            towards,
-            away,
-        })
-    }
-
-    fn slice(&self, sol: &D8Solution, id: TileId) -> D8Slice {
-        let get = |t: usize, k: usize| -> (u32, u32) {
-            match sol.node_of[t][k] {
-                FAR => (FAR, FAR),
-                n => (sol.towards[n as usize], sol.away[n as usize]),
-            }
-        };
-        let own = (0..sol.node_of[id].len()).map(|k| get(id, k)).collect();
-        let core = sol.layout.window(id);
-        let (lw, lh) = (sol.layout.width as i64, sol.layout.height as i64);
-        let ring = perimeter_cells(core.w + 2, core.h + 2)
-            .map(|(ex, ey)| {
-                let gx = core.x - 1 + ex as i64;
-                let gy = core.y - 1 + ey as i64;
-                if gx < 0 || gy < 0 || gx >= lw || gy >= lh {
-                    return (FAR, FAR);
-                }
-                let (gx, gy) = (gx as usize, gy as usize);
-                let t = sol.layout.id(gx / sol.layout.tile, gy / sol.layout.tile);
-                let win = sol.layout.window(t);
-                match perimeter_index(win.w, win.h, gx - win.x as usize, gy - win.y as usize) {
-                    Some(k) => get(t, k),
-                    None => (FAR, FAR),
-                }
-            })
-            .collect();
-        D8Slice { own, ring }
-    }
-
-    fn apply(&self, inputs: &[TileView<f32>], slice: &D8Slice, out: &mut [Grid<u8>]) -> Result<()> {
-        let v = inputs
-            .first()
-            .ok_or_else(|| Error::invalid("d8 needs one input (the filled DEM)"))?;
-        let p = D8Prep::new(v)?;
-        let (w, h, gw, hl) = (p.w, p.h, p.gw, p.hl);
-        if slice.own.len() != perimeter_len(w, h) || slice.ring.len() != perimeter_len(w + 2, h + 2)
-        {
-            return Err(Error::invalid(
-                "d8 apply: slice does not belong to this tile",
-            ));
-        }
-        let mut seed_t = p.seed_t.clone();
-        let mut seed_a = p.seed_a.clone();
-        for ((x, y), &(dt, da)) in perimeter_cells(w, h).zip(&slice.own) {
-            let c = y * w + x;
-            seed_t[c] = seed_t[c].min(dt);
-            seed_a[c] = seed_a[c].min(da);
-        }
-        let t = p.distances(&seed_t);
-        let a = p.distances(&seed_a);
-        // (towards, away) of a cell of the box grown by 1, box coordinates
-        let dist_at = |ex: usize, ey: usize| -> (u32, u32) {
-            if ex >= 1 && ey >= 1 && ex <= w && ey <= h {
-                let c = (ey - 1) * w + ex - 1;
-                (t[c], a[c])
-            } else {
-                match perimeter_index(w + 2, h + 2, ex, ey) {
-                    Some(k) => slice.ring[k],
-                    None => (FAR, FAR),
-                }
-            }
-        };
-        let mask =
-            |(dt, da): (u32, u32)| -> i64 { 2 * dt as i64 - if da == FAR { 0 } else { da as i64 } };
-        let z = v.grid.data();
-        let o = out
-            .first_mut()
-            .ok_or_else(|| Error::invalid("d8 apply: no output grid"))?;
-        for y in 0..h {
-            for x in 0..w {
-                let vi = (y + hl) * gw + x + hl;
-                let c = y * w + x;
-                let mut code = p.codes[vi];
-                if code == super::NO_FLOW && t[c] != FAR {
-                    let nb = |d: usize| -> usize {
-                        ((y + hl) as i64 + DY[d]) as usize * gw + ((x + hl) as i64 + DX[d]) as usize
-                    };
-                    // a low edge next to the cell wins (mask 2, the minimum)
-                    let low = (0..8).find(|&d| {
-                        let n = nb(d);
-                        let cn = p.codes[n];
-                        cn != NODATA_DIR && cn != super::NO_FLOW && z[n] == z[vi]
-                    });
-                    if let Some(d) = low {
-                        code = super::D8_CODES[d];
-                    } else {
-                        let mut best = mask((t[c], a[c]));
-                        for d in 0..8 {
-                            if p.codes[nb(d)] != super::NO_FLOW {
-                                continue;
-                            }
-                            let ex = (x as i64 + 1 + DX[d]) as usize;
-                            let ey = (y as i64 + 1 + DY[d]) as usize;
-                            let dn = dist_at(ex, ey);
-                            if dn.0 == FAR {
-                                continue;
-                            }
-                            let m = mask(dn);
-                            if m < best {
-                                best = m;
-                                code = super::D8_CODES[d];
-                            }
-                        }
-                    }
-                }
-                o.set(x, y, code);
-            }
-        }
-        Ok(())
+        let j = serde_json::to_string(&s).unwrap();
+        let back: AccumSummary = serde_json::from_str(&j).unwrap();
+        assert_eq!(back, s);
     }
 }
