@@ -25,10 +25,12 @@
 
 mod isolation;
 mod regions;
+pub mod tiled;
 mod tree;
 mod write;
 
 pub use isolation::IsolationIndex;
+pub use tiled::divide_tree_tiled;
 pub use tree::{CriticalPoints, DivideTree, EdgeConvention, Isolation, Peak, Saddle};
 pub use write::{
     write_divide_tree_geojson, write_peaks_csv, write_peaks_geojson, write_saddles_geojson,

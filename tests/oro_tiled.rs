@@ -1,0 +1,234 @@
+//! The divide tree computed across tiles equals the in-memory one exactly
+//! (peaks, representative cells, key saddles and their order, parents,
+//! prominences, edge flags), for many tile sizes and both edge conventions.
+//! The oracle is `oro::divide_tree` on the whole grid, itself checked against
+//! brute force (`oro_brute.rs`) and akirmse/mountains (`oro_reference.rs`);
+//! the tiled code shares no sweep code with it.
+
+use orogen::exec::{EngineConfig, LocalEngine};
+use orogen::oro::{self, divide_tree_tiled, DivideTree, EdgeConvention};
+use orogen::raster::{GeoRef, Grid, MemRaster, RasterSource};
+use proptest::prelude::*;
+
+const CONVS: [EdgeConvention; 2] = [EdgeConvention::SeaLevel, EdgeConvention::Unknown];
+
+fn engine(threads: usize) -> LocalEngine {
+    LocalEngine::new(EngineConfig {
+        threads,
+        memory_budget: 1 << 28,
+        progress: false,
+    })
+}
+
+fn mem(g: &Grid<f32>) -> MemRaster {
+    MemRaster::from_grid(g.clone(), GeoRef::pixel())
+}
+
+fn tiled(g: &Grid<f32>, conv: EdgeConvention, tile: usize) -> DivideTree {
+    divide_tree_tiled(&mem(g) as &dyn RasterSource, conv, tile, &engine(1)).expect("tiled tree")
+}
+
+fn check_equal(g: &Grid<f32>, tiles: &[usize]) {
+    for conv in CONVS {
+        let want = oro::divide_tree(g, conv).expect("in-memory tree");
+        for &t in tiles {
+            let got = tiled(g, conv, t);
+            if got != want {
+                // Show the first difference.
+                let np = got.peaks.len().min(want.peaks.len());
+                let first = (0..np).find(|&i| got.peaks[i] != want.peaks[i]);
+                panic!(
+                    "tile {t}, {conv:?}: {} vs {} peaks, {} vs {} saddles; first peak diff at {first:?}: {:?} vs {:?}",
+                    got.peaks.len(),
+                    want.peaks.len(),
+                    got.saddles.len(),
+                    want.saddles.len(),
+                    first.map(|i| &got.peaks[i]),
+                    first.map(|i| &want.peaks[i]),
+                );
+            }
+        }
+    }
+}
+
+fn grid(w: usize, h: usize, f: impl Fn(usize, usize) -> f32) -> Grid<f32> {
+    Grid::from_fn(w, h, f)
+}
+
+/// Random terrain with few levels (plateaus, equal heights, k-way saddles),
+/// optional NaN holes and negative cells.
+fn terrain() -> impl Strategy<Value = Grid<f32>> {
+    (
+        3usize..42,
+        3usize..42,
+        any::<u64>(),
+        2u32..9,
+        0u32..4,
+        any::<bool>(),
+    )
+        .prop_map(|(w, h, seed, levels, holes, negative)| {
+            let mut s = seed | 1;
+            let mut next = move || {
+                s ^= s << 13;
+                s ^= s >> 7;
+                s ^= s << 17;
+                s
+            };
+            let mut data: Vec<f32> = (0..w * h)
+                .map(|_| {
+                    let v = (next() % levels as u64) as f32;
+                    if negative {
+                        v - 2.0
+                    } else {
+                        v + 1.0
+                    }
+                })
+                .collect();
+            // Smooth a little so ridges and plateaus span several cells.
+            let raw = data.clone();
+            for y in 0..h {
+                for x in 0..w {
+                    if next() % 3 == 0 {
+                        let xn = (x + 1).min(w - 1);
+                        data[y * w + x] = raw[y * w + xn];
+                    }
+                }
+            }
+            for _ in 0..holes {
+                let (cx, cy, r) = (
+                    (next() % w as u64) as i64,
+                    (next() % h as u64) as i64,
+                    (next() % 3) as i64,
+                );
+                for y in 0..h as i64 {
+                    for x in 0..w as i64 {
+                        if (x - cx).abs() <= r && (y - cy).abs() <= r {
+                            data[y as usize * w + x as usize] = f32::NAN;
+                        }
+                    }
+                }
+            }
+            Grid::from_vec(w, h, data).expect("sizes match")
+        })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 300, ..ProptestConfig::default() })]
+    #[test]
+    fn tiled_equals_in_memory(g in terrain(), t in prop::sample::select(vec![1usize, 2, 3, 4, 5, 7, 13])) {
+        check_equal(&g, &[t]);
+    }
+}
+
+#[test]
+fn tile_sizes_7_13_37_100_on_a_larger_grid() {
+    // Integer "SRTM-like" terrain with many ties: a sum of waves, rounded.
+    let g = grid(157, 121, |x, y| {
+        let (x, y) = (x as f32, y as f32);
+        (40.0 * (x * 0.11).sin() * (y * 0.07).cos() + 25.0 * (x * 0.031 + y * 0.05).sin() + 60.0)
+            .round()
+    });
+    check_equal(&g, &[7, 13, 37, 100]);
+}
+
+#[test]
+fn thread_count_does_not_change_the_tree() {
+    let g = grid(90, 70, |x, y| {
+        ((x * 7 + y * 13) % 11) as f32 + ((x / 9 + y / 5) % 4) as f32
+    });
+    for conv in CONVS {
+        let a = divide_tree_tiled(&mem(&g) as &dyn RasterSource, conv, 13, &engine(1)).unwrap();
+        let b = divide_tree_tiled(&mem(&g) as &dyn RasterSource, conv, 13, &engine(2)).unwrap();
+        assert_eq!(a, b);
+        assert_eq!(a, oro::divide_tree(&g, conv).unwrap());
+    }
+}
+
+#[test]
+fn flat_dem_has_no_peak_unknown_and_one_island_sea_level() {
+    let g = grid(20, 20, |_, _| 100.0);
+    let sea = tiled(&g, EdgeConvention::SeaLevel, 7);
+    assert_eq!(sea.peaks.len(), 1);
+    assert_eq!((sea.peaks[0].col, sea.peaks[0].row), (0, 0));
+    assert_eq!(sea.peaks[0].prominence, 100.0);
+    assert!(tiled(&g, EdgeConvention::Unknown, 7).peaks.is_empty());
+    check_equal(&g, &[1, 7, 13]);
+}
+
+#[test]
+fn all_nodata_has_no_peak() {
+    let g = grid(15, 9, |_, _| f32::NAN);
+    for conv in CONVS {
+        let t = tiled(&g, conv, 4);
+        assert!(t.peaks.is_empty() && t.saddles.is_empty());
+    }
+}
+
+#[test]
+fn one_peak_cone_across_four_tiles() {
+    // Apex at (10, 10), exactly on a tile corner for tile 10.
+    let g = grid(21, 21, |x, y| {
+        100.0 - ((x as f32 - 10.0).abs().max((y as f32 - 10.0).abs()))
+    });
+    for conv in CONVS {
+        let t = tiled(&g, conv, 10);
+        assert_eq!(t.peaks.len(), 1);
+        let p = &t.peaks[0];
+        assert_eq!((p.col, p.row, p.elevation), (10, 10, 100.0));
+        let want = match conv {
+            EdgeConvention::SeaLevel => 100.0,
+            EdgeConvention::Unknown => 10.0,
+        };
+        assert_eq!(p.prominence, want);
+    }
+    check_equal(&g, &[3, 10, 11]);
+}
+
+#[test]
+fn equal_twin_summits_across_a_seam() {
+    // Two 50 m summits at (3, 3) and (6, 3), either side of the seams at
+    // x = 4 (tile 4) or x = 5 (tile 5), with a two-cell notch at 30 m
+    // between them on the seam.
+    let mut g = grid(10, 7, |x, y| {
+        10.0 + x.min(9 - x) as f32 + y.min(6 - y) as f32
+    });
+    g.set(3, 3, 50.0);
+    g.set(6, 3, 50.0);
+    g.set(4, 3, 30.0);
+    g.set(5, 3, 30.0);
+    for conv in CONVS {
+        for tile in [4, 5] {
+            let t = tiled(&g, conv, tile);
+            // The eastern twin is processed first (later first cell), so it is
+            // the "higher" one; the western gets the key saddle at 30 m.
+            let tops: Vec<_> = t.peaks.iter().map(|p| (p.col, p.row)).take(2).collect();
+            assert_eq!(tops, vec![(6, 3), (3, 3)], "tile {tile} {conv:?}");
+            assert_eq!(t.peaks[1].prominence, 20.0);
+            assert_eq!(t.peaks[1].parent, Some(0));
+            let s = &t.saddles[t.peaks[1].key_saddle.unwrap()];
+            // The notch is one flat region; its representative is its first cell.
+            assert_eq!((s.col, s.row, s.elevation), (4, 3, 30.0));
+        }
+    }
+    check_equal(&g, &[2, 3, 4, 5, 6]);
+}
+
+#[test]
+fn plateau_summit_spanning_many_tiles() {
+    // A U-shaped summit plateau whose first cell lies in another tile than
+    // most of it, and a k-way saddle plateau crossing seams.
+    let mut g = grid(30, 20, |x, y| (x + y) as f32 % 5.0 + 1.0);
+    for y in 2..15 {
+        g.set(3, y, 80.0);
+        g.set(20, y, 80.0);
+    }
+    for x in 3..=20 {
+        g.set(x, 14, 80.0);
+    }
+    for x in 0..30 {
+        g.set(x, 17, 40.0);
+    }
+    g.set(12, 5, 90.0);
+    g.set(26, 4, 90.0);
+    check_equal(&g, &[1, 2, 3, 4, 5, 7, 13]);
+}
