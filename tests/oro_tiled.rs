@@ -232,3 +232,89 @@ fn plateau_summit_spanning_many_tiles() {
     g.set(26, 4, 90.0);
     check_equal(&g, &[1, 2, 3, 4, 5, 7, 13]);
 }
+
+// ------------------------------------------------------------ real DEMs ----
+
+fn open(path: &std::path::Path) -> Box<dyn RasterSource> {
+    orogen::io::open_raster(path, &orogen::io::OpenOptions::default()).expect("opens")
+}
+
+fn whole(src: &dyn RasterSource) -> Grid<f32> {
+    let info = src.info();
+    orogen::raster::read_window::<f32>(src, orogen::raster::Window::full(info.width, info.height))
+        .expect("reads")
+}
+
+/// Tiled == in-memory for the whole tree, and for the pruned peak list
+/// with isolation (cache of one window, so most blocks are re-read).
+fn check_real(path: &std::path::Path, tiles: &[usize], min_prominence: f64) {
+    let src = open(path);
+    let dem = whole(src.as_ref());
+    for conv in CONVS {
+        let want = oro::divide_tree(&dem, conv).unwrap();
+        assert!(
+            want.peaks.len() > 10,
+            "{}: a real DEM has peaks",
+            path.display()
+        );
+        for &t in tiles {
+            let got = divide_tree_tiled(src.as_ref(), conv, t, &engine(2)).unwrap();
+            assert!(
+                got == want,
+                "{} tile {t} {conv:?}: trees differ",
+                path.display()
+            );
+        }
+        let opts = oro::PeakOptions {
+            min_prominence,
+            convention: conv,
+            isolation: true,
+        };
+        let want = oro::peaks(&dem, &src.info().georef, &opts).unwrap();
+        let got = oro::peaks_tiled(src.as_ref(), &opts, tiles[0], &engine(2), 1).unwrap();
+        assert_eq!(got, want, "{} {conv:?}: peak lists differ", path.display());
+    }
+}
+
+#[test]
+fn real_dems_in_tests_data() {
+    let d = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
+    // Integers with nodata 0 (geographic, 3"), int16 UTM, float32 with nodata.
+    check_real(&d.join("landlab_SRTMGL3_frontrange.asc"), &[37, 100], 30.0);
+    check_real(&d.join("bigtujunga_crop.tif"), &[7, 64], 30.0);
+    check_real(&d.join("whitebox_DEM.tif"), &[13, 100], 5.0);
+}
+
+#[test]
+fn aconcagua_tiled_equals_in_memory_when_shared_data_is_present() {
+    let p =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/srtm3_S33W071.tif");
+    if !p.exists() {
+        eprintln!("skipped: {} is absent", p.display());
+        return;
+    }
+    check_real(&p, &[256], 30.0);
+}
+
+#[test]
+fn tiled_isolation_equals_in_memory_on_a_geographic_grid() {
+    use orogen::raster::{Crs, GeoRef};
+    let g = grid(300, 200, |x, y| {
+        let (x, y) = (x as f32, y as f32);
+        (30.0 * (x * 0.05).sin() * (y * 0.09).cos() + 0.1 * x + 50.0).round()
+    });
+    let mut geo = GeoRef::pixel();
+    geo.transform = [10.0, 1.0 / 1200.0, 0.0, 47.0, 0.0, -1.0 / 1200.0];
+    geo.georeferenced = true;
+    geo.crs = Crs::wgs84();
+    let src = MemRaster::from_grid(g.clone(), geo.clone());
+    let mem_idx = oro::IsolationIndex::new(&g, &geo);
+    let tiled_idx = oro::TiledIsolationIndex::new(&src, 1).unwrap();
+    for (i, &z) in g.data().iter().enumerate().step_by(7) {
+        let (c, r) = (i % 300, i / 300);
+        assert_eq!(
+            tiled_idx.nearest_higher(c, r, z).unwrap(),
+            mem_idx.nearest_higher(c, r, z)
+        );
+    }
+}

@@ -51,6 +51,50 @@ use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 
 const NONE: u32 = u32::MAX;
+
+/// Floats in summaries travel as their bit patterns: a JSON round trip of a
+/// decimal float is not always exact, and the tree must be.
+mod bits {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+    pub mod f32s {
+        use super::*;
+        pub fn serialize<S: Serializer>(v: &f32, s: S) -> Result<S::Ok, S::Error> {
+            v.to_bits().serialize(s)
+        }
+        pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
+            u32::deserialize(d).map(f32::from_bits)
+        }
+    }
+    pub mod f64s {
+        use super::*;
+        pub fn serialize<S: Serializer>(v: &f64, s: S) -> Result<S::Ok, S::Error> {
+            v.to_bits().serialize(s)
+        }
+        pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+            u64::deserialize(d).map(f64::from_bits)
+        }
+    }
+    pub mod saddle {
+        use super::*;
+        pub fn serialize<S: Serializer>(v: &Option<(u64, f32)>, s: S) -> Result<S::Ok, S::Error> {
+            v.map(|(i, z)| (i, z.to_bits())).serialize(s)
+        }
+        pub fn deserialize<'de, D: Deserializer<'de>>(
+            d: D,
+        ) -> Result<Option<(u64, f32)>, D::Error> {
+            Option::<(u64, u32)>::deserialize(d).map(|o| o.map(|(i, b)| (i, f32::from_bits(b))))
+        }
+    }
+    pub mod f32vec {
+        use super::*;
+        pub fn serialize<S: Serializer>(v: &[f32], s: S) -> Result<S::Ok, S::Error> {
+            s.collect_seq(v.iter().map(|z| z.to_bits()))
+        }
+        pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<f32>, D::Error> {
+            Vec::<u32>::deserialize(d).map(|v| v.into_iter().map(f32::from_bits).collect())
+        }
+    }
+}
 /// Region id of the sea node.
 pub const SEA_ID: u64 = u64::MAX;
 
@@ -142,6 +186,7 @@ pub struct PlateauSummary {
     /// `u32::MAX` for nodata.
     pub piece: Vec<u32>,
     /// Elevation of each perimeter cell (0 for nodata).
+    #[serde(with = "bits::f32vec")]
     pub z: Vec<f32>,
     /// Global id (y·W + x) of each piece's first cell.
     pub first: Vec<u64>,
@@ -333,9 +378,11 @@ impl GlobalStep for PlateauStep {
 pub struct TreeNode {
     /// Region id: global index of the region's first cell, or [`SEA_ID`].
     pub id: u64,
+    #[serde(with = "bits::f32s")]
     pub z: f32,
     /// Lowest elevation of the cells this node stands for (`Unknown`
     /// convention: the drop below the component's top).
+    #[serde(with = "bits::f32s")]
     pub low: f32,
     /// The region touches the DEM edge or nodata.
     pub outside: bool,
@@ -347,9 +394,12 @@ pub struct TreeNode {
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct FinalPeak {
     pub id: u64,
+    #[serde(with = "bits::f32s")]
     pub z: f32,
+    #[serde(with = "bits::f64s")]
     pub prominence: f64,
     /// (region id, elevation) of the key saddle.
+    #[serde(with = "bits::saddle")]
     pub saddle: Option<(u64, f32)>,
     /// Region id of the prominence parent.
     pub parent: Option<u64>,
