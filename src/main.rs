@@ -221,7 +221,7 @@ enum Cmd {
     },
     /// Peaks with prominence, key saddles, parents, isolation and the divide tree.
     #[command(
-        after_help = "Example:\n  orogen peaks ../shared/data/srtm3_S33W071.tif --min-prominence 30 -o out/\nWrites peaks.csv, peaks.geojson, saddles.geojson, divide_tree.geojson and divide_tree.json.\nConventions (Kirmse & de Ferranti 2017): with --edge sea-level (default) the DEM's edge and\nnodata are sea level 0; with --edge unknown the outside is ignored.\nThis step runs in memory (about 28 bytes per cell); --memory must allow it."
+        after_help = "Example:\n  orogen peaks ../shared/data/srtm3_S33W071.tif --min-prominence 30 -o out/\nWrites peaks.csv, peaks.geojson, saddles.geojson, divide_tree.geojson and divide_tree.json.\nConventions (Kirmse & de Ferranti 2017): with --edge sea-level (default) the DEM's edge and\nnodata are sea level 0; with --edge unknown the outside is ignored.\nRuns in memory (about 28 bytes per cell) when --memory allows it, else tile by tile with the\nsame results (--tiled forces it):\n  orogen peaks poland.tif --memory 512MiB -o out/"
     )]
     Peaks {
         #[command(flatten)]
@@ -235,6 +235,9 @@ enum Cmd {
         /// Skip isolation (distance to higher ground).
         #[arg(long)]
         no_isolation: bool,
+        /// Work tile by tile even if the DEM fits the memory budget.
+        #[arg(long)]
+        tiled: bool,
         /// Output folder.
         #[arg(short, long)]
         output: PathBuf,
@@ -595,6 +598,7 @@ fn run(cli: Cli) -> Result<()> {
             min_prominence,
             edge,
             no_isolation,
+            tiled,
             output,
             run,
         } => {
@@ -609,27 +613,31 @@ fn run(cli: Cli) -> Result<()> {
             let cfg = engine(&run)?;
             let src = open(&input)?;
             let info = src.info().clone();
-            let need = (info.width as u64) * (info.height as u64) * 28;
-            if need > cfg.memory_budget {
-                bail!(
-                    "{}: peaks runs in memory for now and needs about {:.1} GiB for {}x{} cells; raise --memory (e.g. --memory {}GiB)",
-                    input.input.display(),
-                    need as f64 / (1u64 << 30) as f64,
-                    info.width,
-                    info.height,
-                    need.div_ceil(1 << 30)
-                );
-            }
-            let dem = orogen::raster::read_window::<f32>(
-                src.as_ref(),
-                orogen::raster::Window::full(info.width, info.height),
-            )?;
             let opts = orogen::oro::PeakOptions {
                 min_prominence,
                 convention,
                 isolation: !no_isolation,
             };
-            let list = orogen::oro::peaks(&dem, &info.georef, &opts)?;
+            let need = (info.width as u64) * (info.height as u64) * 28;
+            let list = if tiled || need > cfg.memory_budget {
+                let tile = ops::choose_tile(src.as_ref(), run.tile);
+                if !run.quiet {
+                    eprintln!(
+                        "peaks: {}x{} cells, tile by tile ({tile}-cell tiles)",
+                        info.width, info.height
+                    );
+                }
+                // A quarter of the budget caches cells for the isolation search.
+                let cache = cfg.memory_budget / 4;
+                let eng = orogen::exec::LocalEngine::new(cfg);
+                orogen::oro::peaks_tiled(src.as_ref(), &opts, tile, &eng, cache)?
+            } else {
+                let dem = orogen::raster::read_window::<f32>(
+                    src.as_ref(),
+                    orogen::raster::Window::full(info.width, info.height),
+                )?;
+                orogen::oro::peaks(&dem, &info.georef, &opts)?
+            };
             let files = list.write_all(&output)?;
             if !run.quiet {
                 eprintln!(

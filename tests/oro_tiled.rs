@@ -318,3 +318,108 @@ fn tiled_isolation_equals_in_memory_on_a_geographic_grid() {
         );
     }
 }
+
+// ------------------------------------------------------------------ CLI ----
+
+#[test]
+fn cli_peaks_tiled_writes_the_same_files_as_in_memory() {
+    let dem =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/bigtujunga_crop.tif");
+    let dir = tempfile::tempdir().unwrap();
+    let run = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let st = std::process::Command::new(env!("CARGO_BIN_EXE_orogen"))
+            .arg("peaks")
+            .arg(&dem)
+            .args(["--min-prominence", "20", "-q", "-o"])
+            .arg(&out)
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(
+            st.status.success(),
+            "{}",
+            String::from_utf8_lossy(&st.stderr)
+        );
+        out
+    };
+    let mem = run("mem", &[]);
+    let forced = run("forced", &["--tiled", "--tile", "64"]);
+    for f in [
+        "peaks.csv",
+        "peaks.geojson",
+        "saddles.geojson",
+        "divide_tree.geojson",
+        "divide_tree.json",
+    ] {
+        let a = std::fs::read(mem.join(f)).unwrap();
+        assert!(a.len() > 100, "{f} has content");
+        assert_eq!(a, std::fs::read(forced.join(f)).unwrap(), "{f} (--tiled)");
+    }
+}
+
+#[test]
+fn cli_peaks_goes_tiled_when_the_dem_does_not_fit_the_budget() {
+    // 800 x 800 cells need ~17.9 MB in memory: a 16 MiB budget goes tiled.
+    let dir = tempfile::tempdir().unwrap();
+    let dem = dir.path().join("dem.asc");
+    let n = 800;
+    let mut text = format!(
+        "ncols {n}\nnrows {n}\nxllcorner 0\nyllcorner 0\ncellsize 30\nNODATA_value -9999\n"
+    );
+    for y in 0..n {
+        let row: Vec<String> = (0..n)
+            .map(|x| {
+                let (xf, yf) = (x as f32, y as f32);
+                let z = 300.0 * (xf * 0.013).sin() * (yf * 0.017).cos()
+                    + 80.0 * (xf * 0.07 + yf * 0.05).sin()
+                    + 500.0;
+                if (x as i64 - 400).pow(2) + (y as i64 - 300).pow(2) < 400 {
+                    "-9999".to_string()
+                } else {
+                    format!("{}", z.round() as i32)
+                }
+            })
+            .collect();
+        text.push_str(&row.join(" "));
+        text.push('\n');
+    }
+    std::fs::write(&dem, text).unwrap();
+    let run = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let st = std::process::Command::new(env!("CARGO_BIN_EXE_orogen"))
+            .arg("peaks")
+            .arg(&dem)
+            .args(["--min-prominence", "30", "-o"])
+            .arg(&out)
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(
+            st.status.success(),
+            "{}",
+            String::from_utf8_lossy(&st.stderr)
+        );
+        (out, String::from_utf8_lossy(&st.stderr).to_string())
+    };
+    let (mem, log_mem) = run("mem", &[]);
+    let (budget, log) = run("budget", &["--memory", "16MiB", "--tile", "100"]);
+    assert!(log.contains("tile by tile"), "{log}");
+    assert!(!log_mem.contains("tile by tile"), "{log_mem}");
+    for f in ["peaks.csv", "saddles.geojson", "divide_tree.json"] {
+        let a = std::fs::read(mem.join(f)).unwrap();
+        assert!(a.len() > 100, "{f} has content");
+        assert_eq!(a, std::fs::read(budget.join(f)).unwrap(), "{f} (--memory)");
+    }
+}
+
+#[test]
+fn infinite_elevation_is_an_error_not_a_panic() {
+    let mut g = grid(20, 20, |x, y| (x + y) as f32);
+    g.set(11, 3, f32::INFINITY);
+    for conv in CONVS {
+        let e = divide_tree_tiled(&mem(&g) as &dyn RasterSource, conv, 7, &engine(1))
+            .expect_err("infinite cell");
+        assert!(e.to_string().contains("(11, 3)"), "{e}");
+    }
+}
