@@ -423,3 +423,21 @@ fn infinite_elevation_is_an_error_not_a_panic() {
         assert!(e.to_string().contains("(11, 3)"), "{e}");
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 200, ..ProptestConfig::default() })]
+    /// Peaks dropped inside the tiles never change the pruned tree, also
+    /// with sub-sea-level saddles (negative cells) under SeaLevel.
+    #[test]
+    fn pruned_tiled_equals_pruned_in_memory(
+        g in terrain(),
+        t in prop::sample::select(vec![2usize, 3, 5, 7, 13]),
+        m in prop::sample::select(vec![0.0f64, 1.0, 2.0, 3.0, 5.0]),
+    ) {
+        for conv in CONVS {
+            let want = oro::divide_tree(&g, conv).unwrap().pruned(m);
+            let got = oro::pruned_tree_tiled(&mem(&g) as &dyn RasterSource, conv, m, t, &engine(1)).unwrap();
+            prop_assert_eq!(got, want, "tile {} {:?} min {}", t, conv, m);
+        }
+    }
+}

@@ -25,7 +25,7 @@ mod tree;
 mod write;
 
 pub use isolation::{IsolationIndex, TiledIsolationIndex};
-pub use tiled::divide_tree_tiled;
+pub use tiled::{divide_tree_tiled, pruned_tree_tiled};
 pub use tree::{CriticalPoints, DivideTree, EdgeConvention, Isolation, Peak, Saddle};
 pub use write::{
     write_divide_tree_geojson, write_peaks_csv, write_peaks_geojson, write_saddles_geojson,
@@ -143,8 +143,7 @@ pub fn peaks_tiled<E: Engine>(
             opts.min_prominence
         )));
     }
-    let mut tree =
-        divide_tree_tiled(src, opts.convention, tile, engine)?.pruned(opts.min_prominence);
+    let mut tree = pruned_tree_tiled(src, opts.convention, opts.min_prominence, tile, engine)?;
     if opts.isolation {
         let idx = TiledIsolationIndex::new(src, cache_bytes)?;
         // Visit peaks window by window so the cache is reused.

@@ -421,6 +421,11 @@ pub struct TreeSummary {
 /// plateau solution of pass 1, which gives open pieces their global ids.
 pub struct TreeStep<'a> {
     pub convention: EdgeConvention,
+    /// Drop final peaks below this prominence in the map when no peak at or
+    /// above it can descend from them (see [`TreeStep::droppable`]); the
+    /// result is then only right after [`DivideTree::pruned`] at the same
+    /// threshold. None keeps the whole tree.
+    pub min_prominence: Option<f64>,
     pub layout: TileLayout,
     pub plateaus: &'a PlateauSolution,
 }
@@ -457,6 +462,23 @@ struct Piece {
 }
 
 impl TreeStep<'_> {
+    /// A final peak below the threshold can go at once if it has a key
+    /// saddle, or under `Unknown`: then every peak below it in the tree
+    /// (joined to it at a saddle at least as high as its own key saddle, or
+    /// above the lowest cell of its area) has a prominence no larger, so none
+    /// is kept and pruning never needs it. Peaks that merged into the sea
+    /// stay: a sub-sea-level saddle below them can give a descendant more
+    /// prominence than they have.
+    fn droppable(&self, p: &FinalPeak) -> bool {
+        match self.min_prominence {
+            Some(m) => {
+                p.prominence < m
+                    && (p.saddle.is_some() || self.convention == EdgeConvention::Unknown)
+            }
+            None => false,
+        }
+    }
+
     /// Global region id of the cell at global (gx, gy), which must be a
     /// perimeter cell of its tile.
     fn perimeter_id(&self, gx: i64, gy: i64) -> Option<u64> {
@@ -853,6 +875,10 @@ impl GlobalStep for TreeStep<'_> {
         }
         out.edges.sort_unstable();
         out.edges.dedup();
+        if self.min_prominence.is_some() {
+            let peaks = std::mem::take(&mut out.peaks);
+            out.peaks = peaks.into_iter().filter(|p| !self.droppable(p)).collect();
+        }
         Ok(out)
     }
 
@@ -1042,7 +1068,13 @@ impl GlobalStep for TreeStep<'_> {
             }
         }
         final_peaks.extend(peaks);
-        assemble(layout.width, layout.height, conv, final_peaks)
+        assemble(
+            layout.width,
+            layout.height,
+            conv,
+            final_peaks,
+            self.min_prominence,
+        )
     }
 
     fn slice(&self, _: &DivideTree, _: TileId) {}
@@ -1062,6 +1094,7 @@ fn assemble(
     height: usize,
     convention: EdgeConvention,
     mut recs: Vec<FinalPeak>,
+    min_prominence: Option<f64>,
 ) -> Result<DivideTree> {
     recs.sort_unstable_by_key(|p| std::cmp::Reverse(key(p.z, p.id)));
     let w = width as u64;
@@ -1102,9 +1135,12 @@ fn assemble(
     }
     let mut peaks = Vec::with_capacity(recs.len());
     for (i, p) in recs.iter().enumerate() {
-        let parent = match p.parent {
-            None => None,
-            Some(pid) => Some(*index.get(&pid).ok_or_else(|| {
+        let parent = match (p.parent, min_prominence) {
+            (None, _) => None,
+            // A dropped parent (see `TreeStep::droppable`) only has children
+            // that pruning at the same threshold removes as well.
+            (Some(pid), Some(m)) if p.prominence < m && !index.contains_key(&pid) => None,
+            (Some(pid), _) => Some(*index.get(&pid).ok_or_else(|| {
                 Error::invalid(format!(
                     "divide tree: peak {} names parent {pid}, which is not a peak",
                     p.id
@@ -1131,13 +1167,10 @@ fn assemble(
     })
 }
 
-/// The unpruned divide tree of `src` (read as f32, nodata = NaN) computed
-/// tile by tile on `engine` with tiles of `tile` cells: equal to
-/// [`super::divide_tree`] on the whole grid. Two passes over the tiles
-/// (plateaus, then the tree).
-pub fn divide_tree_tiled<E: Engine>(
+fn tree_tiled<E: Engine>(
     src: &dyn RasterSource,
     convention: EdgeConvention,
+    min_prominence: Option<f64>,
     tile: usize,
     engine: &E,
 ) -> Result<DivideTree> {
@@ -1155,8 +1188,43 @@ pub fn divide_tree_tiled<E: Engine>(
     let plateaus = engine.run_global(&PlateauStep, &[src], layout, Vec::new())?;
     let step = TreeStep {
         convention,
+        min_prominence,
         layout,
         plateaus: &plateaus,
     };
-    engine.run_global(&step, &[src], layout, Vec::new())
+    let tree = engine.run_global(&step, &[src], layout, Vec::new())?;
+    Ok(match min_prominence {
+        Some(m) => tree.pruned(m),
+        None => tree,
+    })
+}
+
+/// The unpruned divide tree of `src` (read as f32, nodata = NaN) computed
+/// tile by tile on `engine` with tiles of `tile` cells: equal to
+/// [`super::divide_tree`] on the whole grid. Two passes over the tiles
+/// (plateaus, then the tree).
+pub fn divide_tree_tiled<E: Engine>(
+    src: &dyn RasterSource,
+    convention: EdgeConvention,
+    tile: usize,
+    engine: &E,
+) -> Result<DivideTree> {
+    tree_tiled(src, convention, None, tile, engine)
+}
+
+/// `divide_tree_tiled(..).pruned(min_prominence)`, without ever holding the
+/// peaks pruning removes (most of them are dropped in the tiles).
+pub fn pruned_tree_tiled<E: Engine>(
+    src: &dyn RasterSource,
+    convention: EdgeConvention,
+    min_prominence: f64,
+    tile: usize,
+    engine: &E,
+) -> Result<DivideTree> {
+    if !min_prominence.is_finite() {
+        return Err(Error::invalid(format!(
+            "peaks: minimum prominence must be a finite number, got {min_prominence}"
+        )));
+    }
+    tree_tiled(src, convention, Some(min_prominence), tile, engine)
 }
