@@ -113,7 +113,7 @@ fn terrain() -> impl Strategy<Value = Grid<f32>> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 300, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 150, ..ProptestConfig::default() })]
     #[test]
     fn tiled_equals_in_memory(g in terrain(), t in prop::sample::select(vec![1usize, 2, 3, 4, 5, 7, 13])) {
         check_equal(&g, &[t]);
@@ -425,7 +425,7 @@ fn infinite_elevation_is_an_error_not_a_panic() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 200, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 100, ..ProptestConfig::default() })]
     /// Peaks dropped inside the tiles never change the pruned tree, also
     /// with sub-sea-level saddles (negative cells) under SeaLevel.
     #[test]

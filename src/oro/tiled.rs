@@ -442,6 +442,8 @@ struct Comp {
     lowest: f32,
     /// Last node of the contracted tree in this component (open ones).
     last: u32,
+    /// Highest sweep key in the component (the sea's is above all).
+    hi: (u32, u64),
 }
 
 fn uf_find(parent: &mut [u32], mut x: u32) -> u32 {
@@ -627,6 +629,7 @@ impl GlobalStep for TreeStep<'_> {
                 top: NO_TOP,
                 lowest: f32::INFINITY,
                 last: NONE,
+                hi: (0, 0),
             })
             .collect();
         // Local peaks (piece index) and the summary being built.
@@ -703,6 +706,7 @@ impl GlobalStep for TreeStep<'_> {
                 top: SEA_TOP,
                 lowest: low,
                 last: sea_node,
+                hi: (u32::MAX, u64::MAX),
             };
         };
 
@@ -748,6 +752,7 @@ impl GlobalStep for TreeStep<'_> {
                         top: OPEN_TOP,
                         lowest: z,
                         last: n,
+                        hi: key(z, px.id),
                     }
                 } else if conv == EdgeConvention::Unknown && !px.any_valid {
                     Comp {
@@ -755,6 +760,7 @@ impl GlobalStep for TreeStep<'_> {
                         top: NO_TOP,
                         lowest: z,
                         last: NONE,
+                        hi: key(z, px.id),
                     }
                 } else {
                     local_peaks.push(x);
@@ -763,13 +769,16 @@ impl GlobalStep for TreeStep<'_> {
                         top: (local_peaks.len() - 1) as u32,
                         lowest: z,
                         last: NONE,
+                        hi: key(z, px.id),
                     }
                 };
                 continue;
             }
             let mut low = z;
+            let mut hi = key(z, px.id);
             for &r in &roots {
                 low = low.min(comp[r as usize].lowest);
+                hi = hi.max(comp[r as usize].hi);
             }
             let all_closed = !px.open && roots.iter().all(|&r| comp[r as usize].closed);
             let (closed, top, last);
@@ -808,9 +817,18 @@ impl GlobalStep for TreeStep<'_> {
                             continue;
                         }
                         let pk = &pieces[local_peaks[c.top as usize] as usize];
+                        // Another root already holds higher ground, so this
+                        // top loses here: its key saddle and prominence are
+                        // final (unless the sea may win, at or below 0), only
+                        // its parent is not; below the threshold it can go.
+                        let beaten = (z > 0.0 || conv == EdgeConvention::Unknown)
+                            && roots.iter().any(|&o| o != r && comp[o as usize].hi > c.hi);
+                        let small = self
+                            .min_prominence
+                            .is_some_and(|m| (pk.z as f64 - z as f64) < m);
                         if sea_in {
                             finalize(pk, pk.z as f64, None, None, &mut out);
-                        } else {
+                        } else if !(beaten && small) {
                             relevant.push(node_of(pk, &mut out));
                         }
                     } else {
@@ -839,6 +857,7 @@ impl GlobalStep for TreeStep<'_> {
                 top,
                 lowest: low,
                 last,
+                hi,
             };
         }
         if !sea_done {
