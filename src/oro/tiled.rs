@@ -35,11 +35,16 @@
 //!    tie and sea rules of `tree.rs`; then all peaks are sorted as the
 //!    in-memory sweep numbers them and the saddles as it pushes them.
 //!
-//! Memory: a tile in flight holds its cells (≈ 40 bytes per cell); the
-//! reduce holds O(total tile perimeter) nodes and edges plus one record per
-//! peak of the unpruned tree (≈ 60 bytes each). Summaries are merged in one
-//! reduce (no hierarchical 2 x 2 merging): on a 10^10-cell mosaic with
-//! 1024-cell tiles that is ~4·10^7 perimeter cells.
+//! With a prominence threshold ([`pruned_tree_tiled`]) the map drops final
+//! peaks below it when pruning cannot need them, and does not turn a closed
+//! top into a node when it is beaten at a saddle below the threshold: on the
+//! Poland mosaic (1024-cell tiles, 30 m) ~3,500 nodes per tile instead of
+//! ~25,000.
+//!
+//! Memory: a tile in flight holds its cells and ~40-60 bytes of scratch per
+//! cell; the reduce holds all tile graphs (O(total perimeter)) and the final
+//! peaks kept. Summaries are merged in one reduce (no hierarchical 2 x 2
+//! merging, no contraction of seams that became interior).
 
 use super::regions::N8;
 use super::tree::{DivideTree, EdgeConvention, Peak, Saddle};
