@@ -227,7 +227,7 @@ enum Cmd {
     },
     /// Peaks with prominence, key saddles, parents, isolation and the divide tree.
     #[command(
-        after_help = "Example:\n  orogen peaks ../shared/data/srtm3_S33W071.tif --min-prominence 30 -o out/\nWrites peaks.csv, peaks.geojson, saddles.geojson, divide_tree.geojson and divide_tree.json.\nConventions (Kirmse & de Ferranti 2017): with --edge sea-level (default) the DEM's edge and\nnodata are sea level 0; with --edge unknown the outside is ignored.\nThis step runs in memory (about 28 bytes per cell); --memory must allow it."
+        after_help = "Example:\n  orogen peaks ../shared/data/srtm3_S33W071.tif --min-prominence 30 -o out/\nWrites peaks.csv, peaks.geojson, saddles.geojson, divide_tree.geojson and divide_tree.json.\nConventions (Kirmse & de Ferranti 2017): with --edge sea-level (default) the DEM's edge and\nnodata are sea level 0; with --edge unknown the outside is ignored.\nRuns in memory (about 28 bytes per cell) when --memory allows it, else tile by tile with the\nsame results (--tiled forces it):\n  orogen peaks poland.tif --memory 512MiB -o out/"
     )]
     Peaks {
         #[command(flatten)]
@@ -241,6 +241,13 @@ enum Cmd {
         /// Skip isolation (distance to higher ground).
         #[arg(long)]
         no_isolation: bool,
+        /// Work tile by tile even if the DEM fits the memory budget.
+        #[arg(long)]
+        tiled: bool,
+        /// Also write line parents, relevance and normalised elevation (needs the
+        /// whole DEM in memory; not with --tiled).
+        #[arg(long)]
+        line_parents: bool,
         /// Output folder.
         #[arg(short, long)]
         output: PathBuf,
@@ -705,6 +712,8 @@ fn run(cli: Cli) -> Result<()> {
             min_prominence,
             edge,
             no_isolation,
+            tiled,
+            line_parents,
             output,
             run,
         } => {
@@ -719,28 +728,46 @@ fn run(cli: Cli) -> Result<()> {
             let cfg = engine(&run)?;
             let src = open(&input)?;
             let info = src.info().clone();
-            let need = (info.width as u64) * (info.height as u64) * 28;
-            if need > cfg.memory_budget {
-                bail!(
-                    "{}: peaks runs in memory for now and needs about {:.1} GiB for {}x{} cells; raise --memory (e.g. --memory {}GiB)",
-                    input.input.display(),
-                    need as f64 / (1u64 << 30) as f64,
-                    info.width,
-                    info.height,
-                    need.div_ceil(1 << 30)
-                );
-            }
-            let dem = orogen::raster::read_window::<f32>(
-                src.as_ref(),
-                orogen::raster::Window::full(info.width, info.height),
-            )?;
             let opts = orogen::oro::PeakOptions {
                 min_prominence,
                 convention,
                 isolation: !no_isolation,
             };
-            let list = orogen::oro::peaks(&dem, &info.georef, &opts)?;
-            let files = list.write_all(&output)?;
+            let need = (info.width as u64) * (info.height as u64) * 28;
+            let go_tiled = tiled || need > cfg.memory_budget;
+            if line_parents && go_tiled {
+                bail!(
+                    "--line-parents needs the whole DEM in memory (about {} MiB); raise --memory and drop --tiled",
+                    need >> 20
+                );
+            }
+            let list = if go_tiled {
+                let tile = ops::choose_tile(src.as_ref(), run.tile);
+                if !run.quiet {
+                    eprintln!(
+                        "peaks: {}x{} cells, tile by tile ({tile}-cell tiles)",
+                        info.width, info.height
+                    );
+                }
+                // A quarter of the budget caches cells for the isolation search.
+                let cache = cfg.memory_budget / 4;
+                let eng = orogen::exec::LocalEngine::new(cfg);
+                (orogen::oro::peaks_tiled(src.as_ref(), &opts, tile, &eng, cache)?, None)
+            } else {
+                let dem = orogen::raster::read_window::<f32>(
+                    src.as_ref(),
+                    orogen::raster::Window::full(info.width, info.height),
+                )?;
+                (orogen::oro::peaks(&dem, &info.georef, &opts)?, Some(dem))
+            };
+            let (list, dem) = list;
+            // Line parents, relevance and normalised elevation need the DEM in
+            // memory (--line-parents); otherwise those columns are empty, so the
+            // files are the same bytes tiled and untiled.
+            let files = match &dem {
+                Some(dem) if line_parents => list.write_all_with_dem(&output, dem)?,
+                _ => list.write_all(&output)?,
+            };
             if !run.quiet {
                 eprintln!(
                     "{} peaks with prominence >= {min_prominence}",

@@ -12,16 +12,11 @@
 //! SRTM3 tiles (`tests/oro_reference.rs`): identical peak lists, elevations
 //! and prominences at ≥ 30 m.
 //!
-//! Not tiled yet. The plan for out-of-core DEMs: each tile runs this sweep
-//! with its boundary ring as extra tree nodes and emits (1) the peaks whose
-//! key saddle was found before their component reached the tile boundary
-//! (final: no terrain outside can change them), (2) a contracted join tree
-//! over the remaining peaks, the saddles joining them and the boundary cells
-//! ("runoffs" in Kirmse's terms), each node with its elevation and position.
-//! Neighbouring summaries are merged by connecting boundary cells adjacent
-//! across the seam at level min(a, b) and re-running the same descending
-//! Kruskal sweep on the small contracted graph; seams that become interior are
-//! then contracted away, so summaries stay O(boundary + open peaks).
+//! Out of core: [`peaks_tiled`] / [`divide_tree_tiled`] build the same tree
+//! tile by tile on an [`Engine`] (see `tiled.rs`: per-tile sweeps emit the
+//! final peaks and a contracted join tree of the part still open; one sweep
+//! over the joined graphs finishes it) and compute isolation with
+//! [`TiledIsolationIndex`] (block maxima in memory, cells read on demand).
 
 pub mod classify;
 mod isolation;
@@ -30,10 +25,12 @@ pub mod metrics;
 mod regions;
 pub mod ridges;
 pub mod stats;
+pub mod tiled;
 mod tree;
 mod write;
 
-pub use isolation::IsolationIndex;
+pub use isolation::{IsolationIndex, TiledIsolationIndex};
+pub use tiled::{divide_tree_tiled, pruned_tree_tiled};
 pub use tree::{CriticalPoints, DivideTree, EdgeConvention, Isolation, Peak, Saddle};
 pub use write::{
     write_divide_tree_geojson, write_peaks_csv, write_peaks_geojson, write_saddles_geojson,
@@ -41,7 +38,8 @@ pub use write::{
 pub use write::{write_peaks_csv_with, write_peaks_geojson_with, EXTRA_COLUMNS};
 
 use crate::error::{Error, Result};
-use crate::raster::{GeoRef, Grid};
+use crate::exec::Engine;
+use crate::raster::{GeoRef, Grid, RasterSource};
 use std::path::{Path, PathBuf};
 
 /// Options of [`peaks`].
@@ -133,4 +131,41 @@ pub fn compute_isolation(tree: &mut DivideTree, dem: &Grid<f32>, georef: &GeoRef
     for p in tree.peaks.iter_mut() {
         p.isolation = idx.nearest_higher(p.col as usize, p.row as usize, p.elevation);
     }
+}
+
+/// [`peaks`] for a DEM read tile by tile from `src` (f32, nodata = NaN) on
+/// `engine` with tiles of `tile` cells: the same [`PeakList`]. Isolation
+/// keeps block maxima (W·H/64 bytes) and at most `cache_bytes` of cells.
+pub fn peaks_tiled<E: Engine>(
+    src: &dyn RasterSource,
+    opts: &PeakOptions,
+    tile: usize,
+    engine: &E,
+    cache_bytes: u64,
+) -> Result<PeakList> {
+    if !opts.min_prominence.is_finite() {
+        return Err(Error::invalid(format!(
+            "peaks: minimum prominence must be a finite number, got {}",
+            opts.min_prominence
+        )));
+    }
+    let mut tree = pruned_tree_tiled(src, opts.convention, opts.min_prominence, tile, engine)?;
+    if opts.isolation {
+        let idx = TiledIsolationIndex::new(src, cache_bytes)?;
+        // Visit peaks window by window so the cache is reused.
+        let mut order: Vec<usize> = (0..tree.peaks.len()).collect();
+        order.sort_by_key(|&i| {
+            let p = &tree.peaks[i];
+            (p.row / 256, p.col / 256, i)
+        });
+        for i in order {
+            let p = &tree.peaks[i];
+            let iso = idx.nearest_higher(p.col as usize, p.row as usize, p.elevation)?;
+            tree.peaks[i].isolation = iso;
+        }
+    }
+    Ok(PeakList {
+        tree,
+        georef: src.info().georef.clone(),
+    })
 }

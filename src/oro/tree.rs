@@ -232,6 +232,20 @@ pub fn build(dem: &Grid<f32>, convention: EdgeConvention) -> Result<(DivideTree,
             if r != root {
                 uf.parent[r as usize] = root;
             }
+        }
+        // Losers in the order of their top peaks (highest first), so the
+        // saddles of a k-way saddle are pushed in an order that does not
+        // depend on how the region's neighbours were scanned (the tiled
+        // sweep reproduces it).
+        let mut sorted: Vec<u32>;
+        let losers: &[u32] = if roots.len() > 2 {
+            sorted = roots.to_vec();
+            sorted.sort_by_key(|&r| rank(top[r as usize]));
+            &sorted
+        } else {
+            roots
+        };
+        for &r in losers {
             if r == win {
                 continue;
             }
