@@ -36,6 +36,7 @@ pub mod fill;
 pub mod flow;
 pub mod mfd;
 pub mod tiled;
+pub mod tiled_mfd;
 
 pub use accum::{accumulate, accumulate_weighted, WEIGHT_SCALE_BITS};
 pub use fill::{fill, fill_epsilon, watershed_labels};
