@@ -370,8 +370,8 @@ pub(crate) fn overflow() -> Error {
 /// Splits the fixed-point amount `a` of a cell among its receivers with
 /// fractions `f` into `out` (see the module docs): integer shares
 /// q_d = round(f_d · 2^32), ⌊a·q_d/Σq⌋ for every receiver but the last one
-/// with f_d > 0, which gets the remainder, so Σ out = a exactly. All zero
-/// when no fraction is positive.
+/// with q_d > 0, which gets the remainder, so Σ out = a exactly (a fraction
+/// below 2^-33 gets nothing). All zero when no fraction is positive.
 #[inline]
 pub(crate) fn split_fixed(a: i128, f: &[f64; 8], out: &mut [i128; 8]) -> Result<()> {
     *out = [0; 8];
@@ -382,15 +382,17 @@ pub(crate) fn split_fixed(a: i128, f: &[f64; 8], out: &mut [i128; 8]) -> Result<
     for d in 0..8 {
         if f[d] > 0.0 {
             q[d] = (f[d] * SPLIT_SCALE).round() as i128;
-            s += q[d];
-            last = d;
-            n += 1;
+            if q[d] > 0 {
+                s += q[d];
+                last = d;
+                n += 1;
+            }
         }
     }
     if last == 8 {
         return Ok(());
     }
-    if n == 1 || s == 0 {
+    if n == 1 {
         out[last] = a;
         return Ok(());
     }

@@ -20,40 +20,44 @@
 //! `A(c) = own(c) + Σ share(A(u) → c)` over the flow DAG, whatever order
 //! evaluates it.
 //!
-//! # The passes (block Jacobi iteration over tiles)
+//! # The passes (iteration over tiles, exact band solve in the reduce)
 //! Each round is one [`GlobalStep`] run through the [`Engine`] with no
-//! output: *map* routes one tile (fractions from the filled DEM with a halo
+//! output. *map* routes one tile (fractions from the filled DEM with a halo
 //! of 1; cells without a lower neighbour take the D8 code of input 1, which
 //! must be [`super::d8_directions`] of the same DEM, e.g. from
 //! [`super::tiled::TiledD8`]), adds the current estimate of the water its
 //! perimeter cells receive from other tiles, accumulates the tile, and
-//! reports every share its perimeter cells send into another tile; *reduce*
-//! sums those shares into the next estimate of every perimeter cell's
-//! inflow. Rounds repeat until the estimate does not change; one last run
-//! applies it (its map is skipped).
+//! reports for every perimeter cell its fractions and its *base*: own
+//! contribution plus what it receives from the tile's interior cells.
+//! *reduce* joins all perimeter cells of all tiles into one *band* graph
+//! (a sub-graph of the flow DAG: edges between perimeter cells of the same
+//! or of neighbouring tiles) and accumulates it exactly in topological
+//! order, starting from the bases; the shares that cross between tiles are
+//! the next inflow estimate. Rounds repeat until the estimate does not
+//! change; one last run applies it (its map is skipped).
 //!
-//! **Exactness and bound.** Call a flow path's *crossings* the number of
-//! times it passes from one tile into another, and `L` the largest number of
-//! crossings of any path of the DAG. After round `k` the inflow of every
-//! perimeter cell whose upstream paths cross at most `k - 1` times is
-//! final (induction on `k`: such a cell's inflow depends only on cells of
-//! other tiles whose own upstream paths cross at most `k - 2` times). So the
-//! estimate is exact after `L + 1` rounds and stops changing: the run costs
-//! `L + 2` map passes and one apply pass, and the result is the in-memory
-//! one bit for bit (the tile's accumulation with the exact inflows is the
-//! unique solution restricted to the tile). A change in round `k` can only
-//! happen while `k ≤ L + 1`, so the loop always ends (`L` is finite on a
-//! DAG: at most the number of perimeter cells). `L` is small on most
-//! terrain but grows when divergent flow runs along a tile seam and
-//! crosses it back and forth; the measured rounds are in
-//! `docs/notes/mfd.md`. Memory: O(tile × workers + total perimeter).
+//! **Exactness and bound.** The band solve is exact given exact bases, and
+//! a base depends on other tiles only through a path that leaves the band
+//! into a tile's interior after having crossed from another tile. Call `L`
+//! the largest number of such *interior re-entries* along any flow path.
+//! After round `k` the inflow of every perimeter cell whose upstream paths
+//! have at most `k - 1` re-entries is final (induction on `k`), so the
+//! estimate is exact after `L + 1` rounds and the next round confirms it:
+//! `L + 2` map passes and one apply pass, and the result equals the
+//! in-memory one bit for bit (it is the unique solution of the equations
+//! above). The loop always ends (`L` is finite on a DAG). Flow that runs
+//! along a seam and crosses it back and forth stays in the band and costs
+//! no extra round; flow that wanders a few cells away from a seam and back
+//! does. Measured rounds are in `docs/notes/mfd.md`. Memory:
+//! O(tile × workers) for map/apply, O(total perimeter) (≈ 100 bytes per
+//! perimeter cell) for the reduce.
 
 use super::accum::{fixed_to_f64, weight_to_fixed};
 use super::dinf::dinf_cell;
 use super::mfd::{
-    accumulate_fixed_core, d8_fallback, mfd_cell, mfd_params, overflow, MfdMethod, ONE,
+    accumulate_fixed_core, d8_fallback, mfd_cell, mfd_params, overflow, split_fixed, MfdMethod, ONE,
 };
-use super::tiled::{perimeter_index, perimeter_len};
+use super::tiled::{perimeter_cells, perimeter_index, perimeter_len};
 use super::{code_to_dir, valid, DX, DY, NODATA_DIR};
 use crate::error::{Error, Result};
 use crate::exec::{Engine, GlobalStep, TileSink};
@@ -125,13 +129,16 @@ pub struct TiledMultiAccumulation {
     pub final_pass: bool,
 }
 
-/// Shares sent by one tile's perimeter cells into other tiles:
-/// (x, y) in the tile, direction (E..NE order), fixed-point amount.
+/// Per-tile summary of one round: for each perimeter cell (row-major
+/// perimeter order) its *base* — own contribution plus the water it
+/// receives from the tile's interior cells, given the round's inflow
+/// estimate — and its flow fractions as f64 bit patterns (so that they
+/// survive any serialisation exactly; NaN for nodata). O(perimeter).
 #[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
 pub struct MultiSummary {
     pub w: usize,
     pub h: usize,
-    pub out: Vec<(u32, u32, u8, i128)>,
+    pub nodes: Vec<(i128, [u64; 8])>,
 }
 
 /// Result of routing one tile.
@@ -140,7 +147,8 @@ struct Solved {
     h: usize,
     valid: Vec<bool>,
     acc: Vec<i128>,
-    out: Vec<(u32, u32, u8, i128)>,
+    /// Perimeter nodes for the summary (map only).
+    nodes: Vec<(i128, [u64; 8])>,
 }
 
 fn decode_code(c: f32, gx: i64, gy: i64) -> Result<u8> {
@@ -170,7 +178,7 @@ impl TiledMultiAccumulation {
     }
 
     /// Route and accumulate one tile with `inflow` at its perimeter.
-    fn solve(&self, inputs: &[TileView<f32>], inflow: &[i128]) -> Result<Solved> {
+    fn solve(&self, inputs: &[TileView<f32>], inflow: &[i128], want_nodes: bool) -> Result<Solved> {
         let (dem, d8) =
             match inputs {
                 [a, b, ..] => (a, b),
@@ -255,29 +263,61 @@ impl TiledMultiAccumulation {
                 acc[c] = acc[c].checked_add(v).ok_or_else(overflow)?;
             }
         }
-        let mut out = Vec::new();
-        accumulate_fixed_core(&frac, w, h, &mut acc, |c, d, v| {
-            let Some(d) = d else { return Ok(()) };
-            if v == 0 {
-                return Ok(());
+        let own: Vec<i128> = if want_nodes {
+            perimeter_cells(w, h).map(|(x, y)| acc[y * w + x]).collect()
+        } else {
+            Vec::new()
+        };
+        accumulate_fixed_core(&frac, w, h, &mut acc, |_, _, _| Ok(()))?;
+        let mut nodes = Vec::new();
+        if want_nodes {
+            // base = final accumulation − water from perimeter cells of this
+            // tile − inflow from other tiles (own + interior inflow remains)
+            let np = perimeter_len(w, h);
+            let mut from_perim = vec![0i128; np];
+            let mut share = [0i128; 8];
+            for (x, y) in perimeter_cells(w, h) {
+                let c = y * w + x;
+                if !valid_core[c] {
+                    continue;
+                }
+                split_fixed(acc[c], &frac[c], &mut share)?;
+                for d in 0..8 {
+                    if share[d] == 0 {
+                        continue;
+                    }
+                    let nx = x as i64 + DX[d];
+                    let ny = y as i64 + DY[d];
+                    if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
+                        continue;
+                    }
+                    let (nx, ny) = (nx as usize, ny as usize);
+                    if let Some(j) = perimeter_index(w, h, nx, ny) {
+                        if valid_core[ny * w + nx] {
+                            from_perim[j] =
+                                from_perim[j].checked_add(share[d]).ok_or_else(overflow)?;
+                        }
+                    }
+                }
             }
-            let (x, y) = (c % w, c / w);
-            let vx = (x + hl) as i64 + DX[d];
-            let vy = (y + hl) as i64 + DY[d];
-            // beyond the core (or into core nodata): another tile's valid cell?
-            let inside = (0..w as i64).contains(&(vx - hl as i64))
-                && (0..h as i64).contains(&(vy - hl as i64));
-            if !inside && valid(z[vy as usize * gw + vx as usize]) {
-                out.push((x as u32, y as u32, d as u8, v));
+            nodes.reserve(np);
+            for (k, (x, y)) in perimeter_cells(w, h).enumerate() {
+                let c = y * w + x;
+                if !valid_core[c] {
+                    nodes.push((0, [f64::NAN.to_bits(); 8]));
+                    continue;
+                }
+                let inf = inflow.get(k).copied().unwrap_or(0);
+                let interior = acc[c] - own[k] - inf - from_perim[k];
+                nodes.push((own[k] + interior, frac[c].map(f64::to_bits)));
             }
-            Ok(())
-        })?;
+        }
         Ok(Solved {
             w,
             h,
             valid: valid_core,
             acc,
-            out,
+            nodes,
         })
     }
 }
@@ -332,11 +372,11 @@ impl GlobalStep for TiledMultiAccumulation {
             return Ok(MultiSummary::default());
         }
         let id = inputs.first().map(|v| v.id).unwrap_or(0);
-        let s = self.solve(inputs, self.inflow.tile(id))?;
+        let s = self.solve(inputs, self.inflow.tile(id), true)?;
         Ok(MultiSummary {
             w: s.w,
             h: s.h,
-            out: s.out,
+            nodes: s.nodes,
         })
     }
 
@@ -363,35 +403,97 @@ impl GlobalStep for TiledMultiAccumulation {
             offsets.push(total);
             total += perimeter_len(win.w, win.h);
         }
-        let mut inflow = vec![0i128; total];
         for (t, s) in summaries.iter().enumerate() {
-            let win = layout.window(t);
-            let corrupt = || {
-                Error::invalid(format!(
-                    "divergent accumulation reduce: bad share in tile {t}'s summary"
-                ))
-            };
-            for &(x, y, d, v) in &s.out {
-                let d = d as usize;
-                if d >= 8 || x as usize >= win.w || y as usize >= win.h {
-                    return Err(corrupt());
-                }
-                let gx = win.x + x as i64 + DX[d];
-                let gy = win.y + y as i64 + DY[d];
-                if gx < 0 || gy < 0 || gx as usize >= layout.width || gy as usize >= layout.height {
-                    return Err(corrupt());
-                }
-                let (gx, gy) = (gx as usize, gy as usize);
-                let tb = layout.id(gx / layout.tile, gy / layout.tile);
-                if tb == t {
-                    return Err(corrupt());
-                }
-                let wb = layout.window(tb);
-                let (lx, ly) = (gx - wb.x as usize, gy - wb.y as usize);
-                let k = perimeter_index(wb.w, wb.h, lx, ly).ok_or_else(corrupt)?;
-                let u = offsets[tb] + k;
-                inflow[u] = inflow[u].checked_add(v).ok_or_else(overflow)?;
+            if s.nodes.len() != perimeter_len(s.w, s.h) {
+                return Err(Error::invalid(format!(
+                    "divergent accumulation reduce: summary of tile {t} has {} perimeter cells, expected {}",
+                    s.nodes.len(),
+                    perimeter_len(s.w, s.h)
+                )));
             }
+        }
+        // node id -> (tile, perimeter index); base and fractions per node
+        let mut owner = Vec::with_capacity(total);
+        let mut nodes: Vec<(i128, [f64; 8])> = Vec::with_capacity(total);
+        for (t, s) in summaries.iter().enumerate() {
+            owner.extend((0..s.nodes.len()).map(|k| (t as u32, k as u32)));
+            nodes.extend(s.nodes.iter().map(|(b, f)| (*b, f.map(f64::from_bits))));
+        }
+        drop(summaries);
+        let node = |u: usize| &nodes[u];
+        // Band neighbour of node u in direction d: another perimeter node
+        // (same tile or another), with whether the edge crosses tiles.
+        let band_neighbour = |u: usize, d: usize| -> Option<(usize, bool)> {
+            let (t, k) = (owner[u].0 as usize, owner[u].1 as usize);
+            let win = layout.window(t);
+            let (x, y) = perimeter_xy(win.w, win.h, k);
+            let gx = win.x + x as i64 + DX[d];
+            let gy = win.y + y as i64 + DY[d];
+            if gx < 0 || gy < 0 || gx as usize >= layout.width || gy as usize >= layout.height {
+                return None;
+            }
+            let (gx, gy) = (gx as usize, gy as usize);
+            let tb = layout.id(gx / layout.tile, gy / layout.tile);
+            let wb = layout.window(tb);
+            let j = perimeter_index(wb.w, wb.h, gx - wb.x as usize, gy - wb.y as usize)?;
+            let v = offsets[tb] + j;
+            if node(v).1[0].is_nan() {
+                None
+            } else {
+                Some((v, tb != t))
+            }
+        };
+        // Kahn's order over the band of perimeter cells (a sub-graph of
+        // the flow DAG), accumulating exactly as inside a tile.
+        let mut indeg = vec![0u8; total];
+        let mut acc = vec![0i128; total];
+        let mut valid_nodes = 0usize;
+        for u in 0..total {
+            let (base, f) = node(u);
+            if f[0].is_nan() {
+                continue;
+            }
+            valid_nodes += 1;
+            acc[u] = *base;
+            for d in 0..8 {
+                if f[d] > 0.0 {
+                    if let Some((v, _)) = band_neighbour(u, d) {
+                        indeg[v] += 1;
+                    }
+                }
+            }
+        }
+        let mut stack: Vec<usize> = (0..total)
+            .rev()
+            .filter(|&u| !node(u).1[0].is_nan() && indeg[u] == 0)
+            .collect();
+        let mut inflow = vec![0i128; total];
+        let mut share = [0i128; 8];
+        let mut done = 0usize;
+        while let Some(u) = stack.pop() {
+            done += 1;
+            let f = &node(u).1;
+            split_fixed(acc[u], f, &mut share)?;
+            for d in 0..8 {
+                if f[d] <= 0.0 {
+                    continue;
+                }
+                if let Some((v, cross)) = band_neighbour(u, d) {
+                    acc[v] = acc[v].checked_add(share[d]).ok_or_else(overflow)?;
+                    if cross {
+                        inflow[v] = inflow[v].checked_add(share[d]).ok_or_else(overflow)?;
+                    }
+                    indeg[v] -= 1;
+                    if indeg[v] == 0 {
+                        stack.push(v);
+                    }
+                }
+            }
+        }
+        if done != valid_nodes {
+            return Err(Error::invalid(
+                "divergent accumulation reduce: the flow between tiles has a cycle; inputs must be a filled DEM and its own D8 directions",
+            ));
         }
         Ok(MultiInflow { offsets, inflow })
     }
@@ -406,7 +508,7 @@ impl GlobalStep for TiledMultiAccumulation {
         slice: &Vec<i128>,
         out: &mut [Grid<f64>],
     ) -> Result<()> {
-        let s = self.solve(inputs, slice)?;
+        let s = self.solve(inputs, slice, false)?;
         let o = out
             .first_mut()
             .ok_or_else(|| Error::invalid("divergent accumulation apply: no output grid"))?;
