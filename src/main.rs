@@ -693,6 +693,7 @@ fn run(cli: Cli) -> Result<()> {
                     m,
                     &out.output,
                     &oo,
+                    run.tile,
                     &engine(&run)?,
                 )?;
                 wrote(&out.output);

@@ -266,3 +266,55 @@ fn real_dems_tiled_equal_untiled() {
         }
     }
 }
+
+#[test]
+fn cli_accumulate_methods_are_tiled_and_exact() {
+    use orogen::io::{open_raster, OpenOptions};
+    use orogen::raster::{read_window, Window};
+    let dir = std::env::temp_dir().join(format!("orogen_mfd_cli_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let bin = env!("CARGO_BIN_EXE_orogen");
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/bigtujunga_crop.tif");
+    let filled = dir.join("filled.tif");
+    let st = std::process::Command::new(bin)
+        .args([
+            "fill",
+            src.to_str().unwrap(),
+            "-q",
+            "-o",
+            filled.to_str().unwrap(),
+        ])
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let fsrc = open_raster(&filled, &OpenOptions::default()).unwrap();
+    let (w, h) = (fsrc.info().width, fsrc.info().height);
+    let f = read_window::<f32>(fsrc.as_ref(), Window::full(w, h)).unwrap();
+    for (method, router) in [
+        ("dinf", Router::Dinf),
+        ("quinn", Router::Mfd(MfdMethod::Quinn)),
+        ("holmgren", Router::Mfd(MfdMethod::Holmgren(4.0))),
+    ] {
+        let (want_c, _) = want(&in_memory(&f, router), None);
+        for tile in ["37", "100"] {
+            let out = dir.join(format!("acc_{method}_{tile}.tif"));
+            let st = std::process::Command::new(bin)
+                .args(["accumulate", filled.to_str().unwrap(), "--method", method])
+                .args(["--tile", tile, "-q", "-o", out.to_str().unwrap()])
+                .status()
+                .unwrap();
+            assert!(st.success(), "{method} {tile}");
+            let a = open_raster(&out, &OpenOptions::default()).unwrap();
+            let g = read_window::<f64>(a.as_ref(), Window::full(w, h)).unwrap();
+            assert!(bits(g.data()) == bits(&want_c), "{method} tile {tile}");
+        }
+    }
+    // the temporary D8 store is gone
+    let left: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().contains("d8-tmp"))
+        .collect();
+    assert!(left.is_empty());
+    std::fs::remove_dir_all(&dir).ok();
+}
