@@ -247,6 +247,31 @@ fn bench_dem() -> Grid<f32> {
     }
 }
 
+/// CPU time of this thread in seconds (Linux schedstat; wall time elsewhere
+/// is meaningless on a shared machine, CPU time is what "per core-second"
+/// means).
+fn thread_cpu_s() -> Option<f64> {
+    let s = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    let ns: f64 = s.split_whitespace().next()?.parse().ok()?;
+    Some(ns * 1e-9)
+}
+
+/// Mcells per CPU-second of `f` over `reps` runs.
+fn cpu_rate(name: &str, cells: usize, reps: usize, mut f: impl FnMut()) {
+    let (Some(t0), w0) = (thread_cpu_s(), Instant::now()) else {
+        return;
+    };
+    for _ in 0..reps {
+        f();
+    }
+    let cpu = thread_cpu_s().unwrap_or(t0) - t0;
+    let wall = w0.elapsed().as_secs_f64();
+    eprintln!(
+        "{name:>28}: {:7.1} Mcells per CPU-second ({reps} runs, {cpu:.2} s CPU, {wall:.2} s wall)",
+        (cells * reps) as f64 / cpu / 1e6
+    );
+}
+
 fn criterion_benches() {
     let mut c = Criterion::default().configure_from_args().sample_size(10);
     let f = fill(&bench_dem()).unwrap();
@@ -254,15 +279,23 @@ fn criterion_benches() {
     let (w, h) = (f.width(), f.height());
     let want = accumulate(&d).unwrap();
     assert_eq!(baseline_accumulate(&d), want.data());
+    let quinn = mfd_flow(&f, MfdMethod::Quinn).unwrap();
+    let dflow = dinf(&f).unwrap().flow;
+    cpu_rate("d8", w * h, 20, || drop(accumulate(&d).unwrap()));
+    cpu_rate("d8 baseline", w * h, 20, || drop(baseline_accumulate(&d)));
+    cpu_rate("mfd quinn fixed point", w * h, 3, || {
+        drop(accumulate_cells(&quinn).unwrap())
+    });
+    cpu_rate("dinf fixed point", w * h, 3, || {
+        drop(accumulate_cells(&dflow).unwrap())
+    });
     let mut g = c.benchmark_group(format!("accumulate_{w}x{h}"));
     g.throughput(Throughput::Elements((w * h) as u64));
     g.bench_function("d8", |b| b.iter(|| accumulate(&d).unwrap()));
     g.bench_function("d8_baseline", |b| b.iter(|| baseline_accumulate(&d)));
-    let quinn = mfd_flow(&f, MfdMethod::Quinn).unwrap();
     g.bench_function("mfd_quinn_fixed_point", |b| {
         b.iter(|| accumulate_cells(&quinn).unwrap())
     });
-    let dflow = dinf(&f).unwrap().flow;
     g.bench_function("dinf_fixed_point", |b| {
         b.iter(|| accumulate_cells(&dflow).unwrap())
     });

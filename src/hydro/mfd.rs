@@ -32,8 +32,8 @@
 //! integers (`i128`, [`super::WEIGHT_SCALE_BITS`] fractional bits, as for D8
 //! in [`super::accum`]), and a cell's accumulation `A` is split among its
 //! receivers by [`split_fixed`]: integer shares `q_d` = round(f_d · 2^32) of
-//! the fractions, `⌊A·q_d / Σq⌋` to every receiver but the last, the
-//! remainder to the last. The split depends only on `A` and the cell's own
+//! the fractions, `⌊A·q_d / 2^32⌋` to every receiver but the one with the
+//! largest share, the remainder to that one. The split depends only on `A` and the cell's own
 //! fractions, and the shares sum exactly to `A`, so (i) water is conserved
 //! exactly, and (ii) the result does not depend on the order in which a
 //! cell's inflows are added — which is what lets
@@ -369,42 +369,47 @@ pub(crate) fn overflow() -> Error {
 
 /// Splits the fixed-point amount `a` of a cell among its receivers with
 /// fractions `f` into `out` (see the module docs): integer shares
-/// q_d = round(f_d · 2^32), ⌊a·q_d/Σq⌋ for every receiver but the last one
-/// with q_d > 0, which gets the remainder, so Σ out = a exactly (a fraction
-/// below 2^-33 gets nothing). All zero when no fraction is positive.
+/// q_d = round(f_d · 2^32); every receiver but the one with the largest
+/// share (the first of equals) gets ⌊a·q_d / 2^32⌋ (a shift, no division),
+/// the largest gets the remainder, so Σ out = a exactly. A fraction below
+/// 2^-33 gets nothing. All zero when no fraction is positive.
 #[inline]
 pub(crate) fn split_fixed(a: i128, f: &[f64; 8], out: &mut [i128; 8]) -> Result<()> {
     *out = [0; 8];
     let mut q = [0i128; 8];
-    let mut s = 0i128;
-    let mut last = 8;
+    let mut big = 8;
     let mut n = 0;
     for d in 0..8 {
         if f[d] > 0.0 {
             q[d] = (f[d] * SPLIT_SCALE).round() as i128;
             if q[d] > 0 {
-                s += q[d];
-                last = d;
+                if big == 8 || q[d] > q[big] {
+                    big = d;
+                }
                 n += 1;
             }
         }
     }
-    if last == 8 {
+    if big == 8 {
         return Ok(());
     }
     if n == 1 {
-        out[last] = a;
+        out[big] = a;
         return Ok(());
     }
+    // |a| < 2^94 keeps a·q (q <= 2^32) inside i128
+    if a.unsigned_abs() >= 1u128 << 94 {
+        return Err(overflow());
+    }
     let mut given = 0i128;
-    for d in 0..last {
-        if q[d] > 0 {
-            let v = a.checked_mul(q[d]).ok_or_else(overflow)?.div_euclid(s);
+    for d in 0..8 {
+        if q[d] > 0 && d != big {
+            let v = (a * q[d]) >> 32;
             out[d] = v;
             given += v;
         }
     }
-    out[last] = a - given;
+    out[big] = a - given;
     Ok(())
 }
 
