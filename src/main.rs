@@ -687,7 +687,7 @@ fn run(cli: Cli) -> Result<()> {
                     None => None,
                 };
                 let oo = output_options(&out.fmt)?;
-                ops::accumulate_multi(
+                let rounds = ops::accumulate_multi(
                     src.as_ref(),
                     w.as_deref(),
                     m,
@@ -696,6 +696,9 @@ fn run(cli: Cli) -> Result<()> {
                     run.tile,
                     &engine(&run)?,
                 )?;
+                if !run.quiet && rounds > 0 {
+                    eprintln!("accumulate: {rounds} rounds over tiles to the exact fixed point");
+                }
                 wrote(&out.output);
                 return Ok(());
             }

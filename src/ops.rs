@@ -447,8 +447,15 @@ pub enum FlowMethod {
     Mfd(crate::hydro::mfd::MfdMethod),
 }
 
-/// D∞ or MFD accumulation of a (filled) DEM across tiles, equal bit for bit
-/// to the in-memory result: D8 directions of the DEM (for cells without a
+/// Bytes per cell the in-memory D∞/MFD accumulation needs (fractions, DEM,
+/// D8 codes, weights, fixed-point result, f64 result).
+pub const MULTI_FLOW_BYTES_PER_CELL: u64 = 104;
+
+/// D∞ or MFD accumulation of a (filled) DEM. When the whole raster's working
+/// set ([`MULTI_FLOW_BYTES_PER_CELL`]) fits `cfg.memory_budget` it runs in
+/// memory in one pass (returns 0 rounds); otherwise across tiles. Both give
+/// the same bytes (exact fixed point, see [`crate::hydro::tiled_mfd`]).
+/// Across tiles: D8 directions of the DEM (for cells without a
 /// lower neighbour, [`crate::hydro::tiled::TiledD8`]) go to a temporary tile
 /// store next to `out` (removed afterwards), then
 /// [`crate::hydro::tiled_mfd::run_multi_accumulation`] accumulates cells, or
@@ -470,6 +477,36 @@ pub fn accumulate_multi(
         inputs.push(w);
     }
     check_inputs(&inputs)?;
+    let info = dem.info();
+    let need = (info.width as u64)
+        .saturating_mul(info.height as u64)
+        .saturating_mul(MULTI_FLOW_BYTES_PER_CELL);
+    if need <= cfg.memory_budget && (info.width as u64) * (info.height as u64) <= u32::MAX as u64 {
+        let full = crate::raster::Window::full(info.width, info.height);
+        let z = crate::raster::read_window::<f32>(dem, full)?;
+        let flow = match method {
+            FlowMethod::Dinf => crate::hydro::dinf::dinf(&z)?.flow,
+            FlowMethod::Mfd(m) => crate::hydro::mfd::mfd_flow(&z, m)?,
+        };
+        drop(z);
+        let acc = match weights {
+            Some(w) => {
+                let wg = crate::raster::read_window::<f32>(w, full)?;
+                crate::hydro::mfd::accumulate_fractions(&flow, &wg)?
+            }
+            None => crate::hydro::mfd::accumulate_cells(&flow)?,
+        };
+        drop(flow);
+        let acc = acc.map(|v| if v.is_nan() { -1.0 } else { v });
+        let georef = info.georef.clone().with_nodata(Some(-1.0));
+        let mem = crate::raster::MemRaster::new(
+            crate::raster::AnyGrid::F64(acc),
+            georef,
+            info.path.clone(),
+        );
+        convert(&mem, out, oo, None, cfg)?;
+        return Ok(0);
+    }
     let layout = choose_layout(dem, &[out.to_path_buf()], oo, tile);
     let engine = LocalEngine::new(cfg.clone());
     let name = out

@@ -274,7 +274,33 @@ fn cli_accumulate_methods_are_tiled_and_exact() {
     let dir = std::env::temp_dir().join(format!("orogen_mfd_cli_{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let bin = env!("CARGO_BIN_EXE_orogen");
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/bigtujunga_crop.tif");
+    // a 520 x 420 terrain (ridges, valleys, a nodata hole) as ESRI ASCII:
+    // big enough that 16 MiB cannot hold the in-memory working set
+    let (aw, ah) = (520usize, 420usize);
+    let mut asc = format!(
+        "ncols {aw}\nnrows {ah}\nxllcorner 0\nyllcorner 0\ncellsize 30\nNODATA_value -9999\n"
+    );
+    for y in 0..ah {
+        let row: Vec<String> = (0..aw)
+            .map(|x| {
+                let (fx, fy) = (x as f64, y as f64);
+                if (fx - 300.0).powi(2) + (fy - 200.0).powi(2) < 150.0 {
+                    "-9999".to_string()
+                } else {
+                    let z = 500.0
+                        + 0.4 * fx
+                        + 0.25 * fy
+                        + 40.0 * (fx / 23.0).sin() * (fy / 31.0).cos()
+                        + 15.0 * ((fx + 2.0 * fy) / 11.0).sin();
+                    format!("{:.1}", z)
+                }
+            })
+            .collect();
+        asc.push_str(&row.join(" "));
+        asc.push('\n');
+    }
+    let src = dir.join("terrain.asc");
+    std::fs::write(&src, asc).unwrap();
     let filled = dir.join("filled.tif");
     let st = std::process::Command::new(bin)
         .args([
@@ -296,17 +322,22 @@ fn cli_accumulate_methods_are_tiled_and_exact() {
         ("holmgren", Router::Mfd(MfdMethod::Holmgren(4.0))),
     ] {
         let (want_c, _) = want(&in_memory(&f, router), None);
-        for tile in ["37", "100"] {
-            let out = dir.join(format!("acc_{method}_{tile}.tif"));
+        // 16 MiB forces the tiled route; 1 GiB lets the raster run in memory
+        for (tile, memory) in [("37", "16MiB"), ("100", "16MiB"), ("100", "1GiB")] {
+            let out = dir.join(format!("acc_{method}_{tile}_{memory}.tif"));
             let st = std::process::Command::new(bin)
                 .args(["accumulate", filled.to_str().unwrap(), "--method", method])
-                .args(["--tile", tile, "-q", "-o", out.to_str().unwrap()])
+                .args(["--tile", tile, "--memory", memory, "-q"])
+                .args(["-o", out.to_str().unwrap()])
                 .status()
                 .unwrap();
             assert!(st.success(), "{method} {tile}");
             let a = open_raster(&out, &OpenOptions::default()).unwrap();
             let g = read_window::<f64>(a.as_ref(), Window::full(w, h)).unwrap();
-            assert!(bits(g.data()) == bits(&want_c), "{method} tile {tile}");
+            assert!(
+                bits(g.data()) == bits(&want_c),
+                "{method} tile {tile} memory {memory}"
+            );
         }
     }
     // the temporary D8 store is gone
