@@ -448,15 +448,15 @@ impl GlobalStep for TiledMultiAccumulation {
         let mut indeg = vec![0u8; total];
         let mut acc = vec![0i128; total];
         let mut valid_nodes = 0usize;
-        for u in 0..total {
+        for (u, a) in acc.iter_mut().enumerate() {
             let (base, f) = node(u);
             if f[0].is_nan() {
                 continue;
             }
             valid_nodes += 1;
-            acc[u] = *base;
-            for d in 0..8 {
-                if f[d] > 0.0 {
+            *a = *base;
+            for (d, &fd) in f.iter().enumerate() {
+                if fd > 0.0 {
                     if let Some((v, _)) = band_neighbour(u, d) {
                         indeg[v] += 1;
                     }
