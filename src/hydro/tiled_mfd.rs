@@ -49,8 +49,9 @@
 //! along a seam and crosses it back and forth stays in the band and costs
 //! no extra round; flow that wanders a few cells away from a seam and back
 //! does. Measured rounds are in `docs/notes/mfd.md`. Memory:
-//! O(tile × workers) for map/apply, O(total perimeter) (≈ 100 bytes per
-//! perimeter cell) for the reduce.
+//! O(tile × workers) for map/apply, O(total perimeter) for the reduce
+//! (≈ 120 bytes per perimeter cell, about twice that while the summaries
+//! are decoded).
 
 use super::accum::{fixed_to_f64, weight_to_fixed};
 use super::dinf::dinf_cell;
