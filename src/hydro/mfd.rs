@@ -557,6 +557,40 @@ mod tests {
     use super::*;
 
     #[test]
+    fn split_is_exact_and_conserves() {
+        let mut out = [0i128; 8];
+        let f = [0.5, 0.25, 0.25, 0.0, 0.0, 0.0, 0.0, 0.0];
+        split_fixed(3 * ONE, &f, &mut out).unwrap();
+        assert_eq!(&out[..3], &[3 * ONE / 2, 3 * ONE / 4, 3 * ONE / 4]);
+        // thirds of a negative amount: floors, the largest share (first of
+        // equals) takes the remainder, the sum is exact
+        let t = 1.0 / 3.0;
+        let f = [t, 0.0, t, 0.0, t, 0.0, 0.0, 0.0];
+        split_fixed(-7, &f, &mut out).unwrap();
+        assert_eq!(out.iter().sum::<i128>(), -7);
+        assert_eq!((out[2], out[4]), (-3, -3));
+        assert_eq!(out[0], -1);
+        // many amounts and uneven fractions: sums always exact
+        let f = [0.1, 0.2, 0.0, 0.05, 0.3, 0.0, 0.15, 0.2];
+        for k in 0..1000i128 {
+            let a = k * k * 7919 - 123_456_789;
+            split_fixed(a, &f, &mut out).unwrap();
+            assert_eq!(out.iter().sum::<i128>(), a);
+            assert_eq!(out[2], 0);
+            assert_eq!(out[5], 0);
+        }
+        // no positive fraction: nothing moves; amounts beyond 2^94 are refused
+        split_fixed(5, &[0.0; 8], &mut out).unwrap();
+        assert_eq!(out, [0; 8]);
+        assert!(split_fixed(
+            1i128 << 100,
+            &[0.5, 0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            &mut out
+        )
+        .is_err());
+    }
+
+    #[test]
     fn bad_exponent_is_an_error() {
         let g = Grid::from_vec(2, 1, vec![1.0f32, 0.0]).unwrap();
         assert!(mfd_flow(&g, MfdMethod::Holmgren(f64::NAN)).is_err());

@@ -543,12 +543,27 @@ pub fn run_multi_accumulation<E: Engine>(
     sinks: Vec<Box<dyn TileSink>>,
 ) -> Result<MultiRun> {
     let mut step = TiledMultiAccumulation::new(router, weighted);
+    // L + 2 rounds suffice and L < the number of perimeter cells (module
+    // docs); more means the inputs are not one DEM and its own directions
+    let limit = (0..layout.count())
+        .map(|t| {
+            let w = layout.window(t);
+            perimeter_len(w.w, w.h)
+        })
+        .sum::<usize>()
+        + 2;
     let mut rounds = 0usize;
     loop {
         let next = engine.run_global(&step, inputs, layout, Vec::new())?;
         rounds += 1;
         if next.same(&step.inflow) {
             break;
+        }
+        if rounds >= limit {
+            return Err(Error::invalid(format!(
+                "divergent accumulation across tiles did not settle after {rounds} rounds; \
+                 the inputs must be a DEM and its own D8 directions"
+            )));
         }
         step.inflow = Arc::new(next);
     }
