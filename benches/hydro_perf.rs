@@ -8,13 +8,28 @@
 //! With `OROGEN_HYDRO_RICHDEM` set (by `tools/richdem_compare.py`) it compares
 //! orogen's fill with RichDEM's output instead.
 //! The DEM is a raw little-endian f32 file `path:width:height:nodata`.
+//!
+//! Without either variable it runs criterion benches of the accumulation
+//! kernels (one thread) on a filled DEM: `OROGEN_HYDRO_BENCH_DEM` (any raster
+//! orogen reads, e.g. `../shared/data/srtm3_S33W071.tif`), else a seeded
+//! 2048 x 2048 fBm terrain:
+//!
+//! ```text
+//! OROGEN_HYDRO_BENCH_DEM=../shared/data/srtm3_S33W071.tif cargo bench --bench hydro_perf
+//! ```
 //! Each step is also checked against the next (tiled fill == fill, D8 acyclic,
 //! accumulation conserves cells) so the timings are of correct runs.
 
+use criterion::{Criterion, Throughput};
 use orogen::exec::GlobalStep;
+use orogen::hydro::dinf::dinf;
+use orogen::hydro::mfd::{accumulate_cells, mfd_flow, MfdMethod};
 use orogen::hydro::tiled::{TiledAccumulation, TiledD8, TiledFill};
 use orogen::hydro::{accumulate, d8_directions, fill, fill_epsilon, NODATA_DIR};
+use orogen::raster::Window;
 use orogen::raster::{read_view, GeoRef, Grid, MemRaster, RasterSource, TileLayout};
+use orogen::synth::FbmSource;
+use std::path::Path;
 use std::time::Instant;
 
 fn tiled<S: GlobalStep<In = f32>>(step: &S, src: &dyn RasterSource, tile: usize) -> Grid<S::Out> {
@@ -162,12 +177,138 @@ fn richdem_fill_matches() {
     );
 }
 
+/// The pre-session D8 accumulation kernel, kept as the same-run baseline:
+/// receivers as a `u32` array built with per-cell bounds tests, then the
+/// same downstream walk.
+fn baseline_accumulate(dirs: &Grid<u8>) -> Vec<u64> {
+    let (w, h) = (dirs.width(), dirs.height());
+    let d = dirs.data();
+    let n = d.len();
+    let mut acc: Vec<u64> = d.iter().map(|&c| u64::from(c != NODATA_DIR)).collect();
+    let mut recv = vec![u32::MAX; n];
+    let mut indeg = vec![0u8; n];
+    for y in 0..h {
+        for x in 0..w {
+            let c = y * w + x;
+            let code = d[c];
+            if code == NODATA_DIR || code == 0 {
+                continue;
+            }
+            let k = code.trailing_zeros() as usize;
+            let nx = x as i64 + orogen::hydro::DX[k];
+            let ny = y as i64 + orogen::hydro::DY[k];
+            if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
+                continue;
+            }
+            let r = ny as usize * w + nx as usize;
+            if d[r] != NODATA_DIR {
+                recv[c] = r as u32;
+                indeg[r] += 1;
+            }
+        }
+    }
+    let mut order = Vec::with_capacity(n);
+    for c0 in 0..n {
+        if indeg[c0] != 0 || d[c0] == NODATA_DIR {
+            continue;
+        }
+        let mut c = c0;
+        loop {
+            indeg[c] = u8::MAX;
+            order.push(c as u32);
+            let r = recv[c];
+            if r == u32::MAX {
+                break;
+            }
+            let r = r as usize;
+            acc[r] += acc[c];
+            indeg[r] -= 1;
+            if indeg[r] != 0 {
+                break;
+            }
+            c = r;
+        }
+    }
+    acc
+}
+
+fn bench_dem() -> Grid<f32> {
+    match std::env::var("OROGEN_HYDRO_BENCH_DEM") {
+        Ok(p) => {
+            let src = orogen::io::open_raster(Path::new(&p), &Default::default()).unwrap();
+            let (w, h) = (src.info().width, src.info().height);
+            orogen::raster::read_window::<f32>(src.as_ref(), Window::full(w, h)).unwrap()
+        }
+        Err(_) => {
+            let n = 2048;
+            let src = FbmSource::new(Default::default(), n, n, 30.0).unwrap();
+            orogen::raster::read_window::<f32>(&src, Window::full(n, n)).unwrap()
+        }
+    }
+}
+
+/// CPU time of this thread in seconds (Linux schedstat; wall time elsewhere
+/// is meaningless on a shared machine, CPU time is what "per core-second"
+/// means).
+fn thread_cpu_s() -> Option<f64> {
+    let s = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    let ns: f64 = s.split_whitespace().next()?.parse().ok()?;
+    Some(ns * 1e-9)
+}
+
+/// Mcells per CPU-second of `f` over `reps` runs.
+fn cpu_rate(name: &str, cells: usize, reps: usize, mut f: impl FnMut()) {
+    let (Some(t0), w0) = (thread_cpu_s(), Instant::now()) else {
+        return;
+    };
+    for _ in 0..reps {
+        f();
+    }
+    let cpu = thread_cpu_s().unwrap_or(t0) - t0;
+    let wall = w0.elapsed().as_secs_f64();
+    eprintln!(
+        "{name:>28}: {:7.1} Mcells per CPU-second ({reps} runs, {cpu:.2} s CPU, {wall:.2} s wall)",
+        (cells * reps) as f64 / cpu / 1e6
+    );
+}
+
+fn criterion_benches() {
+    let mut c = Criterion::default().configure_from_args().sample_size(10);
+    let f = fill(&bench_dem()).unwrap();
+    let d = d8_directions(&f);
+    let (w, h) = (f.width(), f.height());
+    let want = accumulate(&d).unwrap();
+    assert_eq!(baseline_accumulate(&d), want.data());
+    let quinn = mfd_flow(&f, MfdMethod::Quinn).unwrap();
+    let dflow = dinf(&f).unwrap().flow;
+    cpu_rate("d8", w * h, 20, || drop(accumulate(&d).unwrap()));
+    cpu_rate("d8 baseline", w * h, 20, || drop(baseline_accumulate(&d)));
+    cpu_rate("mfd quinn fixed point", w * h, 3, || {
+        drop(accumulate_cells(&quinn).unwrap())
+    });
+    cpu_rate("dinf fixed point", w * h, 3, || {
+        drop(accumulate_cells(&dflow).unwrap())
+    });
+    let mut g = c.benchmark_group(format!("accumulate_{w}x{h}"));
+    g.throughput(Throughput::Elements((w * h) as u64));
+    g.bench_function("d8", |b| b.iter(|| accumulate(&d).unwrap()));
+    g.bench_function("d8_baseline", |b| b.iter(|| baseline_accumulate(&d)));
+    g.bench_function("mfd_quinn_fixed_point", |b| {
+        b.iter(|| accumulate_cells(&quinn).unwrap())
+    });
+    g.bench_function("dinf_fixed_point", |b| {
+        b.iter(|| accumulate_cells(&dflow).unwrap())
+    });
+    g.finish();
+    c.final_summary();
+}
+
 fn main() {
     if std::env::var("OROGEN_HYDRO_RICHDEM").is_ok() {
         richdem_fill_matches();
     } else if std::env::var("OROGEN_HYDRO_PERF_DEM").is_ok() {
         perf_large_dem();
     } else {
-        eprintln!("set OROGEN_HYDRO_PERF_DEM=path:w:h:nodata (see the file's header) or run tools/richdem_compare.py");
+        criterion_benches();
     }
 }

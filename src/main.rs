@@ -284,7 +284,7 @@ enum Cmd {
     /// D8 flow directions of a filled DEM (ESRI codes 1..128, 0 = no flow, 255 = nodata),
     /// flats drained per Barnes, Lehman & Mulla 2014, exact across tiles.
     #[command(
-        after_help = "Example:\n  orogen fill dem.tif -o filled.tif && orogen flow filled.tif -o d8.tif\n  orogen flow filled.tif --method rho8 --seed 7 -o rho8.tif\nLarge flats (sea, lakes) that only partly cover a tile are slow across tiles;\nmask the sea as nodata or use a smaller --tile for this step."
+        after_help = "Example:\n  orogen fill dem.tif -o filled.tif && orogen flow filled.tif -o d8.tif\n  orogen flow filled.tif --method rho8 --seed 7 -o rho8.tif\nFlats (sea, lakes) are drained exactly across tiles (Barnes, Lehman & Mulla 2014)."
     )]
     Flow {
         #[command(flatten)]
@@ -846,14 +846,18 @@ fn run(cli: Cli) -> Result<()> {
                     None => None,
                 };
                 let oo = output_options(&out.fmt)?;
-                ops::accumulate_multi(
+                let rounds = ops::accumulate_multi(
                     src.as_ref(),
                     w.as_deref(),
                     m,
                     &out.output,
                     &oo,
+                    run.tile,
                     &engine(&run)?,
                 )?;
+                if !run.quiet && rounds > 0 {
+                    eprintln!("accumulate: {rounds} rounds over tiles to the exact fixed point");
+                }
                 wrote(&out.output);
                 return Ok(());
             }

@@ -448,51 +448,121 @@ pub enum FlowMethod {
 }
 
 /// Bytes per cell the in-memory D∞/MFD accumulation needs (fractions, DEM,
-/// weights, result).
-pub const MULTI_FLOW_BYTES_PER_CELL: u64 = 88;
+/// D8 codes, weights, fixed-point result, f64 result).
+pub const MULTI_FLOW_BYTES_PER_CELL: u64 = 104;
 
-/// D∞ or MFD accumulation of a (filled) DEM, in memory: reads the whole DEM
-/// (and weights), routes, accumulates (cells, or the weights' values) and
-/// writes `out` (f64, nodata -1). Refuses rasters whose working set would
-/// exceed `cfg.memory_budget`.
+/// D∞ or MFD accumulation of a (filled) DEM. When the whole raster's working
+/// set ([`MULTI_FLOW_BYTES_PER_CELL`]) fits `cfg.memory_budget` it runs in
+/// memory in one pass (returns 0 rounds); otherwise across tiles. Both give
+/// the same bytes (exact fixed point, see [`crate::hydro::tiled_mfd`]).
+/// Across tiles: D8 directions of the DEM (for cells without a
+/// lower neighbour, [`crate::hydro::tiled::TiledD8`]) go to a temporary tile
+/// store next to `out` (removed afterwards), then
+/// [`crate::hydro::tiled_mfd::run_multi_accumulation`] accumulates cells, or
+/// the weights' values, and writes `out` (f64, nodata -1). Memory is
+/// O(tile × workers + total perimeter), independent of the raster size.
+/// Returns the number of map rounds the accumulation needed.
 pub fn accumulate_multi(
     dem: &dyn RasterSource,
     weights: Option<&dyn RasterSource>,
     method: FlowMethod,
     out: &Path,
     oo: &OutputOptions,
+    tile: Option<usize>,
     cfg: &EngineConfig,
-) -> Result<()> {
-    let info = dem.info();
-    let need = (info.width as u64) * (info.height as u64) * MULTI_FLOW_BYTES_PER_CELL;
-    if need > cfg.memory_budget {
-        return Err(Error::invalid(format!(
-            "{}: D-infinity/MFD accumulation runs in memory for now and needs about {:.1} GiB for {}x{} cells; raise --memory or use the tiled D8 route (orogen flow + orogen accumulate)",
-            info.path.display(),
-            need as f64 / (1u64 << 30) as f64,
-            info.width,
-            info.height
-        )));
+) -> Result<usize> {
+    use crate::hydro::tiled_mfd::{run_multi_accumulation, Router};
+    let mut inputs: Vec<&dyn RasterSource> = vec![dem];
+    if let Some(w) = weights {
+        inputs.push(w);
     }
-    let full = crate::raster::Window::full(info.width, info.height);
-    let z = crate::raster::read_window::<f32>(dem, full)?;
-    let flow = match method {
-        FlowMethod::Dinf => crate::hydro::dinf::dinf(&z)?.flow,
-        FlowMethod::Mfd(m) => crate::hydro::mfd::mfd_flow(&z, m)?,
-    };
-    drop(z);
-    let acc = match weights {
-        Some(w) => {
-            check_inputs(&[dem, w])?;
-            let wg = crate::raster::read_window::<f32>(w, full)?;
-            crate::hydro::mfd::accumulate_fractions(&flow, &wg)?
+    check_inputs(&inputs)?;
+    let info = dem.info();
+    let need = (info.width as u64)
+        .saturating_mul(info.height as u64)
+        .saturating_mul(MULTI_FLOW_BYTES_PER_CELL);
+    if need <= cfg.memory_budget && (info.width as u64) * (info.height as u64) <= u32::MAX as u64 {
+        let full = crate::raster::Window::full(info.width, info.height);
+        let z = crate::raster::read_window::<f32>(dem, full)?;
+        let flow = match method {
+            FlowMethod::Dinf => crate::hydro::dinf::dinf(&z)?.flow,
+            FlowMethod::Mfd(m) => crate::hydro::mfd::mfd_flow(&z, m)?,
+        };
+        drop(z);
+        let acc = match weights {
+            Some(w) => {
+                let wg = crate::raster::read_window::<f32>(w, full)?;
+                crate::hydro::mfd::accumulate_fractions(&flow, &wg)?
+            }
+            None => crate::hydro::mfd::accumulate_cells(&flow)?,
+        };
+        drop(flow);
+        let acc = acc.map(|v| if v.is_nan() { -1.0 } else { v });
+        let georef = info.georef.clone().with_nodata(Some(-1.0));
+        let mem = crate::raster::MemRaster::new(
+            crate::raster::AnyGrid::F64(acc),
+            georef,
+            info.path.clone(),
+        );
+        convert(&mem, out, oo, None, cfg)?;
+        return Ok(0);
+    }
+    let layout = choose_layout(dem, &[out.to_path_buf()], oo, tile);
+    let engine = LocalEngine::new(cfg.clone());
+    let name = out
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "accumulation".into());
+    let tmp = out.with_file_name(format!(".{name}.d8-tmp.tiles"));
+    let mut tmp_oo = oo.clone();
+    tmp_oo.store.tile = layout.tile;
+    tmp_oo.store.overwrite = true;
+    tmp_oo.store.sync = false;
+    let d8_step = crate::hydro::tiled::TiledD8;
+    let result = (|| -> Result<usize> {
+        let sinks = make_sinks(
+            d8_step.name(),
+            d8_step.params(),
+            &[dem],
+            std::slice::from_ref(&tmp),
+            &[(DType::U8, Some(crate::hydro::NODATA_DIR as f64))],
+            &tmp_oo,
+        )?;
+        engine.run_global(&d8_step, &[dem], layout, sinks)?;
+        let d8 = io::open_raster(&tmp, &io::OpenOptions::default())?;
+        let mut acc_inputs: Vec<&dyn RasterSource> = vec![dem, d8.as_ref()];
+        if let Some(w) = weights {
+            acc_inputs.push(w);
         }
-        None => crate::hydro::mfd::accumulate_cells(&flow)?,
-    };
-    drop(flow);
-    let acc = acc.map(|v| if v.is_nan() { -1.0 } else { v });
-    let georef = info.georef.clone().with_nodata(Some(-1.0));
-    let mem =
-        crate::raster::MemRaster::new(crate::raster::AnyGrid::F64(acc), georef, info.path.clone());
-    convert(&mem, out, oo, None, cfg)
+        let router = match method {
+            FlowMethod::Dinf => Router::Dinf,
+            FlowMethod::Mfd(m) => Router::Mfd(m),
+        };
+        let probe = crate::hydro::tiled_mfd::TiledMultiAccumulation::new(router, weights.is_some());
+        let sinks = make_sinks(
+            probe.name(),
+            probe.params(),
+            &acc_inputs,
+            &[out.to_path_buf()],
+            &[(DType::F64, Some(-1.0))],
+            oo,
+        )?;
+        let run = run_multi_accumulation(
+            &engine,
+            router,
+            weights.is_some(),
+            &acc_inputs,
+            layout,
+            sinks,
+        )?;
+        Ok(run.rounds)
+    })();
+    let cleanup = std::fs::remove_dir_all(&tmp);
+    let rounds = result?;
+    if let Err(e) = cleanup {
+        if e.kind() != std::io::ErrorKind::NotFound {
+            return Err(Error::io(&tmp, e));
+        }
+    }
+    Ok(rounds)
 }

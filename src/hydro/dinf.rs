@@ -61,56 +61,71 @@ fn dir_angle(d: usize) -> f64 {
     ((8 - d) % 8) as f64 * FRAC_PI_4
 }
 
+/// D∞ fractions of the valid cell (x, y) of a `w` x `h` elevation array
+/// into `f`, returning the flow angle; `None` when no facet slopes down (the
+/// caller falls back to D8). Shared by the in-memory and tiled routers.
+pub(crate) fn dinf_cell(
+    z: &[f32],
+    w: usize,
+    h: usize,
+    x: usize,
+    y: usize,
+    f: &mut [f64; 8],
+) -> Option<f64> {
+    let e0 = z[y * w + x] as f64;
+    let mut best_s = 0.0f64;
+    let mut best: Option<(usize, f64)> = None;
+    for (k, &(d1, d2, _, _)) in FACETS.iter().enumerate() {
+        let (Some(n1), Some(n2)) = (neighbour(x, y, d1, w, h), neighbour(x, y, d2, w, h)) else {
+            continue;
+        };
+        let (z1, z2) = (z[n1], z[n2]);
+        if !valid(z1) || !valid(z2) {
+            continue;
+        }
+        let (e1, e2) = (z1 as f64, z2 as f64);
+        let s1 = e0 - e1;
+        let s2 = e1 - e2;
+        let mut r = s2.atan2(s1);
+        let s = if r <= 0.0 {
+            r = 0.0;
+            s1
+        } else if r >= FRAC_PI_4 {
+            r = FRAC_PI_4;
+            (e0 - e2) / SQRT_2
+        } else {
+            s1.hypot(s2)
+        };
+        if s > best_s {
+            best_s = s;
+            best = Some((k, r));
+        }
+    }
+    let (k, r) = best?;
+    let (d1, d2, ac, af) = FACETS[k];
+    let p2 = r / FRAC_PI_4;
+    f[d2] = p2;
+    f[d1] = 1.0 - p2;
+    let mut a = ac * FRAC_PI_2 + af * r;
+    if a >= 2.0 * std::f64::consts::PI {
+        a = 0.0;
+    }
+    Some(a)
+}
+
 /// D∞ flow angles and fractions of `dem` (normally a filled DEM; NaN =
 /// nodata; square cells). Errors only for grids of more than 2^32 cells.
 pub fn dinf(dem: &Grid<f32>) -> Result<Dinf> {
     let (w, h) = (dem.width(), dem.height());
     let mut angle = vec![f32::NAN; w * h];
-    let (flow, fell_back) = route_with_fallback(dem, |z, x, y, f| {
-        let e0 = z[y * w + x] as f64;
-        let mut best_s = 0.0f64;
-        let mut best: Option<(usize, f64)> = None;
-        for (k, &(d1, d2, _, _)) in FACETS.iter().enumerate() {
-            let (Some(n1), Some(n2)) = (neighbour(x, y, d1, w, h), neighbour(x, y, d2, w, h))
-            else {
-                continue;
-            };
-            let (z1, z2) = (z[n1], z[n2]);
-            if !valid(z1) || !valid(z2) {
-                continue;
+    let (flow, fell_back) =
+        route_with_fallback(dem, |z, x, y, f| match dinf_cell(z, w, h, x, y, f) {
+            Some(a) => {
+                angle[y * w + x] = a as f32;
+                true
             }
-            let (e1, e2) = (z1 as f64, z2 as f64);
-            let s1 = e0 - e1;
-            let s2 = e1 - e2;
-            let mut r = s2.atan2(s1);
-            let s = if r <= 0.0 {
-                r = 0.0;
-                s1
-            } else if r >= FRAC_PI_4 {
-                r = FRAC_PI_4;
-                (e0 - e2) / SQRT_2
-            } else {
-                s1.hypot(s2)
-            };
-            if s > best_s {
-                best_s = s;
-                best = Some((k, r));
-            }
-        }
-        let Some((k, r)) = best else {
-            return false;
-        };
-        let (d1, d2, ac, af) = FACETS[k];
-        let p2 = r / FRAC_PI_4;
-        f[d2] = p2;
-        f[d1] = 1.0 - p2;
-        let mut a = ac * FRAC_PI_2 + af * r;
-        if a >= 2.0 * std::f64::consts::PI {
-            a = 0.0;
-        }
-        angle[y * w + x] = a as f32;
-        true
-    })?;
+            None => false,
+        })?;
     for y in 0..h {
         for x in 0..w {
             let c = y * w + x;

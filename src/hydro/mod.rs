@@ -45,6 +45,7 @@ pub mod tiled;
 pub mod tiled_breach;
 pub mod tiled_flats;
 pub mod tiled_labels;
+pub mod tiled_mfd;
 
 pub use accum::{accumulate, accumulate_weighted, WEIGHT_SCALE_BITS};
 pub use basins::{basin_labels, hand, watersheds};

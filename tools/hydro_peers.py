@@ -1,0 +1,329 @@
+#!/usr/bin/env python3
+"""Compare orogen's hydrology with peer tools on real DEMs, in one run.
+
+Usage:  python3 tools/hydro_peers.py [DEM.tif ...]   (default: the DEMs below)
+Normally started by tools/hydro_peers.sh, which installs the peers first.
+
+Peers (each skipped with "skipped: <why>" when it cannot be imported/run):
+  RichDEM (py-richdem): FillDepressions(epsilon=False), FlowAccumulation D8,
+      Quinn, Holmgren(4), Freeman(1.1), Dinf.
+  pysheds: fill_pits + fill_depressions + resolve_flats, flowdir (D8),
+      accumulation.
+  GRASS (grass-core): r.fill.dir, r.watershed -s (SFD = D8) and r.watershed
+      (MFD, Holmgren-type with convergence 5, Holmgren 1994).
+orogen runs through its CLI (`target/release/orogen`, built if missing),
+one thread: fill, flow (D8 with Barnes 2014 flats), accumulate (d8 and every
+divergent method). Printed per DEM: cells; fill: cells differing from each
+peer's fill; D8: agreement rate of directions on cells without ties (a tie =
+two or more neighbours with the same steepest drop, or no lower neighbour:
+flats, where every tool has its own rule), agreement of accumulation on
+cells whose whole upstream area is tie-free; MFD/D∞: Pearson correlation of
+log10(accumulation) and the median ratio orogen/peer; timings in seconds and
+as ratios peer/orogen measured in this run (orogen's include reading and
+writing GeoTIFFs, RichDEM's and pysheds' are in-process calls on arrays).
+"""
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+DATA = os.path.normpath(os.path.join(ROOT, "..", "shared", "data"))
+DEFAULT = [
+    os.path.join(DATA, "srtm3_S33W071.tif"),
+    os.path.join(DATA, "bigtujunga_srtm30m_utm11.tif"),
+    # crop of Poland made below (2000 x 2000 cells from the Sudetes foreland)
+    "poland-crop",
+]
+POLAND = os.path.join(DATA, "poland_N49-55_E014-025.tif")
+# ESRI codes E, SE, S, SW, W, NW, N, NE and offsets (dy, dx)
+CODES = [1, 2, 4, 8, 16, 32, 64, 128]
+OFFS = [(0, 1), (1, 1), (1, 0), (1, -1), (0, -1), (-1, -1), (-1, 0), (-1, 1)]
+
+
+def orogen_bin():
+    b = os.environ.get("OROGEN_BIN") or os.path.join(ROOT, "target", "release", "orogen")
+    if not os.path.exists(b):
+        subprocess.run(["cargo", "build", "--release", "--bin", "orogen"], cwd=ROOT, check=True)
+    return b
+
+
+def run(cmd):
+    t = time.perf_counter()
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+    return time.perf_counter() - t
+
+
+def read(path):
+    import rasterio
+
+    with rasterio.open(path) as r:
+        a = r.read(1).astype(np.float64)
+        nd = r.nodata
+    if nd is not None:
+        a[a == nd] = np.nan
+    return a
+
+
+def write_like(src, path, arr):
+    import rasterio
+
+    with rasterio.open(src) as r:
+        prof = r.profile
+    prof.update(dtype="float32", nodata=-9999.0, count=1, compress="none", tiled=False)
+    prof.pop("blockxsize", None)
+    prof.pop("blockysize", None)
+    out = np.where(np.isnan(arr), -9999.0, arr).astype(np.float32)
+    with rasterio.open(path, "w", **prof) as w:
+        w.write(out, 1)
+
+
+def d8_ties(z):
+    """Per cell: steepest-descent direction index (0..7, -1 none) and a tie
+    flag (several steepest neighbours, or none lower). Unit cells."""
+    h, w = z.shape
+    pad = np.full((h + 2, w + 2), np.nan)
+    pad[1:-1, 1:-1] = z
+    slopes = np.full((8, h, w), -np.inf)
+    for k, (dy, dx) in enumerate(OFFS):
+        nb = pad[1 + dy : 1 + dy + h, 1 + dx : 1 + dx + w]
+        dist = np.sqrt(2.0) if dx and dy else 1.0
+        s = (z - nb) / dist
+        slopes[k] = np.where(np.isnan(nb), -np.inf, s)
+    best = slopes.max(axis=0)
+    nbest = (slopes == best[None]).sum(axis=0)
+    direction = np.where(best > 0, slopes.argmax(axis=0), -1)
+    tie = (nbest > 1) | (best <= 0) | np.isnan(z)
+    return direction, tie
+
+
+def upstream_tie_free(codes, tie):
+    """Cells none of whose upstream cells (D8 codes) is a tie cell."""
+    h, w = codes.shape
+    bad = tie.copy()
+    n = h * w
+    recv = np.full(n, -1, dtype=np.int64)
+    flat = codes.ravel()
+    ys, xs = np.divmod(np.arange(n), w)
+    for k, c in enumerate(CODES):
+        m = flat == c
+        dy, dx = OFFS[k]
+        ny, nx = ys[m] + dy, xs[m] + dx
+        ok = (ny >= 0) & (ny < h) & (nx >= 0) & (nx < w)
+        idx = np.nonzero(m)[0][ok]
+        recv[idx] = ny[ok] * w + nx[ok]
+    # propagate "bad" downstream: iterate in topological order
+    indeg = np.bincount(recv[recv >= 0], minlength=n)
+    stack = list(np.nonzero(indeg == 0)[0])
+    b = bad.ravel().copy()
+    while stack:
+        c = stack.pop()
+        r = recv[c]
+        if r >= 0:
+            if b[c]:
+                b[r] = True
+            indeg[r] -= 1
+            if indeg[r] == 0:
+                stack.append(r)
+    return ~b.reshape(h, w)
+
+
+def corr_log(a, b):
+    m = np.isfinite(a) & np.isfinite(b) & (a > 0) & (b > 0)
+    if m.sum() < 2:
+        return float("nan"), float("nan")
+    la, lb = np.log10(a[m]), np.log10(b[m])
+    return float(np.corrcoef(la, lb)[0, 1]), float(np.median(a[m] / b[m]))
+
+
+def compare_dem(dem, tmp, ob):
+    name = os.path.basename(dem)
+    z = read(dem)
+    h, w = z.shape
+    print(f"== {name}: {w}x{h} = {w*h/1e6:.2f} Mcells, {int(np.isnan(z).sum())} nodata")
+    f = os.path.join(tmp, "f.tif")
+    d8 = os.path.join(tmp, "d8.tif")
+    acc = os.path.join(tmp, "acc.tif")
+    t_fill = run([ob, "fill", dem, "--threads", "1", "-q", "-o", f])
+    t_flow = run([ob, "flow", f, "--threads", "1", "-q", "-o", d8])
+    t_acc = run([ob, "accumulate", d8, "--threads", "1", "-q", "-o", acc])
+    print(f"orogen: fill {t_fill:.2f} s, flow {t_flow:.2f} s, accumulate d8 {t_acc:.2f} s (CLI, 1 thread)")
+    zf = read(f)
+    codes = read(d8)
+    codes = np.where(np.isnan(codes), 255, codes).astype(np.int64)
+    oacc = read(acc)
+    direction, tie = d8_ties(zf)
+    ocode = np.where(direction >= 0, np.array(CODES)[np.maximum(direction, 0)], 0)
+    free = ~tie
+    own_rate = (codes[free] == ocode[free]).mean() if free.any() else float("nan")
+    print(f"  self-check: orogen D8 == steepest descent on {own_rate*100:.3f}% of {int(free.sum())} tie-free cells")
+    up_free = upstream_tie_free(codes, tie) & ~np.isnan(zf)
+    multi = {}
+    for m in ["dinf", "quinn", "holmgren", "freeman"]:
+        out = os.path.join(tmp, f"{m}.tif")
+        t = run([ob, "accumulate", f, "--method", m, "--threads", "1", "-q", "-o", out])
+        multi[m] = (read(out), t)
+    print("  orogen divergent (s): " + ", ".join(f"{m} {t:.2f}" for m, (_, t) in multi.items()))
+
+    # ---------------------------------------------------------- RichDEM --
+    try:
+        import richdem as rd
+
+        r = rd.rdarray(np.where(np.isnan(z), -9999.0, z).astype(np.float32), no_data=-9999.0)
+        r.geotransform = [0, 1, 0, 0, 0, -1]
+        t = time.perf_counter()
+        rf = rd.FillDepressions(r, epsilon=False, in_place=False)
+        t_rf = time.perf_counter() - t
+        rfa = np.array(rf, dtype=np.float64)
+        rfa[rfa == -9999.0] = np.nan
+        valid = ~np.isnan(zf)
+        differ = int((valid & (rfa.astype(np.float32) != zf.astype(np.float32))).sum())
+        print(f"  RichDEM fill: {differ} differing cells; {t_rf:.2f} s = {t_rf / t_fill:.2f}x orogen's CLI fill")
+        for m, meth, ex in [
+            ("d8", "D8", None),
+            ("dinf", "Dinf", None),
+            ("quinn", "Quinn", None),
+            ("holmgren", "Holmgren", 4.0),
+            ("freeman", "Freeman", 1.1),
+        ]:
+            t = time.perf_counter()
+            with open(os.devnull, "w") as dn:
+                old = os.dup(2)
+                os.dup2(dn.fileno(), 2)
+                try:
+                    ra = rd.FlowAccumulation(rf, method=meth, exponent=ex)
+                finally:
+                    os.dup2(old, 2)
+            tr = time.perf_counter() - t
+            ra = np.array(ra, dtype=np.float64)
+            ra[~valid] = np.nan
+            if m == "d8":
+                # RichDEM counts upstream cells without the cell itself? compare offset-free
+                eq = (oacc[up_free] == ra[up_free]).mean()
+                eq1 = (oacc[up_free] == ra[up_free] + 1).mean()
+                print(f"  RichDEM D8 accumulation: equal on {max(eq, eq1)*100:.2f}% of {int(up_free.sum())} "
+                      f"cells with a tie-free upstream area ({'+1 offset' if eq1 > eq else 'no offset'}); "
+                      f"{tr:.2f} s = {tr / t_acc:.2f}x orogen's accumulate")
+            else:
+                c, med = corr_log(multi[m][0], ra)
+                print(f"  RichDEM {meth}: corr(log A) {c:.4f}, median orogen/RichDEM {med:.3f}; "
+                      f"{tr:.2f} s = {tr / multi[m][1]:.2f}x orogen")
+    except Exception as e:  # noqa: BLE001
+        print(f"  RichDEM skipped: {type(e).__name__}: {e}")
+
+    # ---------------------------------------------------------- pysheds --
+    try:
+        from pysheds.grid import Grid
+
+        # warm up numba's JIT on a small crop so timings exclude compilation
+        warm = os.path.join(tmp, "warm.tif")
+        subprocess.run(["gdal_translate", "-q", "-srcwin", "0", "0", "40", "40", dem, warm], check=True)
+        gw = Grid.from_raster(warm)
+        ww = gw.fill_depressions(gw.fill_pits(gw.read_raster(warm)))
+        gw.accumulation(gw.flowdir(gw.resolve_flats(ww)))
+        g = Grid.from_raster(dem)
+        rz = g.read_raster(dem)
+        t = time.perf_counter()
+        pf = g.fill_pits(rz)
+        pf = g.fill_depressions(pf)
+        t_pf = time.perf_counter() - t
+        pfa = np.array(pf, dtype=np.float64)
+        valid = ~np.isnan(zf)
+        differ = int((valid & (pfa.astype(np.float32) != zf.astype(np.float32))).sum())
+        print(f"  pysheds fill: {differ} differing cells; {t_pf:.2f} s = {t_pf / t_fill:.2f}x orogen's CLI fill")
+        t = time.perf_counter()
+        inf = g.resolve_flats(pf)
+        fd = g.flowdir(inf, dirmap=(64, 128, 1, 2, 4, 8, 16, 32))
+        pacc = g.accumulation(fd, dirmap=(64, 128, 1, 2, 4, 8, 16, 32))
+        t_pa = time.perf_counter() - t
+        pfd = np.array(fd, dtype=np.int64)
+        pacc = np.array(pacc, dtype=np.float64)
+        # directions on cells tie-free in orogen's filled DEM (same fill)
+        m = free & (pfa.astype(np.float32) == zf.astype(np.float32))
+        rate = (pfd[m] == codes[m]).mean() if m.any() else float("nan")
+        ma = up_free & valid
+        arate = (pacc[ma] == oacc[ma]).mean() if ma.any() else float("nan")
+        print(f"  pysheds D8: directions equal on {rate*100:.2f}% of {int(m.sum())} tie-free cells; "
+              f"accumulation equal on {arate*100:.2f}% of {int(ma.sum())} cells with tie-free upstream; "
+              f"flats+flowdir+accumulation {t_pa:.2f} s = {t_pa / (t_flow + t_acc):.2f}x orogen flow+accumulate")
+    except Exception as e:  # noqa: BLE001
+        print(f"  pysheds skipped: {type(e).__name__}: {e}")
+
+    # ------------------------------------------------------------ GRASS --
+    grass = shutil.which("grass")
+    if grass is None:
+        print("  GRASS skipped: no `grass` executable")
+        return
+    try:
+        fin = os.path.join(tmp, "f32.tif")
+        write_like(dem, fin, zf)
+        script = os.path.join(tmp, "g.sh")
+        with open(script, "w") as s:
+            s.write(f"""set -e
+r.in.gdal -o --q input={fin} output=dem
+g.region raster=dem
+t0=$(date +%s.%N)
+r.fill.dir --q input=dem output=gfill direction=gdir
+t1=$(date +%s.%N)
+r.watershed -s --q elevation=dem accumulation=sfd
+t2=$(date +%s.%N)
+r.watershed --q elevation=dem accumulation=mfd convergence=5
+t3=$(date +%s.%N)
+echo "T $t0 $t1 $t2 $t3" > {tmp}/gt.txt
+r.out.gdal --q -f input=gfill output={tmp}/gfill.tif type=Float32
+r.out.gdal --q -f input=sfd output={tmp}/gsfd.tif type=Float64
+r.out.gdal --q -f input=mfd output={tmp}/gmfd.tif type=Float64
+""")
+        subprocess.run([grass, "--tmp-location", fin, "--exec", "bash", script], check=True,
+                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        tt = [float(v) for v in open(os.path.join(tmp, "gt.txt")).read().split()[1:]]
+        gf = read(os.path.join(tmp, "gfill.tif"))
+        valid = ~np.isnan(zf)
+        differ = int((valid & (gf.astype(np.float32) != zf.astype(np.float32))).sum())
+        print(f"  GRASS r.fill.dir on orogen's filled DEM: {differ} changed cells "
+              f"(r.fill.dir also removes flats' ambiguity by its own rule); {tt[1]-tt[0]:.2f} s")
+        gs = np.abs(read(os.path.join(tmp, "gsfd.tif")))
+        ma = up_free & valid
+        arate = (gs[ma] == oacc[ma]).mean() if ma.any() else float("nan")
+        print(f"  GRASS r.watershed -s (SFD): accumulation equal on {arate*100:.2f}% of {int(ma.sum())} cells with "
+              f"tie-free upstream; {tt[2]-tt[1]:.2f} s = {(tt[2]-tt[1]) / (t_flow + t_acc):.2f}x orogen flow+accumulate")
+        gm = np.abs(read(os.path.join(tmp, "gmfd.tif")))
+        for m in ["quinn", "holmgren", "freeman"]:
+            c, med = corr_log(multi[m][0], gm)
+            print(f"  GRASS r.watershed MFD (convergence 5) vs orogen {m}: corr(log A) {c:.4f}, median ratio {med:.3f}")
+        print(f"  GRASS r.watershed MFD {tt[3]-tt[2]:.2f} s = {(tt[3]-tt[2]) / multi['holmgren'][1]:.2f}x orogen holmgren")
+    except Exception as e:  # noqa: BLE001
+        print(f"  GRASS skipped: {type(e).__name__}: {e}")
+
+
+def main():
+    try:
+        import rasterio  # noqa: F401
+    except ImportError:
+        print("skipped: rasterio (installed with pysheds) is not importable")
+        return 0
+    dems = sys.argv[1:] or DEFAULT
+    ob = orogen_bin()
+    with tempfile.TemporaryDirectory() as tmp:
+        for dem in dems:
+            if dem == "poland-crop":
+                if not os.path.exists(POLAND):
+                    print(f"skipped: {POLAND} not found")
+                    continue
+                dem = os.path.join(tmp, "poland_crop_2000.tif")
+                subprocess.run(["gdal_translate", "-q", "-srcwin", "1500", "4000", "2000", "2000", POLAND, dem],
+                               check=True)
+            if not os.path.exists(dem):
+                print(f"skipped: {dem} not found")
+                continue
+            work = tempfile.mkdtemp(dir=tmp)
+            compare_dem(dem, work, ob)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
