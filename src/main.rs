@@ -752,7 +752,10 @@ fn run(cli: Cli) -> Result<()> {
                 // A quarter of the budget caches cells for the isolation search.
                 let cache = cfg.memory_budget / 4;
                 let eng = orogen::exec::LocalEngine::new(cfg);
-                (orogen::oro::peaks_tiled(src.as_ref(), &opts, tile, &eng, cache)?, None)
+                (
+                    orogen::oro::peaks_tiled(src.as_ref(), &opts, tile, &eng, cache)?,
+                    None,
+                )
             } else {
                 let dem = orogen::raster::read_window::<f32>(
                     src.as_ref(),

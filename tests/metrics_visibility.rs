@@ -689,8 +689,19 @@ fn bad_parameters() {
     assert!(e.contains("outside"), "{e}");
     let e = err(&src, "solar_direct:day=400");
     assert!(e.contains("day") && e.contains("366"), "{e}");
-    let e = err(&src, "solar_global");
+    // A projected CRS orogen cannot invert needs lat=; UTM gets its centre's latitude.
+    let g = Grid::from_vec(w, h, vec![1.0f32; w * h]).unwrap();
+    let lambert = MemRaster::from_grid(
+        g,
+        GeoRef::north_up(500_000.0, 4_000_000.0, CELL, Crs::projected(2180)),
+    );
+    let e = err(&lambert, "solar_global");
     assert!(e.contains("lat="), "{e}");
+    let ok = parse_specs("solar_global").unwrap();
+    let m = MultiMetric::new(&ok, src.info()).unwrap();
+    // UTM 11N, northing 4000 km: about 36.1 degrees north (PROJ: 36.1438).
+    let lat = m.metrics()[0].spec.value("lat").unwrap();
+    assert!((lat - 36.1438).abs() < 1e-3, "{lat}");
     let big = source(&vec![1.0; 150 * 150], 150, 150);
     let e = err(&big, "visibility_index_exact:radius=120c");
     assert!(

@@ -4,13 +4,13 @@
 //! (`In`, `Out`, `OutFmt`, `Run`, `engine`, `open`, `output_options`,
 //! `local1`, `global1`, `wrote`) are reachable as `crate::...`.
 
+pub mod breach;
+pub mod fill_epsilon;
+pub mod hydro_net;
 pub mod job;
+pub mod metric_table;
+pub mod oro;
 pub mod tiles;
 pub mod view;
-pub mod hydro_net;
-pub mod breach;
 pub mod viewshed;
-pub mod oro;
-pub mod metric_table;
-pub mod fill_epsilon;
 pub mod watersheds;
