@@ -253,6 +253,41 @@ def compare_dem(dem, tmp, ob):
     except Exception as e:  # noqa: BLE001
         print(f"  pysheds skipped: {type(e).__name__}: {e}")
 
+    # ------------------------------------------------------------- SAGA --
+    saga = shutil.which("saga_cmd")
+    if saga is None:
+        print("  SAGA skipped: no `saga_cmd` executable")
+    else:
+        try:
+            fin = os.path.join(tmp, "saga_in.tif")
+            write_like(dem, fin, z)
+            sf = os.path.join(tmp, "saga_fill.sdat")
+            t0 = time.time()
+            subprocess.run([saga, "ta_preprocessor", "4", "-ELEV", fin, "-FILLED", sf, "-MINSLOPE", "0"],
+                           check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            t_sfill = time.time() - t0
+            gf = read(sf)
+            valid = ~np.isnan(zf)
+            differ = int((valid & (gf.astype(np.float32) != zf.astype(np.float32))).sum())
+            print(f"  SAGA Fill Sinks (Wang & Liu, min slope 0): {differ} cells differ from orogen's fill; "
+                  f"{t_sfill:.2f} s = {t_sfill / t_fill:.2f}x orogen fill")
+            ff = os.path.join(tmp, "saga_f.tif")
+            write_like(dem, ff, zf)
+            sa = os.path.join(tmp, "saga_acc.sdat")
+            t0 = time.time()
+            subprocess.run([saga, "ta_hydrology", "0", "-ELEVATION", ff, "-FLOW", sa, "-METHOD", "0",
+                            "-FLOW_UNIT", "0"],
+                           check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            t_sacc = time.time() - t0
+            ga = np.abs(read(sa))
+            ma = up_free & valid
+            arate = (ga[ma] == oacc[ma]).mean() if ma.any() else float("nan")
+            print(f"  SAGA Flow Accumulation (D8, on orogen's filled DEM): equal on {arate*100:.2f}% of "
+                  f"{int(ma.sum())} cells with tie-free upstream; {t_sacc:.2f} s = "
+                  f"{t_sacc / (t_flow + t_acc):.2f}x orogen flow+accumulate")
+        except Exception as e:  # noqa: BLE001
+            print(f"  SAGA skipped: {type(e).__name__}: {e}")
+
     # ------------------------------------------------------------ GRASS --
     grass = shutil.which("grass")
     if grass is None:
