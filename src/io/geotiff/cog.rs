@@ -30,6 +30,7 @@
 //! continuous data, [`Resampling::Nearest`] (the footprint's top-left cell)
 //! for classes and codes.
 
+use super::rows::RowBuffer;
 use super::writer::{
     clean_stale_temps, encode_block, encode_ifd, geo_entries, resolve_predictor, Entry,
     WriteOptions,
@@ -38,7 +39,6 @@ use crate::error::{Error, IoContext, Result};
 use crate::exec::TileSink;
 use crate::raster::{AnyGrid, DType, GeoRef, Grid, TileId, Window};
 use rayon::prelude::*;
-use std::collections::VecDeque;
 use std::fs::File;
 use std::io::{BufWriter, Read, Write};
 use std::path::{Path, PathBuf};
@@ -97,10 +97,8 @@ pub struct CogWriter {
     predictor: u16,
     resampling: Resampling,
     levels: Vec<Level>,
-    /// Incoming rows `buf_y0..` at full width, and cells received per row.
-    buf: Vec<u8>,
-    buf_y0: usize,
-    fill: VecDeque<usize>,
+    /// Incoming rows at full width.
+    rows: RowBuffer,
     pad: Vec<u8>,
     finished: bool,
 }
@@ -181,9 +179,7 @@ impl CogWriter {
             predictor,
             resampling,
             levels,
-            buf: Vec::new(),
-            buf_y0: 0,
-            fill: VecDeque::new(),
+            rows: RowBuffer::new(width, height, dtype),
             pad: AnyGrid::filled(dtype, 1, 1, georef.nodata.unwrap_or(0.0))
                 .as_le_bytes()
                 .to_vec(),
@@ -504,13 +500,12 @@ impl CogWriter {
     fn drain_rows(&mut self) -> Result<()> {
         let width = self.levels[0].width;
         let row_bytes = width * self.dtype.size();
-        let n = self.fill.iter().take_while(|&&f| f == width).count();
+        let n = self.rows.complete();
         if n == 0 {
             return Ok(());
         }
-        let rows: Vec<u8> = self.buf.drain(..n * row_bytes).collect();
-        self.fill.drain(..n);
-        self.buf_y0 += n;
+        let rows: Vec<u8> = self.rows.buf[..n * row_bytes].to_vec();
+        self.rows.consume(n);
         for r in 0..n {
             self.push_row(0, &rows[r * row_bytes..(r + 1) * row_bytes])?;
         }
@@ -528,46 +523,7 @@ impl TileSink for CogWriter {
     }
 
     fn write(&mut self, _id: TileId, core: Window, data: AnyGrid) -> Result<()> {
-        let p = self.path.display();
-        let (width, height) = (self.levels[0].width, self.levels[0].height);
-        if data.dtype() != self.dtype || data.width() != core.w || data.height() != core.h {
-            return Err(Error::invalid(format!(
-                "{p}: tile {core:?} holds {}x{} {} cells, expected {}x{} {}",
-                data.width(),
-                data.height(),
-                data.dtype(),
-                core.w,
-                core.h,
-                self.dtype
-            )));
-        }
-        if core.x < 0
-            || core.x_end() > width as i64
-            || core.y_end() > height as i64
-            || core.y < self.buf_y0 as i64
-        {
-            return Err(Error::invalid(format!(
-                "{p}: tile {core:?} is outside the {width}x{height} raster or its rows were already written"
-            )));
-        }
-        if core.is_empty() {
-            return Ok(());
-        }
-        let size = self.dtype.size();
-        let row_bytes = width * size;
-        let need = core.y_end() as usize - self.buf_y0;
-        if self.fill.len() < need {
-            self.fill.resize(need, 0);
-            self.buf.resize(need * row_bytes, 0);
-        }
-        let src = data.as_le_bytes();
-        let n = core.w * size;
-        for r in 0..core.h {
-            let ly = core.y as usize - self.buf_y0 + r;
-            let d = ly * row_bytes + core.x as usize * size;
-            self.buf[d..d + n].copy_from_slice(&src[r * n..(r + 1) * n]);
-            self.fill[ly] += core.w;
-        }
+        self.rows.put(&self.path, core, &data)?;
         self.drain_rows()
     }
 

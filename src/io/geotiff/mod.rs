@@ -12,6 +12,7 @@ mod cache;
 mod cog;
 mod georef;
 mod reader;
+mod rows;
 mod writer;
 
 pub use cog::{CogWriter, Resampling};

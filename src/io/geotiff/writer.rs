@@ -22,11 +22,11 @@
 //! then byte-wise horizontal differencing).
 
 use super::georef::{format_nodata, half_cell_shift, keys_for_write};
+use super::rows::RowBuffer;
 use crate::error::{Error, IoContext, Result};
 use crate::exec::TileSink;
 use crate::raster::{AnyGrid, DType, GeoRef, RasterType, TileId, Window};
 use rayon::prelude::*;
-use std::collections::VecDeque;
 use std::fs::File;
 use std::io::{BufWriter, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
@@ -416,11 +416,7 @@ pub struct GeoTiffWriter {
     offsets_at: u64,
     counts_at: u64,
     pos: u64,
-    /// Rows `buf_y0..buf_y0 + fill.len()` at full width.
-    buf: Vec<u8>,
-    buf_y0: usize,
-    /// Cells received per buffered row.
-    fill: VecDeque<usize>,
+    rows: RowBuffer,
     next_block_row: usize,
     pad: Vec<u8>,
     finished: bool,
@@ -536,9 +532,7 @@ impl GeoTiffWriter {
             offsets_at,
             counts_at,
             pos: 0,
-            buf: Vec::new(),
-            buf_y0: 0,
-            fill: VecDeque::new(),
+            rows: RowBuffer::new(width, height, dtype),
             next_block_row: 0,
             pad: AnyGrid::filled(dtype, 1, 1, georef.nodata.unwrap_or(0.0))
                 .as_le_bytes()
@@ -589,8 +583,8 @@ impl GeoTiffWriter {
         while self.next_block_row < self.blocks_y {
             let y0 = self.next_block_row * self.block;
             let rows = self.block.min(self.height - y0);
-            debug_assert_eq!(y0, self.buf_y0);
-            if self.fill.len() < rows || self.fill.iter().take(rows).any(|&f| f < self.width) {
+            debug_assert_eq!(y0, self.rows.y0);
+            if self.rows.complete() < rows {
                 return Ok(());
             }
             let size = self.dtype.size();
@@ -601,7 +595,7 @@ impl GeoTiffWriter {
                 self.predictor,
                 self.compression,
             );
-            let band = &self.buf[..rows * row_bytes];
+            let band = &self.rows.buf[..rows * row_bytes];
             let encoded: Vec<Vec<u8>> = (0..self.blocks_x)
                 .into_par_iter()
                 .map(|bx| {
@@ -635,9 +629,7 @@ impl GeoTiffWriter {
                 self.counts.push(e.len() as u64);
                 self.put(&e)?;
             }
-            self.buf.drain(..rows * row_bytes);
-            self.fill.drain(..rows);
-            self.buf_y0 += rows;
+            self.rows.consume(rows);
             self.next_block_row += 1;
         }
         Ok(())
@@ -646,7 +638,7 @@ impl GeoTiffWriter {
     fn finish_inner(&mut self) -> Result<()> {
         self.flush_complete()?;
         if self.next_block_row < self.blocks_y {
-            let done = self.buf_y0 + self.fill.iter().take_while(|&&f| f == self.width).count();
+            let done = self.rows.y0 + self.rows.complete();
             return Err(Error::invalid(format!(
                 "{}: only {done} of {} rows were written; the output was discarded",
                 self.path.display(),
@@ -694,46 +686,7 @@ impl TileSink for GeoTiffWriter {
     }
 
     fn write(&mut self, _id: TileId, core: Window, data: AnyGrid) -> Result<()> {
-        let p = self.path.display();
-        if data.dtype() != self.dtype || data.width() != core.w || data.height() != core.h {
-            return Err(Error::invalid(format!(
-                "{p}: tile {core:?} holds {}x{} {} cells, expected {}x{} {}",
-                data.width(),
-                data.height(),
-                data.dtype(),
-                core.w,
-                core.h,
-                self.dtype
-            )));
-        }
-        if core.x < 0
-            || core.x_end() > self.width as i64
-            || core.y_end() > self.height as i64
-            || core.y < self.buf_y0 as i64
-        {
-            return Err(Error::invalid(format!(
-                "{p}: tile {core:?} is outside the {}x{} raster or its rows were already written",
-                self.width, self.height
-            )));
-        }
-        if core.is_empty() {
-            return Ok(());
-        }
-        let size = self.dtype.size();
-        let row_bytes = self.width * size;
-        let need = core.y_end() as usize - self.buf_y0;
-        if self.fill.len() < need {
-            self.fill.resize(need, 0);
-            self.buf.resize(need * row_bytes, 0);
-        }
-        let src = data.as_le_bytes();
-        let n = core.w * size;
-        for r in 0..core.h {
-            let ly = core.y as usize - self.buf_y0 + r;
-            let d = ly * row_bytes + core.x as usize * size;
-            self.buf[d..d + n].copy_from_slice(&src[r * n..(r + 1) * n]);
-            self.fill[ly] += core.w;
-        }
+        self.rows.put(&self.path, core, &data)?;
         self.flush_complete()
     }
 
