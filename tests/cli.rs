@@ -350,3 +350,43 @@ fn dinf_and_mfd_accumulation_from_the_cli() {
     );
     assert!(e.contains("dinf") && e.contains("quinn"), "{e}");
 }
+
+#[test]
+fn peaks_line_parents_fill_the_dem_columns_and_refuse_tiled() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dem = data("bigtujunga_crop.tif");
+    let out = tmp.path().join("lp");
+    ok(orogen()
+        .args([
+            "peaks",
+            "--min-prominence",
+            "20",
+            "--line-parents",
+            "-q",
+            "-o",
+        ])
+        .arg(&out)
+        .arg(&dem));
+    let csv = std::fs::read_to_string(out.join("peaks.csv")).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let col = header.iter().position(|h| *h == "line_parent").unwrap();
+    let rel = header.iter().position(|h| *h == "relevance").unwrap();
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    assert!(rows.len() > 2);
+    // Every peak but the highest has a line parent and a relevance.
+    assert!(rows[1..]
+        .iter()
+        .all(|r| !r[col].is_empty() && !r[rel].is_empty()));
+    // Without the flag the files are the tiled run's bytes; with --tiled it is refused.
+    let e = fails(
+        orogen()
+            .args(["peaks", "--line-parents", "--tiled", "-q", "-o"])
+            .arg(tmp.path().join("t"))
+            .arg(&dem),
+    );
+    assert!(e.contains("--line-parents needs the whole DEM"), "{e}");
+}
