@@ -25,12 +25,10 @@
 //! Implementation: the DEM is copied into an array with a one-cell border of
 //! NaN, so that neighbours are fixed index offsets without bounds checks;
 //! nodata and the border are marked "reached" from the start; indices are
-//! u32 and queue entries pack the order-preserving elevation key with the
-//! index into one u64 (ties by index, deterministic).
+//! u32; the priority queue is a radix heap on the order-preserving u32
+//! elevation keys (flood levels never decrease), sequential and deterministic.
 
 use super::{order_key, valid};
-use std::cmp::Reverse;
-use std::collections::BinaryHeap;
 
 /// Largest padded array (cells) the u32 indices address.
 pub(crate) const MAX_PADDED: usize = 1 << 32;
@@ -59,9 +57,63 @@ pub(crate) fn fill_in_place(z: &mut [f32], w: usize, h: usize) -> bool {
     true
 }
 
-#[inline(always)]
-fn pack(z: f32, i: u32) -> u64 {
-    ((order_key(z) as u64) << 32) | i as u64
+/// Monotone priority queue of (u32 key, u32 cell) pairs: a radix heap
+/// (Ahuja, Mehlhorn, Orlin & Tarjan 1990, "Faster algorithms for the shortest
+/// path problem", J. ACM 37(2), one-level form). Valid because the flood
+/// never pushes a key below the last one popped. Bucket `b` holds the
+/// entries whose key first differs from the last popped key at bit `b - 1`
+/// (bucket 0: equal keys); popping from an empty bucket 0 takes the lowest
+/// non-empty bucket, makes its minimum the new reference and redistributes
+/// it into lower buckets. Each entry moves at most 32 times, memory is
+/// sequential: far fewer cache misses than a binary heap of the same size.
+/// Equal keys pop in LIFO order (deterministic; the fill does not depend on
+/// it).
+struct RadixHeap {
+    last: u32,
+    len: usize,
+    buckets: [Vec<(u32, u32)>; 33],
+}
+
+impl RadixHeap {
+    fn new() -> Self {
+        RadixHeap {
+            last: 0,
+            len: 0,
+            buckets: std::array::from_fn(|_| Vec::new()),
+        }
+    }
+
+    #[inline(always)]
+    fn bucket(&self, k: u32) -> usize {
+        (32 - (k ^ self.last).leading_zeros()) as usize
+    }
+
+    #[inline(always)]
+    fn push(&mut self, k: u32, v: u32) {
+        debug_assert!(k >= self.last);
+        let b = self.bucket(k);
+        self.buckets[b].push((k, v));
+        self.len += 1;
+    }
+
+    fn pop(&mut self) -> Option<u32> {
+        if self.len == 0 {
+            return None;
+        }
+        if self.buckets[0].is_empty() {
+            let i = (1..33).find(|&i| !self.buckets[i].is_empty())?;
+            let mut b = std::mem::take(&mut self.buckets[i]);
+            self.last = b.iter().map(|e| e.0).min()?;
+            for &(k, v) in &b {
+                let j = self.bucket(k);
+                self.buckets[j].push((k, v));
+            }
+            b.clear();
+            self.buckets[i] = b;
+        }
+        self.len -= 1;
+        self.buckets[0].pop().map(|e| e.1)
+    }
 }
 
 /// The flood on a padded array: `zp` is `wp` x `hp` with a border of
@@ -81,7 +133,7 @@ fn flood_padded(zp: &mut [f32], wp: usize, hp: usize) {
         -(wp as isize),
         -(wp as isize) + 1,
     ];
-    let mut heap: BinaryHeap<Reverse<u64>> = BinaryHeap::new();
+    let mut heap = RadixHeap::new();
     // seeds: valid cells with a nodata (or border) neighbour
     for y in 1..hp - 1 {
         for x in 1..wp - 1 {
@@ -91,7 +143,7 @@ fn flood_padded(zp: &mut [f32], wp: usize, hp: usize) {
             }
             if offs.iter().any(|&o| !valid(zp[(i as isize + o) as usize])) {
                 done[i] = 1;
-                heap.push(Reverse(pack(zp[i], i as u32)));
+                heap.push(order_key(zp[i]), i as u32);
             }
         }
     }
@@ -101,8 +153,8 @@ fn flood_padded(zp: &mut [f32], wp: usize, hp: usize) {
     loop {
         let c = if let Some(c) = pit.pop() {
             c as usize
-        } else if let Some(Reverse(k)) = heap.pop() {
-            (k & 0xFFFF_FFFF) as usize
+        } else if let Some(k) = heap.pop() {
+            k as usize
         } else {
             break;
         };
@@ -137,7 +189,7 @@ fn flood_padded(zp: &mut [f32], wp: usize, hp: usize) {
                         }
                     }
                     if lower {
-                        heap.push(Reverse(pack(zt, t as u32)));
+                        heap.push(order_key(zt), t as u32);
                     }
                 }
             }
