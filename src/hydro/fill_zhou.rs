@@ -196,3 +196,44 @@ fn flood_padded(zp: &mut [f32], wp: usize, hp: usize) {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn radix_heap_pops_keys_in_order_under_monotone_pushes() {
+        // oracle: a sorted list of the keys still queued
+        let mut h = RadixHeap::new();
+        let mut keys: Vec<u32> = Vec::new();
+        let mut popped = Vec::new();
+        let mut key_of = vec![u32::MAX; 5000];
+        let mut s = 12345u64;
+        let mut last = 0u32;
+        for step in 0..5000u32 {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            if (s >> 62) != 0 || keys.is_empty() {
+                let k = last + ((s >> 33) as u32 % 1000) * ((s >> 20) as u32 % 3);
+                h.push(k, step);
+                key_of[step as usize] = k;
+                keys.push(k);
+            } else {
+                let v = h.pop().unwrap();
+                keys.sort_unstable();
+                let k = keys.remove(0);
+                assert_eq!(key_of[v as usize], k, "popped a non-minimum key");
+                popped.push((k, v));
+                last = k;
+            }
+        }
+        // every popped entry carried the minimum key at its time
+        assert!(popped.windows(2).all(|p| p[0].0 <= p[1].0));
+        while h.pop().is_some() {
+            keys.pop();
+        }
+        assert!(keys.is_empty());
+        assert_eq!(h.len, 0);
+    }
+}
