@@ -36,6 +36,7 @@ pub mod basins;
 pub mod breach;
 pub mod dinf;
 pub mod fill;
+pub mod fill_zhou;
 pub mod flow;
 pub mod indices;
 pub mod mfd;
