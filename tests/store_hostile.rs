@@ -170,6 +170,9 @@ fn damaged_zstd_tiles_are_detected() {
     let t = dir.join("t_0_0.bin");
     let n = std::fs::metadata(&t).unwrap().len() as usize;
     std::fs::write(&t, vec![0x55u8; n]).unwrap();
+    // A handle keeps recently decoded tiles (the store is immutable once
+    // finished), so the damage is seen by a new handle.
+    let st = TileStore::open(&dir).unwrap();
     let e = st.read_native(Window::new(0, 0, 1, 1)).unwrap_err();
     assert!(
         matches!(e, Error::Corrupt { .. }) && e.to_string().contains("t_0_0.bin"),
