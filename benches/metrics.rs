@@ -51,6 +51,10 @@ fn bench(c: &mut Criterion) {
         "ors:radius=10c",
         "jut:radius=10c,rut:radius=10c",
         "fuzzy_landform:class=ridge:scales=1/2/4",
+        // last descriptors (disk, O(r²) per cell)
+        "dominance:radius=10c,submission:radius=10c",
+        "peakedness:radius=10c",
+        "domination:radius=10c",
     ] {
         let specs_v = parse_specs(specs).unwrap();
         let step = MultiMetric::new(&specs_v, src.info()).unwrap();

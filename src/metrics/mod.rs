@@ -24,3 +24,5 @@ pub mod fuzzy;
 pub mod relief_shape;
 pub mod shary;
 pub mod table;
+// last descriptors
+pub mod dominance;

@@ -635,6 +635,17 @@ impl LocalStep for MultiMetric {
                         };
                     }
                 }
+                // last descriptors
+                Dominance | Submission | Peakedness | Domination => {
+                    use super::dominance::{position, Position};
+                    let which = match m.spec.kind {
+                        Dominance => Position::Dominance,
+                        Submission => Position::Submission,
+                        Peakedness => Position::Peakedness,
+                        _ => Position::Domination,
+                    };
+                    position(view, m.radius_cells, m.radius_m, which, o);
+                }
             }
         }
         Ok(())

@@ -78,6 +78,11 @@ pub enum MetricKind {
     Jut,
     Rut,
     FuzzyLandform,
+    // last descriptors
+    Dominance,
+    Submission,
+    Peakedness,
+    Domination,
 }
 
 /// What a metric's parameters are.
@@ -759,6 +764,39 @@ pub const METRICS: &[MetricDef] = &[
         "share of the window radii (scales) at which Wood's feature classification gives the class",
         "Fisher, Wood & Cheng 2004, Trans. IBG 29(1); features of Wood 1996 (PhD thesis, Leicester), as r.param.scale"
     ),
+    // last descriptors
+    def!(
+        Dominance,
+        "dominance",
+        &[RADIUS_CUTOFF],
+        "z",
+        "how far the cell rises above the lowest valid cell of the disk: max(0, max (z - z_q)); 0 = submissive",
+        "Xu 2022, Datumless topography (arXiv 2208.01600), planar form as jut; disk cutoff"
+    ),
+    def!(
+        Submission,
+        "submission",
+        &[RADIUS_CUTOFF],
+        "z",
+        "how far the cell dips below the highest valid cell of the disk: max(0, max (z_q - z)); 0 = dominant",
+        "Xu 2022, Datumless topography (arXiv 2208.01600), planar form as rut; disk cutoff"
+    ),
+    def!(
+        Peakedness,
+        "peakedness",
+        &[RADIUS_CUTOFF],
+        "0..1",
+        "share of the other valid cells of the disk strictly lower than the cell",
+        "Deng & Wilson 2008, IJGIS 22(1-2) (elevation-percentile criterion at one scale); Llobera 2001 as the survey code; disk cutoff"
+    ),
+    def!(
+        Domination,
+        "domination",
+        &[RADIUS_CUTOFF],
+        "m",
+        "geographical domination: distance to the nearest strictly higher valid cell; the cutoff if none within it",
+        "'Dominanz' of German orometry (isolation of a point); disk cutoff"
+    ),
 ];
 
 /// The registry entry of `kind`.
@@ -1227,6 +1265,8 @@ impl Resolved {
                 .as_ref()
                 .and_then(|v| v.iter().max().copied())
                 .unwrap_or(1),
+            // last descriptors
+            Dominance | Submission | Peakedness | Domination => self.radius_cells,
             _ => 1,
         }
     }

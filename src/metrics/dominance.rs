@@ -1,0 +1,111 @@
+//! Position-in-the-surroundings descriptors over a disk with a distance
+//! cutoff (the orometric family of the survey of Argudo, Guérin, Schott &
+//! Galin, sec. 3.5), computed per cell with halo = cutoff so that tiled runs
+//! equal untiled ones:
+//!
+//! - **dominance** and **submission** (Xu 2022, "Datumless topography: a
+//!   universally consistent way to quantify relief", arXiv 2208.01600), in
+//!   the planar form used for jut and rut (`relief_shape`): dominance
+//!   `= max(0, max_q z_p − z_q)`, how far the cell rises above the lowest
+//!   cell of the disk (0 = a "submissive" cell, the lowest of its
+//!   surroundings); submission `= max(0, max_q z_q − z_p)`, how far it dips
+//!   below the highest (0 = a "dominant" cell). Xu's spherical form lets the
+//!   planet's curvature bound the search; on a DEM the cutoff does.
+//! - **peakedness** (Deng & Wilson 2008, "Multi-scale and multi-criteria
+//!   mapping of mountain peaks as fuzzy entities", IJGIS 22(1-2); the
+//!   survey's code computes it as Llobera's 2001 "topographic prominence"):
+//!   the share (0..1) of the other valid cells of the disk strictly lower
+//!   than the cell. Unlike `percentile` (square window, in %), the window is
+//!   the true-metre disk. Deng & Wilson's multi-scale summary is the mean of
+//!   this value over several radii (request several radii and average).
+//! - **geographical domination** ("Dominanz" of German orometry; the
+//!   isolation of a summit): the horizontal distance in metres from the cell
+//!   to the nearest strictly higher valid cell. A cell with no higher cell
+//!   within the cutoff gets the cutoff (its domination is at least that).
+//!
+//! `q` ranges over the valid cells at true-metre distance `0 < d ≤ R`
+//! (`fractional::disk_offsets`); nodata cells are nodata and left out of the
+//! neighbourhoods. O(r²) per cell.
+
+use super::fractional::disk_offsets;
+use crate::raster::{Grid, TileView};
+
+/// Which descriptor to compute.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Position {
+    Dominance,
+    Submission,
+    Peakedness,
+    Domination,
+}
+
+/// The descriptor `which` of every core cell with cutoff `radius_m` (at
+/// most `rc` cells per axis, `rc ≤` the view's halo).
+pub fn position(
+    view: &TileView<f32>,
+    rc: usize,
+    radius_m: f64,
+    which: Position,
+    o: &mut Grid<f32>,
+) {
+    let (h, gw) = (view.halo, view.grid.width());
+    let data = view.grid.data();
+    for y in 0..view.core.h {
+        let row = view.core.y + y as i64;
+        let (off, dist) = disk_offsets(view, rc, radius_m, row);
+        for x in 0..view.core.w {
+            let ci = (y + h) * gw + x + h;
+            let z = data[ci];
+            if z.is_nan() {
+                o.set(x, y, f32::NAN);
+                continue;
+            }
+            let v = match which {
+                Position::Dominance => {
+                    // min over valid neighbours; NaN never lowers it.
+                    let mut lo = z;
+                    for &k in &off {
+                        let v = data[(ci as isize + k) as usize];
+                        if v < lo {
+                            lo = v;
+                        }
+                    }
+                    z as f64 - lo as f64
+                }
+                Position::Submission => {
+                    let mut hi = z;
+                    for &k in &off {
+                        let v = data[(ci as isize + k) as usize];
+                        if v > hi {
+                            hi = v;
+                        }
+                    }
+                    hi as f64 - z as f64
+                }
+                Position::Peakedness => {
+                    let (mut lower, mut n) = (0u32, 0u32);
+                    for &k in &off {
+                        let v = data[(ci as isize + k) as usize];
+                        n += u32::from(!v.is_nan());
+                        lower += u32::from(v < z);
+                    }
+                    if n == 0 {
+                        f64::NAN
+                    } else {
+                        lower as f64 / n as f64
+                    }
+                }
+                Position::Domination => {
+                    let mut best = radius_m;
+                    for (&k, &d) in off.iter().zip(&dist) {
+                        if data[(ci as isize + k) as usize] > z && d < best {
+                            best = d;
+                        }
+                    }
+                    best
+                }
+            };
+            o.set(x, y, v as f32);
+        }
+    }
+}
