@@ -319,7 +319,8 @@ enum Cmd {
     )]
     Watersheds(cli::watersheds::WatershedsArgs),
     /// Flow accumulation in cells (or weighted): D8 from `orogen flow` directions, exact
-    /// across tiles (Barnes 2017); or D-infinity / MFD from a filled DEM (in memory).
+    /// across tiles (Barnes 2017); or D-infinity / MFD from a filled DEM (in memory when it
+    /// fits --memory, else exact across tiles in bounded rounds).
     #[command(
         after_help = "Examples:\n  orogen accumulate d8.tif -o acc.tif\n  orogen accumulate d8.tif --weights rain.tif -o acc.tif\n  orogen accumulate filled.tif --method dinf -o acc_dinf.tif\n  orogen accumulate filled.tif --method holmgren --exponent 4 -o acc_mfd.tif\nMethods: d8 (input: D8 directions), dinf (Tarboton 1997), quinn (Quinn et al. 1991),\nholmgren (Holmgren 1994, --exponent), freeman (Freeman 1991): input a filled DEM."
     )]

@@ -32,13 +32,11 @@
 
 use super::rows::RowBuffer;
 use super::writer::{
-    clean_stale_temps, encode_block, encode_ifd, geo_entries, resolve_predictor, Entry,
-    WriteOptions,
+    clean_stale_temps, encode_band, encode_ifd, geo_entries, resolve_predictor, Entry, WriteOptions,
 };
 use crate::error::{Error, IoContext, Result};
 use crate::exec::TileSink;
 use crate::raster::{AnyGrid, DType, GeoRef, Grid, TileId, Window};
-use rayon::prelude::*;
 use std::fs::File;
 use std::io::{BufWriter, Read, Write};
 use std::path::{Path, PathBuf};
@@ -71,7 +69,6 @@ fn ghost_bytes() -> Vec<u8> {
 struct Level {
     width: usize,
     height: usize,
-    blocks_x: usize,
     /// Rows of the current band of blocks (native LE bytes, full width).
     band: Vec<u8>,
     band_rows: usize,
@@ -154,7 +151,6 @@ impl CogWriter {
             levels.push(Level {
                 width: w,
                 height: h,
-                blocks_x: w.div_ceil(block),
                 band: Vec::new(),
                 band_rows: 0,
                 rows_in: 0,
@@ -274,33 +270,17 @@ impl CogWriter {
             self.predictor,
             self.opts.compression,
         );
-        let pad = &self.pad;
         let lv = &mut self.levels[l];
-        let rows = lv.band_rows;
-        let row_bytes = lv.width * size;
-        let (band, width) = (&lv.band, lv.width);
-        let encoded: Vec<Vec<u8>> = (0..lv.blocks_x)
-            .into_par_iter()
-            .map(|bx| {
-                let x0 = bx * block;
-                let cols = block.min(width - x0);
-                let mut data = Vec::with_capacity(block * block * size);
-                for r in 0..block {
-                    if r < rows {
-                        let s = r * row_bytes + x0 * size;
-                        data.extend_from_slice(&band[s..s + cols * size]);
-                        for _ in cols..block {
-                            data.extend_from_slice(pad);
-                        }
-                    } else {
-                        for _ in 0..block {
-                            data.extend_from_slice(pad);
-                        }
-                    }
-                }
-                encode_block(data, block, size, pred, comp)
-            })
-            .collect::<Result<_>>()?;
+        let encoded = encode_band(
+            &lv.band,
+            lv.band_rows,
+            lv.width,
+            size,
+            block,
+            &self.pad,
+            pred,
+            comp,
+        )?;
         let f = lv
             .file
             .as_mut()

@@ -303,6 +303,45 @@ fn predict_float(row: &mut [u8], size: usize, tmp: &mut Vec<u8>) {
     row.copy_from_slice(tmp);
 }
 
+/// Cut a band of `rows` full-width rows (`width` cells of `size` bytes) into
+/// `block` x `block` tiles padded with `pad`, and predict and compress them in
+/// parallel; returns the encoded blocks left to right.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn encode_band(
+    band: &[u8],
+    rows: usize,
+    width: usize,
+    size: usize,
+    block: usize,
+    pad: &[u8],
+    predictor: u16,
+    compression: Compression,
+) -> Result<Vec<Vec<u8>>> {
+    let row_bytes = width * size;
+    (0..width.div_ceil(block))
+        .into_par_iter()
+        .map(|bx| {
+            let x0 = bx * block;
+            let cols = block.min(width - x0);
+            let mut data = Vec::with_capacity(block * block * size);
+            for r in 0..block {
+                if r < rows {
+                    let s = r * row_bytes + x0 * size;
+                    data.extend_from_slice(&band[s..s + cols * size]);
+                    for _ in cols..block {
+                        data.extend_from_slice(pad);
+                    }
+                } else {
+                    for _ in 0..block {
+                        data.extend_from_slice(pad);
+                    }
+                }
+            }
+            encode_block(data, block, size, predictor, compression)
+        })
+        .collect()
+}
+
 /// Predict and compress one block (`data` = block x block cells, LE bytes).
 pub(super) fn encode_block(
     mut data: Vec<u8>,
@@ -409,7 +448,6 @@ pub struct GeoTiffWriter {
     predictor: u16,
     bigtiff: bool,
     block: usize,
-    blocks_x: usize,
     blocks_y: usize,
     offsets: Vec<u64>,
     counts: Vec<u64>,
@@ -525,7 +563,6 @@ impl GeoTiffWriter {
             predictor,
             bigtiff,
             block,
-            blocks_x,
             blocks_y,
             offsets: Vec::with_capacity(n_blocks),
             counts: Vec::with_capacity(n_blocks),
@@ -587,37 +624,17 @@ impl GeoTiffWriter {
             if self.rows.complete() < rows {
                 return Ok(());
             }
-            let size = self.dtype.size();
-            let (block, width, pad, pred, comp) = (
-                self.block,
+            let band = &self.rows.buf[..rows * row_bytes];
+            let encoded = encode_band(
+                band,
+                rows,
                 self.width,
+                self.dtype.size(),
+                self.block,
                 &self.pad,
                 self.predictor,
                 self.compression,
-            );
-            let band = &self.rows.buf[..rows * row_bytes];
-            let encoded: Vec<Vec<u8>> = (0..self.blocks_x)
-                .into_par_iter()
-                .map(|bx| {
-                    let x0 = bx * block;
-                    let cols = block.min(width - x0);
-                    let mut data = Vec::with_capacity(block * block * size);
-                    for r in 0..block {
-                        if r < rows {
-                            let s = r * row_bytes + x0 * size;
-                            data.extend_from_slice(&band[s..s + cols * size]);
-                            for _ in cols..block {
-                                data.extend_from_slice(pad);
-                            }
-                        } else {
-                            for _ in 0..block {
-                                data.extend_from_slice(pad);
-                            }
-                        }
-                    }
-                    encode_block(data, block, size, pred, comp)
-                })
-                .collect::<Result<_>>()?;
+            )?;
             for e in encoded {
                 if !self.bigtiff && self.pos + e.len() as u64 > u32::MAX as u64 {
                     return Err(Error::too_large(
