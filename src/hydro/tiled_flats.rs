@@ -43,7 +43,7 @@
 //! half the tile's cells; map time is linear in the tile's area.
 
 use super::fill::{neighbours, next_up_n};
-use super::tiled::{cross_tile_pairs, perimeter_cells, perimeter_index, perimeter_len};
+use super::tiled::{perimeter_cells, perimeter_index, perimeter_len};
 use super::{valid, D8_CODES, DX, DY, NODATA_DIR, NO_FLOW};
 use crate::error::{Error, Result};
 use crate::exec::GlobalStep;
@@ -418,7 +418,7 @@ fn reduce_flats(layout: &TileLayout, summaries: Vec<FlatSummary>) -> Result<Flat
     // unit edges between adjacent portals of neighbouring tiles (CSR)
     let mut edges: Vec<(u32, u32)> = Vec::new();
     let win_of: Vec<_> = (0..layout.count()).map(|t| layout.window(t)).collect();
-    cross_tile_pairs(layout, |ta, (xa, ya), tb, (xb, yb)| {
+    crate::raster::cross_tile_pairs(layout, |ta, (xa, ya), tb, (xb, yb)| {
         let ka = perimeter_index(win_of[ta].w, win_of[ta].h, xa, ya);
         let kb = perimeter_index(win_of[tb].w, win_of[tb].h, xb, yb);
         if let (Some(ka), Some(kb)) = (ka, kb) {

@@ -12,5 +12,5 @@ pub use dtype::{Cell, DType};
 pub use georef::{Crs, GeoKeys, GeoRef, RasterType};
 pub use grid::{AnyGrid, Grid, IntoAny};
 pub use source::{read_view, read_window, read_window_native, MemRaster, RasterInfo, RasterSource};
-pub use tiling::{TileId, TileLayout, TileView};
+pub use tiling::{cross_tile_pairs, TileId, TileLayout, TileView};
 pub use window::Window;

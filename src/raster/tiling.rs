@@ -119,3 +119,43 @@ impl<T: Copy> TileView<T> {
         ))
     }
 }
+
+/// Calls `f(tile_a, (xa, ya), tile_b, (xb, yb))` for every pair of
+/// 8-adjacent cells that lie in different tiles (tile-local coordinates),
+/// each pair once.
+pub fn cross_tile_pairs(
+    layout: &TileLayout,
+    mut f: impl FnMut(usize, (usize, usize), usize, (usize, usize)),
+) {
+    let (ntx, nty) = (layout.tiles_x(), layout.tiles_y());
+    for ty in 0..nty {
+        for tx in 0..ntx {
+            let a = layout.id(tx, ty);
+            let wa = layout.window(a).w;
+            let ha = layout.window(a).h;
+            if tx + 1 < ntx {
+                let b = layout.id(tx + 1, ty);
+                for y in 0..ha {
+                    for yb in y.saturating_sub(1)..(y + 2).min(ha) {
+                        f(a, (wa - 1, y), b, (0, yb));
+                    }
+                }
+            }
+            if ty + 1 < nty {
+                let b = layout.id(tx, ty + 1);
+                for x in 0..wa {
+                    for xb in x.saturating_sub(1)..(x + 2).min(wa) {
+                        f(a, (x, ha - 1), b, (xb, 0));
+                    }
+                }
+                if tx + 1 < ntx {
+                    f(a, (wa - 1, ha - 1), layout.id(tx + 1, ty + 1), (0, 0));
+                }
+                if tx > 0 {
+                    let b = layout.id(tx - 1, ty + 1);
+                    f(a, (0, ha - 1), b, (layout.window(b).w - 1, 0));
+                }
+            }
+        }
+    }
+}
