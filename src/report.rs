@@ -13,6 +13,7 @@
 use crate::error::{Error, Result};
 use crate::io::render::{downsample_mean, render_preview, RenderKind, RenderOptions};
 use crate::io::{open_raster, OpenOptions};
+use crate::raster::{AnyGrid, MemRaster};
 use base64::Engine as _;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -135,9 +136,21 @@ fn raster_section(p: &Path, elevation: bool, tmp: &Path) -> Result<String> {
     let src = open_raster(p, &OpenOptions::default())?;
     let info = src.info().clone();
     let factor = info.width.max(info.height).div_ceil(512).max(1);
+    // One pass over the raster: the block means serve both the histogram and
+    // the preview (rendered from an in-memory raster with cells `factor` times
+    // larger, and the exact value range).
     let (small, lo, hi) = downsample_mean(src.as_ref(), factor)?;
+    let mut georef = info.georef.clone();
+    for k in [1, 2, 4, 5] {
+        georef.transform[k] *= factor as f64;
+    }
+    georef.nodata = None;
+    let hist = histogram_svg(small.data(), lo, hi);
+    let preview_src = MemRaster::new(AnyGrid::F32(small), georef, p);
     let png = tmp.join("preview.png");
     let opts = RenderOptions {
+        range: (lo <= hi).then_some((lo, hi)),
+        cell_size_m: (!info.georef.georeferenced).then_some(factor as f64),
         kind: if elevation {
             RenderKind::Elevation
         } else {
@@ -148,7 +161,7 @@ fn raster_section(p: &Path, elevation: bool, tmp: &Path) -> Result<String> {
         sea: elevation,
         ..Default::default()
     };
-    render_preview(src.as_ref(), &png, &opts)?;
+    render_preview(&preview_src, &png, &opts)?;
     let bytes = std::fs::read(&png).map_err(|e| Error::io(&png, e))?;
     let b64 = base64::engine::general_purpose::STANDARD.encode(bytes);
     let mut s = String::new();
@@ -162,7 +175,7 @@ fn raster_section(p: &Path, elevation: bool, tmp: &Path) -> Result<String> {
         fmt_num(lo),
         fmt_num(hi),
         esc(&p.display().to_string()),
-        histogram_svg(small.data(), lo, hi)
+        hist
     );
     Ok(s)
 }
