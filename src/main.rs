@@ -403,6 +403,8 @@ enum Cmd {
         after_help = "Examples:\n  orogen viewshed dem.tif --at 352000,4590000 --observer-height 1.7 --radius 10km -o vis.tif\n  orogen viewshed srtm.tif --at=-105.2,39.7 --curvature -o vis.tif\n  orogen viewshed dem.tif --points towers.csv --radius 5km -o count.tif\n  orogen viewshed dem.tif --at 352000,4590000 --fuzzy 1000,2000 -o fuzzy.tif\nOne observer: u8, 1 visible, 0 hidden, 255 beyond the radius or nodata. Several: u16 count\nof observers seeing each cell. --fuzzy: f32 sum of memberships. The output covers the\nobservers' radius, clipped to the DEM. Coordinates are in the DEM's CRS (--pixel: col,row)."
     )]
     Viewshed(cli::viewshed::ViewshedArgs),
+    /// Terrain synthesis: `orogen synth noise|...` (see `orogen synth --help`).
+    Synth(cli::synth::SynthArgs),
     /// Generate a seeded terrain and run the pipeline on it into ./orogen-demo/.
     #[command(
         after_help = "Example:\n  orogen demo\n  orogen demo --size 4096 --seed 7 -o /tmp/demo"
@@ -911,6 +913,7 @@ fn run(cli: Cli) -> Result<()> {
             wrote(&output);
         }
         Cmd::Viewshed(args) => cli::viewshed::run(args)?,
+        Cmd::Synth(args) => cli::synth::run(args)?,
         Cmd::Demo {
             output,
             size,

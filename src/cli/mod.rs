@@ -10,6 +10,8 @@ pub mod hydro_net;
 pub mod job;
 pub mod metric_table;
 pub mod oro;
+pub mod synth;
+pub mod synth_noise;
 pub mod tiles;
 pub mod view;
 pub mod viewshed;

@@ -1,0 +1,30 @@
+//! `orogen synth <method>`: terrain synthesis. Each method lives in its own
+//! file `src/cli/synth_<method>.rs` (a clap `Args` struct and a `run`); this
+//! file holds one `SynthCmd` variant and one match arm per method.
+
+use anyhow::Result;
+use clap::{Args, Subcommand};
+
+/// Arguments of `orogen synth`.
+#[derive(Args)]
+pub struct SynthArgs {
+    #[command(subcommand)]
+    pub method: SynthCmd,
+}
+
+/// The synthesis methods.
+#[derive(Subcommand)]
+pub enum SynthCmd {
+    /// Seeded, tileable procedural noise terrain (fBm with domain warping).
+    #[command(
+        after_help = "Examples:\n  orogen synth noise --size 4096x4096 --seed 7 -o noise.tif\n  orogen synth noise --size 100000x100000 --cell 30 -o big.tiles --zstd"
+    )]
+    Noise(super::synth_noise::NoiseArgs),
+}
+
+/// Dispatch to the chosen method.
+pub fn run(args: SynthArgs) -> Result<()> {
+    match args.method {
+        SynthCmd::Noise(a) => super::synth_noise::run(a),
+    }
+}
