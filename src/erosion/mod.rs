@@ -1,0 +1,2 @@
+//! Erosion models: hydraulic (virtual pipes), thermal, hillslope diffusion,
+//! stream power with uplift, and constrained erosion, tiled with halo exchange.
