@@ -403,6 +403,12 @@ enum Cmd {
         after_help = "Examples:\n  orogen viewshed dem.tif --at 352000,4590000 --observer-height 1.7 --radius 10km -o vis.tif\n  orogen viewshed srtm.tif --at=-105.2,39.7 --curvature -o vis.tif\n  orogen viewshed dem.tif --points towers.csv --radius 5km -o count.tif\n  orogen viewshed dem.tif --at 352000,4590000 --fuzzy 1000,2000 -o fuzzy.tif\nOne observer: u8, 1 visible, 0 hidden, 255 beyond the radius or nodata. Several: u16 count\nof observers seeing each cell. --fuzzy: f32 sum of memberships. The output covers the\nobservers' radius, clipped to the DEM. Coordinates are in the DEM's CRS (--pixel: col,row)."
     )]
     Viewshed(cli::viewshed::ViewshedArgs),
+    /// Erosion: hydraulic (virtual pipes), thermal (talus) or hillslope diffusion, tiled with
+    /// halo exchange (bit-identical to an untiled run for any tile size).
+    #[command(
+        after_help = "Examples:\n  orogen erode dem.tif --model hydraulic --steps 300 -o eroded.tif --preview previews/\n  orogen erode dem.tif --model thermal --steps 200 --talus 33 -o slumped.tif\n  orogen erode dem.tif --model diffusion --steps 100 --diffusivity 0.01 --dt 1000 -o smooth.tif\n  orogen erode dem.tiles --model hydraulic --steps 300 --params configs/erosion-hydraulic.toml --set rain=0.02 -o eroded.tiles\nParameters: --params FILE (a table per model), then --set KEY=VALUE, then the named flags.\nUnits: metres, seconds (hydraulic), years (diffusion); see docs/notes/erosion.md."
+    )]
+    Erode(cli::erode::ErodeArgs),
     /// Terrain synthesis: `orogen synth noise|...` (see `orogen synth --help`).
     Synth(cli::synth::SynthArgs),
     /// Generate a seeded terrain and run the pipeline on it into ./orogen-demo/.
@@ -913,6 +919,7 @@ fn run(cli: Cli) -> Result<()> {
             wrote(&output);
         }
         Cmd::Viewshed(args) => cli::viewshed::run(args)?,
+        Cmd::Erode(a) => cli::erode::run(a)?,
         Cmd::Synth(args) => cli::synth::run(args)?,
         Cmd::Demo {
             output,
