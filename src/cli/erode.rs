@@ -58,13 +58,13 @@ pub struct ErodeArgs {
     #[arg(long)]
     pub seed: Option<u64>,
     /// Time step: seconds (hydraulic) or years (diffusion).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub dt: Option<f64>,
     /// Talus angle in degrees, 0 < talus < 90 (thermal).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub talus: Option<f64>,
     /// Diffusivity in m²/yr (diffusion).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub diffusivity: Option<f64>,
     /// Substeps between halo exchanges; the ghost zone is exchange x radius cells
     /// (default 8, or `exchange` in --params). Does not change the result.
