@@ -30,7 +30,16 @@ fn fails(args: &[&str]) -> String {
 fn dem(dir: &Path) -> PathBuf {
     let p = dir.join("dem.tif");
     ok(&[
-        "synth", "noise", "--size", "61x47", "--wavelength", "24", "--cell", "10", "-q", "-o",
+        "synth",
+        "noise",
+        "--size",
+        "61x47",
+        "--wavelength",
+        "24",
+        "--cell",
+        "10",
+        "-q",
+        "-o",
         p.to_str().unwrap(),
     ]);
     p
@@ -50,18 +59,63 @@ fn hydraulic_writes_outputs_and_previews_independent_of_tiling() {
     let water = dir.path().join("w.tif");
     let pv = dir.path().join("pv");
     ok(&[
-        "erode", s(&d), "--model", "hydraulic", "--steps", "25", "--tile", "64", "-q",
-        "--set", "rain=0.05", "--water", s(&water), "--preview", s(&pv), "-o", s(&a),
+        "erode",
+        s(&d),
+        "--model",
+        "hydraulic",
+        "--steps",
+        "25",
+        "--tile",
+        "64",
+        "-q",
+        "--set",
+        "rain=0.05",
+        "--water",
+        s(&water),
+        "--preview",
+        s(&pv),
+        "-o",
+        s(&a),
     ]);
     ok(&[
-        "erode", s(&d), "--model", "hydraulic", "--steps", "25", "--tile", "7", "--exchange",
-        "3", "-q", "--set", "rain=0.05", "-o", s(&b),
+        "erode",
+        s(&d),
+        "--model",
+        "hydraulic",
+        "--steps",
+        "25",
+        "--tile",
+        "7",
+        "--exchange",
+        "3",
+        "-q",
+        "--set",
+        "rain=0.05",
+        "-o",
+        s(&b),
     ]);
     let scratch = dir.path().join("scratch");
     std::fs::create_dir_all(&scratch).unwrap();
     ok(&[
-        "erode", s(&d), "--model", "hydraulic", "--steps", "25", "--tile", "13", "--exchange",
-        "1", "--threads", "1", "--scratch", s(&scratch), "-q", "--set", "rain=0.05", "-o", s(&c),
+        "erode",
+        s(&d),
+        "--model",
+        "hydraulic",
+        "--steps",
+        "25",
+        "--tile",
+        "13",
+        "--exchange",
+        "1",
+        "--threads",
+        "1",
+        "--scratch",
+        s(&scratch),
+        "-q",
+        "--set",
+        "rain=0.05",
+        "-o",
+        s(&c),
     ]);
     let (ba, bb, bc) = (
         std::fs::read(&a).unwrap(),
@@ -94,15 +148,66 @@ fn params_file_gives_model_tables_and_steps() {
     .unwrap();
     let a = dir.path().join("t1.tif");
     let b = dir.path().join("t2.tif");
-    ok(&["erode", s(&d), "--model", "thermal", "--params", s(&toml), "-q", "-o", s(&a)]);
+    ok(&[
+        "erode",
+        s(&d),
+        "--model",
+        "thermal",
+        "--params",
+        s(&toml),
+        "-q",
+        "-o",
+        s(&a),
+    ]);
     // Flags override the file; the same values give the same bytes.
     ok(&[
-        "erode", s(&d), "--model", "thermal", "--params", s(&toml), "--steps", "6", "--talus",
-        "20", "--tile", "9", "-q", "-o", s(&b),
+        "erode",
+        s(&d),
+        "--model",
+        "thermal",
+        "--params",
+        s(&toml),
+        "--steps",
+        "6",
+        "--talus",
+        "20",
+        "--tile",
+        "9",
+        "-q",
+        "-o",
+        s(&b),
     ]);
     assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+    // The example parameter file of the repository is valid.
+    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/erosion-hydraulic.toml");
+    let h = dir.path().join("h.tif");
+    ok(&[
+        "erode",
+        s(&d),
+        "--model",
+        "hydraulic",
+        "--params",
+        s(&example),
+        "--steps",
+        "3",
+        "-q",
+        "-o",
+        s(&h),
+    ]);
     let c = dir.path().join("d.tif");
-    ok(&["erode", s(&d), "--model", "diffusion", "--params", s(&toml), "--tile", "16", "-q", "-o", s(&c)]);
+    ok(&[
+        "erode",
+        s(&d),
+        "--model",
+        "diffusion",
+        "--params",
+        s(&toml),
+        "--tile",
+        "16",
+        "-q",
+        "-o",
+        s(&c),
+    ]);
     assert_ne!(std::fs::read(&c).unwrap(), std::fs::read(&d).unwrap());
 }
 
@@ -118,13 +223,27 @@ fn bad_parameters_give_clear_errors() {
     };
     let e = base(&["--model", "hydraulic", "--steps", "0"]);
     assert!(e.contains("steps = 0"), "{e}");
-    let e = base(&["--model", "hydraulic", "--steps", "5", "--set", "capacity=-1"]);
+    let e = base(&[
+        "--model",
+        "hydraulic",
+        "--steps",
+        "5",
+        "--set",
+        "capacity=-1",
+    ]);
     assert!(e.contains("capacity") && e.contains("between"), "{e}");
     let e = base(&["--model", "thermal", "--steps", "5", "--talus", "90"]);
     assert!(e.contains("talus") && e.contains("90"), "{e}");
     let e = base(&["--model", "hydraulic", "--steps", "5", "--talus", "30"]);
     assert!(e.contains("--talus does not apply"), "{e}");
-    let e = base(&["--model", "diffusion", "--steps", "5", "--diffusivity", "-1"]);
+    let e = base(&[
+        "--model",
+        "diffusion",
+        "--steps",
+        "5",
+        "--diffusivity",
+        "-1",
+    ]);
     assert!(e.contains("diffusivity"), "{e}");
     let e = base(&["--model", "thermal"]);
     assert!(e.contains("--steps"), "{e}");

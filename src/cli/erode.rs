@@ -156,16 +156,31 @@ fn gather(a: &ErodeArgs) -> Result<(toml::Table, Option<u64>, Option<usize>)> {
     use ModelArg::*;
     if let Some(s) = a.seed {
         let s = i64::try_from(s).context("--seed: at most 9223372036854775807")?;
-        flag(&mut table, "seed", a.model == Hydraulic, toml::Value::Integer(s))?;
+        flag(
+            &mut table,
+            "seed",
+            a.model == Hydraulic,
+            toml::Value::Integer(s),
+        )?;
     }
     if let Some(v) = a.dt {
         flag(&mut table, "dt", a.model != Thermal, toml::Value::Float(v))?;
     }
     if let Some(v) = a.talus {
-        flag(&mut table, "talus", a.model == Thermal, toml::Value::Float(v))?;
+        flag(
+            &mut table,
+            "talus",
+            a.model == Thermal,
+            toml::Value::Float(v),
+        )?;
     }
     if let Some(v) = a.diffusivity {
-        flag(&mut table, "diffusivity", a.model == Diffusion, toml::Value::Float(v))?;
+        flag(
+            &mut table,
+            "diffusivity",
+            a.model == Diffusion,
+            toml::Value::Float(v),
+        )?;
     }
     Ok((table, steps, exchange))
 }
@@ -181,9 +196,13 @@ fn parse_params<T: serde::de::DeserializeOwned>(
         Some(p) => format!("[{}] of {} and --set", model.key(), p.display()),
         None => "--set".to_string(),
     };
-    toml::Value::Table(table)
-        .try_into::<T>()
-        .map_err(|e| anyhow::anyhow!("{} parameters ({from}): {}", model.key(), e.to_string().trim_end()))
+    toml::Value::Table(table).try_into::<T>().map_err(|e| {
+        anyhow::anyhow!(
+            "{} parameters ({from}): {}",
+            model.key(),
+            e.to_string().trim_end()
+        )
+    })
 }
 
 fn execute<M: LocalModel>(
@@ -197,7 +216,11 @@ fn execute<M: LocalModel>(
     let mut outputs = vec![(0usize, a.out.output.clone())];
     let extra = [
         (&a.water, orogen::erosion::hydraulic::WATER, "--water"),
-        (&a.sediment, orogen::erosion::hydraulic::SEDIMENT, "--sediment"),
+        (
+            &a.sediment,
+            orogen::erosion::hydraulic::SEDIMENT,
+            "--sediment",
+        ),
     ];
     for (p, f, name) in extra {
         if let Some(p) = p {
@@ -274,14 +297,22 @@ pub fn run(a: ErodeArgs) -> Result<()> {
             let p: HydraulicParams = parse_params(a.model, table, &a)?;
             let probe = Hydraulic::new(p.clone(), steps, CellSize::square(1.0))?;
             let src = open(&a.input)?;
-            let model = Hydraulic::new(p, steps, cell_of(src.as_ref(), probe.params.cell.is_some())?)?;
+            let model = Hydraulic::new(
+                p,
+                steps,
+                cell_of(src.as_ref(), probe.params.cell.is_some())?,
+            )?;
             execute(&model, &a, src.as_ref(), exchange)
         }
         ModelArg::Thermal => {
             let p: ThermalParams = parse_params(a.model, table, &a)?;
             let probe = Thermal::new(p.clone(), steps, CellSize::square(1.0))?;
             let src = open(&a.input)?;
-            let model = Thermal::new(p, steps, cell_of(src.as_ref(), probe.params.cell.is_some())?)?;
+            let model = Thermal::new(
+                p,
+                steps,
+                cell_of(src.as_ref(), probe.params.cell.is_some())?,
+            )?;
             execute(&model, &a, src.as_ref(), exchange)
         }
         ModelArg::Diffusion => {
@@ -295,4 +326,3 @@ pub fn run(a: ErodeArgs) -> Result<()> {
         }
     }
 }
-

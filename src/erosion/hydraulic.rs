@@ -39,7 +39,9 @@
 //! round-off. The stencil reaches one cell in step 2 and one more in steps
 //! 3–5: [`LocalModel::radius`] is 2.
 
-use super::{check_positive, check_range, check_steps, hash_unit, valid, CellSize, LocalModel, Patch};
+use super::{
+    check_positive, check_range, check_steps, hash_unit, valid, CellSize, LocalModel, Patch,
+};
 use crate::error::Result;
 use serde::{Deserialize, Serialize};
 
@@ -119,9 +121,27 @@ impl HydraulicParams {
         check_positive("pipe_area", self.pipe_area, 1e12, " m²")?;
         check_positive("gravity", self.gravity, 1e3, " m/s²")?;
         check_range("capacity", self.capacity, 0.0, 1e6, "")?;
-        check_range("dissolving", self.dissolving, 0.0, 1.0 / self.dt, " 1/s (dissolving·dt <= 1)")?;
-        check_range("deposition", self.deposition, 0.0, 1.0 / self.dt, " 1/s (deposition·dt <= 1)")?;
-        check_range("evaporation", self.evaporation, 0.0, 0.999_999 / self.dt, " 1/s (evaporation·dt < 1)")?;
+        check_range(
+            "dissolving",
+            self.dissolving,
+            0.0,
+            1.0 / self.dt,
+            " 1/s (dissolving·dt <= 1)",
+        )?;
+        check_range(
+            "deposition",
+            self.deposition,
+            0.0,
+            1.0 / self.dt,
+            " 1/s (deposition·dt <= 1)",
+        )?;
+        check_range(
+            "evaporation",
+            self.evaporation,
+            0.0,
+            0.999_999 / self.dt,
+            " 1/s (evaporation·dt < 1)",
+        )?;
         check_range("min_tilt", self.min_tilt, 0.0, 1.0, "")?;
         check_positive("max_depth", self.max_depth, 1e6, " m")?;
         if let Some(c) = self.cell {
@@ -175,7 +195,9 @@ impl LocalModel for Hydraulic {
         })
     }
     fn field_names(&self) -> &'static [&'static str] {
-        &["terrain", "water", "sediment", "flux_e", "flux_w", "flux_n", "flux_s"]
+        &[
+            "terrain", "water", "sediment", "flux_e", "flux_w", "flux_n", "flux_s",
+        ]
     }
     fn radius(&self) -> usize {
         2
@@ -199,7 +221,8 @@ impl LocalModel for Hydraulic {
                 let gy = p.y0 + y as i64;
                 for x in 0..w {
                     let i = y * w + x;
-                    if valid(h[i]) && hash_unit(q.seed, n, p.x0 + x as i64, gy) < q.rain_probability {
+                    if valid(h[i]) && hash_unit(q.seed, n, p.x0 + x as i64, gy) < q.rain_probability
+                    {
                         d[i] += amount;
                     }
                 }
@@ -229,10 +252,18 @@ impl LocalModel for Hydraulic {
                             0.0
                         }
                     };
-                    let mut e = if x + 1 < w { flux(i + 1, fe[i], kx) } else { 0.0 };
+                    let mut e = if x + 1 < w {
+                        flux(i + 1, fe[i], kx)
+                    } else {
+                        0.0
+                    };
                     let mut wv = if x > 0 { flux(i - 1, fw[i], kx) } else { 0.0 };
                     let mut nv = if y > 0 { flux(i - w, fnn[i], ky) } else { 0.0 };
-                    let mut s = if y + 1 < hh { flux(i + w, fs[i], ky) } else { 0.0 };
+                    let mut s = if y + 1 < hh {
+                        flux(i + w, fs[i], ky)
+                    } else {
+                        0.0
+                    };
                     let sum = (e + wv) + (nv + s);
                     if sum > 0.0 {
                         let vol = d[i] * area;
@@ -253,26 +284,26 @@ impl LocalModel for Hydraulic {
         }
         // 3–6. Water, velocity, transport, erosion/deposition, evaporation.
         let mut scratch = std::mem::take(&mut p.scratch);
-        if scratch.len() < 3 {
-            scratch.resize_with(3, Vec::new);
+        if scratch.len() < 4 {
+            scratch.resize_with(4, Vec::new);
         }
-        for s in &mut scratch[..3] {
+        for s in &mut scratch[..4] {
             s.resize(w * hh, 0.0);
         }
         {
-            let (nh, rest) = scratch.split_at_mut(1);
-            let (nd, ns) = rest.split_at_mut(1);
-            let (nh, nd, ns) = (&mut nh[0], &mut nd[0], &mut ns[0]);
+            let [nh, nd, ns, cc, ..] = &mut scratch[..] else {
+                return;
+            };
             let f = &p.fields;
             let (h, d, sed) = (&f[TERRAIN], &f[WATER], &f[SEDIMENT]);
             let (fe, fw, fnn, fs) = (&f[FE], &f[FW], &f[FN], &f[FS]);
-            let c_of = |j: usize| -> f64 {
-                if d[j] > 0.0 {
-                    dt / (d[j] * area)
-                } else {
-                    0.0
-                }
-            };
+            // dt / water volume of every cell (0 without water): the fraction
+            // of a cell's sediment a flux f carries away is f·c.
+            for (c, &dv) in cc.iter_mut().zip(d.iter()) {
+                *c = if dv > 0.0 { dt / (dv * area) } else { 0.0 };
+            }
+            let cc = &*cc;
+            let c_of = |j: usize| -> f64 { cc[j] };
             let vmax = lx.min(ly) / dt;
             let evap = 1.0 - q.evaporation * dt;
             let (two_lx, two_ly) = (2.0 * lx, 2.0 * ly);

@@ -145,9 +145,8 @@ pub(crate) fn mix64(mut z: u64) -> u64 {
 /// the same in any tile.
 #[inline]
 pub fn hash_unit(seed: u64, n: u64, gx: i64, gy: i64) -> f64 {
-    let k = mix64(
-        seed ^ mix64(n ^ mix64((gy as u64) ^ mix64((gx as u64) ^ 0x9e37_79b9_7f4a_7c15))),
-    );
+    let k =
+        mix64(seed ^ mix64(n ^ mix64((gy as u64) ^ mix64((gx as u64) ^ 0x9e37_79b9_7f4a_7c15))));
     (k >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
 }
 

@@ -169,7 +169,11 @@ impl LocalModel for Thermal {
                     }
                     let moved = self.params.rate * emax;
                     for k in 0..8 {
-                        outs[k][i] = if e[k] > 0.0 { moved * (e[k] / esum) } else { 0.0 };
+                        outs[k][i] = if e[k] > 0.0 {
+                            moved * (e[k] / esum)
+                        } else {
+                            0.0
+                        };
                     }
                 } else {
                     for o in outs.iter_mut() {

@@ -103,7 +103,9 @@ impl States {
                 Ok(Cow::Owned(
                     bytes
                         .chunks_exact(8)
-                        .map(|c| f64::from_le_bytes([c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]]))
+                        .map(|c| {
+                            f64::from_le_bytes([c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]])
+                        })
                         .collect(),
                 ))
             }
@@ -193,7 +195,9 @@ pub fn run<M: LocalModel>(
     };
     let store = |parity: u64, results: Vec<(TileId, Vec<f64>)>| -> Result<States> {
         match disk_dir(parity) {
-            None => Ok(States::Memory(results.into_iter().map(|(_, v)| v).collect())),
+            None => Ok(States::Memory(
+                results.into_iter().map(|(_, v)| v).collect(),
+            )),
             Some(dir) => Ok(States::Disk(dir)),
         }
     };
@@ -236,14 +240,13 @@ pub fn run<M: LocalModel>(
             ids.par_iter()
                 .map(|&id| -> Result<(TileId, Vec<f64>)> {
                     let core = layout.window(id);
-                    let pw = core
-                        .expand(ghost)
-                        .intersect(&full)
-                        .unwrap_or(core);
+                    let pw = core.expand(ghost).intersect(&full).unwrap_or(core);
                     let mut patch = Patch::new(pw.x, pw.y, pw.w, pw.h, nf);
                     for tid in layout.tiles_in(&pw) {
                         let tw = layout.window(tid);
-                        let Some(iw) = tw.intersect(&pw) else { continue };
+                        let Some(iw) = tw.intersect(&pw) else {
+                            continue;
+                        };
                         let data = prev.get(tid, tw.len() * nf)?;
                         for (f, field) in patch.fields.iter_mut().enumerate() {
                             let base = f * tw.len();
@@ -412,7 +415,15 @@ pub fn erode_to_paths<M: LocalModel>(
             first.1.with_file_name(format!(".{name}.erosion-scratch"))
         }
     };
-    let result = run_to_sinks(model, src, layout, exchange, &Backend::Disk(dir.clone()), cfg, sinks);
+    let result = run_to_sinks(
+        model,
+        src,
+        layout,
+        exchange,
+        &Backend::Disk(dir.clone()),
+        cfg,
+        sinks,
+    );
     let cleanup = std::fs::remove_dir_all(&dir);
     let stats = result?;
     if let Err(e) = cleanup {
