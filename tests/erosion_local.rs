@@ -262,7 +262,7 @@ fn thermal_reaches_the_talus_slope_and_conserves_mass() {
         "the test terrain should start steep"
     );
     assert!(
-        worst <= t + 1e-3,
+        worst <= t + 1e-4,
         "steepest slope {worst} (tan) above the talus {t} after 3000 steps"
     );
     let rel = ((sum(h) - sum(&dem)) / sum(&dem)).abs();
@@ -302,8 +302,8 @@ fn diffusion_of_a_gaussian_hill_matches_the_closed_form() {
         }
     }
     eprintln!("diffusion: max error {worst} (amplitude {amp})");
-    // Amplitude 100 -> 47.4; FTCS with dx = σ/6 is second order in dx/σ.
-    assert!(worst < 0.002 * a, "max error {worst} vs the closed form");
+    // Amplitude 100 -> 31.0; FTCS is second order in dx/σ (measured 0.0042).
+    assert!(worst < 1e-4 * a, "max error {worst} vs the closed form");
     let rel = ((sum(&out[0]) - sum(&dem)) / sum(&dem)).abs();
     assert!(rel < 1e-12, "diffusion changed the volume by {rel:e}");
 }
