@@ -13,7 +13,9 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn data(p: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(p)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(p)
 }
 
 fn read(p: &Path) -> Grid<f32> {
@@ -57,13 +59,14 @@ fn correlation(a: &Grid<f32>, b: &Grid<f32>) -> f64 {
     sab / (saa * sbb).sqrt()
 }
 
-/// (count, volume in DEM units x cells): 8-connected regions the
-/// priority-flood fill raises, labelled here by a plain BFS.
-fn depressions(g: &Grid<f32>) -> (usize, f64) {
+/// (count, count at least 1 m deep, volume in DEM units x cells):
+/// 8-connected regions the priority-flood fill raises, labelled here by a
+/// plain BFS.
+fn depressions(g: &Grid<f32>) -> (usize, usize, f64) {
     let f = orogen::hydro::fill(g).unwrap();
     let (w, h) = (g.width(), g.height());
     let mut label = vec![0u32; w * h];
-    let mut count = 0;
+    let (mut count, mut deep) = (0, 0);
     let mut vol = 0f64;
     for y in 0..h {
         for x in 0..w {
@@ -72,10 +75,12 @@ fn depressions(g: &Grid<f32>) -> (usize, f64) {
                 continue;
             }
             count += 1;
+            let mut depth = 0f32;
             let mut queue = std::collections::VecDeque::from([(x, y)]);
             label[y * w + x] = count as u32;
             while let Some((cx, cy)) = queue.pop_front() {
                 vol += (f.get(cx, cy) - g.get(cx, cy)) as f64;
+                depth = depth.max(f.get(cx, cy) - g.get(cx, cy));
                 for ny in cy.saturating_sub(1)..(cy + 2).min(h) {
                     for nx in cx.saturating_sub(1)..(cx + 2).min(w) {
                         if raised(nx, ny) && label[ny * w + nx] == 0 {
@@ -85,9 +90,12 @@ fn depressions(g: &Grid<f32>) -> (usize, f64) {
                     }
                 }
             }
+            if depth >= 1.0 {
+                deep += 1;
+            }
         }
     }
-    (count, vol)
+    (count, deep, vol)
 }
 
 fn fbm_guide(w: usize, h: usize, seed: u64) -> Grid<f32> {
@@ -131,7 +139,12 @@ fn energy_decreases_across_em_iterations() {
     assert!(s.levels.len() >= 2);
     for r in &s.levels {
         assert_eq!(r.energies.len(), 1 + 2 * 3);
-        assert!(nonincreasing(&r.energies), "level {}: {:?}", r.level, r.energies);
+        assert!(
+            nonincreasing(&r.energies),
+            "level {}: {:?}",
+            r.level,
+            r.energies
+        );
         let (first, last) = (r.energies[0], r.energies[r.energies.len() - 1]);
         assert!(last < 0.8 * first, "level {}: {:?}", r.level, r.energies);
     }
@@ -162,11 +175,17 @@ fn guide_from_the_source_reproduces_its_large_scale_structure() {
     assert!(correlation(&block_mean(&s2.output, 4), &guide) < 0.5);
 }
 
+/// Pit statistics of the output with and without pit removal (same inputs,
+/// same seed). Measured (see docs/notes/optimise.md): the depression
+/// volume falls to a small fraction; the number of depressions does not,
+/// because the finest level (no removal, as in the paper) re-creates small,
+/// shallow pits where overlapping patches are averaged. Asserted: volume
+/// ratio < 0.35 and, with `pit_finest`, no depression at all.
 #[test]
-fn pit_removal_leaves_a_fraction_of_the_depressions() {
+fn pit_removal_leaves_a_fraction_of_the_depression_volume() {
     let src = source();
     let guide = fbm_guide(60, 40, 11);
-    let (gc, _) = depressions(&guide);
+    let (gc, _, _) = depressions(&guide);
     assert!(gc > 0, "the guide must have depressions for this test");
     let mut o = opts(240, 160);
     o.seed = 5;
@@ -175,16 +194,22 @@ fn pit_removal_leaves_a_fraction_of_the_depressions() {
         o.pit = pit;
         let s = synthesise(&src, &guide, None, &o).unwrap();
         let d = depressions(&s.output);
-        eprintln!("{pit:?}: {} depressions, volume {:.4e} m x cells", d.0, d.1);
+        eprintln!(
+            "{pit:?}: {} depressions ({} at least 1 m deep), volume {:.4e} m x cells",
+            d.0, d.1, d.2
+        );
         res.push(d);
     }
-    let (none, breach, fill) = (res[0], res[1], res[2]);
-    for (name, d) in [("breach", breach), ("fill", fill)] {
-        let (cr, vr) = (d.0 as f64 / none.0 as f64, d.1 / none.1);
+    let none = res[0];
+    for (name, d) in [("breach", res[1]), ("fill", res[2])] {
+        let (cr, vr) = (d.0 as f64 / none.0 as f64, d.2 / none.2);
         eprintln!("{name}: count ratio {cr:.3}, volume ratio {vr:.3}");
-        assert!(vr < 0.5, "{name}: volume ratio {vr}");
-        assert!(cr < 1.0, "{name}: count ratio {cr}");
+        assert!(vr < 0.35, "{name}: volume ratio {vr}");
     }
+    o.pit = PitRemoval::Breach;
+    o.pit_finest = true;
+    let s = synthesise(&src, &guide, None, &o).unwrap();
+    assert_eq!(depressions(&s.output).0, 0);
 }
 
 #[test]
@@ -192,7 +217,10 @@ fn same_bytes_for_one_and_two_threads() {
     let src = source();
     let guide = fbm_guide(50, 40, 3);
     let run = |threads: usize, seed: u64| {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
         let mut o = opts(150, 120);
         o.seed = seed;
         o.search.height_offset = true;
@@ -231,7 +259,10 @@ fn every_search_space_and_pit_mode_runs() {
         o.falloff = None;
         let s = synthesise(&src, &guide, None, &o).unwrap();
         assert!(s.output.data().iter().all(|v| v.is_finite()));
-        let r = correlation(&block_mean(&s.output, 4), &block_mean(&guide_resized(&guide, 96, 64), 4));
+        let r = correlation(
+            &block_mean(&s.output, 4),
+            &block_mean(&guide_resized(&guide, 96, 64), 4),
+        );
         assert!(r > 0.8, "{rot} {refl} {sub} {off}: {r}");
     }
 }
@@ -254,7 +285,9 @@ fn a_sink_mask_keeps_its_depression() {
     o.weighting = Weighting::Constant;
     o.alpha = 0.9;
     o.keep_levels = true;
-    let mask = Grid::from_fn(120, 120, |x, y| (58..62).contains(&x) && (58..62).contains(&y));
+    let mask = Grid::from_fn(120, 120, |x, y| {
+        (58..62).contains(&x) && (58..62).contains(&y)
+    });
     let with = synthesise(&src, &guide, Some(&mask), &o).unwrap();
     let without = synthesise(&src, &guide, None, &o).unwrap();
     // Level 1 (pit removal applied): centre depth below the border minimum.
@@ -270,25 +303,50 @@ fn a_sink_mask_keeps_its_depression() {
     };
     let (cw, bw) = lvl1(&with);
     let (cn, bn) = lvl1(&without);
-    assert!(cw < bw - 50.0, "with a sink the bowl stays: {cw} vs border {bw}");
-    assert!(cn >= bn - 1e-3, "without a sink the bowl drains: {cn} vs border {bn}");
+    assert!(
+        cw < bw - 50.0,
+        "with a sink the bowl stays: {cw} vs border {bw}"
+    );
+    assert!(
+        cn >= bn - 1e-3,
+        "without a sink the bowl drains: {cn} vs border {bn}"
+    );
 }
 
 #[test]
 fn source_nodata_is_avoided() {
-    // whitebox_DEM has nodata; no output cell may come from it.
-    let src = read(&data("whitebox_DEM.tif"));
-    let nan = src.data().iter().filter(|v| v.is_nan()).count();
-    assert!(nan > 0);
-    let valid: Vec<f32> = src.data().iter().copied().filter(|v| v.is_finite()).collect();
+    // The source with its left third and a hole as nodata: no output cell
+    // may come from them (the output stays within the valid range; the
+    // nodata cells are made extreme-free by being NaN).
+    let mut src = source();
+    for y in 0..src.height() {
+        for x in 0..src.width() {
+            let hole = (150..170).contains(&x) && (90..110).contains(&y);
+            if x < 100 || hole {
+                src.set(x, y, f32::NAN);
+            }
+        }
+    }
+    let valid: Vec<f32> = src
+        .data()
+        .iter()
+        .copied()
+        .filter(|v| v.is_finite())
+        .collect();
     let lo = valid.iter().copied().fold(f32::INFINITY, f32::min);
     let hi = valid.iter().copied().fold(f32::NEG_INFINITY, f32::max);
     let guide = Grid::from_fn(30, 30, |x, y| lo + (hi - lo) * (x + y) as f32 / 60.0);
     let s = synthesise(&src, &guide, None, &opts(90, 90)).unwrap();
-    assert!(s.output.data().iter().all(|v| v.is_finite() && *v >= lo - 1e-3 && *v <= hi + 1e-3));
+    assert!(s
+        .output
+        .data()
+        .iter()
+        .all(|v| v.is_finite() && *v >= lo - 1e-3 && *v <= hi + 1e-3));
     // A source that is all nodata cannot be used.
     let empty = Grid::new(50, 50, f32::NAN);
-    let e = synthesise(&empty, &guide, None, &opts(90, 90)).unwrap_err().to_string();
+    let e = synthesise(&empty, &guide, None, &opts(90, 90))
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("nodata"), "{e}");
 }
 
@@ -296,7 +354,9 @@ fn source_nodata_is_avoided() {
 fn bad_inputs_are_clear_errors() {
     let src = source();
     let guide = block_mean(&src, 4);
-    let err = |s: &Grid<f32>, g: &Grid<f32>, o: &OptimiseOptions| synthesise(s, g, None, o).unwrap_err().to_string();
+    let err = |s: &Grid<f32>, g: &Grid<f32>, o: &OptimiseOptions| {
+        synthesise(s, g, None, o).unwrap_err().to_string()
+    };
     // guide larger than the output
     let e = err(&src, &src, &opts(100, 100));
     assert!(e.contains("larger than the output"), "{e}");
@@ -330,7 +390,18 @@ fn cli_writes_output_and_previews() {
     // the guide: orogen's own noise generator through the CLI
     let bin = env!("CARGO_BIN_EXE_orogen");
     let st = Command::new(bin)
-        .args(["synth", "noise", "--size", "40x30", "--cell", "120", "--wavelength", "20", "-q", "-o"])
+        .args([
+            "synth",
+            "noise",
+            "--size",
+            "40x30",
+            "--cell",
+            "120",
+            "--wavelength",
+            "20",
+            "-q",
+            "-o",
+        ])
         .arg(&guide)
         .status()
         .unwrap();
@@ -342,7 +413,16 @@ fn cli_writes_output_and_previews() {
         .arg(data("bigtujunga_crop.tif"))
         .arg("--guide")
         .arg(&guide)
-        .args(["--size", "120x90", "--pit", "fill", "--stats", "--threads", "2", "--previews"])
+        .args([
+            "--size",
+            "120x90",
+            "--pit",
+            "fill",
+            "--stats",
+            "--threads",
+            "2",
+            "--previews",
+        ])
         .arg(&prev)
         .arg("-o")
         .arg(&out)
@@ -356,7 +436,10 @@ fn cli_writes_output_and_previews() {
     let src = open_raster(&out, &OpenOptions::default()).unwrap();
     // the guide's extent at the output size: 40*120/120 = 40 m cells
     let t = src.info().georef.transform;
-    assert!((t[1] - 40.0).abs() < 1e-9 && (t[5] + 40.0).abs() < 1e-9, "{t:?}");
+    assert!(
+        (t[1] - 40.0).abs() < 1e-9 && (t[5] + 40.0).abs() < 1e-9,
+        "{t:?}"
+    );
     let levels = std::fs::read_dir(&prev).unwrap().count();
     assert!(levels >= 2);
     assert!(prev.join("level_0.png").exists());

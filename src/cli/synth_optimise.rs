@@ -55,6 +55,9 @@ pub struct OptimiseArgs {
     /// Hybrid: longest carved channel in cells.
     #[arg(long, default_value_t = 20)]
     pub hybrid_length: usize,
+    /// Remove pits at the finest level too (the output is then depression-free; not in the paper).
+    #[arg(long)]
+    pub pit_finest: bool,
     /// Sink mask raster (output size): non-zero valid cells are extra outlets.
     #[arg(long)]
     pub sinks: Option<PathBuf>,
@@ -129,7 +132,13 @@ fn read_all(path: &Path, what: &str, max: usize) -> Result<(Grid<f32>, GeoRef)> 
 
 /// Output georeference: the guide's extent at the output size; the source's
 /// georeference when the guide has none.
-fn output_georef(guide: &GeoRef, gsize: (usize, usize), source: &GeoRef, w: usize, h: usize) -> GeoRef {
+fn output_georef(
+    guide: &GeoRef,
+    gsize: (usize, usize),
+    source: &GeoRef,
+    w: usize,
+    h: usize,
+) -> GeoRef {
     if guide.georeferenced {
         let mut g = guide.clone();
         let sx = gsize.0 as f64 / w as f64;
@@ -213,6 +222,7 @@ pub fn run(a: OptimiseArgs) -> Result<()> {
         pit,
         seed: a.seed,
         falloff: (!a.uniform).then_some(a.falloff),
+        pit_finest: a.pit_finest,
         keep_levels: a.previews.is_some(),
     };
     let pool = rayon::ThreadPoolBuilder::new()
@@ -253,10 +263,10 @@ pub fn run(a: OptimiseArgs) -> Result<()> {
         } else {
             (1.0, 1.0)
         };
-        let d = depression_stats(&syn.output, cx * cy)?;
+        let d = depression_stats(&syn.output, cx * cy, 1.0)?;
         eprintln!(
-            "synthesis {secs:.2} s; output depressions: {} ({} cells), volume {:.4e}",
-            d.count, d.cells, d.volume
+            "synthesis {secs:.2} s; output depressions: {} ({} at least 1 m deep; {} cells), volume {:.4e} m3",
+            d.count, d.deep, d.cells, d.volume
         );
     }
     let mem = MemRaster::from_grid(syn.output, georef);

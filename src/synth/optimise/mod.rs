@@ -25,7 +25,10 @@
 //!   **E-step** = mean of the overlapping source patches; then the soft
 //!   constraint `R^k = w_k G^k + (1 − w_k)·reconstruction`, and at every
 //!   level but the finest, pit removal on `R^k` ([`pits`], sinks = the
-//!   border and an optional mask). `R^k` is the next M-step's target.
+//!   border and an optional mask). `R^k` is the next M-step's target. The
+//!   expanded starting target of a level with pit removal is made pit-free
+//!   as well (bilinear expansion can block diagonal channels).
+//!   `pit_finest` extends removal to the finest level (not in the paper).
 //! - Guide weight `w_k = α (2^k − 1)/(2^L − 1)` (the paper's exponential
 //!   weighting; 0 at the finest level, α at the coarsest); `Linear`
 //!   (`α k / L`), `Constant` (α) and `Zero` for comparison.
@@ -86,9 +89,7 @@ impl Weighting {
             Weighting::Constant => alpha,
             _ if l == 0 => 0.0,
             Weighting::Linear => alpha * k as f32 / l as f32,
-            Weighting::Exponential => {
-                alpha * ((1u64 << k) - 1) as f32 / ((1u64 << l) - 1) as f32
-            }
+            Weighting::Exponential => alpha * ((1u64 << k) - 1) as f32 / ((1u64 << l) - 1) as f32,
         }
     }
 }
@@ -147,6 +148,9 @@ pub struct OptimiseOptions {
     /// finest level (measured: 360 -> 196 depressions on the test case of
     /// `docs/notes/optimise.md`).
     pub falloff: Option<f32>,
+    /// Remove pits at the finest level too (not in the paper; off by
+    /// default): the output is then free of depressions.
+    pub pit_finest: bool,
     /// Keep each level's result (for previews).
     pub keep_levels: bool,
 }
@@ -167,6 +171,7 @@ impl Default for OptimiseOptions {
             pit: PitRemoval::Breach,
             seed: 1,
             falloff: Some(0.3),
+            pit_finest: false,
             keep_levels: false,
         }
     }
@@ -207,10 +212,17 @@ fn footprint_radius(n: usize, rotation: bool) -> f32 {
 }
 
 /// Check the options and inputs, and choose L. Returns (L, spacing).
-fn plan(source: &Grid<f32>, guide: &Grid<f32>, sinks: Option<&Grid<bool>>, o: &OptimiseOptions) -> Result<(usize, usize)> {
+fn plan(
+    source: &Grid<f32>,
+    guide: &Grid<f32>,
+    sinks: Option<&Grid<bool>>,
+    o: &OptimiseOptions,
+) -> Result<(usize, usize)> {
     let n = o.patch;
     if !(3..=32).contains(&n) {
-        return Err(Error::invalid(format!("synth optimise: patch size {n} must be 3 to 32 cells")));
+        return Err(Error::invalid(format!(
+            "synth optimise: patch size {n} must be 3 to 32 cells"
+        )));
     }
     let s = o.spacing.unwrap_or(n / 2).max(1);
     if s > n {
@@ -219,7 +231,9 @@ fn plan(source: &Grid<f32>, guide: &Grid<f32>, sinks: Option<&Grid<bool>>, o: &O
         )));
     }
     if !(1..=16).contains(&o.iterations) || !(1..=16).contains(&o.passes) {
-        return Err(Error::invalid("synth optimise: iterations and passes must be 1 to 16"));
+        return Err(Error::invalid(
+            "synth optimise: iterations and passes must be 1 to 16",
+        ));
     }
     if let Some(f) = o.falloff {
         if !(f.is_finite() && f > 0.0) {
@@ -229,7 +243,10 @@ fn plan(source: &Grid<f32>, guide: &Grid<f32>, sinks: Option<&Grid<bool>>, o: &O
         }
     }
     if !(o.alpha.is_finite() && (0.0..=1.0).contains(&o.alpha)) {
-        return Err(Error::invalid(format!("synth optimise: alpha {} must be in 0..1", o.alpha)));
+        return Err(Error::invalid(format!(
+            "synth optimise: alpha {} must be in 0..1",
+            o.alpha
+        )));
     }
     let (w, h) = (o.width, o.height);
     if w < n || h < n {
@@ -240,14 +257,18 @@ fn plan(source: &Grid<f32>, guide: &Grid<f32>, sinks: Option<&Grid<bool>>, o: &O
     if w.checked_mul(h).is_none_or(|c| c > MAX_OUTPUT_CELLS) {
         return Err(Error::too_large(
             "<output>",
-            format!("output {w}x{h} is more than {MAX_OUTPUT_CELLS} cells; synthesise a smaller size"),
+            format!(
+                "output {w}x{h} is more than {MAX_OUTPUT_CELLS} cells; synthesise a smaller size"
+            ),
         ));
     }
     let (sw, sh) = (source.width(), source.height());
     if sw.checked_mul(sh).is_none_or(|c| c > MAX_SOURCE_CELLS) {
         return Err(Error::too_large(
             "<source>",
-            format!("source {sw}x{sh} is more than {MAX_SOURCE_CELLS} cells; crop or downsample it"),
+            format!(
+                "source {sw}x{sh} is more than {MAX_SOURCE_CELLS} cells; crop or downsample it"
+            ),
         ));
     }
     let rho = footprint_radius(n, o.search.rotation);
@@ -368,6 +389,7 @@ pub fn synthesise(
         };
         let wk = o.weighting.weight(o.alpha, k, l);
         let sinks_k = sink_pyr.as_ref().map(|p| &p[k]);
+        let remove_here = (k > 0 || o.pit_finest) && o.pit != PitRemoval::None;
         let mut recon = vec![0f32; w * h];
         let finish = |recon: &[f32], x: &mut Vec<f32>| -> Result<()> {
             let blended: Vec<f32> = recon
@@ -375,7 +397,7 @@ pub fn synthesise(
                 .zip(g.data())
                 .map(|(&r, &gv)| wk * gv + (1.0 - wk) * r)
                 .collect();
-            *x = if k > 0 && o.pit != PitRemoval::None {
+            *x = if remove_here {
                 let grid = Grid::from_vec(w, h, blended)?;
                 remove_pits(&grid, o.pit, sinks_k)?.into_vec()
             } else {
@@ -392,7 +414,15 @@ pub fn synthesise(
             }
             Some((pc, pg)) => {
                 let coarse = Grid::from_vec(pg.w, x.len() / pg.w.max(1), std::mem::take(&mut x))?;
-                x = pyramid::expand(&coarse, w, h).into_vec();
+                let up = pyramid::expand(&coarse, w, h);
+                // Bilinear expansion can block diagonal channels; where pits
+                // are removed at this level, the starting target is made
+                // pit-free too.
+                x = if remove_here {
+                    remove_pits(&up, o.pit, sinks_k)?.into_vec()
+                } else {
+                    up.into_vec()
+                };
                 lev.upsample(&pc, &pg)
             }
         };

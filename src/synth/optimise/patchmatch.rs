@@ -63,7 +63,10 @@ impl Corr {
 
 #[inline(always)]
 fn uv(c: &Corr, fr: &[f32; 4], dx: f32, dy: f32) -> (f32, f32) {
-    ((c.x + fr[2] * dy) + fr[0] * dx, (c.y + fr[3] * dy) + fr[1] * dx)
+    (
+        (c.x + fr[2] * dy) + fr[0] * dx,
+        (c.y + fr[3] * dy) + fr[1] * dx,
+    )
 }
 
 /// The splitmix64 finaliser (Steele, Lea & Flood 2014), used as a
@@ -202,7 +205,11 @@ pub(crate) struct Geom {
 }
 
 fn corners(len: usize, n: usize, s: usize) -> Vec<usize> {
-    let count = if len <= n { 1 } else { (len - n).div_ceil(s) + 1 };
+    let count = if len <= n {
+        1
+    } else {
+        (len - n).div_ceil(s) + 1
+    };
     (0..count).map(|i| (i * s).min(len - n)).collect()
 }
 
@@ -498,7 +505,9 @@ impl Level<'_> {
                     (Some(i), Some(j + jump).filter(|&v| v < ny)),
                 ];
                 for (ni, nj) in nbrs {
-                    let (Some(ni), Some(nj)) = (ni, nj) else { continue };
+                    let (Some(ni), Some(nj)) = (ni, nj) else {
+                        continue;
+                    };
                     let o = old[nj * nx + ni];
                     let (oi, oj) = g.centre(ni, nj);
                     let fr = o.frame();
@@ -637,7 +646,9 @@ mod tests {
     use super::*;
 
     fn noise(w: usize, h: usize, seed: u64) -> Grid<f32> {
-        Grid::from_fn(w, h, |x, y| (mix(seed ^ mix((y * w + x) as u64)) >> 40) as f32 / 1e5)
+        Grid::from_fn(w, h, |x, y| {
+            (mix(seed ^ mix((y * w + x) as u64)) >> 40) as f32 / 1e5
+        })
     }
 
     fn space(rotation: bool, reflection: bool, subpixel: bool) -> Space {
@@ -656,7 +667,9 @@ mod tests {
         let sg = noise(64, 64, 3);
         let src = SourceLevel::new(&sg, 3.0).unwrap();
         let geom = Geom::new(30, 30, 7, 3);
-        let target: Vec<f32> = (0..30 * 30).map(|i| sg.get(i % 30 + 10, i / 30 + 7)).collect();
+        let target: Vec<f32> = (0..30 * 30)
+            .map(|i| sg.get(i % 30 + 10, i / 30 + 7))
+            .collect();
         let weights = falloff_weights(7, f32::INFINITY);
         let lev = Level {
             src: &src,
@@ -665,13 +678,21 @@ mod tests {
             key: 77,
             weights: &weights,
         };
-        let mut corr: Vec<Corr> = (0..geom.count()).map(|q| lev.random(mix(q as u64))).collect();
+        let mut corr: Vec<Corr> = (0..geom.count())
+            .map(|q| lev.random(mix(q as u64)))
+            .collect();
         lev.refresh(&target, &mut corr);
         let mut other = corr.clone();
         let exact = |corr: &[Corr]| corr.iter().filter(|c| c.cost == 0.0).count();
         let mut counts = Vec::new();
         for p in 0..40 {
-            lev.pass(&target, &corr, &mut other, [8, 4, 2, 1][p % 4], mix(p as u64 + 100));
+            lev.pass(
+                &target,
+                &corr,
+                &mut other,
+                [8, 4, 2, 1][p % 4],
+                mix(p as u64 + 100),
+            );
             std::mem::swap(&mut corr, &mut other);
             counts.push(exact(&corr));
         }
@@ -680,7 +701,11 @@ mod tests {
             for i in 0..geom.nx() {
                 let c = corr[j * geom.nx() + i];
                 let (x, y) = geom.centre(i, j);
-                assert_eq!((c.x, c.y, c.cost), (x + 10.0, y + 7.0, 0.0), "patch {i},{j}");
+                assert_eq!(
+                    (c.x, c.y, c.cost),
+                    (x + 10.0, y + 7.0, 0.0),
+                    "patch {i},{j}"
+                );
             }
         }
         // The E-step of exact matches reproduces the target.
@@ -733,8 +758,15 @@ mod tests {
             for j in 0..g.cy.len() {
                 for i in 0..g.nx() {
                     let c = up[j * g.nx() + i];
-                    let (x, y) = at(g.centre(i, j), (2.0 * a.0, 2.0 * a.1), (2.0 * b.0, 2.0 * b.1));
-                    assert!((c.x - x).abs() < 1e-3 && (c.y - y).abs() < 1e-3, "{theta} {i},{j}");
+                    let (x, y) = at(
+                        g.centre(i, j),
+                        (2.0 * a.0, 2.0 * a.1),
+                        (2.0 * b.0, 2.0 * b.1),
+                    );
+                    assert!(
+                        (c.x - x).abs() < 1e-3 && (c.y - y).abs() < 1e-3,
+                        "{theta} {i},{j}"
+                    );
                     assert_eq!((c.theta, c.refl), (theta, refl));
                 }
             }

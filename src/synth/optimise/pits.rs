@@ -28,7 +28,11 @@ pub enum PitRemoval {
 
 /// Remove the depressions of `g` (no NaN expected; the border drains, and
 /// so do `sinks` cells when given).
-pub fn remove_pits(g: &Grid<f32>, how: PitRemoval, sinks: Option<&Grid<bool>>) -> Result<Grid<f32>> {
+pub fn remove_pits(
+    g: &Grid<f32>,
+    how: PitRemoval,
+    sinks: Option<&Grid<bool>>,
+) -> Result<Grid<f32>> {
     let breach = |method| {
         let o = BreachOptions {
             method,
@@ -77,10 +81,13 @@ pub struct DepressionStats {
     pub cells: usize,
     /// Σ (filled − z) · cell area (DEM units × area units).
     pub volume: f64,
+    /// Depressions whose deepest cell is at least `min_depth` deep.
+    pub deep: usize,
 }
 
-/// Count and measure the depressions of `g` (border = outlet, NaN = nodata).
-pub fn depression_stats(g: &Grid<f32>, cell_area: f64) -> Result<DepressionStats> {
+/// Count and measure the depressions of `g` (border = outlet, NaN = nodata);
+/// `deep` counts those at least `min_depth` deep.
+pub fn depression_stats(g: &Grid<f32>, cell_area: f64, min_depth: f32) -> Result<DepressionStats> {
     let f = fill(g)?;
     let (w, h) = (g.width(), g.height());
     let z = g.data();
@@ -88,7 +95,7 @@ pub fn depression_stats(g: &Grid<f32>, cell_area: f64) -> Result<DepressionStats
     let raised: Vec<bool> = z.iter().zip(fz).map(|(a, b)| b > a).collect();
     let mut seen = vec![false; w * h];
     let mut stack = Vec::new();
-    let (mut count, mut cells, mut vol) = (0usize, 0usize, 0f64);
+    let (mut count, mut cells, mut vol, mut deep) = (0usize, 0usize, 0f64, 0usize);
     for start in 0..w * h {
         if !raised[start] || seen[start] {
             continue;
@@ -96,9 +103,11 @@ pub fn depression_stats(g: &Grid<f32>, cell_area: f64) -> Result<DepressionStats
         count += 1;
         seen[start] = true;
         stack.push(start);
+        let mut depth = 0f32;
         while let Some(c) = stack.pop() {
             cells += 1;
             vol += (fz[c] - z[c]) as f64;
+            depth = depth.max(fz[c] - z[c]);
             let (x, y) = ((c % w) as i64, (c / w) as i64);
             for dy in -1..=1i64 {
                 for dx in -1..=1i64 {
@@ -114,10 +123,14 @@ pub fn depression_stats(g: &Grid<f32>, cell_area: f64) -> Result<DepressionStats
                 }
             }
         }
+        if depth >= min_depth {
+            deep += 1;
+        }
     }
     Ok(DepressionStats {
         count,
         cells,
         volume: vol * cell_area,
+        deep,
     })
 }
