@@ -20,11 +20,17 @@ pub enum SynthCmd {
         after_help = "Examples:\n  orogen synth noise --size 4096x4096 --seed 7 -o noise.tif\n  orogen synth noise --size 100000x100000 --cell 30 -o big.tiles --zstd"
     )]
     Noise(super::synth_noise::NoiseArgs),
+    /// Example-based synthesis: patches of a real DEM arranged to follow a guide, with pit removal.
+    #[command(
+        after_help = "Examples:\n  orogen synth optimise --source alps.tif --guide sketch.tif --size 1000x1000 -o out.tif\n  orogen synth optimise --source src.tif --guide coarse.tif --pit fill --previews levels/ --stats -o out.tif"
+    )]
+    Optimise(super::synth_optimise::OptimiseArgs),
 }
 
 /// Dispatch to the chosen method.
 pub fn run(args: SynthArgs) -> Result<()> {
     match args.method {
         SynthCmd::Noise(a) => super::synth_noise::run(a),
+        SynthCmd::Optimise(a) => super::synth_optimise::run(a),
     }
 }
