@@ -58,8 +58,15 @@ impl Level {
     }
 }
 
-/// Hashed N(0, 1) displacement of the point created at `level` at global
-/// cell coordinates (gx, gy).
+/// The counter-based random numbers of diamond-square: the N(0, 1)
+/// displacement (before scaling by gain^level) of the point created at
+/// `level` (0 = the coarse lattice) at global cell coordinates (gx, gy), for
+/// the noise seed `seed`. Public so that tests can rebuild the field with
+/// an independent implementation.
+pub fn displacement(seed: u64, level: u32, gx: i64, gy: i64) -> f64 {
+    rnd(mix(seed ^ 0x4453_0000), level, gx, gy)
+}
+
 #[inline]
 fn rnd(seed: u64, level: u32, gx: i64, gy: i64) -> f64 {
     let h =
@@ -68,8 +75,9 @@ fn rnd(seed: u64, level: u32, gx: i64, gy: i64) -> f64 {
     gauss_from_hash(h)
 }
 
-/// The number of levels: S = 2^levels >= wavelength.
-pub(crate) fn levels(wavelength: f64) -> u32 {
+/// The number of levels L: the coarse lattice spacing S = 2^L is the
+/// smallest power of two >= `wavelength` (at least 2).
+pub fn levels(wavelength: f64) -> u32 {
     let mut l = 1;
     while ((1u64 << l) as f64) < wavelength {
         l += 1;

@@ -47,6 +47,15 @@ const M: usize = 64;
 /// Patch grid step (half overlap).
 const HALF: i64 = (M / 2) as i64;
 
+/// Work buffers of one patch: FFT buffer, transposed buffer, FFT scratch,
+/// real output.
+struct PatchBufs {
+    buf: Vec<Complex<f64>>,
+    tmp: Vec<Complex<f64>>,
+    scratch: Vec<Complex<f64>>,
+    out: Vec<f64>,
+}
+
 struct Band {
     /// Sample spacing in cells (a power of two).
     spacing: i64,
@@ -132,16 +141,13 @@ impl Spectral {
 
     /// One patch of band `b` at patch coordinates (px, py): M x M real
     /// samples, `out[x * M + y]`.
-    fn patch(
-        &self,
-        b: usize,
-        px: i64,
-        py: i64,
-        buf: &mut [Complex<f64>],
-        tmp: &mut [Complex<f64>],
-        scratch: &mut [Complex<f64>],
-        out: &mut [f64],
-    ) {
+    fn patch(&self, b: usize, px: i64, py: i64, bufs: &mut PatchBufs) {
+        let PatchBufs {
+            buf,
+            tmp,
+            scratch,
+            out,
+        } = bufs;
         let ps = mix(mix(mix(self.seed ^ b as u64) ^ px as u64)
             ^ (py as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
         buf.fill(Complex::new(0.0, 0.0));
@@ -167,14 +173,18 @@ impl Spectral {
     /// Band `b`'s blended samples on sample indices [sx0, sx0+nx) x [sy0, sy0+ny).
     fn band_samples(&self, b: usize, sx0: i64, sy0: i64, nx: usize, ny: usize) -> Vec<f64> {
         let mut acc = vec![0.0; nx * ny];
-        let mut buf = vec![Complex::new(0.0, 0.0); M * M];
-        let mut tmp = buf.clone();
-        let mut scratch = vec![Complex::new(0.0, 0.0); self.fft.get_inplace_scratch_len()];
-        let mut vals = vec![0.0; M * M];
+        let zero = Complex::new(0.0, 0.0);
+        let mut bufs = PatchBufs {
+            buf: vec![zero; M * M],
+            tmp: vec![zero; M * M],
+            scratch: vec![zero; self.fft.get_inplace_scratch_len()],
+            out: vec![0.0; M * M],
+        };
         let (sx1, sy1) = (sx0 + nx as i64 - 1, sy0 + ny as i64 - 1);
         for py in sy0.div_euclid(HALF) - 1..=sy1.div_euclid(HALF) {
             for px in sx0.div_euclid(HALF) - 1..=sx1.div_euclid(HALF) {
-                self.patch(b, px, py, &mut buf, &mut tmp, &mut scratch, &mut vals);
+                self.patch(b, px, py, &mut bufs);
+                let vals = &bufs.out;
                 let (ox, oy) = (px * HALF, py * HALF);
                 let (xa, xb) = (sx0.max(ox), sx1.min(ox + M as i64 - 1));
                 let (ya, yb) = (sy0.max(oy), sy1.min(oy + M as i64 - 1));
