@@ -320,7 +320,7 @@ pub fn describe_text(d: &Description) -> String {
     s
 }
 
-/// `orogen demo`: generate a seeded fBm terrain, ingest it into a tile store,
+/// `orogen demo`: generate a seeded noise terrain (warped ridged fBm), ingest it into a tile store,
 /// export it, derive slope, aspect and hillshade, fill depressions, route D8
 /// flow and accumulate it (global passes across tiles), render a preview.
 /// Returns the files written with a description of each.
@@ -336,12 +336,18 @@ pub fn demo(
         ));
     }
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    let fbm = crate::synth::Fbm {
+    // A domain-warped ridged multifractal blended with fBm: sharp, sinuous
+    // crests over rolling ground (see `synth::noise`).
+    let wavelength = (size as f64 / 2.0).max(64.0);
+    let noise = crate::synth::Noise {
+        kind: crate::synth::NoiseKind::Warped,
         seed,
-        wavelength: (size as f64 / 2.0).max(64.0),
+        wavelength,
+        octaves: (wavelength.log2().floor() as u32 + 1).min(10),
+        warp: 0.15 * wavelength,
         ..Default::default()
     };
-    let src = crate::synth::FbmSource::new(fbm, size, size, 30.0)?;
+    let src = crate::synth::NoiseSource::new(noise, size, size, 30.0)?;
     let mut oo = OutputOptions::default();
     oo.store.tile = 256.min(size);
     oo.store.overwrite = true;

@@ -15,9 +15,10 @@ pub struct SynthArgs {
 /// The synthesis methods.
 #[derive(Subcommand)]
 pub enum SynthCmd {
-    /// Seeded, tileable procedural noise terrain (fBm with domain warping).
+    /// Seeded, tileable noise terrain: fbm, ridged, billow, simplex, warped,
+    /// diamond-square or spectral (--kind).
     #[command(
-        after_help = "Examples:\n  orogen synth noise --size 4096x4096 --seed 7 -o noise.tif\n  orogen synth noise --size 100000x100000 --cell 30 -o big.tiles --zstd"
+        after_help = "Examples:\n  orogen synth noise --size 4096x4096 --seed 7 -o noise.tif\n  orogen synth noise --kind warped --size 4096 --warp 120 -o warped.tif\n  orogen synth noise --kind spectral --beta 3.2 --wavelength 8192 --size 8192 -o s.tif\n  orogen synth noise --size 100000x100000 --cell 30 -o big.tiles --zstd"
     )]
     Noise(super::synth_noise::NoiseArgs),
     /// Example-based synthesis: patches of a real DEM arranged to follow a guide, with pit removal.
