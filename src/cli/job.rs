@@ -33,25 +33,57 @@ pub struct RunArgs {
     pub quiet: bool,
 }
 
-/// The CLI's commands, as a job sees them.
+/// The CLI's commands, as a job sees them. A command is a path of
+/// subcommand names separated by spaces (`synth noise`).
 struct ClapTable(clap::Command);
+
+impl ClapTable {
+    fn find(&self, path: &str) -> Option<&clap::Command> {
+        let mut c = &self.0;
+        for w in path.split_whitespace() {
+            c = c.find_subcommand(w)?;
+        }
+        (!std::ptr::eq(c, &self.0)).then_some(c)
+    }
+}
 
 impl CommandTable for ClapTable {
     fn has(&self, name: &str) -> bool {
-        self.0.find_subcommand(name).is_some()
+        self.find(name).is_some()
     }
     fn names(&self) -> Vec<String> {
-        self.0
-            .get_subcommands()
-            .map(|c| c.get_name().to_string())
-            .filter(|n| n != "run" && n != "help")
-            .collect()
+        let mut out = vec![];
+        for c in self.0.get_subcommands() {
+            let n = c.get_name();
+            if n == "run" || n == "help" {
+                continue;
+            }
+            let methods: Vec<&str> = c
+                .get_subcommands()
+                .map(|m| m.get_name())
+                .filter(|m| *m != "help")
+                .collect();
+            if methods.is_empty() {
+                out.push(n.to_string());
+            } else {
+                out.extend(methods.iter().map(|m| format!("{n} {m}")));
+            }
+        }
+        out
     }
     fn accepts(&self, command: &str, opt: &str) -> bool {
-        self.0.find_subcommand(command).is_some_and(|c| {
+        self.find(command).is_some_and(|c| {
             c.get_arguments().any(|a| {
                 a.get_long() == Some(opt) || a.get_short().is_some_and(|s| opt == s.to_string())
             })
+        })
+    }
+    fn methods(&self, command: &str) -> Vec<String> {
+        self.find(command).map_or(vec![], |c| {
+            c.get_subcommands()
+                .map(|m| m.get_name().to_string())
+                .filter(|m| m != "help")
+                .collect()
         })
     }
 }
@@ -132,7 +164,8 @@ pub fn run(a: RunArgs) -> Result<()> {
             seconds: 0.0,
             peak_rss_bytes: 0,
             output: s.output.clone(),
-            elevation: ELEVATION_COMMANDS.contains(&s.command.as_str()),
+            elevation: ELEVATION_COMMANDS
+                .contains(&s.command.split_whitespace().next().unwrap_or("")),
         })
         .collect();
     let mut failure = None;
