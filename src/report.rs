@@ -38,6 +38,9 @@ pub struct StepOutcome {
     pub seconds: f64,
     pub peak_rss_bytes: u64,
     pub output: Option<PathBuf>,
+    /// Other files the step wrote (paths given to options such as
+    /// `--metrics`, `--profile`, `--stats`), shown after `output`.
+    pub extra_outputs: Vec<PathBuf>,
     /// Render rasters as elevation (hillshade + hypsometric colours) rather
     /// than a plain colour ramp.
     pub elevation: bool,
@@ -513,9 +516,16 @@ pub fn write_report(title: &str, steps: &[StepOutcome], path: &Path) -> Result<(
     }
     body.push_str("</table><h2>Outputs</h2>");
     for s in steps {
-        let Some(out) = &s.output else { continue };
+        if s.output.is_none() && s.extra_outputs.is_empty() {
+            continue;
+        }
         let _ = write!(body, "<h2 class='step'>{}</h2>", esc(&s.name));
-        for f in output_files(out) {
+        let files = s
+            .output
+            .iter()
+            .flat_map(|o| output_files(o))
+            .chain(s.extra_outputs.iter().cloned());
+        for f in files {
             let ext = f
                 .extension()
                 .and_then(|e| e.to_str())

@@ -98,3 +98,72 @@ fn group_mistakes_are_clear_errors() {
         assert!(err.contains("step \"s\""), "{err}");
     }
 }
+
+#[test]
+fn report_has_orometry_and_basin_metric_sections() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = dir.path().join("out");
+    let job = write_job(
+        dir.path(),
+        &format!(
+            r#"
+[inputs]
+dem = "{dem}"
+
+[[step]]
+name = "filled"
+run = "fill"
+input = "dem"
+output = "filled.tif"
+
+[[step]]
+name = "d8"
+run = "flow"
+input = "filled"
+output = "d8.tif"
+
+[[step]]
+name = "basins"
+run = "basins"
+input = "d8"
+output = "basins.tif"
+args = {{ metrics = "{o}/basins.csv", dem = "@filled", min_cells = 50 }}
+
+[[step]]
+name = "oro"
+run = "orostats"
+input = "dem"
+output = "disks.csv"
+args = {{ radius = "1500m", min_prominence = 20 }}
+"#,
+            dem = Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("tests/data/bigtujunga_crop.tif")
+                .display(),
+            o = o.display()
+        ),
+    );
+    let (ok, _, err) = run(&["run", &job.display().to_string(), "--quiet"]);
+    assert!(ok, "{err}");
+    let html = std::fs::read_to_string(o.join("report.html")).unwrap();
+    // Orometric statistics: one chart per Table 1 feature and the scalars.
+    let oro = &html[html.find("— orometric statistics").expect("oro section")..];
+    for f in ["prominence_m", "isolation_km", "saddle_dir", "relevance", "density_per_100km2", "nni"] {
+        assert!(oro.contains(f), "{f}");
+    }
+    // Basin metrics: summary table with the mean of a column recomputed here.
+    let csv = std::fs::read_to_string(o.join("basins.csv")).unwrap();
+    let mut lines = csv.lines();
+    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let j = head.iter().position(|c| *c == "relief").unwrap();
+    let v: Vec<f64> = lines.map(|l| l.split(',').nth(j).unwrap().parse().unwrap()).collect();
+    assert!(!v.is_empty());
+    let mean = v.iter().sum::<f64>() / v.len() as f64;
+    let bas = &html[html.find("— basin metrics").expect("basin section")..];
+    let row = format!("<tr><td>relief</td><td>{}</td>", v.len());
+    let at = bas.find(&row).expect("relief row");
+    let cells: Vec<&str> = bas[at..].split("</td><td>").take(5).collect();
+    let shown: f64 = cells[4].parse().unwrap();
+    assert!((shown - mean).abs() <= 0.006, "{shown} vs {mean}");
+    assert!(bas.contains("mean hypsometric curve"));
+    assert!(bas.matches("data:image/png;base64,").count() >= 4);
+}

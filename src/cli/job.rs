@@ -93,6 +93,31 @@ const ELEVATION_COMMANDS: [&str; 8] = [
     "fill", "breach", "export", "ingest", "demo", "synth", "erode", "convert",
 ];
 
+/// Files named by a step's option values (not its inputs or `-o` output)
+/// that exist and were modified since `since`: what options such as
+/// `--metrics x.csv` or `--profile p.json` made the step write.
+fn written_by_options(s: &job::Planned, since: std::time::SystemTime) -> Vec<PathBuf> {
+    let mut out: Vec<PathBuf> = vec![];
+    for (k, v) in s.argv.iter().enumerate().skip(1) {
+        if !s.argv[k - 1].starts_with("--") || v.starts_with('-') {
+            continue;
+        }
+        let p = PathBuf::from(v);
+        if s.inputs.contains(&p) || s.output.as_ref() == Some(&p) || out.contains(&p) {
+            continue;
+        }
+        let fresh = std::fs::metadata(&p)
+            .ok()
+            .filter(|m| m.is_file())
+            .and_then(|m| m.modified().ok())
+            .is_some_and(|t| t >= since);
+        if fresh {
+            out.push(p);
+        }
+    }
+    out
+}
+
 fn log_line(log: &mut Option<std::fs::File>, v: serde_json::Value) {
     if let Some(f) = log {
         let _ = writeln!(f, "{v}");
@@ -164,6 +189,7 @@ pub fn run(a: RunArgs) -> Result<()> {
             seconds: 0.0,
             peak_rss_bytes: 0,
             output: s.output.clone(),
+            extra_outputs: vec![],
             elevation: ELEVATION_COMMANDS
                 .contains(&s.command.split_whitespace().next().unwrap_or("")),
         })
@@ -191,6 +217,8 @@ pub fn run(a: RunArgs) -> Result<()> {
         let fingerprint = job.fingerprint(i);
         job::reset_peak_rss();
         let t0 = Instant::now();
+        // File times come from a coarse kernel clock: allow a margin.
+        let started = std::time::SystemTime::now() - std::time::Duration::from_secs(2);
         let cli = crate::Cli::try_parse_from(argv_of(s))?;
         let result = crate::run(cli);
         let seconds = t0.elapsed().as_secs_f64();
@@ -200,6 +228,7 @@ pub fn run(a: RunArgs) -> Result<()> {
         match result {
             Ok(()) => {
                 outcomes[i].status = Status::Ran;
+                outcomes[i].extra_outputs = written_by_options(s, started);
                 state.done.insert(
                     s.name.clone(),
                     StepRecord {
