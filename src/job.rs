@@ -18,6 +18,10 @@
 //! args = { compress = "zstd", cog = true }   # the command's long options
 //! ```
 //!
+//! Commands of a group (`orogen synth noise`) are named with their method,
+//! separated by a space: `run = "synth noise"`; `run = "synth"` alone is an
+//! error listing the methods.
+//!
 //! Option values: strings and numbers are passed as `--key value`, `true`
 //! as a flag `--key` (`false` leaves it out), arrays joined with commas
 //! (`metric = ["slope", "tpi:radius=500m"]`); a string `"@name"` is the path
@@ -67,7 +71,8 @@ pub struct JobFile {
 pub struct StepSpec {
     /// Name other steps use to refer to this step's output.
     pub name: String,
-    /// The orogen command (`fill`, `slope`, `metric`, …).
+    /// The orogen command (`fill`, `slope`, `metric`, …); a command of a
+    /// group with its method after a space (`synth noise`).
     pub run: String,
     /// Positional input(s): names of inputs or earlier steps.
     #[serde(default)]
@@ -107,6 +112,11 @@ pub trait CommandTable {
     fn names(&self) -> Vec<String>;
     /// True if `command` accepts the long option `--opt`.
     fn accepts(&self, command: &str, opt: &str) -> bool;
+    /// The methods of a command group (`synth` → `noise`, …); empty for a
+    /// command that runs as it is. `command` may be a path (`synth noise`).
+    fn methods(&self, _command: &str) -> Vec<String> {
+        vec![]
+    }
 }
 
 /// A checked step, ready to run.
@@ -207,12 +217,43 @@ pub fn plan(
     let mut planned = Vec::with_capacity(file.steps.len());
     for s in &file.steps {
         let at = |m: String| bad(path, format!("step {:?}: {m}", s.name));
-        if s.run == "run" || !table.has(&s.run) {
+        let words: Vec<&str> = s.run.split_whitespace().collect();
+        let command = words.join(" ");
+        let top = words.first().copied().unwrap_or("");
+        if top == "run" || !table.has(top) {
             return Err(at(format!(
                 "unknown command {:?}; a step may run: {}",
                 s.run,
                 table.names().join(", ")
             )));
+        }
+        // Walk down a command group: every word but the last must be a group
+        // that has the next word as a method, and the last must not be a group.
+        for k in 1..=words.len() {
+            let path = words[..k].join(" ");
+            let methods = table.methods(&path);
+            match (words.get(k), methods.is_empty()) {
+                (None, true) => {}
+                (None, false) => {
+                    return Err(at(format!(
+                        "`{path}` is a group of commands: name the method, e.g. run = \"{path} {}\" (methods: {})",
+                        methods[0],
+                        methods.join(", ")
+                    )))
+                }
+                (Some(w), _) if methods.iter().any(|m| m == w) => {}
+                (Some(w), true) => {
+                    return Err(at(format!(
+                        "`{path}` takes no method, but the step names {w:?} after it; write run = \"{path}\""
+                    )))
+                }
+                (Some(w), false) => {
+                    return Err(at(format!(
+                        "unknown method {w:?} of `{path}`; methods: {}",
+                        methods.join(", ")
+                    )))
+                }
+            }
         }
         let mut deps = vec![];
         let mut inputs = vec![];
@@ -223,7 +264,7 @@ pub fn plan(
             }
             inputs.push(p.clone());
         }
-        let mut argv = vec![s.run.clone()];
+        let mut argv: Vec<String> = words.iter().map(|w| w.to_string()).collect();
         argv.extend(inputs.iter().map(|p| p.display().to_string()));
         let output = s.output.as_ref().map(|o| output_dir.join(o));
         if let Some(o) = &output {
@@ -232,10 +273,9 @@ pub fn plan(
         }
         for (k, v) in &s.args {
             let key = k.replace('_', "-");
-            if !table.accepts(&s.run, &key) {
+            if !table.accepts(&command, &key) {
                 return Err(at(format!(
-                    "`{}` has no option --{key}; see `orogen {} --help`",
-                    s.run, s.run
+                    "`{command}` has no option --{key}; see `orogen {command} --help`"
                 )));
             }
             let mut value = |v: &toml::Value| -> Result<Option<String>> {
@@ -290,7 +330,7 @@ pub fn plan(
             ("tile", file.tile.map(|t| t.to_string())),
         ] {
             if let Some(v) = val {
-                if table.accepts(&s.run, opt) && !s.args.contains_key(opt) {
+                if table.accepts(&command, opt) && !s.args.contains_key(opt) {
                     argv.push(format!("--{opt}"));
                     argv.push(v);
                 }
@@ -300,7 +340,7 @@ pub fn plan(
         deps.dedup();
         planned.push(Planned {
             name: s.name.clone(),
-            command: s.run.clone(),
+            command,
             argv,
             inputs,
             output,

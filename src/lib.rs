@@ -9,6 +9,7 @@ compile_error!(
     "orogen stores tiles as little-endian raw arrays and builds only on little-endian targets"
 );
 
+pub mod compare;
 pub mod erosion;
 pub mod error;
 pub mod exec;

@@ -411,6 +411,13 @@ enum Cmd {
     Erode(cli::erode::ErodeArgs),
     /// Terrain synthesis: `orogen synth noise|...` (see `orogen synth --help`).
     Synth(cli::synth::SynthArgs),
+    /// Realism report: compare two terrains (orometric histogram EMDs, pits,
+    /// hypsometry, slope/curvature/geomorphon distributions, drainage density,
+    /// Horton ratios) into compare.json, compare.html and PNG charts.
+    #[command(
+        after_help = "Examples:\n  orogen compare synth.tif ../shared/data/srtm3_S33W071.tif -o cmp/\n  orogen compare a.tif b.tif -o cmp/ --min-prominence 50 --radius 5km --channel-area 0.5\nBoth terrains are read into memory (limit: --memory). Densities are per km²,\ndistributions are fractions on common bins; every distance is 0 for identical terrains."
+    )]
+    Compare(cli::compare::CompareArgs),
     /// Generate a seeded terrain and run the pipeline on it into ./orogen-demo/.
     #[command(
         after_help = "Example:\n  orogen demo\n  orogen demo --size 4096 --seed 7 -o /tmp/demo"
@@ -921,6 +928,7 @@ fn run(cli: Cli) -> Result<()> {
         Cmd::Viewshed(args) => cli::viewshed::run(args)?,
         Cmd::Erode(a) => cli::erode::run(a)?,
         Cmd::Synth(args) => cli::synth::run(args)?,
+        Cmd::Compare(args) => cli::compare::run(args)?,
         Cmd::Demo {
             output,
             size,

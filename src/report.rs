@@ -38,12 +38,16 @@ pub struct StepOutcome {
     pub seconds: f64,
     pub peak_rss_bytes: u64,
     pub output: Option<PathBuf>,
+    /// Other files the step wrote (paths given to options such as
+    /// `--metrics`, `--profile`, `--stats`), shown after `output`.
+    pub extra_outputs: Vec<PathBuf>,
     /// Render rasters as elevation (hillshade + hypsometric colours) rather
     /// than a plain colour ramp.
     pub elevation: bool,
 }
 
-fn esc(s: &str) -> String {
+/// Escape text for HTML.
+pub fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
@@ -122,7 +126,8 @@ fn histogram_svg(values: &[f32], lo: f64, hi: f64) -> String {
     s
 }
 
-fn fmt_num(v: f64) -> String {
+/// A number for a table cell: 2 decimals, scientific when very large or small.
+pub fn fmt_num(v: f64) -> String {
     if !v.is_finite() {
         "–".into()
     } else if v.abs() >= 1e5 || (v != 0.0 && v.abs() < 1e-2) {
@@ -200,6 +205,257 @@ fn csv_section(p: &Path) -> Result<String> {
     Ok(s)
 }
 
+/// Largest CSV read whole for a dedicated section.
+const MAX_CSV_BYTES: u64 = 256 << 20;
+
+/// Header and rows of a comma-separated file (no quoting: orogen's CSVs have none).
+fn read_csv(p: &Path) -> Result<(Vec<String>, Vec<Vec<String>>)> {
+    let len = std::fs::metadata(p).map_err(|e| Error::io(p, e))?.len();
+    if len > MAX_CSV_BYTES {
+        return Err(Error::too_large(p, "CSV over 256 MiB; not summarised"));
+    }
+    let text = std::fs::read_to_string(p).map_err(|e| Error::io(p, e))?;
+    let mut lines = text.lines();
+    let header: Vec<String> = lines
+        .next()
+        .unwrap_or("")
+        .split(',')
+        .map(|c| c.trim().to_string())
+        .collect();
+    let rows = lines
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| l.split(',').map(|c| c.trim().to_string()).collect())
+        .collect();
+    Ok((header, rows))
+}
+
+/// Column `j` of `rows` as numbers (unparsable and non-finite cells skipped).
+fn column(rows: &[Vec<String>], j: usize) -> Vec<f64> {
+    rows.iter()
+        .filter_map(|r| r.get(j).and_then(|c| c.parse::<f64>().ok()))
+        .filter(|v| v.is_finite())
+        .collect()
+}
+
+/// The dedicated section of a CSV written by `orogen orostats` (disk
+/// feature vectors) or `orogen basins --metrics` (one row per basin),
+/// recognised by their columns; None for other CSVs.
+fn special_csv_section(p: &Path) -> Result<Option<String>> {
+    let (header, rows) = read_csv(p)?;
+    let h: Vec<&str> = header.iter().map(|s| s.as_str()).collect();
+    if h.len() > 5 && h[..5] == ["label", "source", "col", "row", "n_peaks"] {
+        return Ok(Some(orostats_section(p, &header, &rows)?));
+    }
+    if h.len() > 6 && h[..3] == ["label", "outlet_col", "outlet_row"] {
+        return Ok(Some(basins_section(p, &header, &rows)?));
+    }
+    Ok(None)
+}
+
+/// Mean of `v` (NaN when empty).
+fn mean(v: &[f64]) -> f64 {
+    if v.is_empty() {
+        f64::NAN
+    } else {
+        v.iter().sum::<f64>() / v.len() as f64
+    }
+}
+
+/// Orometric statistics (Argudo et al. 2019, Table 1): per feature, the
+/// mean histogram of the disks where the feature has values, as a bar
+/// chart over its bins; a table of the per-disk scalars.
+fn orostats_section(p: &Path, header: &[String], rows: &[Vec<String>]) -> Result<String> {
+    let mut s = format!(
+        "<div class='out'><h3>{} — orometric statistics</h3><p>{} disks (Table 1 features of Argudo et al. 2019; mean histogram of the disks with values)</p>",
+        esc(&p.display().to_string()),
+        rows.len()
+    );
+    // Feature columns: `name:lo-hi`, grouped by name in file order.
+    let mut groups: Vec<(String, Vec<(usize, String)>)> = vec![];
+    for (j, c) in header.iter().enumerate().skip(5) {
+        if let Some((name, bin)) = c.split_once(':') {
+            match groups.last_mut() {
+                Some((n, v)) if n == name => v.push((j, bin.to_string())),
+                _ => groups.push((name.to_string(), vec![(j, bin.to_string())])),
+            }
+        }
+    }
+    let _ = write!(
+        s,
+        "<table><tr><th>figure</th><th>mean over disks</th></tr><tr><td>peaks per disk</td><td>{}</td></tr>",
+        fmt_num(mean(&column(rows, 4)))
+    );
+    for name in ["density_per_100km2", "nni"] {
+        if let Some(j) = header.iter().position(|c| c == name) {
+            let _ = write!(
+                s,
+                "<tr><td>{name}</td><td>{}</td></tr>",
+                fmt_num(mean(&column(rows, j)))
+            );
+        }
+    }
+    s.push_str("</table></div>");
+    for (name, cols) in &groups {
+        let nb = cols.len();
+        let mut sum = vec![0.0; nb];
+        let mut n = 0usize;
+        for r in rows {
+            let v: Vec<f64> = cols
+                .iter()
+                .map(|(j, _)| r.get(*j).and_then(|c| c.parse().ok()).unwrap_or(0.0))
+                .collect();
+            if v.iter().sum::<f64>() > 0.0 {
+                n += 1;
+                for (a, b) in sum.iter_mut().zip(&v) {
+                    *a += b;
+                }
+            }
+        }
+        let ys: Vec<f64> = sum.iter().map(|v| v / n.max(1) as f64).collect();
+        let ymax = ys.iter().copied().fold(0.0, f64::max).max(1e-9);
+        let series = vec![Series {
+            label: name.clone(),
+            colour: COLOUR_A,
+            style: Style::Bars,
+            xs: (0..=nb).map(|i| i as f64).collect(),
+            ys,
+        }];
+        let png = Chart {
+            width: 320,
+            height: 140,
+            x_range: (0.0, nb as f64),
+            y_range: (0.0, ymax),
+            series,
+        }
+        .to_png()?;
+        let bins: Vec<&str> = cols.iter().map(|(_, b)| b.as_str()).collect();
+        let _ = write!(
+            s,
+            "<div class='out'><h3>{}</h3>{}<p class='key'>{n} disks with values; bins {}</p></div>",
+            esc(name),
+            png_img(&png, name),
+            esc(&bins.join(", ").replace("inf", "∞"))
+        );
+    }
+    Ok(s)
+}
+
+/// Bar chart of the histogram of `v` in `bins` equal bins over its range.
+fn histogram_png(v: &[f64], bins: usize) -> Result<(Vec<u8>, f64, f64)> {
+    let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let (lo, hi) = if lo.is_finite() { (lo, hi) } else { (0.0, 1.0) };
+    let span = if hi > lo { hi - lo } else { 1.0 };
+    let mut c = vec![0.0; bins];
+    for &x in v {
+        c[(((x - lo) / span * bins as f64) as usize).min(bins - 1)] += 1.0;
+    }
+    let ymax = c.iter().copied().fold(1.0, f64::max);
+    let png = Chart {
+        width: 320,
+        height: 140,
+        x_range: (lo, lo + span),
+        y_range: (0.0, ymax),
+        series: vec![Series {
+            label: String::new(),
+            colour: COLOUR_A,
+            style: Style::Bars,
+            xs: (0..=bins).map(|i| lo + span * i as f64 / bins as f64).collect(),
+            ys: c,
+        }],
+    }
+    .to_png()?;
+    Ok((png, lo, hi))
+}
+
+/// Basin metrics (`orogen basins --metrics`): a summary table of every
+/// metric (count, min, median, mean, max), distributions of a few, and the
+/// mean hypsometric curve.
+fn basins_section(p: &Path, header: &[String], rows: &[Vec<String>]) -> Result<String> {
+    let mut s = format!(
+        "<div class='out'><h3>{} — basin metrics</h3><p>{} basins</p><table><tr><th>metric</th><th>n</th><th>min</th><th>median</th><th>mean</th><th>max</th></tr>",
+        esc(&p.display().to_string()),
+        rows.len()
+    );
+    let first = header.iter().position(|c| c == "cells").unwrap_or(5);
+    for (j, name) in header.iter().enumerate().skip(first) {
+        if name.starts_with("hyp_") {
+            continue;
+        }
+        let mut v = column(rows, j);
+        v.sort_by(f64::total_cmp);
+        let med = if v.is_empty() {
+            f64::NAN
+        } else {
+            v[v.len() / 2]
+        };
+        let _ = write!(
+            s,
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            esc(name),
+            v.len(),
+            fmt_num(v.first().copied().unwrap_or(f64::NAN)),
+            fmt_num(med),
+            fmt_num(mean(&v)),
+            fmt_num(v.last().copied().unwrap_or(f64::NAN))
+        );
+    }
+    s.push_str("</table></div>");
+    for name in ["area_m2", "relief", "hypsometric_integral", "circularity"] {
+        let Some(j) = header.iter().position(|c| c == name) else {
+            continue;
+        };
+        let mut v = column(rows, j);
+        let shown = if name == "area_m2" {
+            v.retain(|x| *x > 0.0);
+            v.iter_mut().for_each(|x| *x = x.log10());
+            "log10 area_m2"
+        } else {
+            name
+        };
+        if v.is_empty() {
+            continue;
+        }
+        let (png, lo, hi) = histogram_png(&v, 30)?;
+        let _ = write!(
+            s,
+            "<div class='out'><h3>{shown}</h3>{}<p class='key'>{} basins, {} to {}</p></div>",
+            png_img(&png, shown),
+            v.len(),
+            fmt_num(lo),
+            fmt_num(hi)
+        );
+    }
+    let hyp: Vec<(usize, f64)> = header
+        .iter()
+        .enumerate()
+        .filter_map(|(j, c)| c.strip_prefix("hyp_").and_then(|h| h.parse().ok()).map(|h| (j, h)))
+        .collect();
+    if hyp.len() >= 2 {
+        let ys: Vec<f64> = hyp.iter().map(|&(j, _)| mean(&column(rows, j))).collect();
+        let png = Chart {
+            width: 320,
+            height: 200,
+            x_range: (0.0, 1.0),
+            y_range: (0.0, 1.0),
+            series: vec![Series {
+                label: "mean".into(),
+                colour: COLOUR_A,
+                style: Style::Line,
+                xs: hyp.iter().map(|&(_, h)| h).collect(),
+                ys,
+            }],
+        }
+        .to_png()?;
+        let _ = write!(
+            s,
+            "<div class='out'><h3>mean hypsometric curve</h3>{}<p class='key'>x: column hyp_h of the CSV, y: its mean over the basins</p></div>",
+            png_img(&png, "mean hypsometric curve")
+        );
+    }
+    Ok(s)
+}
+
 fn geojson_section(p: &Path) -> Result<String> {
     let len = std::fs::metadata(p).map_err(|e| Error::io(p, e))?.len();
     let count = if len < 256 << 20 {
@@ -260,9 +516,16 @@ pub fn write_report(title: &str, steps: &[StepOutcome], path: &Path) -> Result<(
     }
     body.push_str("</table><h2>Outputs</h2>");
     for s in steps {
-        let Some(out) = &s.output else { continue };
+        if s.output.is_none() && s.extra_outputs.is_empty() {
+            continue;
+        }
         let _ = write!(body, "<h2 class='step'>{}</h2>", esc(&s.name));
-        for f in output_files(out) {
+        let files = s
+            .output
+            .iter()
+            .flat_map(|o| output_files(o))
+            .chain(s.extra_outputs.iter().cloned());
+        for f in files {
             let ext = f
                 .extension()
                 .and_then(|e| e.to_str())
@@ -271,7 +534,10 @@ pub fn write_report(title: &str, steps: &[StepOutcome], path: &Path) -> Result<(
             let part = if is_raster(&f) {
                 raster_section(&f, s.elevation, &tmpdir)
             } else if ext == "csv" {
-                csv_section(&f)
+                special_csv_section(&f).and_then(|o| match o {
+                    Some(html) => Ok(html),
+                    None => csv_section(&f),
+                })
             } else if ext == "geojson" || ext == "json" && f.to_string_lossy().ends_with(".geojson")
             {
                 geojson_section(&f)
@@ -295,17 +561,193 @@ pub fn write_report(title: &str, steps: &[StepOutcome], path: &Path) -> Result<(
         }
     }
     let _ = std::fs::remove_dir_all(&tmpdir);
-    let html = format!(
+    write_html(path, &html_page(title, &body))
+}
+
+/// A self-contained HTML page (inline CSS) around `body`.
+pub fn html_page(title: &str, body: &str) -> String {
+    format!(
         "<!doctype html><html><head><meta charset='utf-8'><title>{}</title><style>\
 body{{font-family:sans-serif;margin:2em;max-width:1200px}}table{{border-collapse:collapse;margin:.5em 0}}\
 td,th{{border:1px solid #ccc;padding:2px 6px;font-size:13px;text-align:left}}\
 .out{{display:inline-block;vertical-align:top;margin:0 1em 1em 0}}img{{display:block;max-width:512px}}\
-h3{{font-size:14px;word-break:break-all;max-width:512px}}</style></head><body>{body}</body></html>",
+h3{{font-size:14px;word-break:break-all;max-width:512px}}.key{{font-size:12px}}</style></head><body>{body}</body></html>",
         esc(title)
-    );
+    )
+}
+
+/// Write an HTML page atomically (temporary name, then rename).
+pub fn write_html(path: &Path, html: &str) -> Result<()> {
     let tmp = path.with_extension("html.tmp");
     std::fs::write(&tmp, html).map_err(|e| Error::io(&tmp, e))?;
     std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))
+}
+
+/// An `<img>` tag holding PNG `bytes` inline (base64 data URI).
+pub fn png_img(bytes: &[u8], alt: &str) -> String {
+    let b64 = base64::engine::general_purpose::STANDARD.encode(bytes);
+    format!("<img src='data:image/png;base64,{b64}' alt='{}'>", esc(alt))
+}
+
+/// How a [`Series`] is drawn.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Style {
+    /// Polyline through (xs[i], ys[i]).
+    Line,
+    /// Histogram: bar i spans xs[i]..xs[i+1] (xs has one more entry than
+    /// ys), drawn half-transparent so overlaid histograms stay readable.
+    Bars,
+}
+
+/// One data series of a [`Chart`].
+#[derive(Debug, Clone)]
+pub struct Series {
+    pub label: String,
+    pub colour: [u8; 3],
+    pub style: Style,
+    pub xs: Vec<f64>,
+    pub ys: Vec<f64>,
+}
+
+/// A small PNG chart: overlaid histograms and curves on common axes, with
+/// the axis ranges written at the ends of the axes. Titles and legends are
+/// left to the HTML around it (the bitmap font has digits only).
+#[derive(Debug, Clone)]
+pub struct Chart {
+    pub width: usize,
+    pub height: usize,
+    pub x_range: (f64, f64),
+    pub y_range: (f64, f64),
+    pub series: Vec<Series>,
+}
+
+/// Colours of the first and second terrain in comparisons (blue, orange).
+pub const COLOUR_A: [u8; 3] = [51, 102, 204];
+pub const COLOUR_B: [u8; 3] = [220, 110, 30];
+
+/// An axis label without exponent notation (the glyphs are digits, '-', '.').
+fn axis_label(v: f64) -> String {
+    let a = v.abs();
+    let s = if !v.is_finite() {
+        String::new()
+    } else if a >= 100.0 || v.fract() == 0.0 {
+        format!("{v:.0}")
+    } else if a >= 1.0 {
+        format!("{v:.2}")
+    } else if a >= 1e-3 {
+        format!("{v:.4}")
+    } else {
+        format!("{v:.7}")
+    };
+    if s == "-0" {
+        "0".into()
+    } else {
+        s
+    }
+}
+
+impl Chart {
+    /// Margins of the plot area: left, right, top, bottom (pixels).
+    const MARGIN: (usize, usize, usize, usize) = (8, 8, 18, 18);
+
+    /// Render to PNG bytes (8-bit RGBA). Non-finite values are skipped.
+    pub fn to_png(&self) -> Result<Vec<u8>> {
+        let (w, h) = (self.width.max(64), self.height.max(48));
+        let mut px = vec![255u8; w * h * 4];
+        let (ml, mr, mt, mb) = Self::MARGIN;
+        let (pw, ph) = ((w - ml - mr) as f64, (h - mt - mb) as f64);
+        let (x0, x1) = self.x_range;
+        let (y0, y1) = self.y_range;
+        let sx = if x1 > x0 { pw / (x1 - x0) } else { 0.0 };
+        let sy = if y1 > y0 { ph / (y1 - y0) } else { 0.0 };
+        let to_px = |x: f64, y: f64| -> (f64, f64) {
+            (
+                ml as f64 + (x.clamp(x0, x1) - x0) * sx,
+                (h - mb) as f64 - (y.clamp(y0, y1) - y0) * sy,
+            )
+        };
+        let blend = |px: &mut [u8], x: i64, y: i64, c: [u8; 3], a: f64| {
+            if x >= 0 && y >= 0 && (x as usize) < w && (y as usize) < h {
+                let i = (y as usize * w + x as usize) * 4;
+                for k in 0..3 {
+                    px[i + k] = (px[i + k] as f64 * (1.0 - a) + c[k] as f64 * a).round() as u8;
+                }
+            }
+        };
+        for s in &self.series {
+            match s.style {
+                Style::Bars => {
+                    for (i, &v) in s.ys.iter().enumerate() {
+                        let (Some(&xa), Some(&xb)) = (s.xs.get(i), s.xs.get(i + 1)) else {
+                            break;
+                        };
+                        if !(v.is_finite() && xa.is_finite() && xb.is_finite()) {
+                            continue;
+                        }
+                        let (pa, top) = to_px(xa, v);
+                        let (pb, base) = to_px(xb, y0.max(0.0).min(y1));
+                        let (ya, yb) = (top.min(base).round() as i64, top.max(base).round() as i64);
+                        for y in ya..yb {
+                            for x in pa.round() as i64..(pb.round() as i64).max(pa.round() as i64 + 1) {
+                                blend(&mut px, x, y, s.colour, 0.45);
+                            }
+                        }
+                    }
+                }
+                Style::Line => {
+                    let pts: Vec<(f64, f64)> = s
+                        .xs
+                        .iter()
+                        .zip(&s.ys)
+                        .filter(|(x, y)| x.is_finite() && y.is_finite())
+                        .map(|(&x, &y)| to_px(x, y))
+                        .collect();
+                    for seg in pts.windows(2) {
+                        let (a, b) = (seg[0], seg[1]);
+                        let n = ((b.0 - a.0).abs().max((b.1 - a.1).abs()).ceil() as usize).max(1);
+                        for k in 0..=n {
+                            let t = k as f64 / n as f64;
+                            let (x, y) = (a.0 + (b.0 - a.0) * t, a.1 + (b.1 - a.1) * t);
+                            for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                                blend(&mut px, x as i64 + dx, y as i64 + dy, s.colour, 1.0);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        // Axes and their ranges.
+        for x in ml..w - mr {
+            blend(&mut px, x as i64, (h - mb) as i64, [90, 90, 90], 1.0);
+        }
+        for y in mt..=h - mb {
+            blend(&mut px, ml as i64, y as i64, [90, 90, 90], 1.0);
+        }
+        use crate::io::render::{draw_text, text_width};
+        let (lx0, lx1, ly1) = (axis_label(x0), axis_label(x1), axis_label(y1));
+        draw_text(&mut px, w, ml, h - mb + 5, &lx0);
+        draw_text(&mut px, w, (w - mr).saturating_sub(text_width(&lx1)), h - mb + 5, &lx1);
+        draw_text(&mut px, w, ml + 3, 3, &ly1);
+        let mut out = Vec::new();
+        crate::io::png::encode_png(&mut out, w as u32, h as u32, ::png::ColorType::Rgba, &px)
+            .map_err(|e| Error::invalid(format!("chart PNG encoding failed: {e}")))?;
+        Ok(out)
+    }
+}
+
+/// HTML key for the series of a chart (coloured squares and labels).
+pub fn chart_key(series: &[Series]) -> String {
+    let mut s = String::from("<div class='key'>");
+    for se in series {
+        let [r, g, b] = se.colour;
+        let _ = write!(
+            s,
+            "<span style='color:rgb({r},{g},{b})'>&#9632;</span> {} &nbsp; ",
+            esc(&se.label)
+        );
+    }
+    s.push_str("</div>");
+    s
 }
 
 /// A private scratch folder next to `path` for preview PNGs.

@@ -33,25 +33,57 @@ pub struct RunArgs {
     pub quiet: bool,
 }
 
-/// The CLI's commands, as a job sees them.
+/// The CLI's commands, as a job sees them. A command is a path of
+/// subcommand names separated by spaces (`synth noise`).
 struct ClapTable(clap::Command);
+
+impl ClapTable {
+    fn find(&self, path: &str) -> Option<&clap::Command> {
+        let mut c = &self.0;
+        for w in path.split_whitespace() {
+            c = c.find_subcommand(w)?;
+        }
+        (!std::ptr::eq(c, &self.0)).then_some(c)
+    }
+}
 
 impl CommandTable for ClapTable {
     fn has(&self, name: &str) -> bool {
-        self.0.find_subcommand(name).is_some()
+        self.find(name).is_some()
     }
     fn names(&self) -> Vec<String> {
-        self.0
-            .get_subcommands()
-            .map(|c| c.get_name().to_string())
-            .filter(|n| n != "run" && n != "help")
-            .collect()
+        let mut out = vec![];
+        for c in self.0.get_subcommands() {
+            let n = c.get_name();
+            if n == "run" || n == "help" {
+                continue;
+            }
+            let methods: Vec<&str> = c
+                .get_subcommands()
+                .map(|m| m.get_name())
+                .filter(|m| *m != "help")
+                .collect();
+            if methods.is_empty() {
+                out.push(n.to_string());
+            } else {
+                out.extend(methods.iter().map(|m| format!("{n} {m}")));
+            }
+        }
+        out
     }
     fn accepts(&self, command: &str, opt: &str) -> bool {
-        self.0.find_subcommand(command).is_some_and(|c| {
+        self.find(command).is_some_and(|c| {
             c.get_arguments().any(|a| {
                 a.get_long() == Some(opt) || a.get_short().is_some_and(|s| opt == s.to_string())
             })
+        })
+    }
+    fn methods(&self, command: &str) -> Vec<String> {
+        self.find(command).map_or(vec![], |c| {
+            c.get_subcommands()
+                .map(|m| m.get_name().to_string())
+                .filter(|m| m != "help")
+                .collect()
         })
     }
 }
@@ -60,6 +92,31 @@ impl CommandTable for ClapTable {
 const ELEVATION_COMMANDS: [&str; 8] = [
     "fill", "breach", "export", "ingest", "demo", "synth", "erode", "convert",
 ];
+
+/// Files named by a step's option values (not its inputs or `-o` output)
+/// that exist and were modified since `since`: what options such as
+/// `--metrics x.csv` or `--profile p.json` made the step write.
+fn written_by_options(s: &job::Planned, since: std::time::SystemTime) -> Vec<PathBuf> {
+    let mut out: Vec<PathBuf> = vec![];
+    for (k, v) in s.argv.iter().enumerate().skip(1) {
+        if !s.argv[k - 1].starts_with("--") || v.starts_with('-') {
+            continue;
+        }
+        let p = PathBuf::from(v);
+        if s.inputs.contains(&p) || s.output.as_ref() == Some(&p) || out.contains(&p) {
+            continue;
+        }
+        let fresh = std::fs::metadata(&p)
+            .ok()
+            .filter(|m| m.is_file())
+            .and_then(|m| m.modified().ok())
+            .is_some_and(|t| t >= since);
+        if fresh {
+            out.push(p);
+        }
+    }
+    out
+}
 
 fn log_line(log: &mut Option<std::fs::File>, v: serde_json::Value) {
     if let Some(f) = log {
@@ -132,7 +189,9 @@ pub fn run(a: RunArgs) -> Result<()> {
             seconds: 0.0,
             peak_rss_bytes: 0,
             output: s.output.clone(),
-            elevation: ELEVATION_COMMANDS.contains(&s.command.as_str()),
+            extra_outputs: vec![],
+            elevation: ELEVATION_COMMANDS
+                .contains(&s.command.split_whitespace().next().unwrap_or("")),
         })
         .collect();
     let mut failure = None;
@@ -158,6 +217,8 @@ pub fn run(a: RunArgs) -> Result<()> {
         let fingerprint = job.fingerprint(i);
         job::reset_peak_rss();
         let t0 = Instant::now();
+        // File times come from a coarse kernel clock: allow a margin.
+        let started = std::time::SystemTime::now() - std::time::Duration::from_secs(2);
         let cli = crate::Cli::try_parse_from(argv_of(s))?;
         let result = crate::run(cli);
         let seconds = t0.elapsed().as_secs_f64();
@@ -167,6 +228,7 @@ pub fn run(a: RunArgs) -> Result<()> {
         match result {
             Ok(()) => {
                 outcomes[i].status = Status::Ran;
+                outcomes[i].extra_outputs = written_by_options(s, started);
                 state.done.insert(
                     s.name.clone(),
                     StepRecord {

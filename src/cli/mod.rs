@@ -6,6 +6,7 @@
 
 pub mod breach;
 pub mod erode;
+pub mod compare;
 pub mod fill_epsilon;
 pub mod hydro_net;
 pub mod job;

@@ -408,7 +408,7 @@ fn glyph(c: char) -> Option<(usize, [u8; 5])> {
 }
 
 /// Width in pixels of `s` drawn with [`draw_text`].
-fn text_width(s: &str) -> usize {
+pub(crate) fn text_width(s: &str) -> usize {
     s.chars()
         .filter_map(glyph)
         .map(|(w, _)| (w + 1) * FONT_SCALE)
@@ -417,7 +417,7 @@ fn text_width(s: &str) -> usize {
 }
 
 /// Draw `s` in dark grey with its top-left at (x, y); clipped to the image.
-fn draw_text(rgba: &mut [u8], iw: usize, x: usize, y: usize, s: &str) {
+pub(crate) fn draw_text(rgba: &mut [u8], iw: usize, x: usize, y: usize, s: &str) {
     let ih = rgba.len() / 4 / iw;
     let mut cx = x;
     for ch in s.chars() {
