@@ -20,11 +20,23 @@ pub enum SynthCmd {
         after_help = "Examples:\n  orogen synth noise --size 4096x4096 --seed 7 -o noise.tif\n  orogen synth noise --size 100000x100000 --cell 30 -o big.tiles --zstd"
     )]
     Noise(super::synth_noise::NoiseArgs),
+    /// River-network terrain (Génevaux et al. 2013): river trees grown upstream from the sea, every cell drains.
+    #[command(
+        after_help = "Examples:\n  orogen synth rivers --size 2048 --seed 3 -o rivers.tif --preview rivers.png\n  orogen synth rivers --size 1024 --coast configs/tectonic-map.geojson --cell 40 --network net.geojson -o r.tif"
+    )]
+    Rivers(super::synth_rivers::RiversArgs),
+    /// Tectonic folds from a GeoJSON map of coastlines, rivers and peaks (before erosion).
+    #[command(
+        after_help = "Examples:\n  orogen synth tectonic --map configs/tectonic-map.geojson -o folds.tif --preview folds.png\n  orogen synth tectonic --map configs/tectonic-map.geojson --intermediates inter/ --preview p.png -o t.tif\nThe output is the terrain before hydraulic erosion, which is a separate step."
+    )]
+    Tectonic(super::synth_tectonic::TectonicArgs),
 }
 
 /// Dispatch to the chosen method.
 pub fn run(args: SynthArgs) -> Result<()> {
     match args.method {
         SynthCmd::Noise(a) => super::synth_noise::run(a),
+        SynthCmd::Rivers(a) => super::synth_rivers::run(a),
+        SynthCmd::Tectonic(a) => super::synth_tectonic::run(a),
     }
 }
