@@ -41,7 +41,7 @@ pub struct RiversArgs {
     #[arg(long)]
     pub land_wavelength: Option<f64>,
     /// Noise land mask: threshold (higher = less land).
-    #[arg(long, default_value_t = -0.25)]
+    #[arg(long, default_value_t = -0.1)]
     pub land_threshold: f64,
     /// Directional inertia of river growth (0 = none).
     #[arg(long, default_value_t = 1.0)]
@@ -50,7 +50,7 @@ pub struct RiversArgs {
     #[arg(long, default_value_t = 0.5)]
     pub jitter: f64,
     /// River slope at a drainage area of 1 km² (m/m).
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, default_value_t = 0.05)]
     pub channel_slope: f64,
     /// Slope-area exponent.
     #[arg(long, default_value_t = 0.45)]
@@ -127,6 +127,8 @@ pub fn run(a: RiversArgs) -> Result<()> {
         hill_slope: a.hill_slope,
         sea_depth: a.sea_depth,
     };
+    let cfg = engine(&a.run)?;
+    let oo = output_options(&a.out.fmt)?;
     let net = RiverNetwork::build(w, h, a.cell, &p)?;
     if let Some(path) = &a.network {
         let text = serde_json::to_string(&network_geojson(&net, &georef))?;
@@ -134,8 +136,6 @@ pub fn run(a: RiversArgs) -> Result<()> {
         wrote(path);
     }
     let src = RiverTerrain::new(net, w, h, a.cell, a.radius, a.sea_depth, Some(georef))?;
-    let cfg = engine(&a.run)?;
-    let oo = output_options(&a.out.fmt)?;
     orogen::ops::convert(&src, &a.out.output, &oo, a.run.tile, &cfg)?;
     wrote(&a.out.output);
     if let Some(pv) = &a.preview {

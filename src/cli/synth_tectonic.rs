@@ -8,7 +8,9 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use orogen::io::render::{render_preview, RenderKind, RenderOptions};
 use orogen::raster::{Crs, GeoRef, RasterSource};
-use orogen::synth::tectonic::{map_to_pixels, TectonicLayer, TectonicModel, TectonicParams, TectonicSource};
+use orogen::synth::tectonic::{
+    map_to_pixels, TectonicLayer, TectonicModel, TectonicParams, TectonicSource,
+};
 use orogen::synth::vector::VectorMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -96,7 +98,10 @@ pub fn parse_xy(s: &str, what: &str) -> Result<(f64, f64)> {
         .split_once(',')
         .with_context(|| format!("{what} {s:?}: expected X,Y"))?;
     let p = |t: &str| -> Result<f64> {
-        let v: f64 = t.trim().parse().with_context(|| format!("{what} {s:?}: {t:?} is not a number"))?;
+        let v: f64 = t
+            .trim()
+            .parse()
+            .with_context(|| format!("{what} {s:?}: {t:?} is not a number"))?;
         if !v.is_finite() {
             bail!("{what} {s:?}: coordinates must be finite");
         }
@@ -124,7 +129,7 @@ pub fn domain(
     let bb = map.bbox();
     let fit = |extent: f64| -> Result<usize> {
         let n = (extent / cell).ceil();
-        if !(n >= 1.0 && n <= 1e6) {
+        if !(1.0..=1e6).contains(&n) {
             bail!("the map's extent gives {n} cells at --cell {cell}; give --size or a different --cell (1..1000000 cells a side)");
         }
         Ok(n as usize)
@@ -179,7 +184,14 @@ pub fn preview(src: &dyn RasterSource, path: &Path, kind: RenderKind) -> Result<
 /// Generate and write the terrain (and intermediates).
 pub fn run(a: TectonicArgs) -> Result<()> {
     let map = VectorMap::read(&a.map)?;
-    let (w, h, georef, px) = domain(&map, &a.map_units, a.size.as_deref(), a.cell, a.origin.as_deref(), a.margin)?;
+    let (w, h, georef, px) = domain(
+        &map,
+        &a.map_units,
+        a.size.as_deref(),
+        a.cell,
+        a.origin.as_deref(),
+        a.margin,
+    )?;
     let params = TectonicParams {
         fbm: orogen::synth::Fbm {
             seed: a.seed,
@@ -213,7 +225,9 @@ pub fn run(a: TectonicArgs) -> Result<()> {
             if a.preview.is_some() {
                 let kind = match layer {
                     TectonicLayer::Plates => RenderKind::Ramp("viridis".into()),
-                    TectonicLayer::VelocityMagnitude | TectonicLayer::VelocityDirection => RenderKind::Grey,
+                    TectonicLayer::VelocityMagnitude | TectonicLayer::VelocityDirection => {
+                        RenderKind::Grey
+                    }
                     _ => RenderKind::Elevation,
                 };
                 preview(&src, &dir.join(format!("{name}.png")), kind)?;

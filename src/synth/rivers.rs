@@ -110,11 +110,11 @@ impl Default for RiverParams {
                     warp: 0.0,
                     ..Fbm::default()
                 },
-                threshold: -0.25,
+                threshold: -0.1,
             },
             inertia: 1.0,
             jitter: 0.5,
-            channel_slope: 0.01,
+            channel_slope: 0.05,
             concavity: 0.45,
             min_slope: 0.0005,
             max_slope: 0.7,
@@ -177,8 +177,9 @@ pub fn poisson_disc(w: f64, h: f64, r: f64, seed: u64) -> Vec<[f64; 2]> {
     let gh = (h / cs).ceil() as usize;
     let mut grid = vec![u32::MAX; gw * gh];
     let mut pts: Vec<[f64; 2]> = Vec::new();
-    let mut rng = Rng(seed ^ 0x5eed_0f_d15c);
-    let cell = |p: [f64; 2]| ((p[0] / cs) as usize).min(gw - 1) + ((p[1] / cs) as usize).min(gh - 1) * gw;
+    let mut rng = Rng(seed ^ 0x005e_ed0f_d15c);
+    let cell =
+        |p: [f64; 2]| ((p[0] / cs) as usize).min(gw - 1) + ((p[1] / cs) as usize).min(gh - 1) * gw;
     let free = |pts: &[[f64; 2]], grid: &[u32], p: [f64; 2], rr: f64| -> bool {
         let (cx, cy) = ((p[0] / cs) as i64, (p[1] / cs) as i64);
         let reach = (rr / cs).ceil() as i64;
@@ -223,7 +224,10 @@ pub fn poisson_disc(w: f64, h: f64, r: f64, seed: u64) -> Vec<[f64; 2]> {
     // then more than r from all others). Grid cells have half-diagonal r/2.
     for gy in 0..gh {
         for gx in 0..gw {
-            let c = [((gx as f64 + 0.5) * cs).min(w * 0.999_999), ((gy as f64 + 0.5) * cs).min(h * 0.999_999)];
+            let c = [
+                ((gx as f64 + 0.5) * cs).min(w * 0.999_999),
+                ((gy as f64 + 0.5) * cs).min(h * 0.999_999),
+            ];
             if grid[cell(c)] == u32::MAX && free(&pts, &grid, c, 2.0 * r) {
                 grid[cell(c)] = pts.len() as u32;
                 pts.push(c);
@@ -244,22 +248,35 @@ impl PartialOrd for Cand {
 impl Ord for Cand {
     // Min-heap on (cost, node, from).
     fn cmp(&self, o: &Self) -> Ordering {
-        o.0.total_cmp(&self.0).then(o.1.cmp(&self.1)).then(o.2.cmp(&self.2))
+        o.0.total_cmp(&self.0)
+            .then(o.1.cmp(&self.1))
+            .then(o.2.cmp(&self.2))
     }
 }
 
 impl RiverNetwork {
     /// Build the network of a `width x height` raster with cells of `cell_m`
     /// metres.
-    pub fn build(width: usize, height: usize, cell_m: f64, p: &RiverParams) -> Result<RiverNetwork> {
+    pub fn build(
+        width: usize,
+        height: usize,
+        cell_m: f64,
+        p: &RiverParams,
+    ) -> Result<RiverNetwork> {
         if !(p.radius.is_finite() && p.radius >= 2.0 && p.radius <= 4096.0) {
-            return Err(Error::invalid("river node spacing (--radius) must be 2..4096 cells"));
+            return Err(Error::invalid(
+                "river node spacing (--radius) must be 2..4096 cells",
+            ));
         }
         if width == 0 || height == 0 || width > 1 << 30 || height > 1 << 30 {
-            return Err(Error::invalid("river terrain size must be 1..2^30 cells a side"));
+            return Err(Error::invalid(
+                "river terrain size must be 1..2^30 cells a side",
+            ));
         }
         if !(cell_m.is_finite() && cell_m > 0.0) {
-            return Err(Error::invalid("cell size must be a positive number of metres"));
+            return Err(Error::invalid(
+                "cell size must be a positive number of metres",
+            ));
         }
         let est = width as f64 * height as f64 / (p.radius * p.radius);
         if est > MAX_NODES as f64 / 2.0 {
@@ -310,7 +327,9 @@ impl RiverNetwork {
                 .insert(Point2::new(q[0], q[1]))
                 .map_err(|e| Error::invalid(format!("Delaunay insertion failed: {e:?}")))?;
             if hnd.index() != i {
-                return Err(Error::invalid("Delaunay triangulation merged two river nodes"));
+                return Err(Error::invalid(
+                    "Delaunay triangulation merged two river nodes",
+                ));
             }
         }
         let mut neighbours = vec![Vec::new(); n];
@@ -329,11 +348,15 @@ impl RiverNetwork {
             LandMask::Noise { fbm, threshold } => nodes
                 .iter()
                 .map(|q| {
-                    let e = (q[0].min(w - q[0]).min(q[1]).min(h - q[1]) / (0.15 * w.min(h))).min(1.0);
+                    let e =
+                        (q[0].min(w - q[0]).min(q[1]).min(h - q[1]) / (0.15 * w.min(h))).min(1.0);
                     fbm.sample(q[0], q[1]) + 1.5 * (e - 1.0) > *threshold
                 })
                 .collect(),
-            LandMask::Rings(r) => nodes.iter().map(|&q| super::vector::inside_rings(r, q)).collect(),
+            LandMask::Rings(r) => nodes
+                .iter()
+                .map(|&q| super::vector::inside_rings(r, q))
+                .collect(),
         };
         let index = PointIndex::new(nodes.clone(), width, height);
         let mut sea = vec![false; n];
@@ -369,7 +392,9 @@ impl RiverNetwork {
         }
 
         // River trees grown upstream from the mouths.
-        let dist = |a: usize, b: usize| ((nodes[a][0] - nodes[b][0]).powi(2) + (nodes[a][1] - nodes[b][1]).powi(2)).sqrt();
+        let dist = |a: usize, b: usize| {
+            ((nodes[a][0] - nodes[b][0]).powi(2) + (nodes[a][1] - nodes[b][1]).powi(2)).sqrt()
+        };
         let mut parent = vec![NO_PARENT; n];
         let mut order: Vec<u32> = Vec::new();
         let mut heap = BinaryHeap::new();
@@ -387,7 +412,8 @@ impl RiverNetwork {
                 heap.push(Cand(d, m as u32, j));
             }
         }
-        let jitter = |i: usize| (hash(p.seed ^ hash(i as u64 ^ 0x71e7)) >> 11) as f64 / (1u64 << 53) as f64;
+        let jitter =
+            |i: usize| (hash(p.seed ^ hash(i as u64 ^ 0x71e7)) >> 11) as f64 / (1u64 << 53) as f64;
         let mut cost = vec![0.0; n];
         while let Some(Cand(c, v, from)) = heap.pop() {
             let v = v as usize;
@@ -415,7 +441,9 @@ impl RiverNetwork {
         // Every land component touches the sea (the graph is connected), so
         // every land node has been claimed.
         if let Some(v) = (0..n).find(|&v| !sea[v] && parent[v] == NO_PARENT) {
-            return Err(Error::invalid(format!("river node {v} was not reached (internal error)")));
+            return Err(Error::invalid(format!(
+                "river node {v} was not reached (internal error)"
+            )));
         }
 
         // Volumes (drainage areas): children are claimed after their parents.
@@ -434,7 +462,8 @@ impl RiverNetwork {
         for &v in &order {
             let v = v as usize;
             let u = parent[v] as usize;
-            let s = (p.channel_slope * (area[v] / 1e6).powf(-p.concavity)).clamp(p.min_slope, p.max_slope);
+            let s = (p.channel_slope * (area[v] / 1e6).powf(-p.concavity))
+                .clamp(p.min_slope, p.max_slope);
             let base = if sea[u] { 0.0 } else { height_m[u] };
             height_m[v] = base + dist(v, u) * cell_m * s;
         }
@@ -516,7 +545,9 @@ struct Channel {
 
 impl Channel {
     fn steps(&self) -> i64 {
-        (self.b[0] - self.a[0]).abs().max((self.b[1] - self.a[1]).abs())
+        (self.b[0] - self.a[0])
+            .abs()
+            .max((self.b[1] - self.a[1]).abs())
     }
     /// Cell i (0..=steps) and its height; integer rounding keeps every
     /// step 8-connected.
@@ -552,14 +583,33 @@ pub struct RiverTerrain {
 impl RiverTerrain {
     /// Rasteriser of `net` on a `width x height` raster with `cell_m` metre
     /// cells, georeferenced by `georef` (a local metric CRS if `None`).
-    pub fn new(net: RiverNetwork, width: usize, height: usize, cell_m: f64, radius: f64, sea_depth: f64, georef: Option<GeoRef>) -> Result<Self> {
+    pub fn new(
+        net: RiverNetwork,
+        width: usize,
+        height: usize,
+        cell_m: f64,
+        radius: f64,
+        sea_depth: f64,
+        georef: Option<GeoRef>,
+    ) -> Result<Self> {
         let reach = (2.5 * radius).ceil() as i64 + 1;
-        let cellpos = |q: [f64; 2]| [(q[0].floor() as i64).clamp(0, width as i64 - 1), (q[1].floor() as i64).clamp(0, height as i64 - 1)];
+        let cellpos = |q: [f64; 2]| {
+            [
+                (q[0].floor() as i64).clamp(0, width as i64 - 1),
+                (q[1].floor() as i64).clamp(0, height as i64 - 1),
+            ]
+        };
         let mut channels = Vec::new();
         for v in 0..net.nodes.len() {
             if net.sea[v] {
                 let c = cellpos(net.nodes[v]);
-                channels.push(Channel { a: c, b: c, ha: -sea_depth, hb: -sea_depth, s: net.lateral[v].max(1e-3) * cell_m });
+                channels.push(Channel {
+                    a: c,
+                    b: c,
+                    ha: -sea_depth,
+                    hb: -sea_depth,
+                    s: net.lateral[v].max(1e-3) * cell_m,
+                });
             } else {
                 let u = net.parent[v] as usize;
                 channels.push(Channel {
@@ -587,8 +637,12 @@ impl RiverTerrain {
             }
         }
         let r1 = (reach + 1) as usize;
-        let dist = (0..r1 * r1).map(|i| (((i / r1) * (i / r1) + (i % r1) * (i % r1)) as f64).sqrt()).collect();
-        let georef = georef.unwrap_or_else(|| GeoRef::north_up(0.0, height as f64 * cell_m, cell_m, Crs::default()));
+        let dist = (0..r1 * r1)
+            .map(|i| (((i / r1) * (i / r1) + (i % r1) * (i % r1)) as f64).sqrt())
+            .collect();
+        let georef = georef.unwrap_or_else(|| {
+            GeoRef::north_up(0.0, height as f64 * cell_m, cell_m, Crs::default())
+        });
         let nearest = PointIndex::new(net.nodes.clone(), width, height);
         Ok(RiverTerrain {
             net,
@@ -698,7 +752,11 @@ impl RasterSource for RiverTerrain {
         &self.info
     }
     fn read_native(&self, win: Window) -> Result<AnyGrid> {
-        Ok(AnyGrid::F32(Grid::from_vec(win.w, win.h, self.render(win))?))
+        Ok(AnyGrid::F32(Grid::from_vec(
+            win.w,
+            win.h,
+            self.render(win),
+        )?))
     }
 }
 
@@ -720,7 +778,10 @@ mod tests {
         for y in 0..100 {
             for x in 0..150 {
                 let q = [x as f64 * 2.0 + 0.5, y as f64 * 2.0 + 0.5];
-                let d = pts.iter().map(|p| (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).fold(f64::INFINITY, f64::min);
+                let d = pts
+                    .iter()
+                    .map(|p| (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2))
+                    .fold(f64::INFINITY, f64::min);
                 assert!(d.sqrt() <= 2.5 * r, "{q:?} {}", d.sqrt());
             }
         }
@@ -729,8 +790,20 @@ mod tests {
 
     #[test]
     fn digital_lines_are_8_connected() {
-        for (a, b) in [([0, 0], [7, 3]), ([5, 9], [1, 0]), ([3, 3], [3, 10]), ([10, 2], [0, 2]), ([4, 4], [-3, 11])] {
-            let ch = Channel { a, b, ha: 10.0, hb: 1.0, s: 1.0 };
+        for (a, b) in [
+            ([0, 0], [7, 3]),
+            ([5, 9], [1, 0]),
+            ([3, 3], [3, 10]),
+            ([10, 2], [0, 2]),
+            ([4, 4], [-3, 11]),
+        ] {
+            let ch = Channel {
+                a,
+                b,
+                ha: 10.0,
+                hb: 1.0,
+                s: 1.0,
+            };
             let k = ch.steps();
             let mut prev = ch.cell(0, k);
             assert_eq!(prev.0, a);

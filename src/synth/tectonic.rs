@@ -131,13 +131,17 @@ impl TectonicParams {
             return Err(Error::invalid("tectonic blur must be 0..100000 cells"));
         }
         if !(self.fold_strength.is_finite() && self.fold_strength.abs() <= 1e4) {
-            return Err(Error::invalid("tectonic fold strength must be a finite number up to 1e4"));
+            return Err(Error::invalid(
+                "tectonic fold strength must be a finite number up to 1e4",
+            ));
         }
         if !(nonneg(self.relief) && self.relief < 1e5) {
             return Err(Error::invalid("tectonic relief must be 0..100000 m"));
         }
         if !(pos(self.peak_radius) && pos(self.river_width)) {
-            return Err(Error::invalid("tectonic peak radius and river width must be positive"));
+            return Err(Error::invalid(
+                "tectonic peak radius and river width must be positive",
+            ));
         }
         if !(nonneg(self.noise_share) && self.noise_share <= 1.0) {
             return Err(Error::invalid("tectonic noise share must be in 0..1"));
@@ -146,7 +150,9 @@ impl TectonicParams {
             || self.river_slope > 10.0
             || self.hill_slope > 10.0
         {
-            return Err(Error::invalid("tectonic slopes must be in 0..10 and the gain >= 0"));
+            return Err(Error::invalid(
+                "tectonic slopes must be in 0..10 and the gain >= 0",
+            ));
         }
         if !(nonneg(self.sea_depth) && self.sea_depth < 1e5) {
             return Err(Error::invalid("tectonic sea depth must be 0..100000 m"));
@@ -172,7 +178,9 @@ pub fn merge_plates(
     let n = area.len();
     let mut root: Vec<u32> = (0..n as u32).collect();
     let mut a: Vec<f64> = area.to_vec();
-    let mut mom: Vec<[f64; 2]> = (0..n).map(|i| [vel[i][0] * area[i], vel[i][1] * area[i]]).collect();
+    let mut mom: Vec<[f64; 2]> = (0..n)
+        .map(|i| [vel[i][0] * area[i], vel[i][1] * area[i]])
+        .collect();
     fn find(root: &mut [u32], mut i: u32) -> u32 {
         while root[i as usize] != i {
             let p = root[root[i as usize] as usize];
@@ -205,7 +213,8 @@ pub fn merge_plates(
         let mut best: Option<(f64, (u32, u32))> = None;
         for &(i, j) in &pairs {
             let (ai, aj) = (a[i as usize], a[j as usize]);
-            let (Some(ui), Some(uj)) = (unit(mom[i as usize], ai), unit(mom[j as usize], aj)) else {
+            let (Some(ui), Some(uj)) = (unit(mom[i as usize], ai), unit(mom[j as usize], aj))
+            else {
                 continue;
             };
             let dot = ui[0] * uj[0] + ui[1] * uj[1];
@@ -224,7 +233,7 @@ pub fn merge_plates(
     let mut label = vec![u32::MAX; n];
     let mut out_vel = Vec::new();
     let mut group = vec![0u32; n];
-    for i in 0..n {
+    for (i, gi) in group.iter_mut().enumerate() {
         let r = find(&mut root, i as u32) as usize;
         if label[r] == u32::MAX {
             label[r] = out_vel.len() as u32;
@@ -234,7 +243,7 @@ pub fn merge_plates(
                 [0.0, 0.0]
             });
         }
-        group[i] = label[r];
+        *gi = label[r];
     }
     (group, out_vel)
 }
@@ -261,7 +270,13 @@ impl PointIndex {
             let (cx, cy) = Self::cell_of(bs, gw, gh, *p);
             cells[cy * gw + cx].push(i as u32);
         }
-        PointIndex { pts, bs, gw, gh, cells }
+        PointIndex {
+            pts,
+            bs,
+            gw,
+            gh,
+            cells,
+        }
     }
     fn cell_of(bs: f64, gw: usize, gh: usize, p: [f64; 2]) -> (usize, usize) {
         let cx = ((p[0] / bs).floor().max(0.0) as usize).min(gw - 1);
@@ -271,7 +286,8 @@ impl PointIndex {
     /// Call `f(index, squared distance)` for every point within `rad` of `q`.
     pub(crate) fn for_each_within(&self, q: [f64; 2], rad: f64, mut f: impl FnMut(usize, f64)) {
         let lo = |v: f64, n: usize| (((v - rad) / self.bs).floor().max(0.0) as usize).min(n);
-        let hi = |v: f64, n: usize| ((((v + rad) / self.bs).floor()).max(-1.0) as i64).min(n as i64 - 1);
+        let hi =
+            |v: f64, n: usize| ((((v + rad) / self.bs).floor()).max(-1.0) as i64).min(n as i64 - 1);
         let (x0, x1) = (lo(q[0], self.gw), hi(q[0], self.gw));
         let (y0, y1) = (lo(q[1], self.gh), hi(q[1], self.gh));
         for y in y0 as i64..=y1 {
@@ -338,7 +354,12 @@ pub(crate) struct SegmentIndex {
 }
 
 impl SegmentIndex {
-    pub(crate) fn new(lines: &[Vec<[f64; 2]>], width: usize, height: usize, maxd: f64) -> SegmentIndex {
+    pub(crate) fn new(
+        lines: &[Vec<[f64; 2]>],
+        width: usize,
+        height: usize,
+        maxd: f64,
+    ) -> SegmentIndex {
         let bs = maxd.max(8.0);
         let gw = ((width as f64 / bs).ceil() as usize).max(1);
         let gh = ((height as f64 / bs).ceil() as usize).max(1);
@@ -347,8 +368,12 @@ impl SegmentIndex {
         for l in lines {
             for w in l.windows(2) {
                 let s = [w[0][0], w[0][1], w[1][0], w[1][1]];
-                let lo = |a: f64, b: f64, n: usize| (((a.min(b) - maxd) / bs).floor().max(0.0) as usize).min(n);
-                let hi = |a: f64, b: f64, n: usize| ((((a.max(b) + maxd) / bs).floor()).max(-1.0) as i64).min(n as i64 - 1);
+                let lo = |a: f64, b: f64, n: usize| {
+                    (((a.min(b) - maxd) / bs).floor().max(0.0) as usize).min(n)
+                };
+                let hi = |a: f64, b: f64, n: usize| {
+                    ((((a.max(b) + maxd) / bs).floor()).max(-1.0) as i64).min(n as i64 - 1)
+                };
                 let (x0, x1) = (lo(s[0], s[2], gw), hi(s[0], s[2], gw));
                 let (y0, y1) = (lo(s[1], s[3], gh), hi(s[1], s[3], gh));
                 let id = segs.len() as u32;
@@ -360,7 +385,14 @@ impl SegmentIndex {
                 }
             }
         }
-        SegmentIndex { segs, bs, gw, gh, cells, maxd }
+        SegmentIndex {
+            segs,
+            bs,
+            gw,
+            gh,
+            cells,
+            maxd,
+        }
     }
 
     pub(crate) fn is_empty(&self) -> bool {
@@ -406,8 +438,12 @@ fn clip(a: [f64; 2], b: [f64; 2], w: f64, h: f64) -> Option<([f64; 2], [f64; 2])
             }
         }
     }
-    (t0 <= t1 && t0.is_finite() && t1.is_finite())
-        .then(|| ([a[0] + t0 * dx, a[1] + t0 * dy], [a[0] + t1 * dx, a[1] + t1 * dy]))
+    (t0 <= t1 && t0.is_finite() && t1.is_finite()).then(|| {
+        (
+            [a[0] + t0 * dx, a[1] + t0 * dy],
+            [a[0] + t1 * dx, a[1] + t1 * dy],
+        )
+    })
 }
 
 fn envelope(peaks: &PointIndex, height: &[f64], r: f64, p: [f64; 2], unit: bool) -> f64 {
@@ -453,7 +489,9 @@ fn gaussian_blur(f: &mut [f64], w: usize, h: usize, sigma: f64) {
         return;
     }
     let r = (3.0 * sigma).ceil() as i64;
-    let kern: Vec<f64> = (-r..=r).map(|d| (-(d * d) as f64 / (2.0 * sigma * sigma)).exp()).collect();
+    let kern: Vec<f64> = (-r..=r)
+        .map(|d| (-(d * d) as f64 / (2.0 * sigma * sigma)).exp())
+        .collect();
     let norm: f64 = kern.iter().sum();
     let mut tmp = vec![0.0; f.len()];
     for y in 0..h {
@@ -545,14 +583,24 @@ impl TectonicModel {
     /// metres from `map` in pixel coordinates (x right, y down, cell (c, r)
     /// covers [c, c+1) x [r, r+1)). Errors: no peaks, a peak outside the
     /// raster, bad parameters, a raster beyond 2^31 cells a side.
-    pub fn new(map: &VectorMap, width: usize, height: usize, cell_m: f64, params: TectonicParams) -> Result<Self> {
+    pub fn new(
+        map: &VectorMap,
+        width: usize,
+        height: usize,
+        cell_m: f64,
+        params: TectonicParams,
+    ) -> Result<Self> {
         params.validate()?;
         let p = &map.path;
         if width == 0 || height == 0 || width > 1 << 31 || height > 1 << 31 {
-            return Err(Error::invalid("tectonic raster size must be 1..2^31 cells a side"));
+            return Err(Error::invalid(
+                "tectonic raster size must be 1..2^31 cells a side",
+            ));
         }
         if !(cell_m.is_finite() && cell_m > 0.0) {
-            return Err(Error::invalid("cell size must be a positive number of metres"));
+            return Err(Error::invalid(
+                "cell size must be a positive number of metres",
+            ));
         }
         if map.peaks.is_empty() {
             return Err(Error::corrupt(
@@ -575,8 +623,14 @@ impl TectonicModel {
             }
         }
         let peaks = PointIndex::new(map.peaks.iter().map(|k| k.pos).collect(), width, height);
-        let peak_height: Vec<f64> = map.peaks.iter().map(|k| k.elevation.unwrap_or(params.relief)).collect();
-        let k = (width.max(height) as f64 / params.coarse as f64).ceil().max(1.0);
+        let peak_height: Vec<f64> = map
+            .peaks
+            .iter()
+            .map(|k| k.elevation.unwrap_or(params.relief))
+            .collect();
+        let k = (width.max(height) as f64 / params.coarse as f64)
+            .ceil()
+            .max(1.0);
         let coarse = Coarse {
             k,
             w: ((width as f64 / k).ceil() as usize).max(1),
@@ -626,8 +680,14 @@ impl TectonicModel {
         // 2. Merging.
         let (plate_of, plate_vel) = merge_plates(&area, &vel, &adj, params.t1, params.t2);
         // 3. Velocity map, blurred.
-        let mut vx: Vec<f64> = label.iter().map(|&l| plate_vel[plate_of[l as usize] as usize][0]).collect();
-        let mut vy: Vec<f64> = label.iter().map(|&l| plate_vel[plate_of[l as usize] as usize][1]).collect();
+        let mut vx: Vec<f64> = label
+            .iter()
+            .map(|&l| plate_vel[plate_of[l as usize] as usize][0])
+            .collect();
+        let mut vy: Vec<f64> = label
+            .iter()
+            .map(|&l| plate_vel[plate_of[l as usize] as usize][1])
+            .collect();
         gaussian_blur(&mut vx, cw, ch, params.blur / k);
         gaussian_blur(&mut vy, cw, ch, params.blur / k);
 
@@ -694,16 +754,20 @@ impl TectonicModel {
         }
         if heap.is_empty() {
             // Coastlines cover the whole raster: its edge is the outlet.
-            for ix in 0..cw * ch {
+            for (ix, wv) in water.iter_mut().enumerate() {
                 let (i, j) = (ix % cw, ix / cw);
                 if i == 0 || j == 0 || i == cw - 1 || j == ch - 1 {
-                    water[ix] = 0.0;
+                    *wv = 0.0;
                     heap.push(Item(0.0, ix as u32));
                 }
             }
         }
         let slope = |ix: usize| {
-            let s = if river[ix] { params.river_slope } else { params.hill_slope };
+            let s = if river[ix] {
+                params.river_slope
+            } else {
+                params.hill_slope
+            };
             s * (1.0 + params.peak_slope_gain * att[ix])
         };
         let step = k * cell_m;
@@ -781,11 +845,17 @@ impl TectonicModel {
                 *o = match layer {
                     TectonicLayer::Plates => self.plate_of[self.peaks.nearest(p).0] as f64,
                     TectonicLayer::VelocityMagnitude => {
-                        let (vx, vy) = (self.coarse.sample(&self.vx, p), self.coarse.sample(&self.vy, p));
+                        let (vx, vy) = (
+                            self.coarse.sample(&self.vx, p),
+                            self.coarse.sample(&self.vy, p),
+                        );
                         (vx * vx + vy * vy).sqrt()
                     }
                     TectonicLayer::VelocityDirection => {
-                        let (vx, vy) = (self.coarse.sample(&self.vx, p), self.coarse.sample(&self.vy, p));
+                        let (vx, vy) = (
+                            self.coarse.sample(&self.vx, p),
+                            self.coarse.sample(&self.vy, p),
+                        );
                         // Rows grow southward: north is -y.
                         vx.atan2(-vy).to_degrees().rem_euclid(360.0)
                     }
@@ -815,7 +885,13 @@ impl TectonicModel {
     /// differ). `w_i` = the peak's height, or 1 with `unit`.
     #[inline]
     fn envelope(&self, p: [f64; 2], unit: bool) -> f64 {
-        envelope(&self.peaks, &self.peak_height, self.params.peak_radius, p, unit)
+        envelope(
+            &self.peaks,
+            &self.peak_height,
+            self.params.peak_radius,
+            p,
+            unit,
+        )
     }
 
     /// Attenuated, warped fold relief at p.
@@ -823,7 +899,10 @@ impl TectonicModel {
     fn fold(&self, p: [f64; 2]) -> f64 {
         let pr = &self.params;
         let s = pr.fold_strength;
-        let (vx, vy) = (self.coarse.sample(&self.vx, p), self.coarse.sample(&self.vy, p));
+        let (vx, vy) = (
+            self.coarse.sample(&self.vx, p),
+            self.coarse.sample(&self.vy, p),
+        );
         let n = pr.fbm.sample(p[0] + s * vx, p[1] + s * vy);
         let n01 = (0.5 * (n + 1.0)).clamp(0.0, 1.0);
         self.envelope(p, false) * ((1.0 - pr.noise_share) + pr.noise_share * n01)
@@ -840,7 +919,11 @@ pub struct TectonicSource {
 impl TectonicSource {
     /// `layer` of `model`, georeferenced by `georef`.
     pub fn new(model: Arc<TectonicModel>, layer: TectonicLayer, georef: GeoRef) -> Self {
-        let dtype = if layer == TectonicLayer::Plates { DType::I32 } else { DType::F32 };
+        let dtype = if layer == TectonicLayer::Plates {
+            DType::I32
+        } else {
+            DType::F32
+        };
         let info = RasterInfo {
             width: model.width,
             height: model.height,
@@ -861,9 +944,17 @@ impl RasterSource for TectonicSource {
         let mut v = vec![0.0; win.w * win.h];
         self.model.fill(self.layer, win, &mut v);
         Ok(if self.layer == TectonicLayer::Plates {
-            AnyGrid::I32(Grid::from_vec(win.w, win.h, v.iter().map(|&x| x as i32).collect())?)
+            AnyGrid::I32(Grid::from_vec(
+                win.w,
+                win.h,
+                v.iter().map(|&x| x as i32).collect(),
+            )?)
         } else {
-            AnyGrid::F32(Grid::from_vec(win.w, win.h, v.iter().map(|&x| x as f32).collect())?)
+            AnyGrid::F32(Grid::from_vec(
+                win.w,
+                win.h,
+                v.iter().map(|&x| x as f32).collect(),
+            )?)
         })
     }
 }
@@ -872,10 +963,14 @@ impl RasterSource for TectonicSource {
 /// (north-up or rotated; errors on a singular transform).
 pub fn map_to_pixels(map: &VectorMap, georef: &GeoRef) -> Result<VectorMap> {
     if georef.map_to_pixel(0.0, 0.0).is_none() {
-        return Err(Error::invalid("the output georeference has a singular transform"));
+        return Err(Error::invalid(
+            "the output georeference has a singular transform",
+        ));
     }
     Ok(map.transformed(|p| {
-        let (c, r) = georef.map_to_pixel(p[0], p[1]).unwrap_or((f64::NAN, f64::NAN));
+        let (c, r) = georef
+            .map_to_pixel(p[0], p[1])
+            .unwrap_or((f64::NAN, f64::NAN));
         [c, r]
     }))
 }
@@ -925,7 +1020,10 @@ mod tests {
         let pts: Vec<[f64; 2]> = (0..57)
             .map(|i| {
                 let h = super::super::noise::gradient_noise(i as f64 * 0.37, 0.5, 9);
-                [((i * 7919) % 300) as f64 + h, ((i * 104_729) % 170) as f64 * 1.1]
+                [
+                    ((i * 7919) % 300) as f64 + h,
+                    ((i * 104_729) % 170) as f64 * 1.1,
+                ]
             })
             .collect();
         let idx = PointIndex::new(pts.clone(), 300, 200);

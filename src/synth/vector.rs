@@ -69,8 +69,11 @@ impl VectorMap {
     /// Parse and validate GeoJSON text (`path` names it in errors).
     pub fn parse(text: &str, path: &Path) -> Result<VectorMap> {
         let bad = |m: String| Error::corrupt(path, m);
-        let root: Value = serde_json::from_str(text)
-            .map_err(|e| bad(format!("not valid JSON ({e}); expected a GeoJSON FeatureCollection")))?;
+        let root: Value = serde_json::from_str(text).map_err(|e| {
+            bad(format!(
+                "not valid JSON ({e}); expected a GeoJSON FeatureCollection"
+            ))
+        })?;
         let features: Vec<&Value> = match root.get("type").and_then(Value::as_str) {
             Some("FeatureCollection") => root
                 .get("features")
@@ -84,7 +87,11 @@ impl VectorMap {
                     "top-level type {t:?}; expected a GeoJSON FeatureCollection"
                 )))
             }
-            None => return Err(bad("no top-level \"type\"; expected a GeoJSON FeatureCollection".into())),
+            None => {
+                return Err(bad(
+                    "no top-level \"type\"; expected a GeoJSON FeatureCollection".into(),
+                ))
+            }
         };
         let mut map = VectorMap {
             path: path.to_path_buf(),
@@ -186,7 +193,12 @@ impl VectorMap {
 
     /// Bounding box `[xmin, ymin, xmax, ymax]` of all geometry, `None` if empty.
     pub fn bbox(&self) -> Option<[f64; 4]> {
-        let mut b = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
+        let mut b = [
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY,
+        ];
         let pts = self
             .coasts
             .iter()
@@ -207,8 +219,16 @@ impl VectorMap {
     /// The same map with every coordinate transformed by `f`.
     pub fn transformed(&self, f: impl Fn([f64; 2]) -> [f64; 2]) -> VectorMap {
         VectorMap {
-            coasts: self.coasts.iter().map(|r| r.iter().map(|&p| f(p)).collect()).collect(),
-            rivers: self.rivers.iter().map(|r| r.iter().map(|&p| f(p)).collect()).collect(),
+            coasts: self
+                .coasts
+                .iter()
+                .map(|r| r.iter().map(|&p| f(p)).collect())
+                .collect(),
+            rivers: self
+                .rivers
+                .iter()
+                .map(|r| r.iter().map(|&p| f(p)).collect())
+                .collect(),
             peaks: self
                 .peaks
                 .iter()
@@ -269,14 +289,20 @@ fn polygon(v: &Value) -> std::result::Result<Vec<[f64; 2]>, String> {
         return Err("a polygon needs an outer ring".into());
     }
     if rings.len() > 1 {
-        return Err("coastline polygons with holes (lakes) are not supported; give the outer ring only".into());
+        return Err(
+            "coastline polygons with holes (lakes) are not supported; give the outer ring only"
+                .into(),
+        );
     }
     let mut r = array(&rings[0])?
         .iter()
         .map(position)
         .collect::<std::result::Result<Vec<_>, _>>()?;
     if r.len() < 4 || r.first() != r.last() {
-        return Err("a coastline ring must be closed (first point = last) with at least 3 distinct points".into());
+        return Err(
+            "a coastline ring must be closed (first point = last) with at least 3 distinct points"
+                .into(),
+        );
     }
     r.pop();
     r.dedup();
@@ -292,7 +318,10 @@ fn orient(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {
 }
 
 fn on_segment(a: [f64; 2], b: [f64; 2], p: [f64; 2]) -> bool {
-    p[0] >= a[0].min(b[0]) && p[0] <= a[0].max(b[0]) && p[1] >= a[1].min(b[1]) && p[1] <= a[1].max(b[1])
+    p[0] >= a[0].min(b[0])
+        && p[0] <= a[0].max(b[0])
+        && p[1] >= a[1].min(b[1])
+        && p[1] <= a[1].max(b[1])
 }
 
 /// True if closed segments ab and cd share a point (standard orientation test,
@@ -302,7 +331,9 @@ pub fn segments_intersect(a: [f64; 2], b: [f64; 2], c: [f64; 2], d: [f64; 2]) ->
     let d2 = orient(c, d, b);
     let d3 = orient(a, b, c);
     let d4 = orient(a, b, d);
-    if ((d1 > 0.0 && d2 < 0.0) || (d1 < 0.0 && d2 > 0.0)) && ((d3 > 0.0 && d4 < 0.0) || (d3 < 0.0 && d4 > 0.0)) {
+    if ((d1 > 0.0 && d2 < 0.0) || (d1 < 0.0 && d2 > 0.0))
+        && ((d3 > 0.0 && d4 < 0.0) || (d3 < 0.0 && d4 > 0.0))
+    {
         return true;
     }
     (d1 == 0.0 && on_segment(c, d, a))
@@ -322,7 +353,12 @@ pub fn ring_self_intersection(ring: &[[f64; 2]]) -> Option<(usize, usize, [f64; 
         return None;
     }
     let seg = |i: usize| (ring[i], ring[(i + 1) % n]);
-    let mut bb = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
+    let mut bb = [
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+    ];
     for p in ring {
         bb[0] = bb[0].min(p[0]);
         bb[1] = bb[1].min(p[1]);
@@ -359,7 +395,11 @@ pub fn ring_self_intersection(ring: &[[f64; 2]]) -> Option<(usize, usize, [f64; 
                 let hit = if adjacent {
                     // Adjacent edges share one vertex; they are bad only if
                     // they are collinear and overlap (the ring folds back).
-                    let (p, q, r) = if (i + 1) % n == j { (a1, b1, b2) } else { (a2, b2, b1) };
+                    let (p, q, r) = if (i + 1) % n == j {
+                        (a1, b1, b2)
+                    } else {
+                        (a2, b2, b1)
+                    };
                     orient(p, q, r) == 0.0
                         && ((r[0] - q[0]) * (p[0] - q[0]) + (r[1] - q[1]) * (p[1] - q[1])) > 0.0
                 } else {
@@ -377,7 +417,10 @@ pub fn ring_self_intersection(ring: &[[f64; 2]]) -> Option<(usize, usize, [f64; 
     best.map(|(i, j)| {
         let (a, b) = seg(i);
         let (c, d) = seg(j);
-        let p = [(a[0] + b[0] + c[0] + d[0]) / 4.0, (a[1] + b[1] + c[1] + d[1]) / 4.0];
+        let p = [
+            (a[0] + b[0] + c[0] + d[0]) / 4.0,
+            (a[1] + b[1] + c[1] + d[1]) / 4.0,
+        ];
         (i, j, p)
     })
 }
@@ -508,25 +551,46 @@ mod tests {
           {"type":"Feature","properties":{},"geometry":{"type":"LineString","coordinates":[[1,1],[5,5]]}},
           {"type":"Feature","properties":{"elevation":1234.5},"geometry":{"type":"Point","coordinates":[3,4]}}]}"#;
         let m = VectorMap::parse(t, p()).unwrap();
-        assert_eq!(m.coasts, vec![vec![[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]]]);
+        assert_eq!(
+            m.coasts,
+            vec![vec![[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]]]
+        );
         assert_eq!(m.rivers.len(), 1);
-        assert_eq!(m.peaks, vec![MapPeak { pos: [3.0, 4.0], elevation: Some(1234.5) }]);
+        assert_eq!(
+            m.peaks,
+            vec![MapPeak {
+                pos: [3.0, 4.0],
+                elevation: Some(1234.5)
+            }]
+        );
         assert_eq!(m.bbox(), Some([0.0, 0.0, 10.0, 10.0]));
     }
 
     #[test]
     fn rejects_bad_input() {
         let e = VectorMap::parse("{not json", p()).unwrap_err().to_string();
-        assert!(e.contains("m.geojson") && e.contains("not valid JSON"), "{e}");
+        assert!(
+            e.contains("m.geojson") && e.contains("not valid JSON"),
+            "{e}"
+        );
         let bowtie = r#"{"type":"FeatureCollection","features":[{"type":"Feature","properties":{},"geometry":{"type":"Polygon","coordinates":[[[0,0],[10,10],[10,0],[0,10],[0,0]]]}}]}"#;
         let e = VectorMap::parse(bowtie, p()).unwrap_err().to_string();
         assert!(e.contains("crosses itself"), "{e}");
         let open = r#"{"type":"FeatureCollection","features":[{"type":"Feature","properties":{},"geometry":{"type":"Polygon","coordinates":[[[0,0],[10,10],[10,0]]]}}]}"#;
-        assert!(VectorMap::parse(open, p()).unwrap_err().to_string().contains("closed"));
+        assert!(VectorMap::parse(open, p())
+            .unwrap_err()
+            .to_string()
+            .contains("closed"));
         let nan = r#"{"type":"FeatureCollection","features":[{"type":"Feature","properties":{},"geometry":{"type":"Point","coordinates":["a",1]}}]}"#;
-        assert!(VectorMap::parse(nan, p()).unwrap_err().to_string().contains("finite"));
+        assert!(VectorMap::parse(nan, p())
+            .unwrap_err()
+            .to_string()
+            .contains("finite"));
         let kind = r#"{"type":"FeatureCollection","features":[{"type":"Feature","properties":{"kind":"river"},"geometry":{"type":"Point","coordinates":[1,1]}}]}"#;
-        assert!(VectorMap::parse(kind, p()).unwrap_err().to_string().contains("does not match"));
+        assert!(VectorMap::parse(kind, p())
+            .unwrap_err()
+            .to_string()
+            .contains("does not match"));
     }
 
     /// Brute-force oracle: every pair of non-adjacent edges.
@@ -557,7 +621,11 @@ mod tests {
                         [r * a.cos(), r * a.sin()]
                     })
                     .collect();
-                assert_eq!(ring_self_intersection(&ring).is_some(), brute(&ring), "n={n} step={step}");
+                assert_eq!(
+                    ring_self_intersection(&ring).is_some(),
+                    brute(&ring),
+                    "n={n} step={step}"
+                );
                 assert_eq!(brute(&ring), step == 2);
             }
         }
@@ -565,7 +633,13 @@ mod tests {
 
     #[test]
     fn ring_mask_matches_point_in_polygon() {
-        let ring = vec![[2.3, 1.1], [30.7, 4.2], [25.0, 28.9], [12.5, 14.0], [3.3, 26.1]];
+        let ring = vec![
+            [2.3, 1.1],
+            [30.7, 4.2],
+            [25.0, 28.9],
+            [12.5, 14.0],
+            [3.3, 26.1],
+        ];
         let rings = vec![ring];
         let m = RingMask::new(&rings, 32);
         let mut row = vec![false; 32];
