@@ -251,6 +251,13 @@ fn bad_maps_give_clear_errors() {
         .unwrap()
         .to_string();
     assert!(e.contains("no land"), "{e}");
+    // Absurd sizes: refused beyond 2^31 cells a side; at 2^31 the global
+    // part stays coarse (built without allocating per output cell).
+    let mut m = peaks_map(&[[10.0, 10.0]]);
+    assert!(TectonicModel::new(&m, (1 << 31) + 1, 10, 30.0, TectonicParams::default()).is_err());
+    m.rivers = vec![vec![[0.0, 0.0], [1e9, 1e9]]];
+    let big = TectonicModel::new(&m, 1 << 31, 1 << 31, 30.0, TectonicParams::default()).unwrap();
+    assert_eq!(big.size(), (1 << 31, 1 << 31));
     // Bad parameters.
     let m = peaks_map(&[[10.0, 10.0]]);
     assert!(TectonicModel::new(&m, 100, 100, 30.0, params(2.0, 0.1, 512)).is_err());

@@ -360,7 +360,8 @@ impl SegmentIndex {
         height: usize,
         maxd: f64,
     ) -> SegmentIndex {
-        let bs = maxd.max(8.0);
+        // At most 512 buckets a side, whatever the raster size.
+        let bs = maxd.max(8.0).max(width.max(height) as f64 / 512.0);
         let gw = ((width as f64 / bs).ceil() as usize).max(1);
         let gh = ((height as f64 / bs).ceil() as usize).max(1);
         let mut cells = vec![Vec::new(); gw * gh];

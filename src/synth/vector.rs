@@ -470,7 +470,8 @@ impl RingMask {
                 }
             }
         }
-        let band = 16.0;
+        // At most 65536 bands, whatever the raster height.
+        let band = (height as f64 / 65536.0).max(16.0);
         let nb = (height as f64 / band).ceil().max(1.0) as usize;
         let mut bands = vec![Vec::new(); nb];
         for (i, e) in edges.iter().enumerate() {
