@@ -15,6 +15,8 @@ pub mod oro;
 pub mod synth;
 pub mod synth_noise;
 pub mod synth_optimise;
+pub mod synth_rivers;
+pub mod synth_tectonic;
 pub mod tiles;
 pub mod view;
 pub mod viewshed;

@@ -26,6 +26,16 @@ pub enum SynthCmd {
         after_help = "Examples:\n  orogen synth optimise --source alps.tif --guide sketch.tif --size 1000x1000 -o out.tif\n  orogen synth optimise --source src.tif --guide coarse.tif --pit fill --previews levels/ --stats -o out.tif"
     )]
     Optimise(super::synth_optimise::OptimiseArgs),
+    /// River-network terrain (Génevaux et al. 2013): river trees grown upstream from the sea, every cell drains.
+    #[command(
+        after_help = "Examples:\n  orogen synth rivers --size 2048 --seed 3 -o rivers.tif --preview rivers.png\n  orogen synth rivers --size 1024 --coast configs/tectonic-map.geojson --cell 40 --network net.geojson -o r.tif"
+    )]
+    Rivers(super::synth_rivers::RiversArgs),
+    /// Tectonic folds from a GeoJSON map of coastlines, rivers and peaks (before erosion).
+    #[command(
+        after_help = "Examples:\n  orogen synth tectonic --map configs/tectonic-map.geojson -o folds.tif --preview folds.png\n  orogen synth tectonic --map configs/tectonic-map.geojson --intermediates inter/ --preview p.png -o t.tif\nThe output is the terrain before hydraulic erosion, which is a separate step."
+    )]
+    Tectonic(super::synth_tectonic::TectonicArgs),
 }
 
 /// Dispatch to the chosen method.
@@ -33,5 +43,7 @@ pub fn run(args: SynthArgs) -> Result<()> {
     match args.method {
         SynthCmd::Noise(a) => super::synth_noise::run(a),
         SynthCmd::Optimise(a) => super::synth_optimise::run(a),
+        SynthCmd::Rivers(a) => super::synth_rivers::run(a),
+        SynthCmd::Tectonic(a) => super::synth_tectonic::run(a),
     }
 }

@@ -1,10 +1,15 @@
 //! Terrain synthesis: seeded, tileable noise terrains (`noise`: fBm, ridged,
-//! billow, simplex, warped; `diamond_square`; `spectral`).
+//! billow, simplex, warped; `diamond_square`; `spectral`), river-network
+//! terrain (`rivers`), tectonic folds from a vector map (`tectonic`,
+//! `vector`) and example-based optimisation (`optimise`).
 
 pub mod diamond_square;
 pub mod noise;
 pub mod optimise;
 pub mod simplex;
 pub mod spectral;
+pub mod rivers;
+pub mod tectonic;
+pub mod vector;
 
 pub use noise::{Fbm, FbmSource, Noise, NoiseKind, NoiseSource};

@@ -1,0 +1,339 @@
+//! Tectonic folds (orogen::synth::tectonic): plate merging on a hand-made
+//! peak set (velocities computed by hand), tiles equal the whole raster for
+//! every layer, peaks of the sample map lie near generated crests, bad maps
+//! give clear errors, and the CLI writes the intermediates deterministically.
+
+use orogen::raster::{read_window, GeoRef, Grid, Window};
+use orogen::synth::tectonic::{
+    map_to_pixels, TectonicLayer, TectonicModel, TectonicParams, TectonicSource,
+};
+use orogen::synth::vector::{MapPeak, VectorMap};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::Arc;
+
+fn peaks_map(pts: &[[f64; 2]]) -> VectorMap {
+    VectorMap {
+        peaks: pts
+            .iter()
+            .map(|&pos| MapPeak {
+                pos,
+                elevation: None,
+            })
+            .collect(),
+        path: PathBuf::from("hand.geojson"),
+        ..Default::default()
+    }
+}
+
+fn params(t1: f64, t2: f64, coarse: usize) -> TectonicParams {
+    TectonicParams {
+        t1,
+        t2,
+        coarse,
+        ..Default::default()
+    }
+}
+
+#[test]
+fn plate_merging_follows_the_rules_on_a_hand_made_peak_set() {
+    // 400 x 200 raster, coarse grid = the raster (k = 1). Two peaks on the
+    // middle row at x = 50 and 250: the Voronoi boundary is x = 150, plate A
+    // covers columns 0..150 (centre of mass x = 75), B 150..400 (x = 275):
+    // both velocities are (50 - 75, 0) = (250 - 275, 0) = (-25, 0).
+    let map = peaks_map(&[[50.0, 100.0], [250.0, 100.0]]);
+    // Area ratio 150/250 = 0.6: merged when T2 <= 0.6.
+    let m = TectonicModel::new(&map, 400, 200, 30.0, params(0.8, 0.5, 400)).unwrap();
+    assert_eq!(m.plate_of_peaks(), &[0, 0]);
+    let v = m.plate_velocities()[0];
+    assert!((v[0] + 25.0).abs() < 1e-9 && v[1].abs() < 1e-9, "{v:?}");
+    let m = TectonicModel::new(&map, 400, 200, 30.0, params(0.8, 0.7, 400)).unwrap();
+    assert_eq!(m.plate_of_peaks(), &[0, 1]);
+    for v in m.plate_velocities() {
+        assert!((v[0] + 25.0).abs() < 1e-9 && v[1].abs() < 1e-9, "{v:?}");
+    }
+    // Plate labels on the raster: the boundary falls between columns 149 and 150.
+    let src = TectonicSource::new(Arc::new(m), TectonicLayer::Plates, GeoRef::pixel());
+    let g: Grid<i32> = read_window(&src, Window::new(140, 0, 20, 200)).unwrap();
+    for y in 0..200 {
+        for x in 0..20 {
+            assert_eq!(g.get(x, y), if x + 140 < 150 { 0 } else { 1 });
+        }
+    }
+
+    // Three peaks at x = 50, 250, 380: A = [0, 150) moves west (-25), B =
+    // [150, 315) east (250 - 232.5 = 17.5), C = [315, 400) east (380 - 357.5
+    // = 22.5). A and B are opposed (dot -1): never merged. B and C agree
+    // (dot 1), area ratio 85/165 = 0.515.
+    let map = peaks_map(&[[50.0, 100.0], [250.0, 100.0], [380.0, 100.0]]);
+    let m = TectonicModel::new(&map, 400, 200, 30.0, params(0.8, 0.5, 400)).unwrap();
+    assert_eq!(m.plate_of_peaks(), &[0, 1, 1]);
+    let v = m.plate_velocities();
+    assert!((v[0][0] + 25.0).abs() < 1e-9);
+    // Area-weighted: (165 * 17.5 + 85 * 22.5) / 250 = 19.2.
+    assert!((v[1][0] - 19.2).abs() < 1e-9, "{v:?}");
+    let m = TectonicModel::new(&map, 400, 200, 30.0, params(0.8, 0.6, 400)).unwrap();
+    assert_eq!(m.plate_of_peaks(), &[0, 1, 2]);
+    // T1 = -1 accepts opposed plates too: everything merges when T2 allows.
+    let m = TectonicModel::new(&map, 400, 200, 30.0, params(-1.0, 0.0, 400)).unwrap();
+    assert_eq!(m.plate_of_peaks(), &[0, 0, 0]);
+}
+
+/// The sample map on a grid of `cell` metres, as the CLI derives it (5 % margin).
+fn sample(cell: f64) -> (VectorMap, usize, usize, GeoRef) {
+    let map = VectorMap::read(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/configs/tectonic-map.geojson"
+    )))
+    .unwrap();
+    let b = map.bbox().unwrap();
+    let m = 0.05 * (b[2] - b[0]).max(b[3] - b[1]);
+    let (x0, y0) = (b[0] - m, b[3] + m);
+    let w = ((b[2] + m - x0) / cell).ceil() as usize;
+    let h = ((y0 - (b[1] - m)) / cell).ceil() as usize;
+    let g = GeoRef::north_up(x0, y0, cell, Default::default());
+    let px = map_to_pixels(&map, &g).unwrap();
+    (px, w, h, g)
+}
+
+fn sample_params(cell: f64) -> TectonicParams {
+    // The CLI's defaults are in 30 m cells; keep the same ground lengths.
+    let s = 30.0 / cell;
+    let mut p = TectonicParams::default();
+    p.blur *= s;
+    p.peak_radius *= s;
+    p.river_width *= s;
+    p.fbm.wavelength *= s;
+    p
+}
+
+#[test]
+fn every_layer_is_tileable() {
+    let (map, w, h, g) = sample(150.0);
+    let model = Arc::new(TectonicModel::new(&map, w, h, 150.0, sample_params(150.0)).unwrap());
+    for layer in [
+        TectonicLayer::Terrain,
+        TectonicLayer::Plates,
+        TectonicLayer::VelocityMagnitude,
+        TectonicLayer::VelocityDirection,
+        TectonicLayer::Folds,
+        TectonicLayer::Watershed,
+    ] {
+        let src = TectonicSource::new(model.clone(), layer, g.clone());
+        let all: Grid<f64> = read_window(&src, Window::new(0, 0, w, h)).unwrap();
+        for tile in [13usize, 50, 77] {
+            for ty in (0..h).step_by(tile) {
+                for tx in (0..w).step_by(tile) {
+                    let win = Window::new(tx as i64, ty as i64, tile.min(w - tx), tile.min(h - ty));
+                    let part: Grid<f64> = read_window(&src, win).unwrap();
+                    for y in 0..win.h {
+                        for x in 0..win.w {
+                            assert_eq!(
+                                part.get(x, y).to_bits(),
+                                all.get(tx + x, ty + y).to_bits(),
+                                "{layer:?} tile {tile}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn peaks_lie_near_generated_crests() {
+    let cell = 60.0;
+    let (map, w, h, g) = sample(cell);
+    let model = Arc::new(TectonicModel::new(&map, w, h, cell, sample_params(cell)).unwrap());
+    let src = TectonicSource::new(model, TectonicLayer::Terrain, g);
+    let z: Grid<f32> = read_window(&src, Window::new(0, 0, w, h)).unwrap();
+    // Crest cells: strictly higher than both neighbours along at least two
+    // of the four axes.
+    let mut crest = Vec::new();
+    for y in 1..h - 1 {
+        for x in 1..w - 1 {
+            let c = z.get(x, y);
+            let axes = [(1i64, 0i64), (0, 1), (1, 1), (1, -1)];
+            let n = axes
+                .iter()
+                .filter(|(dx, dy)| {
+                    let a = z.get((x as i64 + dx) as usize, (y as i64 + dy) as usize);
+                    let b = z.get((x as i64 - dx) as usize, (y as i64 - dy) as usize);
+                    c > a && c > b
+                })
+                .count();
+            if n >= 2 && c > 0.0 {
+                crest.push([x as f64 + 0.5, y as f64 + 0.5]);
+            }
+        }
+    }
+    let nearest = |q: [f64; 2]| {
+        crest
+            .iter()
+            .map(|p| ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).sqrt())
+            .fold(f64::INFINITY, f64::min)
+    };
+    let mut d: Vec<f64> = map.peaks.iter().map(|p| nearest(p.pos) * cell).collect();
+    // Baseline: land points on a regular lattice.
+    let mut base = Vec::new();
+    for y in (5..h).step_by(9) {
+        for x in (5..w).step_by(9) {
+            if z.get(x, y) > 0.0 {
+                base.push(nearest([x as f64 + 0.5, y as f64 + 0.5]) * cell);
+            }
+        }
+    }
+    d.sort_by(f64::total_cmp);
+    base.sort_by(f64::total_cmp);
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    let (dm, bm) = (mean(&d), mean(&base));
+    eprintln!(
+        "peak to crest distance (m): min {:.0}, median {:.0}, mean {dm:.0}, max {:.0}; land lattice points: median {:.0}, mean {bm:.0} ({} peaks, {} points, {} crest cells)",
+        d[0],
+        d[d.len() / 2],
+        d[d.len() - 1],
+        base[base.len() / 2],
+        d.len(),
+        base.len(),
+        crest.len()
+    );
+    // Peaks sit on or next to crests: median within two cells, every peak
+    // within 500 m, and much closer than arbitrary land points.
+    assert!(d[d.len() / 2] <= 2.0 * cell, "median {}", d[d.len() / 2]);
+    assert!(d[d.len() - 1] <= 500.0, "max {}", d[d.len() - 1]);
+    assert!(dm < 0.5 * bm, "peaks {dm} vs land {bm}");
+}
+
+#[test]
+fn bad_maps_give_clear_errors() {
+    let p = Path::new("bad.geojson");
+    let e = VectorMap::parse("{\"type\": \"FeatureCollection\", \"features\": [", p)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("bad.geojson") && e.contains("not valid JSON"),
+        "{e}"
+    );
+    let e = VectorMap::parse("[1, 2]", p).unwrap_err().to_string();
+    assert!(e.contains("FeatureCollection"), "{e}");
+    // No peaks.
+    let m = VectorMap::parse(
+        r#"{"type":"FeatureCollection","features":[{"type":"Feature","properties":{},"geometry":{"type":"LineString","coordinates":[[1,1],[50,50]]}}]}"#,
+        p,
+    )
+    .unwrap();
+    let e = TectonicModel::new(&m, 100, 100, 30.0, TectonicParams::default())
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("no peaks"), "{e}");
+    // A peak outside the raster.
+    let m = peaks_map(&[[10.0, 10.0], [120.0, 50.0]]);
+    let e = TectonicModel::new(&m, 100, 100, 30.0, TectonicParams::default())
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("peak 1") && e.contains("outside"), "{e}");
+    // A self-intersecting coastline (a figure of eight).
+    let e = VectorMap::parse(
+        r#"{"type":"FeatureCollection","features":[{"type":"Feature","properties":{"kind":"coast"},"geometry":{"type":"Polygon","coordinates":[[[0,0],[40,40],[80,0],[80,40],[40,0],[0,40],[0,0]]]}}]}"#,
+        p,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("coastline 0 crosses itself"), "{e}");
+    // Coastlines that enclose no land inside the raster.
+    let mut m = peaks_map(&[[10.0, 10.0]]);
+    m.coasts = vec![vec![[500.0, 500.0], [600.0, 500.0], [600.0, 600.0]]];
+    let e = TectonicModel::new(&m, 100, 100, 30.0, TectonicParams::default())
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("no land"), "{e}");
+    // Absurd sizes: refused beyond 2^31 cells a side; at 2^31 the global
+    // part stays coarse (built without allocating per output cell).
+    let mut m = peaks_map(&[[10.0, 10.0]]);
+    assert!(TectonicModel::new(&m, (1 << 31) + 1, 10, 30.0, TectonicParams::default()).is_err());
+    m.rivers = vec![vec![[0.0, 0.0], [1e9, 1e9]]];
+    let big = TectonicModel::new(&m, 1 << 31, 1 << 31, 30.0, TectonicParams::default()).unwrap();
+    assert_eq!(big.size(), (1 << 31, 1 << 31));
+    // Bad parameters.
+    let m = peaks_map(&[[10.0, 10.0]]);
+    assert!(TectonicModel::new(&m, 100, 100, 30.0, params(2.0, 0.1, 512)).is_err());
+    assert!(TectonicModel::new(&m, 100, 100, 30.0, params(0.5, f64::NAN, 512)).is_err());
+}
+
+#[test]
+fn cli_writes_intermediates_deterministically() {
+    let dir = tempfile::tempdir().unwrap();
+    let exe = env!("CARGO_BIN_EXE_orogen");
+    let map = concat!(env!("CARGO_MANIFEST_DIR"), "/configs/tectonic-map.geojson");
+    let run = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let o = Command::new(exe)
+            .args([
+                "synth", "tectonic", "--map", map, "--cell", "150", "-q", "-o",
+            ])
+            .arg(&out)
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        std::fs::read(out).unwrap()
+    };
+    let inter = dir.path().join("inter");
+    let pv = dir.path().join("t.png");
+    let a = run(
+        "a.tif",
+        &[
+            "--threads",
+            "1",
+            "--tile",
+            "64",
+            "--intermediates",
+            inter.to_str().unwrap(),
+            "--preview",
+            pv.to_str().unwrap(),
+        ],
+    );
+    let b = run("b.tif", &["--threads", "2", "--tile", "100"]);
+    assert_eq!(a, b);
+    assert!(pv.exists());
+    for n in [
+        "plates",
+        "velocity_magnitude",
+        "velocity_direction",
+        "folds",
+        "watershed",
+    ] {
+        assert!(
+            inter.join(format!("{n}.tif")).exists() && inter.join(format!("{n}.png")).exists(),
+            "{n}"
+        );
+    }
+    // The plates file holds as many labels as the model's merged plates.
+    let plates = orogen::io::open_raster(&inter.join("plates.tif"), &Default::default()).unwrap();
+    let i = plates.info().clone();
+    let g: Grid<i32> = read_window(plates.as_ref(), Window::new(0, 0, i.width, i.height)).unwrap();
+    let max = g.data().iter().copied().max().unwrap();
+    assert!(max >= 1 && g.data().iter().all(|&v| v >= 0));
+
+    // A map with a peak outside the given domain: non-zero exit, one clear line.
+    let bad = dir.path().join("bad.geojson");
+    std::fs::write(&bad, r#"{"type":"FeatureCollection","features":[{"type":"Feature","properties":{},"geometry":{"type":"Point","coordinates":[5000,5000]}}]}"#).unwrap();
+    let o = Command::new(exe)
+        .args(["synth", "tectonic", "--map"])
+        .arg(&bad)
+        .args(["--origin", "0,3000", "--size", "100x100", "-o"])
+        .arg(dir.path().join("x.tif"))
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("bad.geojson") && err.contains("outside"),
+        "{err}"
+    );
+    assert!(!dir.path().join("x.tif").exists());
+}
