@@ -599,8 +599,10 @@ impl Level<'_> {
             let mut best = 0usize;
             let mut bd = f32::INFINITY;
             let guess = ((t / pg.spacing as f32).round().max(0.0) as usize).min(corners.len() - 1);
-            for k in guess.saturating_sub(1)..(guess + 2).min(corners.len()) {
-                let d = (corners[k] as f32 - t).abs();
+            let lo = guess.saturating_sub(1);
+            let hi = (guess + 2).min(corners.len());
+            for (k, &ck) in corners.iter().enumerate().take(hi).skip(lo) {
+                let d = (ck as f32 - t).abs();
                 if d < bd {
                     bd = d;
                     best = k;
