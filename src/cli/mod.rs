@@ -5,8 +5,8 @@
 //! `local1`, `global1`, `wrote`) are reachable as `crate::...`.
 
 pub mod breach;
-pub mod erode;
 pub mod compare;
+pub mod erode;
 pub mod fill_epsilon;
 pub mod hydro_net;
 pub mod job;

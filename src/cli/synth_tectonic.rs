@@ -86,6 +86,13 @@ pub struct TectonicArgs {
     /// Write a hillshaded preview PNG of the terrain here (and PNGs of the intermediates).
     #[arg(long)]
     pub preview: Option<PathBuf>,
+    /// Finish with this many substeps of hydraulic erosion (virtual pipes, default
+    /// parameters; `orogen erode --model hydraulic` gives every parameter). 0 = none.
+    #[arg(long, default_value_t = 0)]
+    pub erode_steps: u64,
+    /// Seed of the erosion's rain.
+    #[arg(long, default_value_t = 1)]
+    pub erode_seed: u64,
     #[command(flatten)]
     pub out: Out,
     #[command(flatten)]
@@ -235,10 +242,34 @@ pub fn run(a: TectonicArgs) -> Result<()> {
         }
     }
     let src = TectonicSource::new(model, TectonicLayer::Terrain, georef);
-    orogen::ops::convert(&src, &a.out.output, &oo, a.run.tile, &cfg)?;
+    if a.erode_steps == 0 {
+        orogen::ops::convert(&src, &a.out.output, &oo, a.run.tile, &cfg)?;
+    } else {
+        // The folded terrain is tileable, so the erosion reads it tile by tile.
+        let params = orogen::erosion::hydraulic::HydraulicParams {
+            seed: a.erode_seed,
+            ..Default::default()
+        };
+        let model = orogen::erosion::hydraulic::Hydraulic::new(
+            params,
+            a.erode_steps,
+            orogen::erosion::CellSize::square(a.cell),
+        )?;
+        orogen::erosion::tiled::erode_to_paths(
+            &model,
+            &src,
+            &[(0, a.out.output.clone())],
+            &oo,
+            a.run.tile,
+            8,
+            None,
+            &cfg,
+        )?;
+    }
     wrote(&a.out.output);
     if let Some(p) = &a.preview {
-        preview(&src, p, RenderKind::Elevation)?;
+        let out = orogen::io::open_raster(&a.out.output, &orogen::io::OpenOptions::default())?;
+        preview(out.as_ref(), p, RenderKind::Elevation)?;
     }
     Ok(())
 }

@@ -6,9 +6,9 @@
 pub mod diamond_square;
 pub mod noise;
 pub mod optimise;
+pub mod rivers;
 pub mod simplex;
 pub mod spectral;
-pub mod rivers;
 pub mod tectonic;
 pub mod vector;
 
