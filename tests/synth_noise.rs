@@ -459,3 +459,57 @@ fn diamond_square_equals_the_in_place_algorithm() {
         }
     }
 }
+
+/// The row kernel of fbm, billow and ridged (gradients folded into A·fx + B
+/// per lattice column, runs of cells) against sums of the point-by-point
+/// gradient noise `lattice_noise` (the textbook bilinear blend of the four
+/// corner dot products), with the ridged multifractal's recurrence written
+/// out here (Musgrave 2003).
+#[test]
+fn row_kernel_equals_pointwise_sums() {
+    use orogen::synth::noise::lattice_noise;
+    let win = Window::new(12_345, 678, 97, 53);
+    for kind in [NoiseKind::Fbm, NoiseKind::Billow, NoiseKind::Ridged] {
+        let p = Noise {
+            wavelength: 40.0,
+            octaves: 7,
+            ..params(kind)
+        };
+        let octs = p.octaves();
+        let norm: f64 = octs.iter().map(|o| o.1).sum();
+        let v = field(&p, win);
+        for r in 0..win.h {
+            for c in 0..win.w {
+                let x = (win.x + c as i64) as f64 + 0.5;
+                let y = (win.y + r as i64) as f64 + 0.5;
+                let (mut sum, mut wt) = (0.0, 1.0f64);
+                for (o, amp) in &octs {
+                    let n = lattice_noise(x * o.freq + o.ox, y * o.freq + o.oy, o.seed);
+                    sum += amp
+                        * match kind {
+                            NoiseKind::Fbm => n,
+                            NoiseKind::Billow => 2.0 * n.abs() - 1.0,
+                            _ => {
+                                let s = (p.ridge_offset - n.abs()).powi(2) * wt;
+                                wt = (s * p.ridge_gain).clamp(0.0, 1.0);
+                                s
+                            }
+                        };
+                }
+                let want = match kind {
+                    NoiseKind::Ridged => 2.0 * sum / (norm * p.ridge_offset.powi(2)) - 1.0,
+                    _ => sum / norm,
+                };
+                let got = v[r * win.w + c];
+                assert!(
+                    (got - want).abs() < 1e-12,
+                    "{kind:?} ({c}, {r}): {got} vs {want}"
+                );
+            }
+        }
+    }
+    // Gradient noise vanishes at lattice points.
+    for (ix, iy) in [(0, 0), (5, -3), (100_000, 7)] {
+        assert_eq!(lattice_noise(ix as f64, iy as f64, 99), 0.0);
+    }
+}

@@ -458,8 +458,14 @@ impl Noise {
         Ok(())
     }
 
-    /// The octaves of the lattice-noise kinds: frequency (cycles per cell),
-    /// lattice offset, seed and amplitude of each.
+    /// The octaves of the lattice-noise kinds (fbm, ridged, billow, simplex,
+    /// warped): each octave's frequency (cycles per cell), lattice offset and
+    /// seed, with its amplitude. Public so that tests can rebuild the sums
+    /// point by point.
+    pub fn octaves(&self) -> Vec<(Octave, f64)> {
+        self.octave_list(self.seed, self.octaves)
+    }
+
     fn octave_list(&self, seed: u64, octaves: u32) -> Vec<(Octave, f64)> {
         let mut f = 1.0 / self.wavelength;
         let mut amp = 1.0;
@@ -610,7 +616,7 @@ impl Noise {
 /// One octave of lattice noise: frequency in cycles per cell, lattice offset
 /// (decorrelates the octaves' lattices), hash seed.
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct Octave {
+pub struct Octave {
     pub freq: f64,
     pub ox: f64,
     pub oy: f64,
@@ -621,7 +627,7 @@ pub(crate) struct Octave {
 /// units, in [-1, 1]. The same formula as [`octave_rows`], point by point
 /// (different rounding: the two are not mixed within one kind).
 #[inline]
-pub(crate) fn lattice_noise(x: f64, y: f64, seed: u64) -> f64 {
+pub fn lattice_noise(x: f64, y: f64, seed: u64) -> f64 {
     let (xf, yf) = (x.floor(), y.floor());
     let (ix, iy) = (xf as i64, yf as i64);
     let (fx, fy) = (x - xf, y - yf);
