@@ -312,6 +312,12 @@ enum Cmd {
         after_help = "Example:\n  orogen fill-epsilon dem.tif -o eps.tif\nErrors (instead of raising terrain) where a flat is too wide for f32 steps;\nthen use fill + flow."
     )]
     FillEpsilon(cli::fill_epsilon::FillEpsilonArgs),
+    /// Stream-power erosion with uplift (Braun & Willett 2013 implicit solver), optional
+    /// constrained erosion around fixed points and coarse-to-fine levels (in memory).
+    #[command(
+        after_help = "Examples:\n  orogen erode-sp dem.tif --steps 200 --dt 1000 --k 1e-5 --m 0.4 --n 1 --uplift 1e-3 -o eroded.tif\n  orogen erode-sp dem.tif --uplift-map u.tif --diffusion 0.01 --depressions basin-graph -o e.tif\n  orogen erode-sp dem.tif --fixed-points peaks.csv --radius 300 --levels 100,50,30 -o e.tif\nBorders (--base-level) and cells next to nodata are fixed base levels."
+    )]
+    ErodeSp(cli::erode_sp::ErodeSpArgs),
     /// Watershed labels from D8 directions: each cell gets the row-major index + 1 of
     /// the cell where its flow leaves the DEM (u32, 0 = nodata); exact across tiles.
     #[command(
@@ -827,6 +833,7 @@ fn run(cli: Cli) -> Result<()> {
         }
         Cmd::Breach(args) => cli::breach::run(args)?,
         Cmd::FillEpsilon(a) => cli::fill_epsilon::run(a)?,
+        Cmd::ErodeSp(a) => cli::erode_sp::run(a)?,
         Cmd::Watersheds(a) => cli::watersheds::run(a)?,
         Cmd::Accumulate {
             input,

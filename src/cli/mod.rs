@@ -5,6 +5,7 @@
 //! `local1`, `global1`, `wrote`) are reachable as `crate::...`.
 
 pub mod breach;
+pub mod erode_sp;
 pub mod fill_epsilon;
 pub mod hydro_net;
 pub mod job;
