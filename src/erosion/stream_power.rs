@@ -15,14 +15,15 @@
 //!    basins of the local minima, minimum spanning tree of their passes
 //!    (Kruskal), receivers reversed from each pass down to the basin's pit —
 //!    their "carving" variant), or not at all (pits are local base levels).
-//! 3. **Stack** (Braun & Willett §3.2): donors listed per receiver, then a
+//! 3. **Stack** (Braun & Willett's ordering): donors listed per receiver, then a
 //!    depth-first walk from every root (base level or unresolved pit) orders
 //!    each cell after its receiver; the drainage area `A` is the sum of cell
 //!    areas accumulated in reverse stack order. Both O(n).
 //! 4. **Implicit erosion** in stack order (receiver already updated):
 //!    `n = 1`: `h = (h* + F·h_r)/(1 + F)`, `F = K·dt·A^m/d^n`
-//!    (Braun & Willett eq. 21, `d` = distance to the receiver);
-//!    `n ≠ 1`: Newton's method on `f(h) = h − h* + K·dt·A^m·((h − h_r)/d)^n`,
+//!    (Braun & Willett's implicit update, `d` = distance to the receiver);
+//!    `n ≠ 1`: Newton's method on `f(h) = h − h* + K·dt·A^m·((h − h_r)/d)^n`
+//!    (closed form for `n = 2`),
 //!    which converges monotonically from `h*` for `n > 1` (f convex) and is
 //!    safeguarded by bisection towards `h_r` otherwise. A cell that is not
 //!    above its (updated) receiver — inside a lake — is not eroded (no
@@ -680,7 +681,7 @@ impl StreamPower {
         }
     }
 
-    /// Braun & Willett (2013) §3.2: donor lists, then a depth-first walk from
+    /// Braun & Willett (2013) stack order: donor lists, then a depth-first walk from
     /// every root in row-major order.
     fn build_stack(&mut self) {
         let n = self.w * self.h;
@@ -723,10 +724,12 @@ impl StreamPower {
         debug_assert_eq!(self.stack.len(), n);
     }
 
+    /// Drainage area: cell counts summed in reverse stack order, then times the
+    /// cell area. Counts are integers below 2^53, so the sums are exact and do
+    /// not depend on the summation order (a tiled pass gives the same bits).
     fn accumulate(&mut self) {
-        let ca = self.cell * self.cell;
         for (a, f) in self.area.iter_mut().zip(&self.flags) {
-            *a = if f & VALID != 0 { ca } else { 0.0 };
+            *a = if f & VALID != 0 { 1.0 } else { 0.0 };
         }
         for k in (0..self.stack.len()).rev() {
             let i = self.stack[k] as usize;
@@ -734,6 +737,10 @@ impl StreamPower {
             if r != i {
                 self.area[r] += self.area[i];
             }
+        }
+        let ca = self.cell * self.cell;
+        for a in self.area.iter_mut() {
+            *a *= ca;
         }
     }
 
@@ -755,11 +762,12 @@ impl StreamPower {
                 continue; // lake cell: no erosion, no deposition
             }
             let d = self.dist[i];
-            let fac = k * dt * self.area[i].powf(m) / d.powf(n);
+            let c = k * dt * self.area[i].powf(m);
             if linear {
+                let fac = c / d;
                 h[i] = (hs + fac * hr) / (1.0 + fac);
             } else {
-                h[i] = newton(hs, hr, d, fac * d.powf(n), n);
+                h[i] = newton(hs, hr, d, c, n);
             }
         }
     }
@@ -810,20 +818,28 @@ impl StreamPower {
 }
 
 /// Solve `x − hs + c·((x − hr)/d)^n = 0` for `x` in `(hr, hs]` (`c = K·dt·A^m`).
-/// Newton from `hs`; a step that would leave `(hr, x]` is replaced by bisection.
+/// `n = 2`: the root of the quadratic in `D = x − hr`, `(c/d²)·D² + D − Δ = 0`
+/// with `Δ = hs − hr`, in the cancellation-free form `D = 2Δ/(1 + √(1 + 4cΔ/d²))`.
+/// Otherwise Newton from `hs` (one `powf` per iteration); a step that would
+/// leave the bracket `(lo, hi)` is replaced by bisection.
 fn newton(hs: f64, hr: f64, d: f64, c: f64, n: f64) -> f64 {
+    if n == 2.0 {
+        let delta = hs - hr;
+        return hr + 2.0 * delta / (1.0 + (1.0 + 4.0 * c * delta / (d * d)).sqrt());
+    }
     let mut x = hs;
     let mut lo = hr;
     let mut hi = hs;
     for _ in 0..100 {
         let s = (x - hr) / d;
-        let f = x - hs + c * s.powf(n);
+        let p = s.powf(n - 1.0); // s^(n-1); s^n = s·p
+        let f = x - hs + c * s * p;
         if f > 0.0 {
             hi = x;
         } else {
             lo = x;
         }
-        let df = 1.0 + c * n * s.powf(n - 1.0) / d;
+        let df = 1.0 + c * n * p / d;
         let mut nx = x - f / df;
         if !(nx > lo && nx < hi) || !nx.is_finite() {
             nx = 0.5 * (lo + hi);
@@ -858,6 +874,13 @@ mod tests {
         let u = (-d + (d * d + 4.0 * c * (hs - hr)).sqrt()) / (2.0 * c);
         let x = newton(hs, hr, d, c, 2.0);
         assert!((x - (hr + u * d)).abs() < 1e-9, "{x} vs {}", hr + u * d);
+        // Newton (n just off 2) agrees with the closed form to first order.
+        let y = newton(hs, hr, d, c, 2.0 + 1e-9);
+        assert!((y - x).abs() < 1e-6, "{y} vs {x}");
+        // n = 1.5 by Newton satisfies its equation.
+        let z = newton(hs, hr, d, c, 1.5);
+        let f = z - hs + c * ((z - hr) / d).powf(1.5);
+        assert!(f.abs() < 1e-9 && z > hr && z < hs, "{z}: {f}");
     }
 
     #[test]
