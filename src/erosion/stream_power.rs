@@ -841,7 +841,7 @@ fn newton(hs: f64, hr: f64, d: f64, c: f64, n: f64) -> f64 {
         }
         let df = 1.0 + c * n * p / d;
         let mut nx = x - f / df;
-        if !(nx > lo && nx < hi) || !nx.is_finite() {
+        if !(nx > lo && nx < hi && nx.is_finite()) {
             nx = 0.5 * (lo + hi);
         }
         if (nx - x).abs() <= 1e-12 * (1.0 + x.abs()) {
@@ -870,7 +870,7 @@ mod tests {
     #[test]
     fn newton_matches_closed_form_for_n2() {
         // x - hs + c ((x-hr)/d)^2 = 0  =>  with u = (x-hr)/d: c u^2 + d u - (hs-hr) = 0.
-        let (hs, hr, d, c) = (10.0, 2.0, 30.0, 5000.0);
+        let (hs, hr, d, c): (f64, f64, f64, f64) = (10.0, 2.0, 30.0, 5000.0);
         let u = (-d + (d * d + 4.0 * c * (hs - hr)).sqrt()) / (2.0 * c);
         let x = newton(hs, hr, d, c, 2.0);
         assert!((x - (hr + u * d)).abs() < 1e-9, "{x} vs {}", hr + u * d);
