@@ -212,22 +212,32 @@ mod tests {
 
     #[test]
     fn downsample_keeps_the_mean_and_planes() {
-        // A plane z = 2x + 3y (cell centres) averaged over exact boxes stays a
-        // plane at the coarse centres; the total is preserved.
-        let g = Grid::from_fn(9, 6, |x, y| 2.0 * (x as f64 + 0.5) + 3.0 * (y as f64 + 0.5));
-        let d = downsample_area(&g, 4, 4).unwrap();
-        for y in 0..4 {
-            for x in 0..4 {
-                let cx = (x as f64 + 0.5) * 9.0 / 4.0;
-                let cy = (y as f64 + 0.5) * 6.0 / 4.0;
-                assert!((d.get(x, y) - (2.0 * cx + 3.0 * cy)).abs() < 1e-9);
+        // A plane z = 2x + 3y sampled at cell centres; whole-cell boxes (3x2)
+        // average to the plane at the coarse centres.
+        let plane = |x: f64, y: f64| 2.0 * x + 3.0 * y;
+        let g = Grid::from_fn(9, 6, |x, y| plane(x as f64 + 0.5, y as f64 + 0.5));
+        let d = downsample_area(&g, 3, 3).unwrap();
+        for y in 0..3 {
+            for x in 0..3 {
+                let (cx, cy) = ((x as f64 + 0.5) * 3.0, (y as f64 + 0.5) * 2.0);
+                assert!((d.get(x, y) - plane(cx, cy)).abs() < 1e-9);
             }
         }
-        let up = upsample_bilinear(&d, 8, 8).unwrap();
-        // Interior output centres fall between coarse centres: plane reproduced.
-        let (x, y) = (3usize, 4usize);
-        let cx = (x as f64 + 0.5) * 9.0 / 8.0;
-        let cy = (y as f64 + 0.5) * 6.0 / 8.0;
-        assert!((up.get(x, y) - (2.0 * cx + 3.0 * cy)).abs() < 1e-9);
+        // Fractional boxes: equal-area coarse cells, so the mean is kept.
+        let f = downsample_area(&g, 4, 4).unwrap();
+        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+        assert!((mean(f.data()) - mean(g.data())).abs() < 1e-9);
+        // Bilinear between coarse centres reproduces the plane inside their hull.
+        let up = upsample_bilinear(&d, 9, 6).unwrap();
+        for y in 1..5 {
+            for x in 2..7 {
+                let v = plane(x as f64 + 0.5, y as f64 + 0.5);
+                assert!(
+                    (up.get(x, y) - v).abs() < 1e-9,
+                    "{x},{y}: {} vs {v}",
+                    up.get(x, y)
+                );
+            }
+        }
     }
 }
