@@ -25,9 +25,11 @@
 //!    `n ≠ 1`: Newton's method on `f(h) = h − h* + K·dt·A^m·((h − h_r)/d)^n`
 //!    (closed form for `n = 2`),
 //!    which converges monotonically from `h*` for `n > 1` (f convex) and is
-//!    safeguarded by bisection towards `h_r` otherwise. A cell that is not
-//!    above its (updated) receiver — inside a lake — is not eroded (no
-//!    deposition is modelled). The scheme is unconditionally stable: the new
+//!    safeguarded by bisection towards `h_r` otherwise. A cell under water
+//!    (below its depression's fill level; for the basin graph, the highest
+//!    pass on its basin's tree path to the root, which is the same level) or
+//!    not above its updated receiver is not eroded (no deposition is
+//!    modelled). The scheme is unconditionally stable: the new
 //!    height always lies between `h_r` and `h*`.
 //! 5. **Diffusion** (optional, `K_d > 0`): linear hillslope diffusion by
 //!    explicit forward-time centred-space substeps on the 4-neighbour stencil,
@@ -245,6 +247,8 @@ pub struct StreamPower {
     donors: Vec<u32>,
     /// Scratch: fill levels, basin ids, diffusion buffer.
     level: Vec<f64>,
+    /// True when `level` holds this step's water levels (some cell is a lake).
+    has_lakes: bool,
     basin: Vec<u32>,
     scratch: Vec<f64>,
 }
@@ -336,6 +340,7 @@ impl StreamPower {
             don_off: vec![0; n + 1],
             donors: vec![0; n],
             level: Vec::new(),
+            has_lakes: false,
             basin: Vec::new(),
             scratch: Vec::new(),
         })
@@ -486,6 +491,7 @@ impl StreamPower {
     }
 
     fn route(&mut self, h: &[f64]) {
+        self.has_lakes = false;
         let pits = self.steepest(h, None);
         if pits == 0 {
             return;
@@ -549,6 +555,7 @@ impl StreamPower {
         let not_lake: Vec<bool> = lake.iter().zip(&seen).map(|(l, s)| !*l && *s).collect();
         self.steepest(&level, Some(&not_lake));
         self.level = level;
+        self.has_lakes = true;
     }
 
     /// Cordonnier, Bovy & Braun (2019): basins of the steepest-descent
@@ -638,8 +645,11 @@ impl StreamPower {
         for b in 0..nb as usize {
             off[b + 1] += off[b];
         }
-        // Orient from the root (basin 0), breadth first.
+        // Orient from the root (basin 0), breadth first. A basin's water
+        // level is the highest pass on its tree path to the root (the minimum
+        // spanning tree holds the minimax paths: the level filling would give).
         let mut done = vec![false; nb as usize];
+        let mut water = vec![f64::NEG_INFINITY; nb as usize];
         let mut queue = std::collections::VecDeque::new();
         done[0] = true;
         queue.push_back(0u32);
@@ -651,6 +661,8 @@ impl StreamPower {
                 }
                 done[c as usize] = true;
                 queue.push_back(c);
+                let pass = h[out_cell as usize].max(h[in_cell as usize]);
+                water[c as usize] = pass.max(water[b as usize]);
                 // Reverse the path in_cell -> ... -> pit, then in_cell -> out_cell.
                 let pit = pit_of[c as usize] as usize;
                 let mut prev = out_cell as usize;
@@ -667,6 +679,15 @@ impl StreamPower {
                 }
             }
         }
+        self.level.clear();
+        self.level.extend(h.iter().zip(&self.basin).map(|(&z, &b)| {
+            if b == u32::MAX {
+                z
+            } else {
+                z.max(water[b as usize])
+            }
+        }));
+        self.has_lakes = true;
     }
 
     /// Distance between two 8-adjacent cells.
@@ -758,8 +779,8 @@ impl StreamPower {
             }
             let hr = h[r];
             let hs = h[i];
-            if hs <= hr {
-                continue; // lake cell: no erosion, no deposition
+            if hs <= hr || (self.has_lakes && self.level[i] > hs) {
+                continue; // in a lake: no erosion, no deposition
             }
             let d = self.dist[i];
             let c = k * dt * self.area[i].powf(m);
@@ -895,6 +916,8 @@ mod tests {
     fn fill_and_basin_graph_drain_every_cell_to_a_base_level() {
         // A bowl with a rim: the centre is a pit, every cell must reach the border.
         let w = 15;
+        let mut levels = Vec::new();
+        let mut heights = Vec::new();
         for dep in [Depressions::Fill, Depressions::BasinGraph] {
             let mut g = Grid::from_fn(w, w, |x, y| {
                 let (dx, dy) = (x as f64 - 7.0, y as f64 - 7.0);
@@ -910,6 +933,7 @@ mod tests {
                 depressions: dep,
                 ..Default::default()
             };
+            heights = g.data().to_vec();
             let mut sp = StreamPower::new(&mut g, 10.0, &p).unwrap();
             sp.step(&mut g, &Uplift::Uniform(0.0)).unwrap();
             for start in 0..w * w {
@@ -927,6 +951,11 @@ mod tests {
                 .map(|i| sp.area[i])
                 .sum();
             assert_eq!(outflow, (w * w) as f64 * 100.0);
+            levels.push(sp.level.clone());
         }
+        // Both give the same water levels (flood level = highest pass on the
+        // minimum-spanning-tree path), and the bowl does hold a lake.
+        assert_eq!(levels[0], levels[1]);
+        assert!(levels[0].iter().zip(&heights).any(|(l, z)| l > z));
     }
 }
