@@ -312,6 +312,7 @@ enum Cmd {
         after_help = "Example:\n  orogen fill-epsilon dem.tif -o eps.tif\nErrors (instead of raising terrain) where a flat is too wide for f32 steps;\nthen use fill + flow."
     )]
     FillEpsilon(cli::fill_epsilon::FillEpsilonArgs),
+    /// Stream-power erosion with uplift (Braun & Willett 2013 implicit solver), optional
     /// Watershed labels from D8 directions: each cell gets the row-major index + 1 of
     /// the cell where its flow leaves the DEM (u32, 0 = nodata); exact across tiles.
     #[command(
@@ -403,10 +404,11 @@ enum Cmd {
         after_help = "Examples:\n  orogen viewshed dem.tif --at 352000,4590000 --observer-height 1.7 --radius 10km -o vis.tif\n  orogen viewshed srtm.tif --at=-105.2,39.7 --curvature -o vis.tif\n  orogen viewshed dem.tif --points towers.csv --radius 5km -o count.tif\n  orogen viewshed dem.tif --at 352000,4590000 --fuzzy 1000,2000 -o fuzzy.tif\nOne observer: u8, 1 visible, 0 hidden, 255 beyond the radius or nodata. Several: u16 count\nof observers seeing each cell. --fuzzy: f32 sum of memberships. The output covers the\nobservers' radius, clipped to the DEM. Coordinates are in the DEM's CRS (--pixel: col,row)."
     )]
     Viewshed(cli::viewshed::ViewshedArgs),
-    /// Erosion: hydraulic (virtual pipes), thermal (talus) or hillslope diffusion, tiled with
-    /// halo exchange (bit-identical to an untiled run for any tile size).
+    /// Erosion: hydraulic (virtual pipes), thermal (talus), hillslope diffusion (tiled with
+    /// halo exchange, bit-identical to an untiled run for any tile size) or stream power
+    /// with uplift (Braun & Willett 2013; constrained and coarse-to-fine; in memory).
     #[command(
-        after_help = "Examples:\n  orogen erode dem.tif --model hydraulic --steps 300 -o eroded.tif --preview previews/\n  orogen erode dem.tif --model thermal --steps 200 --talus 33 -o slumped.tif\n  orogen erode dem.tif --model diffusion --steps 100 --diffusivity 0.01 --dt 1000 -o smooth.tif\n  orogen erode dem.tiles --model hydraulic --steps 300 --params configs/erosion-hydraulic.toml --set rain=0.02 -o eroded.tiles\nParameters: --params FILE (a table per model), then --set KEY=VALUE, then the named flags.\nUnits: metres, seconds (hydraulic), years (diffusion); see docs/notes/erosion.md."
+        after_help = "Examples:\n  orogen erode dem.tif --model hydraulic --steps 300 -o eroded.tif --preview previews/\n  orogen erode dem.tif --model thermal --steps 200 --talus 33 -o slumped.tif\n  orogen erode dem.tif --model diffusion --steps 100 --diffusivity 0.01 --dt 1000 -o smooth.tif\n  orogen erode dem.tiles --model hydraulic --steps 300 --params configs/erosion-hydraulic.toml --set rain=0.02 -o eroded.tiles\n  orogen erode dem.tif --model stream-power --steps 200 --dt 1000 --k 1e-5 --m 0.4 --n 1 --uplift 1e-3 -o sp.tif\n  orogen erode dem.tif --model stream-power --uplift-map u.tif --diffusivity 0.01 --depressions basin-graph -o sp.tif\n  orogen erode dem.tif --model stream-power --fixed-points peaks.csv --radius 300 --levels 100,50,30 -o sp.tif\nParameters: --params FILE (a table per model), then --set KEY=VALUE, then the named flags;\nstream power takes flags only (--k --m --n --uplift ...). Units: metres, seconds (hydraulic),\nyears (diffusion, stream power); see docs/notes/erosion.md and docs/notes/stream_power.md."
     )]
     Erode(cli::erode::ErodeArgs),
     /// Terrain synthesis: `orogen synth noise|...` (see `orogen synth --help`).

@@ -23,6 +23,8 @@ pub enum ModelArg {
     Thermal,
     /// Linear hillslope diffusion, explicit and CFL-stable.
     Diffusion,
+    /// Stream power with uplift, implicit (Braun & Willett 2013); in memory.
+    StreamPower,
 }
 
 impl ModelArg {
@@ -31,6 +33,7 @@ impl ModelArg {
             ModelArg::Hydraulic => "hydraulic",
             ModelArg::Thermal => "thermal",
             ModelArg::Diffusion => "diffusion",
+            ModelArg::StreamPower => "stream-power",
         }
     }
 }
@@ -83,10 +86,59 @@ pub struct ErodeArgs {
     /// memory when two copies fit in half of --memory, else next to the output).
     #[arg(long, value_name = "DIR")]
     pub scratch: Option<PathBuf>,
+    /// Stream-power options (--model stream-power).
+    #[command(flatten)]
+    pub sp: crate::cli::erode_sp::StreamPowerArgs,
     #[command(flatten)]
     pub out: Out,
     #[command(flatten)]
     pub run: Run,
+}
+
+/// `--model stream-power`: the implicit solver in memory, with `--steps`,
+/// `--dt` (years) and `--diffusivity` (Kd) taken from the common flags.
+fn run_stream_power(mut a: ErodeArgs) -> Result<()> {
+    let local_only = [
+        (a.params.is_some(), "--params"),
+        (!a.set.is_empty(), "--set"),
+        (a.seed.is_some(), "--seed"),
+        (a.talus.is_some(), "--talus"),
+        (a.exchange.is_some(), "--exchange"),
+        (a.water.is_some(), "--water"),
+        (a.sediment.is_some(), "--sediment"),
+        (a.scratch.is_some(), "--scratch"),
+    ];
+    for (given, flag) in local_only {
+        if given {
+            bail!("{flag} applies to the hydraulic, thermal and diffusion models; stream power takes its parameters as flags (--k --m --n --uplift --uplift-map --depressions ...)");
+        }
+    }
+    let Some(steps) = a.steps else {
+        bail!("give the number of steps with --steps N");
+    };
+    a.sp.steps = usize::try_from(steps).context("--steps is too large")?;
+    if let Some(dt) = a.dt {
+        a.sp.dt = dt;
+    }
+    if let Some(kd) = a.diffusivity {
+        a.sp.diffusion = kd;
+    }
+    if let Some(dir) = &a.preview {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("{}: cannot create the preview folder", dir.display()))?;
+        let src = open(&a.input)?;
+        let p = dir.join("before.png");
+        orogen::io::render::render_preview(src.as_ref(), &p, &Default::default())?;
+        wrote(&p);
+    }
+    crate::cli::erode_sp::run(&a.input, &a.sp, &a.out, &a.run)?;
+    if let Some(dir) = &a.preview {
+        let out = orogen::io::open_raster(&a.out.output, &orogen::io::OpenOptions::default())?;
+        let p = dir.join("after.png");
+        orogen::io::render::render_preview(out.as_ref(), &p, &Default::default())?;
+        wrote(&p);
+    }
+    Ok(())
 }
 
 /// Top-level keys of a parameter file.
@@ -283,6 +335,9 @@ fn cell_of(src: &dyn orogen::raster::RasterSource, has_cell: bool) -> Result<Cel
 
 /// Run `orogen erode`.
 pub fn run(a: ErodeArgs) -> Result<()> {
+    if a.model == ModelArg::StreamPower {
+        return run_stream_power(a);
+    }
     let (table, file_steps, file_exchange) = gather(&a)?;
     let Some(steps) = a.steps.or(file_steps) else {
         bail!("give the number of steps with --steps N (or `steps` in --params)");
@@ -324,5 +379,6 @@ pub fn run(a: ErodeArgs) -> Result<()> {
             let model = Diffusion::new(p, steps, cell_of(src.as_ref(), has_cell)?)?;
             execute(&model, &a, src.as_ref(), exchange)
         }
+        ModelArg::StreamPower => unreachable!("stream power returns above"),
     }
 }

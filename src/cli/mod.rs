@@ -7,6 +7,7 @@
 pub mod breach;
 pub mod compare;
 pub mod erode;
+pub mod erode_sp;
 pub mod fill_epsilon;
 pub mod hydro_net;
 pub mod job;

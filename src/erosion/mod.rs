@@ -198,3 +198,7 @@ pub fn check_steps(steps: u64) -> Result<()> {
 pub(crate) fn valid(v: f64) -> bool {
     !v.is_nan()
 }
+
+pub mod constrained;
+pub mod multires;
+pub mod stream_power;

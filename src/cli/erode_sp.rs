@@ -1,0 +1,489 @@
+//! `orogen erode-sp` (temporary name; meant to become `orogen erode --model
+//! stream-power`): stream-power erosion with uplift (Braun & Willett 2013),
+//! optional constrained erosion around fixed points (Argudo et al. 2019 §6.3)
+//! and coarse-to-fine levels. Runs in memory (see `orogen::erosion`).
+//!
+//! [`StreamPowerArgs`] holds every model option and no input/output option,
+//! so it can be `#[command(flatten)]`ed into another command as it is.
+
+use anyhow::{bail, Context, Result};
+use clap::{Args, ValueEnum};
+use orogen::erosion::constrained::{erode_constrained_f64, ConstrainedParams};
+use orogen::erosion::multires::{downsample_area, erode_multires};
+use orogen::erosion::stream_power::{
+    stream_power, BaseHeight, Boundary, Depressions, StreamPowerParams, Uplift,
+};
+use orogen::hydro::FILL_NODATA;
+use orogen::raster::{read_window, AnyGrid, GeoRef, Grid, MemRaster, Window};
+use std::path::{Path, PathBuf};
+
+/// Depression routing choices.
+#[derive(Copy, Clone, PartialEq, Eq, ValueEnum)]
+pub enum DepressionsArg {
+    /// Priority-flood filling: lakes drain through their spill point.
+    Fill,
+    /// Cordonnier, Bovy & Braun (2019) basin graph (minimum spanning tree of passes).
+    BasinGraph,
+    /// No routing: pits are local base levels.
+    None,
+}
+
+/// Base-level height choices.
+#[derive(Copy, Clone, PartialEq, Eq, ValueEnum)]
+pub enum BaseHeightArg {
+    /// Keep the input elevation of the base-level cells.
+    Initial,
+    /// Set base-level cells to 0.
+    Zero,
+}
+
+/// The stream-power model options (no input or output: flatten it anywhere).
+#[derive(Args, Clone)]
+pub struct StreamPowerArgs {
+    /// Number of time steps (per level with --levels): `orogen erode --steps`.
+    #[arg(skip = 100usize)]
+    pub steps: usize,
+    /// Time step in years: `orogen erode --dt` (default 1000).
+    #[arg(skip = 1000.0)]
+    pub dt: f64,
+    /// Erodibility K (for n = 1: m^(1-2m)/yr).
+    #[arg(long = "k", default_value_t = 1e-5)]
+    pub k: f64,
+    /// Drainage-area exponent m.
+    #[arg(long = "m", default_value_t = 0.4)]
+    pub m: f64,
+    /// Slope exponent n (n != 1 is solved by Newton iteration).
+    #[arg(long = "n", default_value_t = 1.0)]
+    pub n: f64,
+    /// Uniform uplift rate in m/yr.
+    #[arg(long, default_value_t = 0.0, conflicts_with = "uplift_map")]
+    pub uplift: f64,
+    /// Uplift rate map (m/yr), a raster of the DEM's size.
+    #[arg(long)]
+    pub uplift_map: Option<PathBuf>,
+    /// Hillslope diffusivity Kd in m^2/yr (0 = none): `orogen erode --diffusivity`.
+    #[arg(skip = 0.0)]
+    pub diffusion: f64,
+    /// Depression routing.
+    #[arg(long, value_enum, default_value_t = DepressionsArg::Fill)]
+    pub depressions: DepressionsArg,
+    /// Base-level borders: all, none, or a list of north,south,east,west.
+    /// Cells next to nodata are always base levels.
+    #[arg(long, default_value = "all")]
+    pub base_level: String,
+    /// Height of the base-level cells.
+    #[arg(long, value_enum, default_value_t = BaseHeightArg::Initial)]
+    pub base_height: BaseHeightArg,
+    /// Fixed points to keep (constrained erosion): CSV with col,row columns
+    /// (orogen's peaks.csv; its saddle_x/saddle_y columns are kept too) or x,y
+    /// map coordinates, or GeoJSON (Point, MultiPoint, LineString vertices).
+    #[arg(long)]
+    pub fixed_points: Option<PathBuf>,
+    /// Radius of the compensating uplift around each fixed point, in metres.
+    #[arg(long)]
+    pub radius: Option<f64>,
+    /// Constrained erosion: steps between two compensations.
+    #[arg(long, default_value_t = 10)]
+    pub compensate_every: usize,
+    /// Coarse-to-fine cell sizes in metres, e.g. 100,50,30.
+    #[arg(long, value_delimiter = ',')]
+    pub levels: Vec<f64>,
+    /// Cell size in metres (default: from the georeference).
+    #[arg(long)]
+    pub cell: Option<f64>,
+}
+
+/// Bytes per cell the in-memory solver needs (heights, receivers, distances,
+/// stack, area, donors, levels, flags, queue), checked against --memory.
+const BYTES_PER_CELL: u64 = 96;
+
+impl StreamPowerArgs {
+    /// The library parameters (validated).
+    pub fn params(&self) -> Result<StreamPowerParams> {
+        let p = StreamPowerParams {
+            k: self.k,
+            m: self.m,
+            n: self.n,
+            dt: self.dt,
+            kd: self.diffusion,
+            depressions: match self.depressions {
+                DepressionsArg::Fill => Depressions::Fill,
+                DepressionsArg::BasinGraph => Depressions::BasinGraph,
+                DepressionsArg::None => Depressions::None,
+            },
+            boundary: Boundary::parse(&self.base_level).context("--base-level")?,
+            base_height: match self.base_height {
+                BaseHeightArg::Initial => BaseHeight::Initial,
+                BaseHeightArg::Zero => BaseHeight::Zero,
+            },
+        };
+        p.validate()?;
+        if self.steps == 0 {
+            bail!("--steps 0: give at least one time step");
+        }
+        if !self.uplift.is_finite() {
+            bail!("--uplift {}: give a finite rate in m/yr", self.uplift);
+        }
+        if self.fixed_points.is_some() != self.radius.is_some() {
+            bail!("--fixed-points and --radius go together (radius in metres, e.g. 10 cells)");
+        }
+        if self.compensate_every == 0 {
+            bail!("--compensate-every 0: give at least 1 step");
+        }
+        Ok(p)
+    }
+
+    /// Erode `h` (f64, NaN = nodata) with these options; `georef` places the
+    /// fixed points given as map coordinates, `cell` is the cell size in metres.
+    pub fn erode(&self, h: &Grid<f64>, cell: f64, georef: &GeoRef) -> Result<Grid<f64>> {
+        let p = self.params()?;
+        let uplift_map = match &self.uplift_map {
+            Some(path) => {
+                let src = orogen::io::open_raster(path, &Default::default())?;
+                let info = src.info().clone();
+                if info.width != h.width() || info.height != h.height() {
+                    bail!(
+                        "{}: the uplift map is {}x{} but the DEM is {}x{}",
+                        path.display(),
+                        info.width,
+                        info.height,
+                        h.width(),
+                        h.height()
+                    );
+                }
+                Some(read_window::<f64>(
+                    src.as_ref(),
+                    Window::full(info.width, info.height),
+                )?)
+            }
+            None => None,
+        };
+        let fixed = match (&self.fixed_points, self.radius) {
+            (Some(f), Some(r)) => Some((read_fixed_points(f, georef, h)?, r)),
+            _ => None,
+        };
+        let (w, ht) = (h.width(), h.height());
+        let run_level = |g: &mut Grid<f64>, c: f64| -> Result<()> {
+            let up_level;
+            let up = match &uplift_map {
+                Some(m) if m.width() == g.width() && m.height() == g.height() => Uplift::Map(m),
+                Some(m) => {
+                    up_level = downsample_area(m, g.width(), g.height())?;
+                    Uplift::Map(&up_level)
+                }
+                None => Uplift::Uniform(self.uplift),
+            };
+            match &fixed {
+                None => stream_power(g, c, &p, &up, self.steps)?,
+                Some((pts, r)) => {
+                    if uplift_map.is_some() {
+                        bail!("--fixed-points works with a uniform --uplift, not --uplift-map");
+                    }
+                    let pts: Vec<(usize, usize)> = scale_points(pts, w, ht, g.width(), g.height());
+                    let every = self.compensate_every.min(self.steps);
+                    let cp = ConstrainedParams {
+                        stream: p.clone(),
+                        uplift: self.uplift,
+                        iterations: self.steps.div_ceil(every),
+                        steps_per_iteration: every,
+                        ..Default::default()
+                    };
+                    erode_constrained_f64(g, c, &pts, *r, &cp)?;
+                }
+            }
+            Ok(())
+        };
+        if self.levels.is_empty() {
+            let mut g = h.clone();
+            run_level(&mut g, cell)?;
+            Ok(g)
+        } else {
+            Ok(erode_multires(h, cell, &self.levels, |g, c, _| {
+                run_level(g, c).map_err(|e| orogen::Error::invalid(format!("{e:#}")))
+            })?)
+        }
+    }
+}
+
+/// Fixed points scaled from a `w x h` grid to a `w2 x h2` one (cell containing
+/// the point's centre), duplicates removed.
+fn scale_points(
+    pts: &[(usize, usize)],
+    w: usize,
+    h: usize,
+    w2: usize,
+    h2: usize,
+) -> Vec<(usize, usize)> {
+    let mut v: Vec<(usize, usize)> = pts
+        .iter()
+        .map(|&(x, y)| {
+            let sx = (((x as f64 + 0.5) * w2 as f64 / w as f64) as usize).min(w2 - 1);
+            let sy = (((y as f64 + 0.5) * h2 as f64 / h as f64) as usize).min(h2 - 1);
+            (sx, sy)
+        })
+        .collect();
+    v.sort_unstable();
+    v.dedup();
+    v
+}
+
+/// Most fixed points accepted from a file (the compensation is per point).
+const MAX_FIXED_POINTS: usize = 1_000_000;
+/// Largest fixed-point file read.
+const MAX_FIXED_FILE: u64 = 256 << 20;
+
+/// Read fixed points from CSV or GeoJSON as (column, row) cells of `h`; points
+/// outside the DEM or on nodata are skipped with a warning count.
+pub fn read_fixed_points(
+    path: &Path,
+    georef: &GeoRef,
+    h: &Grid<f64>,
+) -> Result<Vec<(usize, usize)>> {
+    let len = std::fs::metadata(path)
+        .with_context(|| format!("{}: cannot read the fixed points", path.display()))?
+        .len();
+    if len > MAX_FIXED_FILE {
+        bail!(
+            "{}: {} bytes is too large for a fixed-point file (limit {} MiB)",
+            path.display(),
+            len,
+            MAX_FIXED_FILE >> 20
+        );
+    }
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("{}: cannot read the fixed points", path.display()))?;
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    // Points as fractional (col, row) pixel coordinates.
+    let mut px: Vec<(f64, f64)> = Vec::new();
+    let to_px = |x: f64, y: f64| -> Result<(f64, f64)> {
+        georef.map_to_pixel(x, y).with_context(|| {
+            format!(
+                "{}: the DEM's georeference cannot place map coordinates",
+                path.display()
+            )
+        })
+    };
+    if ext == "geojson" || ext == "json" {
+        let v: serde_json::Value = serde_json::from_str(&text)
+            .with_context(|| format!("{}: not valid JSON", path.display()))?;
+        let mut coords = Vec::new();
+        collect_geojson(&v, &mut coords, 0);
+        for (x, y) in coords {
+            px.push(to_px(x, y)?);
+        }
+    } else if ext == "csv" {
+        let mut lines = text.lines();
+        let header: Vec<String> = lines
+            .next()
+            .with_context(|| format!("{}: empty CSV", path.display()))?
+            .split(',')
+            .map(|s| s.trim().to_ascii_lowercase())
+            .collect();
+        let col = |n: &str| header.iter().position(|h| h == n);
+        let pairs: Vec<(usize, usize, bool)> = if let (Some(c), Some(r)) = (col("col"), col("row"))
+        {
+            let mut v = vec![(c, r, true)];
+            for (sx, sy) in [("saddle_x", "saddle_y"), ("saddle_lon", "saddle_lat")] {
+                if let (Some(a), Some(b)) = (col(sx), col(sy)) {
+                    v.push((a, b, false));
+                }
+            }
+            v
+        } else if let (Some(a), Some(b)) = (col("x"), col("y")) {
+            vec![(a, b, false)]
+        } else if let (Some(a), Some(b)) = (col("lon"), col("lat")) {
+            vec![(a, b, false)]
+        } else {
+            bail!(
+                "{}: the CSV needs col,row columns (0-based cells) or x,y (or lon,lat) map coordinates",
+                path.display()
+            );
+        };
+        for (ln, line) in lines.enumerate() {
+            if line.trim().is_empty() {
+                continue;
+            }
+            let f: Vec<&str> = line.split(',').collect();
+            for &(a, b, cells) in &pairs {
+                let (sa, sb) = (
+                    f.get(a).map(|s| s.trim()).unwrap_or(""),
+                    f.get(b).map(|s| s.trim()).unwrap_or(""),
+                );
+                if sa.is_empty() && sb.is_empty() && !cells {
+                    continue; // a peak without key saddle
+                }
+                let parse = |s: &str| -> Result<f64> {
+                    s.parse::<f64>().with_context(|| {
+                        format!("{} line {}: {s:?} is not a number", path.display(), ln + 2)
+                    })
+                };
+                let (va, vb) = (parse(sa)?, parse(sb)?);
+                if cells {
+                    px.push((va + 0.5, vb + 0.5));
+                } else {
+                    px.push(to_px(va, vb)?);
+                }
+            }
+            if px.len() > MAX_FIXED_POINTS {
+                bail!(
+                    "{}: more than {MAX_FIXED_POINTS} fixed points",
+                    path.display()
+                );
+            }
+        }
+    } else {
+        bail!(
+            "{}: fixed points must be a .csv or .geojson file",
+            path.display()
+        );
+    }
+    let mut out = Vec::new();
+    let mut skipped = 0usize;
+    for (fx, fy) in px {
+        if !(fx.is_finite() && fy.is_finite()) || fx < 0.0 || fy < 0.0 {
+            skipped += 1;
+            continue;
+        }
+        let (x, y) = (fx.floor() as usize, fy.floor() as usize);
+        if x >= h.width() || y >= h.height() || !h.get(x, y).is_finite() {
+            skipped += 1;
+            continue;
+        }
+        out.push((x, y));
+    }
+    if out.len() > MAX_FIXED_POINTS {
+        bail!(
+            "{}: more than {MAX_FIXED_POINTS} fixed points",
+            path.display()
+        );
+    }
+    out.sort_unstable();
+    out.dedup();
+    if skipped > 0 {
+        eprintln!(
+            "warning: {}: {skipped} fixed point(s) outside the DEM or on nodata were skipped",
+            path.display()
+        );
+    }
+    if out.is_empty() {
+        bail!("{}: no fixed point falls on the DEM", path.display());
+    }
+    Ok(out)
+}
+
+/// Gather every coordinate pair of Points, MultiPoints and LineStrings.
+fn collect_geojson(v: &serde_json::Value, out: &mut Vec<(f64, f64)>, depth: usize) {
+    if depth > 8 || out.len() > MAX_FIXED_POINTS {
+        return;
+    }
+    let pair = |c: &serde_json::Value| -> Option<(f64, f64)> {
+        let a = c.as_array()?;
+        Some((a.first()?.as_f64()?, a.get(1)?.as_f64()?))
+    };
+    match v.get("type").and_then(|t| t.as_str()) {
+        Some("FeatureCollection") => {
+            if let Some(fs) = v.get("features").and_then(|f| f.as_array()) {
+                for f in fs {
+                    collect_geojson(f, out, depth + 1);
+                }
+            }
+        }
+        Some("Feature") => {
+            if let Some(g) = v.get("geometry") {
+                collect_geojson(g, out, depth + 1);
+            }
+        }
+        Some("Point") => {
+            if let Some(p) = v.get("coordinates").and_then(pair) {
+                out.push(p);
+            }
+        }
+        Some("MultiPoint") | Some("LineString") => {
+            if let Some(cs) = v.get("coordinates").and_then(|c| c.as_array()) {
+                out.extend(cs.iter().filter_map(pair));
+            }
+        }
+        _ => {}
+    }
+}
+
+/// Read, erode, write.
+pub fn run(
+    input: &crate::In,
+    model: &StreamPowerArgs,
+    out: &crate::Out,
+    run: &crate::Run,
+) -> Result<()> {
+    struct A<'a> {
+        input: &'a crate::In,
+        model: &'a StreamPowerArgs,
+        out: &'a crate::Out,
+        run: &'a crate::Run,
+    }
+    let a = A {
+        input,
+        model,
+        out,
+        run,
+    };
+    a.model.params()?;
+    let cfg = crate::engine(a.run)?;
+    let src = crate::open(a.input)?;
+    let oo = crate::output_options(&a.out.fmt)?;
+    let info = src.info().clone();
+    let need = info.width as u64 * info.height as u64 * BYTES_PER_CELL;
+    if need > cfg.memory_budget {
+        bail!(
+            "{}: stream power runs in memory and needs about {:.1} GiB for {}x{} cells; \
+             raise --memory (e.g. --memory {}GiB) or crop the DEM",
+            a.input.input.display(),
+            need as f64 / (1u64 << 30) as f64,
+            info.width,
+            info.height,
+            need.div_ceil(1 << 30)
+        );
+    }
+    let cell = match a.model.cell {
+        Some(c) => {
+            if !(c.is_finite() && c > 0.0) {
+                bail!("--cell {c}: give a cell size in metres > 0");
+            }
+            c
+        }
+        None => {
+            let (cx, cy) = info.georef.cell_size_m(info.height as i64 / 2);
+            if (cx - cy).abs() > 0.01 * cx.max(cy) {
+                eprintln!(
+                    "warning: {}: cells are {cx:.2} x {cy:.2} m; the solver uses square cells of {:.2} m (pass --cell to choose)",
+                    a.input.input.display(),
+                    0.5 * (cx + cy)
+                );
+            }
+            0.5 * (cx + cy)
+        }
+    };
+    let dem = read_window::<f64>(src.as_ref(), Window::full(info.width, info.height))?;
+    let out = a
+        .model
+        .erode(&dem, cell, &info.georef)
+        .with_context(|| format!("{}", a.input.input.display()))?;
+    let out = out.map(|v| {
+        if v.is_finite() {
+            v as f32
+        } else {
+            FILL_NODATA as f32
+        }
+    });
+    let mem = MemRaster::new(
+        AnyGrid::F32(out),
+        info.georef.clone().with_nodata(Some(FILL_NODATA)),
+        info.path.clone(),
+    );
+    orogen::ops::convert(&mem, &a.out.output, &oo, a.run.tile, &cfg)?;
+    crate::wrote(&a.out.output);
+    Ok(())
+}
