@@ -360,7 +360,9 @@ fn histogram_png(v: &[f64], bins: usize) -> Result<(Vec<u8>, f64, f64)> {
             label: String::new(),
             colour: COLOUR_A,
             style: Style::Bars,
-            xs: (0..=bins).map(|i| lo + span * i as f64 / bins as f64).collect(),
+            xs: (0..=bins)
+                .map(|i| lo + span * i as f64 / bins as f64)
+                .collect(),
             ys: c,
         }],
     }
@@ -429,7 +431,11 @@ fn basins_section(p: &Path, header: &[String], rows: &[Vec<String>]) -> Result<S
     let hyp: Vec<(usize, f64)> = header
         .iter()
         .enumerate()
-        .filter_map(|(j, c)| c.strip_prefix("hyp_").and_then(|h| h.parse().ok()).map(|h| (j, h)))
+        .filter_map(|(j, c)| {
+            c.strip_prefix("hyp_")
+                .and_then(|h| h.parse().ok())
+                .map(|h| (j, h))
+        })
         .collect();
     if hyp.len() >= 2 {
         let ys: Vec<f64> = hyp.iter().map(|&(j, _)| mean(&column(rows, j))).collect();
@@ -669,8 +675,8 @@ impl Chart {
         let blend = |px: &mut [u8], x: i64, y: i64, c: [u8; 3], a: f64| {
             if x >= 0 && y >= 0 && (x as usize) < w && (y as usize) < h {
                 let i = (y as usize * w + x as usize) * 4;
-                for k in 0..3 {
-                    px[i + k] = (px[i + k] as f64 * (1.0 - a) + c[k] as f64 * a).round() as u8;
+                for (p, &ck) in px[i..i + 3].iter_mut().zip(&c) {
+                    *p = (*p as f64 * (1.0 - a) + ck as f64 * a).round() as u8;
                 }
             }
         };
@@ -688,20 +694,21 @@ impl Chart {
                         let (pb, base) = to_px(xb, y0.max(0.0).min(y1));
                         let (ya, yb) = (top.min(base).round() as i64, top.max(base).round() as i64);
                         for y in ya..yb {
-                            for x in pa.round() as i64..(pb.round() as i64).max(pa.round() as i64 + 1) {
+                            for x in
+                                pa.round() as i64..(pb.round() as i64).max(pa.round() as i64 + 1)
+                            {
                                 blend(&mut px, x, y, s.colour, 0.45);
                             }
                         }
                     }
                 }
                 Style::Line => {
-                    let pts: Vec<(f64, f64)> = s
-                        .xs
-                        .iter()
-                        .zip(&s.ys)
-                        .filter(|(x, y)| x.is_finite() && y.is_finite())
-                        .map(|(&x, &y)| to_px(x, y))
-                        .collect();
+                    let pts: Vec<(f64, f64)> =
+                        s.xs.iter()
+                            .zip(&s.ys)
+                            .filter(|(x, y)| x.is_finite() && y.is_finite())
+                            .map(|(&x, &y)| to_px(x, y))
+                            .collect();
                     for seg in pts.windows(2) {
                         let (a, b) = (seg[0], seg[1]);
                         let n = ((b.0 - a.0).abs().max((b.1 - a.1).abs()).ceil() as usize).max(1);
@@ -726,7 +733,13 @@ impl Chart {
         use crate::io::render::{draw_text, text_width};
         let (lx0, lx1, ly1) = (axis_label(x0), axis_label(x1), axis_label(y1));
         draw_text(&mut px, w, ml, h - mb + 5, &lx0);
-        draw_text(&mut px, w, (w - mr).saturating_sub(text_width(&lx1)), h - mb + 5, &lx1);
+        draw_text(
+            &mut px,
+            w,
+            (w - mr).saturating_sub(text_width(&lx1)),
+            h - mb + 5,
+            &lx1,
+        );
         draw_text(&mut px, w, ml + 3, 3, &ly1);
         let mut out = Vec::new();
         crate::io::png::encode_png(&mut out, w as u32, h as u32, ::png::ColorType::Rgba, &px)

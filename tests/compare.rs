@@ -80,12 +80,11 @@ fn doubled_heights_follow_the_tan_law() {
     let c = compare::compare(&a, &b, &opts()).unwrap();
     // Horn's gradient is linear in z: tan(slope_b) = 2 tan(slope_a), cell by cell.
     assert_eq!(c.a.slope_deg.len(), c.b.slope_deg.len());
-    let mapped: Vec<f32> = c
-        .a
-        .slope_deg
-        .iter()
-        .map(|&s| (2.0 * (s as f64).to_radians().tan()).atan().to_degrees() as f32)
-        .collect();
+    let mapped: Vec<f32> =
+        c.a.slope_deg
+            .iter()
+            .map(|&s| (2.0 * (s as f64).to_radians().tan()).atan().to_degrees() as f32)
+            .collect();
     for (m, s) in mapped.iter().zip(&c.b.slope_deg) {
         assert!((m - s).abs() < 1e-3, "{m} vs {s}");
     }
@@ -95,7 +94,11 @@ fn doubled_heights_follow_the_tan_law() {
     for &m in &mapped {
         want[(m.floor() as usize).min(SLOPE_BINS - 1)] += 1.0 / mapped.len() as f64;
     }
-    let l1: f64 = want.iter().zip(&c.slope.b).map(|(x, y)| (x - y).abs()).sum();
+    let l1: f64 = want
+        .iter()
+        .zip(&c.slope.b)
+        .map(|(x, y)| (x - y).abs())
+        .sum();
     assert!(l1 < 0.01, "L1 {l1}");
     // Slopes got steeper, so the EMD is at least the mean increase's lower
     // bound |mean_b − mean_a| (Kantorovich–Rubinstein with f(x) = x), less
@@ -140,7 +143,13 @@ fn cli_writes_json_html_and_charts() {
     assert!(html.contains("whitebox_DEM.tif") && html.contains("slope_emd_deg"));
     // Two thumbnails + 15 charts, each inlined too.
     assert!(html.matches("data:image/png;base64,").count() >= 17);
-    for f in ["a.png", "b.png", "slope.png", "hypsometry.png", "oro_prominence_m.png"] {
+    for f in [
+        "a.png",
+        "b.png",
+        "slope.png",
+        "hypsometry.png",
+        "oro_prominence_m.png",
+    ] {
         let bytes = std::fs::read(out.join(f)).unwrap();
         assert_eq!(&bytes[1..4], b"PNG", "{f}");
     }
@@ -159,18 +168,37 @@ fn bad_input_is_an_error_naming_the_file() {
     .unwrap();
     let good = data("whitebox_DEM.tif");
     let cases: Vec<(Vec<String>, &str)> = vec![
-        (vec![junk.display().to_string(), good.display().to_string()], "junk.tif"),
         (
-            vec![dir.path().join("missing.tif").display().to_string(), good.display().to_string()],
+            vec![junk.display().to_string(), good.display().to_string()],
+            "junk.tif",
+        ),
+        (
+            vec![
+                dir.path().join("missing.tif").display().to_string(),
+                good.display().to_string(),
+            ],
             "missing.tif",
         ),
-        (vec![good.display().to_string(), nodata.display().to_string()], "no valid cells"),
         (
-            vec![good.display().to_string(), good.display().to_string(), "--channel-area".into(), "0".into()],
+            vec![good.display().to_string(), nodata.display().to_string()],
+            "no valid cells",
+        ),
+        (
+            vec![
+                good.display().to_string(),
+                good.display().to_string(),
+                "--channel-area".into(),
+                "0".into(),
+            ],
             "--channel-area",
         ),
         (
-            vec![good.display().to_string(), good.display().to_string(), "--radius".into(), "0km".into()],
+            vec![
+                good.display().to_string(),
+                good.display().to_string(),
+                "--radius".into(),
+                "0km".into(),
+            ],
             "--radius",
         ),
     ];
@@ -192,5 +220,8 @@ fn bad_input_is_an_error_naming_the_file() {
     let src = open_raster(&good, &OpenOptions::default()).unwrap();
     let e = compare::load_terrain(src.as_ref(), "w", 1 << 20).unwrap_err();
     let msg = e.to_string();
-    assert!(msg.contains("whitebox_DEM.tif") && msg.contains("over the budget"), "{msg}");
+    assert!(
+        msg.contains("whitebox_DEM.tif") && msg.contains("over the budget"),
+        "{msg}"
+    );
 }

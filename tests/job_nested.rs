@@ -76,8 +76,16 @@ output = "filled.tif"
 #[test]
 fn group_mistakes_are_clear_errors() {
     let cases = [
-        ("run = \"synth\"", "", "name the method, e.g. run = \"synth noise\""),
-        ("run = \"synth bogus\"", "", "unknown method \"bogus\" of `synth`; methods: noise"),
+        (
+            "run = \"synth\"",
+            "",
+            "name the method, e.g. run = \"synth noise\"",
+        ),
+        (
+            "run = \"synth bogus\"",
+            "",
+            "unknown method \"bogus\" of `synth`; methods: noise",
+        ),
         ("run = \"fill noise\"", "", "`fill` takes no method"),
         (
             "run = \"synth noise\"",
@@ -147,7 +155,14 @@ args = {{ radius = "1500m", min_prominence = 20 }}
     let html = std::fs::read_to_string(o.join("report.html")).unwrap();
     // Orometric statistics: one chart per Table 1 feature and the scalars.
     let oro = &html[html.find("— orometric statistics").expect("oro section")..];
-    for f in ["prominence_m", "isolation_km", "saddle_dir", "relevance", "density_per_100km2", "nni"] {
+    for f in [
+        "prominence_m",
+        "isolation_km",
+        "saddle_dir",
+        "relevance",
+        "density_per_100km2",
+        "nni",
+    ] {
         assert!(oro.contains(f), "{f}");
     }
     // Basin metrics: summary table with the mean of a column recomputed here.
@@ -155,7 +170,9 @@ args = {{ radius = "1500m", min_prominence = 20 }}
     let mut lines = csv.lines();
     let head: Vec<&str> = lines.next().unwrap().split(',').collect();
     let j = head.iter().position(|c| *c == "relief").unwrap();
-    let v: Vec<f64> = lines.map(|l| l.split(',').nth(j).unwrap().parse().unwrap()).collect();
+    let v: Vec<f64> = lines
+        .map(|l| l.split(',').nth(j).unwrap().parse().unwrap())
+        .collect();
     assert!(!v.is_empty());
     let mean = v.iter().sum::<f64>() / v.len() as f64;
     let bas = &html[html.find("— basin metrics").expect("basin section")..];

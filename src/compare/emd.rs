@@ -93,7 +93,11 @@ mod tests {
         // Heap's algorithm over all permutations.
         fn heap(k: usize, perm: &mut Vec<usize>, a: &[f64], b: &[f64], best: &mut f64) {
             if k == 1 {
-                let c: f64 = perm.iter().enumerate().map(|(i, &j)| (a[i] - b[j]).abs()).sum();
+                let c: f64 = perm
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &j)| (a[i] - b[j]).abs())
+                    .sum();
                 *best = best.min(c);
                 return;
             }
@@ -136,7 +140,10 @@ mod tests {
             let qf: Vec<f64> = q.iter().map(|&v| v as f64).collect();
             let got = emd_1d(&x, &pf, &qf);
             let want = brute(&x, &p, &q);
-            assert!((got - want).abs() < 1e-9, "{x:?} {p:?} {q:?}: {got} vs {want}");
+            assert!(
+                (got - want).abs() < 1e-9,
+                "{x:?} {p:?} {q:?}: {got} vs {want}"
+            );
         }
     }
 
@@ -144,13 +151,22 @@ mod tests {
     fn closed_forms_and_edge_cases() {
         let x = [0.5, 1.5, 2.5, 3.5];
         // All mass moved three bins: distance 3 bin widths.
-        assert_eq!(emd_1d(&x, &[1.0, 0.0, 0.0, 0.0], &[0.0, 0.0, 0.0, 2.0]), 3.0);
-        assert_eq!(emd_1d(&x, &[0.2, 0.3, 0.5, 0.0], &[0.2, 0.3, 0.5, 0.0]), 0.0);
+        assert_eq!(
+            emd_1d(&x, &[1.0, 0.0, 0.0, 0.0], &[0.0, 0.0, 0.0, 2.0]),
+            3.0
+        );
+        assert_eq!(
+            emd_1d(&x, &[0.2, 0.3, 0.5, 0.0], &[0.2, 0.3, 0.5, 0.0]),
+            0.0
+        );
         assert_eq!(emd_1d(&x, &[0.0; 4], &[0.0; 4]), 0.0);
         assert!(emd_1d(&x, &[0.0; 4], &[1.0, 0.0, 0.0, 0.0]).is_nan());
         assert!(emd_1d(&x, &[f64::NAN, 0.0, 0.0, 0.0], &[1.0, 0.0, 0.0, 0.0]).is_nan());
         assert!(emd_1d(&x[..3], &[1.0; 4], &[1.0; 4]).is_nan());
-        assert_eq!(bin_positions(&[0.0, 1.0, 3.0, f64::INFINITY]), vec![0.5, 2.0, 4.0]);
+        assert_eq!(
+            bin_positions(&[0.0, 1.0, 3.0, f64::INFINITY]),
+            vec![0.5, 2.0, 4.0]
+        );
         assert_eq!(total_variation(&[1.0, 0.0], &[0.0, 3.0]), 1.0);
         assert_eq!(total_variation(&[1.0, 1.0], &[2.0, 2.0]), 0.0);
     }

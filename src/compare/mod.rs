@@ -202,9 +202,7 @@ pub fn relative_difference(a: f64, b: f64) -> f64 {
     let m = a.abs().max(b.abs());
     if a.is_nan() || b.is_nan() {
         f64::NAN
-    } else if m == 0.0 {
-        0.0
-    } else if a == b {
+    } else if m == 0.0 || a == b {
         0.0
     } else {
         (a - b).abs() / m
@@ -530,7 +528,12 @@ pub fn compare(a: &Terrain, b: &Terrain, opts: &CompareOptions) -> Result<Compar
 }
 
 /// Compare two analyses (common bins, distances).
-pub fn compare_analyses(a: Analysis, b: Analysis, min_prominence: f64, radius_m: f64) -> Comparison {
+pub fn compare_analyses(
+    a: Analysis,
+    b: Analysis,
+    min_prominence: f64,
+    radius_m: f64,
+) -> Comparison {
     let mut d = BTreeMap::new();
     let slope_edges: Vec<f64> = (0..=SLOPE_BINS).map(|i| i as f64).collect();
     let pair = |edges: Vec<f64>, va: &[f32], vb: &[f32]| {
@@ -627,11 +630,7 @@ pub fn compare_analyses(a: Analysis, b: Analysis, min_prominence: f64, radius_m:
             },
         );
     }
-    let dens = |an: &Analysis| {
-        an.oro
-            .as_ref()
-            .map_or(f64::NAN, |p| p.peak_density_per_km2)
-    };
+    let dens = |an: &Analysis| an.oro.as_ref().map_or(f64::NAN, |p| p.peak_density_per_km2);
     d.insert(
         "peak_density_rel".into(),
         relative_difference(dens(&a), dens(&b)),

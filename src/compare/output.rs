@@ -207,7 +207,12 @@ fn thumbnail(t: &Terrain, dir: &Path, file: &str) -> Result<Vec<u8>> {
 
 /// Write `compare.json`, `compare.html`, the chart PNGs and the thumbnails
 /// `a.png`/`b.png` into `dir` (created). Returns the files written.
-pub fn write_outputs(cmp: &Comparison, a: &Terrain, b: &Terrain, dir: &Path) -> Result<Vec<PathBuf>> {
+pub fn write_outputs(
+    cmp: &Comparison,
+    a: &Terrain,
+    b: &Terrain,
+    dir: &Path,
+) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     let mut written = vec![];
     let json = serde_json::to_string_pretty(cmp)
@@ -285,8 +290,12 @@ pub fn write_outputs(cmp: &Comparison, a: &Terrain, b: &Terrain, dir: &Path) -> 
     row(&mut body, "Horton length ratio", &|x| {
         x.drainage.horton.length_ratio
     });
-    row(&mut body, "Horton area ratio", &|x| x.drainage.horton.area_ratio);
-    row(&mut body, "hypsometric integral", &|x| x.hypsometric_integral);
+    row(&mut body, "Horton area ratio", &|x| {
+        x.drainage.horton.area_ratio
+    });
+    row(&mut body, "hypsometric integral", &|x| {
+        x.hypsometric_integral
+    });
     row(&mut body, "peaks per km²", &|x| {
         x.oro.as_ref().map_or(f64::NAN, |p| p.peak_density_per_km2)
     });
@@ -302,12 +311,7 @@ pub fn write_outputs(cmp: &Comparison, a: &Terrain, b: &Terrain, dir: &Path) -> 
     );
     for an in [&cmp.a, &cmp.b] {
         if let Some(n) = &an.oro_note {
-            let _ = write!(
-                body,
-                "<p>orometry of {}: {}</p>",
-                esc(&an.name),
-                esc(n)
-            );
+            let _ = write!(body, "<p>orometry of {}: {}</p>", esc(&an.name), esc(n));
         }
     }
     body.push_str("<h2>Charts</h2>");
