@@ -675,8 +675,8 @@ impl Chart {
         let blend = |px: &mut [u8], x: i64, y: i64, c: [u8; 3], a: f64| {
             if x >= 0 && y >= 0 && (x as usize) < w && (y as usize) < h {
                 let i = (y as usize * w + x as usize) * 4;
-                for k in 0..3 {
-                    px[i + k] = (px[i + k] as f64 * (1.0 - a) + c[k] as f64 * a).round() as u8;
+                for (p, &ck) in px[i..i + 3].iter_mut().zip(&c) {
+                    *p = (*p as f64 * (1.0 - a) + ck as f64 * a).round() as u8;
                 }
             }
         };

@@ -202,9 +202,7 @@ pub fn relative_difference(a: f64, b: f64) -> f64 {
     let m = a.abs().max(b.abs());
     if a.is_nan() || b.is_nan() {
         f64::NAN
-    } else if m == 0.0 {
-        0.0
-    } else if a == b {
+    } else if m == 0.0 || a == b {
         0.0
     } else {
         (a - b).abs() / m
