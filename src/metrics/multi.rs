@@ -143,6 +143,10 @@ impl MultiMetric {
         {
             b += region(r) * (4 * 8 + 2 * (4 + 16));
         }
+        // descr3: gradients, side, rank, value, order and two Fenwick trees
+        if let Some(r) = radius(&|k| k == MetricKind::AsymmetryIndex) {
+            b += region(r) * (2 * 8 + 1 + 4 + 8 + 8 + 4 + 2 * 4);
+        }
         b + quadrics * core * std::mem::size_of::<Quadric>() as u64 + 3 * core * 4
     }
 }
@@ -646,6 +650,14 @@ impl LocalStep for MultiMetric {
                     };
                     position(view, m.radius_cells, m.radius_m, which, o);
                 }
+                // descr3
+                AsymmetryIndex => super::asymmetry::asymmetry_index(
+                    view,
+                    m.radius_cells,
+                    m.spec.azimuth.unwrap_or(0.0),
+                    m.spec.threshold.unwrap_or(45.0),
+                    o,
+                ),
             }
         }
         Ok(())
