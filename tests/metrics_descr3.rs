@@ -191,7 +191,10 @@ fn asymmetry_index_brute_force() {
         );
         let want = asymmetry_oracle(&data, w, h, r, az, tol);
         let finite = want.iter().filter(|v| v.is_finite()).count();
-        assert!(finite > w * h / 8, "oracle mostly nodata for r={r}: {finite}");
+        assert!(
+            finite > w * h / 8,
+            "oracle mostly nodata for r={r}: {finite}"
+        );
         check("asymmetry_index", &got, &want, w, 1e-5, 1e-5);
     }
 }

@@ -33,7 +33,7 @@ pub const MAX_ABS_VALUE: f64 = 5e7;
 /// Fixed-point value of `z` with `frac` fractional bits (|z| small enough).
 #[inline]
 pub fn to_fixed(z: f64, frac: u32) -> i128 {
-    let v = (z * (1u128 << frac) as f64).round();
+    let v = (z * pow2(frac)).round();
     // Through the hardware i64 conversion when the value fits (always for
     // FRAC_BITS and |z| ≤ MAX_ABS_VALUE); `as i128` is a slow software
     // routine. Both are exact on these integral values.
@@ -203,14 +203,21 @@ impl WindowSums {
             .wrapping_add(n.wrapping_mul(a).wrapping_mul(a));
         let bf = i128_to_f64(b);
         let v = (i128_to_f64(d) - bf * bf / self.n as f64) / self.n as f64;
-        v.max(0.0) / (1u128 << (2 * self.frac)) as f64
+        v.max(0.0) / pow2(2 * self.frac)
     }
 }
 
 /// Fixed point back to f64.
 #[inline]
 pub fn fixed_to_f64(q: i128, frac: u32) -> f64 {
-    i128_to_f64(q) / (1u128 << frac) as f64
+    i128_to_f64(q) / pow2(frac)
+}
+
+/// `2^k` as f64, exactly (`(1u128 << k) as f64` without the software u128
+/// conversion; k ≤ 127).
+#[inline]
+pub fn pow2(k: u32) -> f64 {
+    f64::from_bits((1023 + k as u64) << 52)
 }
 
 /// Running maximum over windows of `2r+1` (clipped at the ends) of `a`,
@@ -348,6 +355,13 @@ mod tests {
             for v in [v, -v, v + 1, v - 1] {
                 assert_eq!(i128_to_f64(v).to_bits(), (v as f64).to_bits(), "{v}");
             }
+        }
+    }
+
+    #[test]
+    fn pow2_is_exact() {
+        for k in 0..=127u32 {
+            assert_eq!(pow2(k), (1u128 << k) as f64, "{k}");
         }
     }
 
