@@ -55,6 +55,9 @@ fn bench(c: &mut Criterion) {
         "dominance:radius=10c,submission:radius=10c",
         "peakedness:radius=10c",
         "domination:radius=10c",
+        // descr3: exact sliding medians, O(r log n) per cell
+        "asymmetry_index:radius=5c",
+        "asymmetry_index:radius=50c",
     ] {
         let specs_v = parse_specs(specs).unwrap();
         let step = MultiMetric::new(&specs_v, src.info()).unwrap();

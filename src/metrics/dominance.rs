@@ -30,6 +30,39 @@
 use super::fractional::disk_offsets;
 use crate::raster::{Grid, TileView};
 
+/// The disk of [`disk_offsets`] as contiguous row spans `(offset of the
+/// first cell, length)` in the view's grid (the centre row in two spans
+/// around the centre), so that the order-free reductions (min, max,
+/// counts) run over contiguous slices, which the compiler vectorises.
+pub fn disk_spans(view: &TileView<f32>, rc: usize, radius_m: f64, row: i64) -> Vec<(isize, usize)> {
+    let (ew, ns) = view.georef.cell_size_m(row);
+    let gw = view.grid.width() as isize;
+    let rc = rc as isize;
+    let mut spans = Vec::new();
+    for dy in -rc..=rc {
+        // Same test as disk_offsets; |dx| ≤ hw is an interval.
+        let inside = |dx: isize| {
+            ((dx as f64 * ew).powi(2) + (dy as f64 * ns).powi(2)).sqrt() <= radius_m * (1.0 + 1e-12)
+        };
+        let mut hw: isize = -1;
+        while hw < rc && inside(hw + 1) {
+            hw += 1;
+        }
+        if hw < 0 {
+            continue;
+        }
+        if dy == 0 {
+            if hw > 0 {
+                spans.push((-hw, hw as usize));
+                spans.push((1, hw as usize));
+            }
+        } else {
+            spans.push((dy * gw - hw, (2 * hw + 1) as usize));
+        }
+    }
+    spans
+}
+
 /// Which descriptor to compute.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Position {
@@ -52,7 +85,17 @@ pub fn position(
     let data = view.grid.data();
     for y in 0..view.core.h {
         let row = view.core.y + y as i64;
-        let (off, dist) = disk_offsets(view, rc, radius_m, row);
+        // Domination: offsets by increasing distance, so that the first
+        // higher cell met is the nearest (the scan stops there).
+        let by_dist: Vec<(f64, isize)> = if which == Position::Domination {
+            let (off, dist) = disk_offsets(view, rc, radius_m, row);
+            let mut v: Vec<(f64, isize)> = dist.into_iter().zip(off).collect();
+            v.sort_by(|a, b| a.0.total_cmp(&b.0));
+            v
+        } else {
+            Vec::new()
+        };
+        let spans = disk_spans(view, rc, radius_m, row);
         for x in 0..view.core.w {
             let ci = (y + h) * gw + x + h;
             let z = data[ci];
@@ -60,34 +103,33 @@ pub fn position(
                 o.set(x, y, f32::NAN);
                 continue;
             }
+            let span = |&(s, n): &(isize, usize)| {
+                let a = (ci as isize + s) as usize;
+                &data[a..a + n]
+            };
             let v = match which {
                 Position::Dominance => {
                     // min over valid neighbours; NaN never lowers it.
                     let mut lo = z;
-                    for &k in &off {
-                        let v = data[(ci as isize + k) as usize];
-                        if v < lo {
-                            lo = v;
-                        }
+                    for sp in &spans {
+                        lo = span(sp).iter().fold(lo, |m, &v| if v < m { v } else { m });
                     }
                     z as f64 - lo as f64
                 }
                 Position::Submission => {
                     let mut hi = z;
-                    for &k in &off {
-                        let v = data[(ci as isize + k) as usize];
-                        if v > hi {
-                            hi = v;
-                        }
+                    for sp in &spans {
+                        hi = span(sp).iter().fold(hi, |m, &v| if v > m { v } else { m });
                     }
                     hi as f64 - z as f64
                 }
                 Position::Peakedness => {
                     let (mut lower, mut n) = (0u32, 0u32);
-                    for &k in &off {
-                        let v = data[(ci as isize + k) as usize];
-                        n += u32::from(!v.is_nan());
-                        lower += u32::from(v < z);
+                    for sp in &spans {
+                        for &v in span(sp) {
+                            n += u32::from(!v.is_nan());
+                            lower += u32::from(v < z);
+                        }
                     }
                     if n == 0 {
                         f64::NAN
@@ -97,9 +139,10 @@ pub fn position(
                 }
                 Position::Domination => {
                     let mut best = radius_m;
-                    for (&k, &d) in off.iter().zip(&dist) {
-                        if data[(ci as isize + k) as usize] > z && d < best {
-                            best = d;
+                    for &(d, k) in &by_dist {
+                        if data[(ci as isize + k) as usize] > z {
+                            best = best.min(d);
+                            break;
                         }
                     }
                     best

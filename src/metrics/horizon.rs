@@ -377,13 +377,33 @@ pub fn scan(
     directions: usize,
     need_lower: bool,
     method: HorizonMethod,
+    f: impl FnMut(usize, &[f64], &[f64]),
+) {
+    scan_sides(
+        view, steps, cutoff_m, directions, true, need_lower, method, f,
+    )
+}
+
+/// [`scan`] that can leave out the upper tangents (`up` is then empty):
+/// negative openness alone needs only the lower ones.
+#[allow(clippy::too_many_arguments)]
+pub fn scan_sides(
+    view: &TileView<f32>,
+    steps: usize,
+    cutoff_m: f64,
+    directions: usize,
+    need_upper: bool,
+    need_lower: bool,
+    method: HorizonMethod,
     mut f: impl FnMut(usize, &[f64], &[f64]),
 ) {
     let n = view.core.w * view.core.h;
-    let mut up = vec![0.0; n];
+    let mut up = if need_upper { vec![0.0; n] } else { Vec::new() };
     let mut down = if need_lower { vec![0.0; n] } else { Vec::new() };
     for dir in 0..directions.min(16) {
-        tangents(view, steps, cutoff_m, dir, false, method, &mut up);
+        if need_upper {
+            tangents(view, steps, cutoff_m, dir, false, method, &mut up);
+        }
         if need_lower {
             tangents(view, steps, cutoff_m, dir, true, method, &mut down);
         }
@@ -417,14 +437,29 @@ pub fn horizon_with(
     let (mut pos, mut neg, mut svf) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
     let mut nd = vec![0u32; n];
     let need_lower = out.negative.is_some();
-    scan(
+    let need_upper = out.positive.is_some() || out.sky_view.is_some() || !need_lower;
+    scan_sides(
         view,
         steps,
         cutoff_m,
         directions,
+        need_upper,
         need_lower,
         method,
         |_, up, down| {
+            if !need_upper {
+                // Negative openness alone: a direction counts where it has
+                // a valid cell (+∞: none; NaN: nodata centre), as for `up`.
+                for i in 0..n {
+                    let lo = down[i];
+                    if lo.is_nan() || lo == f64::INFINITY {
+                        continue;
+                    }
+                    neg[i] += 90.0 + lo.atan().to_degrees();
+                    nd[i] += 1;
+                }
+                return;
+            }
             for i in 0..n {
                 let hi = up[i];
                 if hi.is_nan() || hi == f64::NEG_INFINITY {

@@ -3,8 +3,8 @@
 //! them needs. Intermediate products are computed once per tile and shared:
 //! the quadric coefficients (all curvatures of one radius), one summed-area table of
 //! values, counts and squares (mean, stdev, variance, TPI, NTPI at any
-//! radius), one field of unit normals with its tables (roughness at any
-//! radius), and one horizon scan per (radius, directions) for openness and
+//! radius), one field of fixed-point unit normals (roughness at any radius,
+//! by running sums), and one horizon scan per (radius, directions) for openness and
 //! sky view.
 //!
 //! Nodata: a cell whose value is nodata is nodata in every output; 3x3
@@ -143,6 +143,10 @@ impl MultiMetric {
         {
             b += region(r) * (4 * 8 + 2 * (4 + 16));
         }
+        // descr3: gradients, side, rank, value, order and two Fenwick trees
+        if let Some(r) = radius(&|k| k == MetricKind::AsymmetryIndex) {
+            b += region(r) * (2 * 8 + 1 + 4 + 8 + 8 + 4 + 2 * 4);
+        }
         b + quadrics * core * std::mem::size_of::<Quadric>() as u64 + 3 * core * 4
     }
 }
@@ -267,10 +271,7 @@ impl LocalStep for MultiMetric {
             .filter(|m| m.spec.kind == MetricKind::Roughness)
             .map(|m| m.radius_cells)
             .max();
-        let normals = match rough_r {
-            Some(r) => Some((r, normal_sats(view, r, &self.path)?)),
-            None => None,
-        };
+        let normals = rough_r.map(|r| (r, normal_field(view, r)));
 
         let mut done_horizon = vec![false; self.metrics.len()];
         let (mut g1, mut g2) = (Vec::new(), Vec::new());
@@ -445,7 +446,7 @@ impl LocalStep for MultiMetric {
                 }
                 Roughness => {
                     let Some((big, ns)) = normals.as_ref() else {
-                        return Err(Error::invalid("metrics: normal tables missing"));
+                        return Err(Error::invalid("metrics: normal field missing"));
                     };
                     roughness(view, ns, *big, m.radius_cells, o);
                 }
@@ -646,6 +647,14 @@ impl LocalStep for MultiMetric {
                     };
                     position(view, m.radius_cells, m.radius_m, which, o);
                 }
+                // descr3
+                AsymmetryIndex => super::asymmetry::asymmetry_index(
+                    view,
+                    m.radius_cells,
+                    m.spec.azimuth.unwrap_or(0.0),
+                    m.spec.threshold.unwrap_or(45.0),
+                    o,
+                ),
             }
         }
         Ok(())
@@ -835,17 +844,18 @@ fn relief(view: &TileView<f32>, r: usize, o: &mut Grid<f32>, g1: &mut Vec<f64>, 
     }
 }
 
-/// Summed-area tables of the unit normals (Horn gradient) over core + `r`.
-fn normal_sats(view: &TileView<f32>, r: usize, path: &str) -> Result<[Sat; 3]> {
+/// Fixed-point unit normals (Horn gradient, [`NORMAL_FRAC`] fractional
+/// bits) of the core plus `r` cells on each side, row-major, with a validity
+/// mask (cells whose 3x3 window holds nodata or lies beyond the raster are
+/// left out).
+fn normal_field(view: &TileView<f32>, r: usize) -> (Vec<[i64; 3]>, Vec<bool>) {
     let h = view.halo;
     let gw = view.grid.width();
     let data = view.grid.data();
     let (w, hh) = (view.core.w + 2 * r, view.core.h + 2 * r);
-    let mut n = [
-        vec![f64::NAN; w * hh],
-        vec![f64::NAN; w * hh],
-        vec![f64::NAN; w * hh],
-    ];
+    let mut n = vec![[0i64; 3]; w * hh];
+    let mut valid = vec![false; w * hh];
+    let fix = |v: f64| super::windowed::to_fixed(v, NORMAL_FRAC) as i64;
     for y in 0..hh {
         let vy = y + h - r;
         let (ew, ns) = view.georef.cell_size_m(view.core.y + vy as i64 - h as i64);
@@ -865,44 +875,95 @@ fn normal_sats(view: &TileView<f32>, r: usize, path: &str) -> Result<[Sat; 3]> {
             let (p, q) = horn_gradient(&win, ew, ns);
             let d = (1.0 + p * p + q * q).sqrt();
             let i = y * w + x;
-            n[0][i] = -p / d;
-            n[1][i] = -q / d;
-            n[2][i] = 1.0 / d;
+            n[i] = [fix(-p / d), fix(-q / d), fix(1.0 / d)];
+            valid[i] = true;
         }
     }
-    let [a, b, c] = n;
-    Ok([
-        Sat::with_frac(&a, w, hh, false, NORMAL_FRAC, 1.0, path)?,
-        Sat::with_frac(&b, w, hh, false, NORMAL_FRAC, 1.0, path)?,
-        Sat::with_frac(&c, w, hh, false, NORMAL_FRAC, 1.0, path)?,
-    ])
+    (n, valid)
 }
 
 /// Spherical standard deviation of the unit normals in the window (Lindsay
 /// et al. 2019): `s = √(−2 ln R̄)` in degrees, with `R̄ = |Σ n| / N` the mean
 /// resultant length. Normals are those of the unsmoothed DEM (Lindsay et al.
-/// smooth first; smooth the input for their multiscale variant).
-fn roughness(view: &TileView<f32>, sats: &[Sat; 3], big: usize, r: usize, o: &mut Grid<f32>) {
+/// smooth first; smooth the input for their multiscale variant). The sums
+/// are exact integers (fixed-point normals) kept as running column sums
+/// slid down the rows and running row sums along them: O(1) per cell, no
+/// tables, and the same bits whatever the tiling. `field` covers the core
+/// plus `big ≥ r` cells on each side.
+#[allow(clippy::needless_range_loop)] // parallel per-column arrays
+fn roughness(
+    view: &TileView<f32>,
+    field: &(Vec<[i64; 3]>, Vec<bool>),
+    big: usize,
+    r: usize,
+    o: &mut Grid<f32>,
+) {
+    let (normals, valid) = field;
     let h = view.halo;
     let gw = view.grid.width();
     let data = view.grid.data();
-    for y in 0..view.core.h {
-        for x in 0..view.core.w {
-            if data[(y + h) * gw + x + h].is_nan() {
+    let (cw, ch) = (view.core.w, view.core.h);
+    if cw == 0 || ch == 0 {
+        return;
+    }
+    let w = cw + 2 * big;
+    let off = big - r;
+    let k = 2 * r + 1;
+    let cols = cw + 2 * r;
+    // Column c of the sums is region column off + c.
+    let mut cs = vec![[0i128; 3]; cols];
+    let mut cn = vec![0u32; cols];
+    let add_row = |ry: usize, add: bool, cs: &mut [[i128; 3]], cn: &mut [u32]| {
+        let base = ry * w + off;
+        for c in 0..cols {
+            if !valid[base + c] {
+                continue;
+            }
+            let v = normals[base + c];
+            for j in 0..3 {
+                if add {
+                    cs[c][j] += v[j] as i128;
+                } else {
+                    cs[c][j] -= v[j] as i128;
+                }
+            }
+            if add {
+                cn[c] += 1;
+            } else {
+                cn[c] -= 1;
+            }
+        }
+    };
+    for ry in off..off + k {
+        add_row(ry, true, &mut cs, &mut cn);
+    }
+    let f = |s: i128| super::windowed::fixed_to_f64(s, NORMAL_FRAC);
+    for y in 0..ch {
+        if y > 0 {
+            add_row(off + y - 1, false, &mut cs, &mut cn);
+            add_row(off + y + k - 1, true, &mut cs, &mut cn);
+        }
+        let mut s = [0i128; 3];
+        let mut n = 0u32;
+        for c in 0..k {
+            for j in 0..3 {
+                s[j] += cs[c][j];
+            }
+            n += cn[c];
+        }
+        for x in 0..cw {
+            if x > 0 {
+                for j in 0..3 {
+                    s[j] += cs[x + k - 1][j] - cs[x - 1][j];
+                }
+                n = n + cn[x + k - 1] - cn[x - 1];
+            }
+            if data[(y + h) * gw + x + h].is_nan() || n == 0 {
                 o.set(x, y, f32::NAN);
                 continue;
             }
-            let (x0, y0, x1, y1) = (x + big - r, y + big - r, x + big + r + 1, y + big + r + 1);
-            let a = sats[0].window(x0, y0, x1, y1);
-            if a.n == 0 {
-                o.set(x, y, f32::NAN);
-                continue;
-            }
-            let b = sats[1].window(x0, y0, x1, y1);
-            let c = sats[2].window(x0, y0, x1, y1);
-            let f = |s: i128| super::windowed::fixed_to_f64(s, NORMAL_FRAC);
-            let (sx, sy, sz) = (f(a.sum), f(b.sum), f(c.sum));
-            let rbar = ((sx * sx + sy * sy + sz * sz).sqrt() / a.n as f64).min(1.0);
+            let (sx, sy, sz) = (f(s[0]), f(s[1]), f(s[2]));
+            let rbar = ((sx * sx + sy * sy + sz * sz).sqrt() / n as f64).min(1.0);
             o.set(x, y, (-2.0 * rbar.ln()).max(0.0).sqrt().to_degrees() as f32);
         }
     }

@@ -133,11 +133,13 @@ pub fn tri_wilson(w: &[f64; 9]) -> f64 {
 /// adjacent neighbours among the 8, clipped to the cell (every edge halved,
 /// so each triangle is similar to the full one with factor ½ and a quarter of
 /// its area), summed and divided by the cell's planimetric area `ew·ns`.
-/// Triangle areas by Heron's formula on the 3D edge lengths, as Jenness does.
+/// Triangle areas as half the norm of the cross product of the two spokes
+/// (the same areas as Jenness's Heron formula on the edge lengths, with one
+/// square root per triangle instead of four).
 #[inline]
 pub fn rugosity(w: &[f64; 9], ew: f64, ns: f64) -> f64 {
     // Neighbours in ring order around the centre (clockwise from north-west),
-    // with their (dx, dy) offsets in metres.
+    // with their (dx, dy) offsets in cells.
     const RING: [(usize, f64, f64); 8] = [
         (0, -1.0, 1.0),
         (1, 0.0, 1.0),
@@ -149,17 +151,23 @@ pub fn rugosity(w: &[f64; 9], ew: f64, ns: f64) -> f64 {
         (3, -1.0, 0.0),
     ];
     let c = w[4];
-    let len = |dx: f64, dy: f64, dz: f64| ((dx * ew).powi(2) + (dy * ns).powi(2) + dz * dz).sqrt();
+    // Spokes clipped to the cell (halved): (dx, dy, dz) in metres.
+    let mut sx = [0.0; 8];
+    let mut sy = [0.0; 8];
+    let mut sz = [0.0; 8];
+    for k in 0..8 {
+        let (i, dx, dy) = RING[k];
+        sx[k] = 0.5 * dx * ew;
+        sy[k] = 0.5 * dy * ns;
+        sz[k] = 0.5 * (w[i] - c);
+    }
     let mut area = 0.0;
     for k in 0..8 {
-        let (i, ax, ay) = RING[k];
-        let (j, bx, by) = RING[(k + 1) % 8];
-        let a = len(ax, ay, w[i] - c);
-        let b = len(bx, by, w[j] - c);
-        let e = len(bx - ax, by - ay, w[j] - w[i]);
-        let sp = (a + b + e) / 2.0;
-        let heron = (sp * (sp - a) * (sp - b) * (sp - e)).max(0.0).sqrt();
-        area += heron / 4.0;
+        let j = (k + 1) % 8;
+        let cx = sy[k] * sz[j] - sz[k] * sy[j];
+        let cy = sz[k] * sx[j] - sx[k] * sz[j];
+        let cz = sx[k] * sy[j] - sy[k] * sx[j];
+        area += 0.5 * (cx * cx + cy * cy + cz * cz).sqrt();
     }
     area / (ew * ns)
 }

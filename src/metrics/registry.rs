@@ -83,6 +83,8 @@ pub enum MetricKind {
     Submission,
     Peakedness,
     Domination,
+    // descr3
+    AsymmetryIndex,
 }
 
 /// What a metric's parameters are.
@@ -797,6 +799,15 @@ pub const METRICS: &[MetricDef] = &[
         "geographical domination: distance to the nearest strictly higher valid cell; the cutoff if none within it",
         "'Dominanz' of German orometry (isolation of a point); disk cutoff"
     ),
+    // descr3
+    def!(
+        AsymmetryIndex,
+        "asymmetry_index",
+        &[RADIUS, AZIMUTH, TOLERANCE],
+        "log10 ratio",
+        "log10(median gradient of cells facing azimuth / median gradient of cells facing azimuth+180) in the square window; cells under 5% gradient left out",
+        "Poulos, Pierce, Flores & Benner 2012, GRL 39 L06406, sec. 2 (medians, as published; hillslope_asymmetry uses means)"
+    ),
 ];
 
 /// The registry entry of `kind`.
@@ -1256,7 +1267,7 @@ impl Resolved {
             HorizonAngle | Zenith | Nadir | Accessibility | VisibilityIndex | SolarDirect
             | SolarGlobal | SolarAnnual | VisibilityIndexExact => self.radius_cells.max(1),
             // more descriptors
-            AverageSlope | HillslopeAsymmetry => self.radius_cells + 1,
+            AverageSlope | HillslopeAsymmetry | AsymmetryIndex => self.radius_cells + 1,
             FractionalLaplacian | Ors | Jut | Rut => self.radius_cells,
             SharyLandform => self.radius_cells.max(1),
             FuzzyLandform => self
@@ -1342,11 +1353,12 @@ pub fn resolve(specs: &[MetricSpec], info: &RasterInfo) -> Result<Vec<Resolved>>
                     )));
                 }
             }
-            if s.kind == MetricKind::HillslopeAsymmetry {
+            if matches!(s.kind, MetricKind::HillslopeAsymmetry | MetricKind::AsymmetryIndex) {
                 let t = s.threshold.unwrap_or(45.0);
                 if !(t > 0.0 && t <= 90.0) {
                     return Err(Error::invalid(format!(
-                        "hillslope_asymmetry:tolerance={t} is out of range: use 0 < tolerance <= 90 (degrees)"
+                        "{}:tolerance={t} is out of range: use 0 < tolerance <= 90 (degrees)",
+                        s.def().name
                     )));
                 }
             }

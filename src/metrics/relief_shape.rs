@@ -24,7 +24,7 @@ use crate::raster::{Grid, TileView};
 #[inline]
 pub fn ors_kernel(u: f64) -> f64 {
     let a = u.atan();
-    (4.0 / std::f64::consts::PI.powi(3) * (2.0 * u * a - u.mul_add(u, 1.0).ln() - a * a)).max(0.0)
+    (4.0 / std::f64::consts::PI.powi(3) * (2.0 * u * a - (u * u + 1.0).ln() - a * a)).max(0.0)
 }
 
 /// Which of the three descriptors to compute.
@@ -70,14 +70,16 @@ pub fn relief_shape(
                             acc += ors_kernel(dz / d);
                         }
                     }
+                    // dz²/√(d²+dz²) < |dz|: a cell with |dz| ≤ acc cannot
+                    // raise the maximum, so the division is skipped (exact).
                     ReliefShape::Jut => {
-                        if dz > 0.0 {
-                            acc = acc.max(dz * dz / d.hypot(dz));
+                        if dz > acc {
+                            acc = acc.max(dz * dz / (d * d + dz * dz).sqrt());
                         }
                     }
                     ReliefShape::Rut => {
-                        if dz < 0.0 {
-                            acc = acc.max(dz * dz / d.hypot(dz));
+                        if -dz > acc {
+                            acc = acc.max(dz * dz / (d * d + dz * dz).sqrt());
                         }
                     }
                 }

@@ -467,7 +467,10 @@ pub fn heat_index(w: &[f64; 9], ew: f64, ns: f64, alpha_max_deg: f64) -> f64 {
     if p == 0.0 && q == 0.0 {
         return 0.0;
     }
-    let slope = (p * p + q * q).sqrt().atan();
-    let aspect = (-p).atan2(-q);
-    (alpha_max_deg.to_radians() - aspect).cos() * slope.atan()
+    let g = (p * p + q * q).sqrt();
+    let slope = g.atan();
+    // cos(alpha_max − aspect) with aspect = atan2(−p, −q), expanded so that
+    // no atan2/cos is evaluated per cell: (sin a, cos a) = (−p, −q)/g.
+    let am = alpha_max_deg.to_radians();
+    ((-q) * am.cos() + (-p) * am.sin()) / g * slope.atan()
 }

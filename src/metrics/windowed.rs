@@ -33,7 +33,34 @@ pub const MAX_ABS_VALUE: f64 = 5e7;
 /// Fixed-point value of `z` with `frac` fractional bits (|z| small enough).
 #[inline]
 pub fn to_fixed(z: f64, frac: u32) -> i128 {
-    (z * (1u128 << frac) as f64).round() as i128
+    let v = (z * pow2(frac)).round();
+    // Through the hardware i64 conversion when the value fits (always for
+    // FRAC_BITS and |z| ≤ MAX_ABS_VALUE); `as i128` is a slow software
+    // routine. Both are exact on these integral values.
+    if v.abs() < 9.0e18 {
+        v as i64 as i128
+    } else {
+        v as i128
+    }
+}
+
+/// `v as f64` (round to nearest) without the slow software i128 routine in
+/// the common cases: through the hardware i64 conversion when `v` fits in
+/// an i64 (window sums of elevations), else as `hi·2³² + lo` with `hi =
+/// v >> 32` exact in f64 (|v| < 2⁸⁵: sums of fixed-point normals) — both
+/// terms are exact, so their f64 sum is rounded once, like `v as f64`.
+#[inline]
+pub fn i128_to_f64(v: i128) -> f64 {
+    let s = v as i64;
+    if s as i128 == v {
+        return s as f64;
+    }
+    let hi = (v >> 32) as i64;
+    if hi.unsigned_abs() < 1u64 << 53 && (hi as i128) == (v >> 32) {
+        hi as f64 * 4_294_967_296.0 + (v as u64 & 0xffff_ffff) as f64
+    } else {
+        v as f64
+    }
 }
 
 /// Summed-area tables over a `w x h` region: valid-cell counts, fixed-point
@@ -168,22 +195,29 @@ impl WindowSums {
             return f64::NAN;
         }
         let n = self.n as i128;
-        let a = (self.sum as f64 / self.n as f64).round() as i128;
+        let a = (i128_to_f64(self.sum) / self.n as f64).round() as i64 as i128;
         let b = self.sum.wrapping_sub(n.wrapping_mul(a));
         let d = self
             .sumsq
             .wrapping_sub(2i128.wrapping_mul(a).wrapping_mul(self.sum))
             .wrapping_add(n.wrapping_mul(a).wrapping_mul(a));
-        let bf = b as f64;
-        let v = (d as f64 - bf * bf / self.n as f64) / self.n as f64;
-        v.max(0.0) / (1u128 << (2 * self.frac)) as f64
+        let bf = i128_to_f64(b);
+        let v = (i128_to_f64(d) - bf * bf / self.n as f64) / self.n as f64;
+        v.max(0.0) / pow2(2 * self.frac)
     }
 }
 
 /// Fixed point back to f64.
 #[inline]
 pub fn fixed_to_f64(q: i128, frac: u32) -> f64 {
-    q as f64 / (1u128 << frac) as f64
+    i128_to_f64(q) / pow2(frac)
+}
+
+/// `2^k` as f64, exactly (`(1u128 << k) as f64` without the software u128
+/// conversion; k ≤ 127).
+#[inline]
+pub fn pow2(k: u32) -> f64 {
+    f64::from_bits((1023 + k as u64) << 52)
 }
 
 /// Running maximum over windows of `2r+1` (clipped at the ends) of `a`,
@@ -305,6 +339,37 @@ mod tests {
                 let m = a[lo..=hi].iter().cloned().fold(f64::NEG_INFINITY, f64::max);
                 assert_eq!(*o, m, "r {r} j {j}");
             }
+        }
+    }
+
+    #[test]
+    fn i128_to_f64_rounds_like_as() {
+        let mut x: u64 = 0x1234_5678_9abc_def1;
+        for k in 0..20_000u32 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            // Magnitudes from 2^0 to 2^126, both signs.
+            let shift = k % 127;
+            let v = ((x as i128) << 64 | (x.rotate_left(29) as i128)) >> (127 - shift);
+            for v in [v, -v, v + 1, v - 1] {
+                assert_eq!(i128_to_f64(v).to_bits(), (v as f64).to_bits(), "{v}");
+            }
+        }
+    }
+
+    #[test]
+    fn pow2_is_exact() {
+        for k in 0..=127u32 {
+            assert_eq!(pow2(k), (1u128 << k) as f64, "{k}");
+        }
+    }
+
+    #[test]
+    fn to_fixed_matches_i128_cast() {
+        for z in [0.0, 1.5, -2.25, 8848.86, -4.9e7, 4.9e7, 1e-9, -0.3] {
+            let want = (z * (1u128 << FRAC_BITS) as f64).round() as i128;
+            assert_eq!(to_fixed(z, FRAC_BITS), want);
         }
     }
 
