@@ -12,6 +12,7 @@ pub mod metric_table;
 pub mod oro;
 pub mod synth;
 pub mod synth_noise;
+pub mod synth_oro;
 pub mod tiles;
 pub mod view;
 pub mod viewshed;

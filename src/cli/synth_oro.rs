@@ -1,0 +1,311 @@
+//! `orogen synth profile | divide-tree | from-tree | orometric`: orometric
+//! terrain synthesis (see `orogen::synth::orometric`). The profile and the
+//! divide tree are JSON files a user may edit between the steps.
+
+use crate::{engine, output_options, wrote, In, Out, Run};
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use orogen::io::{open_raster, OpenOptions};
+use orogen::raster::{read_window, Grid, Window};
+use orogen::synth::orometric::{
+    synthesize_tree, OroTerrain, SynthPeak, SynthProfile, SynthTree, TerrainOptions, TreeOptions,
+};
+use std::path::{Path, PathBuf};
+
+/// Arguments of `orogen synth profile`.
+#[derive(Args)]
+pub struct ProfileArgs {
+    /// A DEM to measure, or a profile (.json) to edit.
+    #[command(flatten)]
+    pub input: In,
+    /// Peaks counted have at least this prominence (m).
+    #[arg(long, default_value_t = 30.0)]
+    pub min_prominence: f64,
+    /// Label of the region type.
+    #[arg(long)]
+    pub label: Option<String>,
+    /// Edit: multiply prominences (2 = peaks twice as prominent).
+    #[arg(long)]
+    pub scale_prominence: Option<f64>,
+    /// Edit: multiply the peak density.
+    #[arg(long)]
+    pub scale_density: Option<f64>,
+    /// Output profile (.json).
+    #[arg(short, long)]
+    pub output: PathBuf,
+}
+
+/// Options of the divide-tree synthesis shared by `divide-tree` and `orometric`.
+#[derive(Args, Clone)]
+pub struct TreeArgs {
+    /// Profile made by `orogen synth profile`.
+    #[arg(long)]
+    pub profile: PathBuf,
+    /// Size in cells, WIDTHxHEIGHT (or one number for a square).
+    #[arg(long, default_value = "1024")]
+    pub size: String,
+    /// Cell size in metres.
+    #[arg(long, default_value_t = 30.0)]
+    pub cell: f64,
+    /// Random seed.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Number of peaks (default: the profile's density × area).
+    #[arg(long)]
+    pub peaks: Option<usize>,
+    /// Ridge weight exponent ρ (0, 1 or 2): MST weight ‖Pi−Pj‖ / min(h)^ρ.
+    #[arg(long, default_value_t = 1)]
+    pub rho: u8,
+    /// Peak density map C_P (any raster, stretched over the domain).
+    #[arg(long)]
+    pub density_map: Option<PathBuf>,
+    /// Coarse elevation map C_H (any raster, stretched over the domain, m).
+    #[arg(long)]
+    pub elevation_map: Option<PathBuf>,
+    /// Fixed peaks: GeoJSON points (map metres, origin bottom-left as in the
+    /// rasters written, property "elevation").
+    #[arg(long)]
+    pub fixed_peaks: Option<PathBuf>,
+    /// Isolation proposal stretch (see the notes).
+    #[arg(long, default_value_t = 1.0)]
+    pub isolation_stretch: f64,
+}
+
+/// Terrain options shared by `from-tree` and `orometric`.
+#[derive(Args, Clone)]
+pub struct TerrainArgs {
+    /// Flank slope (m/m).
+    #[arg(long, default_value_t = 0.6)]
+    pub slope: f64,
+    /// Ridge refinement spacing λ (m).
+    #[arg(long, default_value_t = 200.0)]
+    pub spacing: f64,
+    /// Noise amplitude (m; default 0.3 × the prominence threshold).
+    #[arg(long)]
+    pub noise: Option<f64>,
+    /// Also write a PNG preview (hillshaded).
+    #[arg(long)]
+    pub preview: Option<PathBuf>,
+}
+
+/// Arguments of `orogen synth divide-tree`.
+#[derive(Args)]
+pub struct DivideTreeArgs {
+    #[command(flatten)]
+    pub tree: TreeArgs,
+    /// Output divide tree (.json, editable).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Also write the tree as GeoJSON (peaks, saddles, ridges).
+    #[arg(long)]
+    pub geojson: Option<PathBuf>,
+}
+
+/// Arguments of `orogen synth from-tree`.
+#[derive(Args)]
+pub struct FromTreeArgs {
+    /// Divide tree (.json) from `orogen synth divide-tree`, possibly edited.
+    pub tree: PathBuf,
+    #[command(flatten)]
+    pub terrain: TerrainArgs,
+    #[command(flatten)]
+    pub out: Out,
+    #[command(flatten)]
+    pub run: Run,
+}
+
+/// Arguments of `orogen synth orometric`.
+#[derive(Args)]
+pub struct OrometricArgs {
+    #[command(flatten)]
+    pub tree: TreeArgs,
+    #[command(flatten)]
+    pub terrain: TerrainArgs,
+    /// Also save the divide tree (.json).
+    #[arg(long)]
+    pub tree_out: Option<PathBuf>,
+    #[command(flatten)]
+    pub out: Out,
+    #[command(flatten)]
+    pub run: Run,
+}
+
+/// `orogen synth profile`.
+pub fn run_profile(a: ProfileArgs) -> Result<()> {
+    let path = &a.input.input;
+    let is_json = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("json"));
+    let mut prof = if is_json {
+        SynthProfile::load(path)?
+    } else {
+        let src = crate::open(&a.input)?;
+        let dem = read_all(&*src, path)?;
+        let name = path
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("region")
+            .to_string();
+        let label = a.label.clone().unwrap_or_else(|| name.clone());
+        SynthProfile::from_dem(
+            &dem,
+            &src.info().georef,
+            a.min_prominence,
+            &label,
+            &path.display().to_string(),
+        )
+        .with_context(|| format!("profile of {}", path.display()))?
+    };
+    if let Some(l) = &a.label {
+        prof.label = l.clone();
+    }
+    if let Some(f) = a.scale_prominence {
+        prof.scale_prominence(f)?;
+    }
+    if let Some(f) = a.scale_density {
+        prof.scale_density(f)?;
+    }
+    prof.save(&a.output)?;
+    wrote(&a.output);
+    Ok(())
+}
+
+/// Largest map (density, elevation) read into memory, cells.
+const MAX_MAP_CELLS: usize = 1 << 26;
+
+fn read_all(src: &dyn orogen::raster::RasterSource, path: &Path) -> Result<Grid<f32>> {
+    let (w, h) = (src.info().width, src.info().height);
+    if w.saturating_mul(h) > 1 << 30 {
+        bail!(
+            "{}: {w}x{h} cells is too large to measure in memory; crop it first",
+            path.display()
+        );
+    }
+    Ok(read_window::<f32>(src, Window::full(w, h))?)
+}
+
+fn read_map(path: &Path) -> Result<Grid<f32>> {
+    let src = open_raster(path, &OpenOptions::default())?;
+    let (w, h) = (src.info().width, src.info().height);
+    if w.saturating_mul(h) > MAX_MAP_CELLS {
+        bail!(
+            "{}: a control map of {w}x{h} cells is larger than needed (at most {MAX_MAP_CELLS} cells); downsample it",
+            path.display()
+        );
+    }
+    Ok(read_window::<f32>(&*src, Window::full(w, h))?)
+}
+
+/// Fixed peaks from GeoJSON points with an "elevation" property.
+fn read_fixed(path: &Path, h_cells: usize, cell: f64) -> Result<Vec<SynthPeak>> {
+    let meta = std::fs::metadata(path).with_context(|| format!("{}", path.display()))?;
+    if meta.len() > 256 << 20 {
+        bail!("{}: fixed-peak file over 256 MiB", path.display());
+    }
+    let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
+    let v: serde_json::Value = serde_json::from_str(&text)
+        .with_context(|| format!("{}: not JSON", path.display()))?;
+    let Some(feats) = v.get("features").and_then(|f| f.as_array()) else {
+        bail!(
+            "{}: expected a GeoJSON FeatureCollection of points with an \"elevation\" property",
+            path.display()
+        );
+    };
+    let hm = h_cells as f64 * cell;
+    let mut out = Vec::new();
+    for (i, f) in feats.iter().enumerate() {
+        let c = f
+            .pointer("/geometry/coordinates")
+            .and_then(|c| c.as_array())
+            .filter(|c| c.len() >= 2);
+        let (Some(c), Some(z)) = (
+            c,
+            f.pointer("/properties/elevation").and_then(|z| z.as_f64()),
+        ) else {
+            bail!(
+                "{}: feature {i} is not a point with a numeric \"elevation\" property",
+                path.display()
+            );
+        };
+        let (Some(x), Some(y)) = (c[0].as_f64(), c[1].as_f64()) else {
+            bail!("{}: feature {i} has non-numeric coordinates", path.display());
+        };
+        out.push(SynthPeak {
+            x,
+            y: hm - y,
+            elevation: z,
+            fixed: true,
+        });
+    }
+    Ok(out)
+}
+
+fn make_tree(t: &TreeArgs) -> Result<SynthTree> {
+    let prof = SynthProfile::load(&t.profile)?;
+    let (w, h) = super::synth_noise::parse_size(&t.size)?;
+    let mut o = TreeOptions::new(w, h, t.cell, t.seed);
+    o.n_peaks = t.peaks;
+    o.rho = t.rho;
+    o.isolation_stretch = t.isolation_stretch;
+    if let Some(p) = &t.density_map {
+        o.density_map = Some(read_map(p)?);
+    }
+    if let Some(p) = &t.elevation_map {
+        o.elevation_map = Some(read_map(p)?);
+    }
+    if let Some(p) = &t.fixed_peaks {
+        o.fixed_peaks = read_fixed(p, h, t.cell)?;
+    }
+    Ok(synthesize_tree(&prof, &o)?)
+}
+
+fn terrain_opts(t: &TerrainArgs) -> TerrainOptions {
+    TerrainOptions {
+        slope: t.slope,
+        spacing_m: t.spacing,
+        noise_amplitude: t.noise,
+        ..TerrainOptions::default()
+    }
+}
+
+fn write_terrain(tree: &SynthTree, t: &TerrainArgs, out: &Out, run: &Run) -> Result<()> {
+    let ter = OroTerrain::new(tree, &terrain_opts(t))?;
+    let cfg = engine(run)?;
+    let oo = output_options(&out.fmt)?;
+    orogen::ops::convert(&ter, &out.output, &oo, run.tile, &cfg)?;
+    wrote(&out.output);
+    if let Some(p) = &t.preview {
+        orogen::io::render::render_preview(&ter, p, &orogen::io::render::RenderOptions::default())?;
+        wrote(p);
+    }
+    Ok(())
+}
+
+/// `orogen synth divide-tree`.
+pub fn run_divide_tree(a: DivideTreeArgs) -> Result<()> {
+    let tree = make_tree(&a.tree)?;
+    tree.save(&a.output)?;
+    wrote(&a.output);
+    if let Some(g) = &a.geojson {
+        std::fs::write(g, tree.to_geojson()).with_context(|| format!("{}", g.display()))?;
+        wrote(g);
+    }
+    Ok(())
+}
+
+/// `orogen synth from-tree`.
+pub fn run_from_tree(a: FromTreeArgs) -> Result<()> {
+    let tree = SynthTree::load(&a.tree)?;
+    write_terrain(&tree, &a.terrain, &a.out, &a.run)
+}
+
+/// `orogen synth orometric`.
+pub fn run_orometric(a: OrometricArgs) -> Result<()> {
+    let tree = make_tree(&a.tree)?;
+    if let Some(p) = &a.tree_out {
+        tree.save(p)?;
+        wrote(p);
+    }
+    write_terrain(&tree, &a.terrain, &a.out, &a.run)
+}
