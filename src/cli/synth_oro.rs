@@ -54,7 +54,7 @@ pub struct TreeArgs {
     #[arg(long)]
     pub peaks: Option<usize>,
     /// Ridge weight exponent ρ (0, 1 or 2): MST weight ‖Pi−Pj‖ / min(h)^ρ.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 2)]
     pub rho: u8,
     /// Peak density map C_P (any raster, stretched over the domain).
     #[arg(long)]
@@ -66,8 +66,9 @@ pub struct TreeArgs {
     /// rasters written, property "elevation").
     #[arg(long)]
     pub fixed_peaks: Option<PathBuf>,
-    /// Isolation proposal stretch (see the notes).
-    #[arg(long, default_value_t = 1.0)]
+    /// Isolation proposals at this multiple of the target distance (the
+    /// terrain's higher ground is nearer than the higher summit).
+    #[arg(long, default_value_t = 1.2)]
     pub isolation_stretch: f64,
 }
 
@@ -204,8 +205,8 @@ fn read_fixed(path: &Path, h_cells: usize, cell: f64) -> Result<Vec<SynthPeak>> 
         bail!("{}: fixed-peak file over 256 MiB", path.display());
     }
     let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
-    let v: serde_json::Value = serde_json::from_str(&text)
-        .with_context(|| format!("{}: not JSON", path.display()))?;
+    let v: serde_json::Value =
+        serde_json::from_str(&text).with_context(|| format!("{}: not JSON", path.display()))?;
     let Some(feats) = v.get("features").and_then(|f| f.as_array()) else {
         bail!(
             "{}: expected a GeoJSON FeatureCollection of points with an \"elevation\" property",
@@ -229,7 +230,10 @@ fn read_fixed(path: &Path, h_cells: usize, cell: f64) -> Result<Vec<SynthPeak>> 
             );
         };
         let (Some(x), Some(y)) = (c[0].as_f64(), c[1].as_f64()) else {
-            bail!("{}: feature {i} has non-numeric coordinates", path.display());
+            bail!(
+                "{}: feature {i} has non-numeric coordinates",
+                path.display()
+            );
         };
         out.push(SynthPeak {
             x,

@@ -136,7 +136,8 @@ pub fn assign_pass(
 }
 
 /// Alternate prominence and dominance passes `iterations` times, ending with
-/// a prominence pass.
+/// three prominence passes.
+#[allow(clippy::too_many_arguments)]
 pub fn assign_saddles(
     h: &[f64],
     edges: &[(usize, usize)],
@@ -151,5 +152,10 @@ pub fn assign_saddles(
         assign_pass(h, edges, hmax, floor, hs, prominence, Target::Prominence)?;
         assign_pass(h, edges, hmax, floor, hs, dominance, Target::Dominance)?;
     }
-    assign_pass(h, edges, hmax, floor, hs, prominence, Target::Prominence)
+    // Prominence last, repeated: a pass can change owners, the next one
+    // re-targets the saddles whose owner changed.
+    for _ in 0..3 {
+        assign_pass(h, edges, hmax, floor, hs, prominence, Target::Prominence)?;
+    }
+    Ok(())
 }

@@ -23,6 +23,10 @@ use std::path::Path;
 pub struct Hist {
     pub edges: Vec<f64>,
     pub p: Vec<f64>,
+    /// Optional 101 quantiles (0 %, 1 %, ..., 100 %) of the values: sampling
+    /// interpolates them when present (finer than the bins), else the bins.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub q: Vec<f64>,
 }
 
 impl Hist {
@@ -41,7 +45,27 @@ impl Hist {
         Hist {
             edges: edges.to_vec(),
             p: c,
+            q: Vec::new(),
         }
+    }
+
+    /// [`Hist::of_values`] plus the 101 quantiles of `values`.
+    pub fn with_quantiles(edges: &[f64], values: &[f64]) -> Hist {
+        let mut h = Hist::of_values(edges, values);
+        let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+        v.sort_by(|a, b| a.total_cmp(b));
+        if !v.is_empty() {
+            let n = v.len() - 1;
+            h.q = (0..=100)
+                .map(|k| {
+                    let f = k as f64 / 100.0 * n as f64;
+                    let i = (f.floor() as usize).min(n);
+                    let j = (i + 1).min(n);
+                    v[i] + (f - i as f64) * (v[j] - v[i])
+                })
+                .collect();
+        }
+        h
     }
 
     /// Check edges (finite, strictly increasing, one more than bins) and
@@ -61,6 +85,15 @@ impl Hist {
                 "profile histogram '{what}': probabilities must be finite and ≥ 0"
             )));
         }
+        if !self.q.is_empty()
+            && (self.q.len() < 2
+                || self.q.iter().any(|v| !v.is_finite())
+                || self.q.windows(2).any(|w| w[1] < w[0]))
+        {
+            return Err(Error::invalid(format!(
+                "profile histogram '{what}': quantiles must be finite and non-decreasing"
+            )));
+        }
         if self.p.iter().sum::<f64>() <= 0.0 {
             return Err(Error::invalid(format!(
                 "profile histogram '{what}' is empty (all bins 0): the region had no peak with this value; give a profile made from a DEM with peaks"
@@ -69,8 +102,14 @@ impl Hist {
         Ok(())
     }
 
-    /// Value of the inverse CDF at `u` in [0, 1) (uniform inside a bin).
+    /// Value of the inverse CDF at `u` in [0, 1): interpolated between the
+    /// stored quantiles if any, else uniform inside a bin.
     pub fn quantile(&self, u: f64) -> f64 {
+        if self.q.len() >= 2 {
+            let f = u.clamp(0.0, 1.0) * (self.q.len() - 1) as f64;
+            let i = (f.floor() as usize).min(self.q.len() - 2);
+            return self.q[i] + (f - i as f64) * (self.q[i + 1] - self.q[i]);
+        }
         let total: f64 = self.p.iter().sum();
         let mut acc = 0.0;
         let target = u.clamp(0.0, 1.0) * total;
@@ -110,11 +149,17 @@ impl Hist {
     /// Total variation distance ½ Σ|p − q| to `values` binned on these edges.
     pub fn error_against(&self, values: &[f64]) -> f64 {
         let q = Hist::of_values(&self.edges, values);
-        0.5 * self.p.iter().zip(&q.p).map(|(a, b)| (a - b).abs()).sum::<f64>()
+        0.5 * self
+            .p
+            .iter()
+            .zip(&q.p)
+            .map(|(a, b)| (a - b).abs())
+            .sum::<f64>()
     }
 
     fn scale(&mut self, f: f64) {
         self.edges.iter_mut().for_each(|e| *e *= f);
+        self.q.iter_mut().for_each(|e| *e *= f);
     }
 }
 
@@ -292,12 +337,12 @@ impl SynthProfile {
             sources,
             min_prominence,
             peak_density_per_km2: elev.len() as f64 / area,
-            elevation: Hist::of_values(&e_edges, &elev),
-            prominence: Hist::of_values(&p_edges, &prom),
-            dominance: Hist::of_values(&DOM_EDGES, &cat(|s| &s.dominance)),
-            isolation_km: Hist::of_values(&distance_edges(&iso), &iso),
+            elevation: Hist::with_quantiles(&e_edges, &elev),
+            prominence: Hist::with_quantiles(&p_edges, &prom),
+            dominance: Hist::with_quantiles(&DOM_EDGES, &cat(|s| &s.dominance)),
+            isolation_km: Hist::with_quantiles(&distance_edges(&iso), &iso),
             isolation_dir: Hist::of_values(&SECTOR_EDGES, &cat(|s| &s.isolation_dir)),
-            saddle_km: Hist::of_values(&distance_edges(&sad), &sad),
+            saddle_km: Hist::with_quantiles(&distance_edges(&sad), &sad),
             saddle_dir: Hist::of_values(&SECTOR_EDGES, &cat(|s| &s.saddle_dir)),
         };
         prof.validate()?;
@@ -360,7 +405,7 @@ impl SynthProfile {
         for d in samples {
             v.push((d * f).min(1.0));
         }
-        self.dominance = Hist::of_values(&DOM_EDGES, &v);
+        self.dominance = Hist::with_quantiles(&DOM_EDGES, &v);
         Ok(())
     }
 
@@ -381,9 +426,18 @@ impl SynthProfile {
     /// (relative difference).
     pub fn errors(&self, s: &PeakSamples) -> BTreeMap<String, f64> {
         let mut out = BTreeMap::new();
-        out.insert("elevation".into(), self.elevation.error_against(&s.elevation));
-        out.insert("prominence".into(), self.prominence.error_against(&s.prominence));
-        out.insert("dominance".into(), self.dominance.error_against(&s.dominance));
+        out.insert(
+            "elevation".into(),
+            self.elevation.error_against(&s.elevation),
+        );
+        out.insert(
+            "prominence".into(),
+            self.prominence.error_against(&s.prominence),
+        );
+        out.insert(
+            "dominance".into(),
+            self.dominance.error_against(&s.dominance),
+        );
         out.insert(
             "isolation_km".into(),
             self.isolation_km.error_against(&s.isolation_km),
@@ -392,8 +446,14 @@ impl SynthProfile {
             "isolation_dir".into(),
             self.isolation_dir.error_against(&s.isolation_dir),
         );
-        out.insert("saddle_km".into(), self.saddle_km.error_against(&s.saddle_km));
-        out.insert("saddle_dir".into(), self.saddle_dir.error_against(&s.saddle_dir));
+        out.insert(
+            "saddle_km".into(),
+            self.saddle_km.error_against(&s.saddle_km),
+        );
+        out.insert(
+            "saddle_dir".into(),
+            self.saddle_dir.error_against(&s.saddle_dir),
+        );
         let d = if s.area_km2 > 0.0 {
             s.elevation.len() as f64 / s.area_km2
         } else {
@@ -434,7 +494,8 @@ impl SynthProfile {
                 format!("not a synthesis profile (make one with `orogen synth profile`): {e}"),
             )
         })?;
-        p.validate().map_err(|e| Error::corrupt(path, e.to_string()))?;
+        p.validate()
+            .map_err(|e| Error::corrupt(path, e.to_string()))?;
         Ok(p)
     }
 }

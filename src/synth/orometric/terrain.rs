@@ -4,7 +4,7 @@
 //! vertices every λ (default 200 m) and random planar jitter (Argudo et al.
 //! 2019, §6.2), its elevation falling linearly from each peak to the saddle.
 //! The surface is the upper envelope of sloped "tents" over the ridge
-//! segments, h(x) = max(floor, max_s [z_s(u) − σ_s · (‖x − p_s(u)‖ − w)₊]),
+//! segments, h(x) = max(floor, max_s max_u [z_s(u) − σ_s·√((u − u_x)² + (d⊥ − w)₊²)]),
 //! maximised over the position u along each segment in closed form (the
 //! function is concave in u). σ_s is the flank slope (at least 1.25 × the
 //! segment's own gradient, so a tent never rises above its ridge), w a crest
@@ -80,13 +80,15 @@ struct Seg {
     k: f64,
     zmax: f64,
     bbox: [f64; 4],
+    /// The peak at the top of this ridge half.
+    peak: u32,
 }
 
 impl Seg {
     fn new(a: (f64, f64, f64), b: (f64, f64, f64), slope: f64) -> Option<Seg> {
         let (dx, dy) = (b.0 - a.0, b.1 - a.1);
         let len = dx.hypot(dy);
-        if !(len > 1e-9) {
+        if len.is_nan() || len <= 1e-9 {
             return None;
         }
         let g = (b.2 - a.2) / len;
@@ -103,6 +105,7 @@ impl Seg {
             k: g.abs() / (s * s - g * g).sqrt(),
             zmax: a.2.max(b.2),
             bbox: [a.0.min(b.0), a.1.min(b.1), a.0.max(b.0), a.1.max(b.1)],
+            peak: 0,
         })
     }
 
@@ -111,11 +114,12 @@ impl Seg {
     fn eval(&self, x: f64, y: f64, w: f64) -> f64 {
         let (px, py) = (x - self.ax, y - self.ay);
         let u = px * self.ux + py * self.uy;
-        let v = (px * self.uy - py * self.ux).abs();
-        let reach = (w * w - v * v).max(0.0).sqrt().max(v * self.k);
-        let us = (u + reach * self.g.signum()).clamp(0.0, self.len);
+        // Offset beyond the crest band; inside it a point reads the ridge at
+        // its projection (no gain along the ridge, so saddles stay exact).
+        let v = ((px * self.uy - py * self.ux).abs() - w).max(0.0);
+        let us = (u + v * self.k * self.g.signum()).clamp(0.0, self.len);
         let r = (us - u).hypot(v);
-        self.az + self.g * us - self.s * (r - w).max(0.0)
+        self.az + self.g * us - self.s * r
     }
 
     /// Distance from (x, y) to the segment.
@@ -130,11 +134,92 @@ impl Seg {
 /// Steepest flank slope [`steepen`] gives a segment.
 const MAX_SLOPE: f64 = 8.0;
 
-/// Adaptive flanks: raise each segment's slope until its tent stays below
-/// every other segment's crest (checked at the other segment's ends and
-/// middle, at the nearest point of this segment), so no tent buries a lower
-/// ridge or saddle nearby: the divide tree stays the terrain's. Capped at
-/// [`MAX_SLOPE`]; crests closer than the crest width cannot be separated.
+/// Lowest saddle on the tree path between two peaks, by binary lifting
+/// (Bender & Farach-Colton 2000, "The LCA problem revisited": ancestor
+/// tables of 2^k steps, here carrying the path minimum).
+struct PathMin {
+    depth: Vec<u32>,
+    up: Vec<Vec<u32>>,
+    mn: Vec<Vec<f64>>,
+}
+
+impl PathMin {
+    fn new(tree: &SynthTree) -> PathMin {
+        let n = tree.peaks.len();
+        let mut adj = vec![Vec::new(); n];
+        for s in &tree.saddles {
+            adj[s.peaks[0]].push((s.peaks[1], s.elevation));
+            adj[s.peaks[1]].push((s.peaks[0], s.elevation));
+        }
+        let mut depth = vec![u32::MAX; n];
+        let mut par = vec![0u32; n];
+        let mut pmin = vec![f64::INFINITY; n];
+        depth[0] = 0;
+        let mut stack = vec![0usize];
+        while let Some(a) = stack.pop() {
+            for &(b, z) in &adj[a] {
+                if depth[b] == u32::MAX {
+                    depth[b] = depth[a] + 1;
+                    par[b] = a as u32;
+                    pmin[b] = z;
+                    stack.push(b);
+                }
+            }
+        }
+        let levels = (usize::BITS - n.leading_zeros()).max(1) as usize;
+        let mut up = vec![par];
+        let mut mn = vec![pmin];
+        for k in 1..levels {
+            let (pu, pm) = (&up[k - 1], &mn[k - 1]);
+            let nu: Vec<u32> = (0..n).map(|v| pu[pu[v] as usize]).collect();
+            let nm: Vec<f64> = (0..n).map(|v| pm[v].min(pm[pu[v] as usize])).collect();
+            up.push(nu);
+            mn.push(nm);
+        }
+        PathMin { depth, up, mn }
+    }
+
+    fn query(&self, a: usize, b: usize) -> f64 {
+        let (mut a, mut b) = (a, b);
+        let mut m = f64::INFINITY;
+        if self.depth[a] < self.depth[b] {
+            std::mem::swap(&mut a, &mut b);
+        }
+        let mut diff = self.depth[a] - self.depth[b];
+        let mut k = 0;
+        while diff > 0 {
+            if diff & 1 == 1 {
+                m = m.min(self.mn[k][a]);
+                a = self.up[k][a] as usize;
+            }
+            diff >>= 1;
+            k += 1;
+        }
+        if a == b {
+            return m;
+        }
+        for k in (0..self.up.len()).rev() {
+            if self.up[k][a] != self.up[k][b] {
+                m = m.min(self.mn[k][a]).min(self.mn[k][b]);
+                a = self.up[k][a] as usize;
+                b = self.up[k][b] as usize;
+            }
+        }
+        m.min(self.mn[0][a]).min(self.mn[0][b])
+    }
+}
+
+/// Adaptive flanks: raise each segment's slope until (1) its tent stays
+/// below every other segment's crest and (2) where its tent meets another
+/// segment's tent, the valley between them lies below the lowest saddle on
+/// the tree path joining the two ridges (else the valley would be a new,
+/// higher pass and change prominences). Checked at the other segment's ends
+/// and middle against the nearest point of this segment; the meeting level of
+/// two tents of slopes s_a, s_b over a gap D is (s_b z_a + s_a z_b −
+/// s_a s_b D)/(s_a + s_b). Run a few rounds (the other slope changes too).
+/// Capped at [`MAX_SLOPE`]; crests closer than the crest width cannot be
+/// separated.
+#[allow(clippy::too_many_arguments)]
 fn steepen(
     segs: &mut [Seg],
     start: &[u32],
@@ -143,6 +228,7 @@ fn steepen(
     nbx: usize,
     nby: usize,
     crest: f64,
+    paths: &PathMin,
 ) {
     let bidx = |v: f64, n: usize| ((v / bucket).floor().max(0.0) as usize).min(n - 1);
     let new_s: Vec<f64> = (0..segs.len())
@@ -176,6 +262,18 @@ fn steepen(
                             let za = sa.az + sa.g * ua;
                             if za > zb {
                                 s = s.max(1.05 * (za - zb) / d);
+                            }
+                            // Valley between the two crests vs the tree's pass.
+                            let lvl = paths.query(sa.peak as usize, sb.peak as usize);
+                            let l = lvl.min(za).min(zb) - 1.0;
+                            if lvl < za.min(zb) && d > 0.0 {
+                                let sbv = sb.s;
+                                let den = l + sbv * d - zb;
+                                // (den ≤ 0: b's tent alone reaches above the
+                                // pass; b's own round steepens it.)
+                                if den > 0.0 {
+                                    s = s.max(1.02 * sbv * (za - l) / den);
+                                }
                             }
                         }
                     }
@@ -218,13 +316,19 @@ impl OroTerrain {
     pub fn new(tree: &SynthTree, opts: &TerrainOptions) -> Result<OroTerrain> {
         tree.validate()?;
         if !(opts.slope.is_finite() && opts.slope > 0.0 && opts.slope <= 100.0) {
-            return Err(Error::invalid("terrain: the flank slope must be in (0, 100]"));
+            return Err(Error::invalid(
+                "terrain: the flank slope must be in (0, 100]",
+            ));
         }
         if !(opts.spacing_m.is_finite() && opts.spacing_m > 0.0) {
-            return Err(Error::invalid("terrain: the ridge spacing λ must be positive"));
+            return Err(Error::invalid(
+                "terrain: the ridge spacing λ must be positive",
+            ));
         }
         if !(opts.jitter.is_finite() && (0.0..=0.5).contains(&opts.jitter)) {
-            return Err(Error::invalid("terrain: the ridge jitter must be in [0, 0.5]"));
+            return Err(Error::invalid(
+                "terrain: the ridge jitter must be in [0, 0.5]",
+            ));
         }
         let cell = tree.cell;
         let (wm, hm) = (tree.width as f64 * cell, tree.height as f64 * cell);
@@ -253,17 +357,26 @@ impl OroTerrain {
                 let l = dx.hypot(dy);
                 let m = ((l / lambda).ceil() as usize).max(1);
                 let amp = opts.jitter * (l / m as f64);
-                let (nx, ny) = if l > 0.0 { (-dy / l, dx / l) } else { (0.0, 0.0) };
+                let (nx, ny) = if l > 0.0 {
+                    (-dy / l, dx / l)
+                } else {
+                    (0.0, 0.0)
+                };
                 let mut prev = (p.x, p.y, p.elevation);
                 for i in 1..=m {
                     let t = i as f64 / m as f64;
-                    let off = if i < m { (rng.unit() - 0.5) * 2.0 * amp } else { 0.0 };
+                    let off = if i < m {
+                        (rng.unit() - 0.5) * 2.0 * amp
+                    } else {
+                        0.0
+                    };
                     let cur = (
                         p.x + t * dx + off * nx,
                         p.y + t * dy + off * ny,
                         p.elevation + t * (s.elevation - p.elevation),
                     );
-                    if let Some(seg) = Seg::new(prev, cur, opts.slope) {
+                    if let Some(mut seg) = Seg::new(prev, cur, opts.slope) {
+                        seg.peak = pi as u32;
                         segs.push(seg);
                     }
                     prev = cur;
@@ -297,7 +410,10 @@ impl OroTerrain {
                 }
             }
         }
-        steepen(&mut segs, &counts, &ids, bucket, nbx, nby, crest);
+        let paths = PathMin::new(tree);
+        for _ in 0..3 {
+            steepen(&mut segs, &counts, &ids, bucket, nbx, nby, crest, &paths);
+        }
         let zmax_all = segs.iter().map(|s| s.zmax).fold(0.0, f64::max);
         let s_min = segs.iter().map(|s| s.s).fold(f64::INFINITY, f64::min);
         let min_saddle = tree
@@ -310,11 +426,11 @@ impl OroTerrain {
             None if min_saddle.is_finite() => (min_saddle - tree.min_prominence).max(0.0),
             None => 0.0,
         };
-        let amp = opts
-            .noise_amplitude
-            .unwrap_or(0.3 * tree.min_prominence);
+        let amp = opts.noise_amplitude.unwrap_or(0.3 * tree.min_prominence);
         if !(amp.is_finite() && amp >= 0.0 && floor.is_finite()) {
-            return Err(Error::invalid("terrain: noise amplitude and floor must be finite, amplitude ≥ 0"));
+            return Err(Error::invalid(
+                "terrain: noise amplitude and floor must be finite, amplitude ≥ 0",
+            ));
         }
         if amp >= 0.5 * tree.min_prominence {
             return Err(Error::invalid(format!(
@@ -325,7 +441,7 @@ impl OroTerrain {
         let noise = (amp > 0.0).then(|| {
             (
                 Fbm {
-                    seed: tree.seed ^ 0x6e6f_6973_65,
+                    seed: tree.seed ^ 0x006e_6f69_7365,
                     octaves: 5,
                     lacunarity: 2.0,
                     gain: 0.5,

@@ -98,7 +98,8 @@ pub struct TreeOptions {
     pub coherent: bool,
     /// Isolation proposals are made at this multiple of the target distance
     /// (the terrain's nearest higher ground lies on the higher peak's ridges,
-    /// closer than its summit; see the notes for the calibration).
+    /// closer than its summit). Default 1.2, calibrated on the Mont Blanc
+    /// and Dallas profiles (see docs/notes/orometric.md).
     pub isolation_stretch: f64,
 }
 
@@ -110,13 +111,13 @@ impl TreeOptions {
             cell,
             seed,
             n_peaks: None,
-            rho: 1,
+            rho: 2,
             density_map: None,
             elevation_map: None,
             fixed_peaks: Vec::new(),
             iterations: 3,
             coherent: true,
-            isolation_stretch: 1.0,
+            isolation_stretch: 1.2,
         }
     }
 }
@@ -220,7 +221,7 @@ pub fn coherent_elevation_map(profile: &SynthProfile, w: usize, h: usize, seed: 
         (((side * w) / h).max(8), side)
     };
     let fbm = crate::synth::Fbm {
-        seed: seed ^ 0x6368_6d61_70,
+        seed: seed ^ 0x0063_686d_6170,
         octaves: 4,
         lacunarity: 2.0,
         gain: 0.5,
@@ -268,8 +269,9 @@ pub fn ridge_tree(peaks: &[SynthPeak], rho: u8) -> Result<Vec<(usize, usize)>> {
             id,
         })
         .collect();
-    let tri: DelaunayTriangulation<Vtx> = DelaunayTriangulation::bulk_load(verts)
-        .map_err(|e| Error::invalid(format!("Delaunay triangulation of the peaks failed: {e:?}")))?;
+    let tri: DelaunayTriangulation<Vtx> = DelaunayTriangulation::bulk_load(verts).map_err(|e| {
+        Error::invalid(format!("Delaunay triangulation of the peaks failed: {e:?}"))
+    })?;
     if tri.num_vertices() != peaks.len() {
         return Err(Error::invalid(
             "two peaks share a position; move one (each peak needs its own place)",
@@ -315,13 +317,19 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
         )));
     }
     if !(cell.is_finite() && cell > 0.0) {
-        return Err(Error::invalid("the cell size must be a positive number of metres"));
+        return Err(Error::invalid(
+            "the cell size must be a positive number of metres",
+        ));
     }
     if opts.rho > 2 {
-        return Err(Error::invalid("rho (the ridge weight exponent) must be 0, 1 or 2"));
+        return Err(Error::invalid(
+            "rho (the ridge weight exponent) must be 0, 1 or 2",
+        ));
     }
     if !(opts.isolation_stretch.is_finite() && opts.isolation_stretch > 0.0) {
-        return Err(Error::invalid("isolation_stretch must be a positive number"));
+        return Err(Error::invalid(
+            "isolation_stretch must be a positive number",
+        ));
     }
     let (wm, hm) = (w as f64 * cell, h as f64 * cell);
     let area_km2 = wm * hm / 1e6;
@@ -349,7 +357,9 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
                 .filter(|v| v.is_finite())
                 .fold(0.0f32, |a, &b| a.max(b));
             if g.data().iter().any(|v| v.is_finite() && *v < 0.0) {
-                return Err(Error::invalid("the density map has negative values; densities must be ≥ 0"));
+                return Err(Error::invalid(
+                    "the density map has negative values; densities must be ≥ 0",
+                ));
             }
             if max <= 0.0 {
                 return Err(Error::invalid(
@@ -404,12 +414,15 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
         None => None,
     };
     let mut rng = SplitMix64(opts.seed ^ 0x6f72_6f73_796e_7468);
-    let snap = |v: f64, nmax: usize| ((v / cell).floor().clamp(0.0, nmax as f64 - 1.0) + 0.5) * cell;
+    let snap =
+        |v: f64, nmax: usize| ((v / cell).floor().clamp(0.0, nmax as f64 - 1.0) + 0.5) * cell;
 
     // Elevations: stratified, decreasing; fixed peaks come first.
     for f in &opts.fixed_peaks {
         if !(f.x.is_finite() && f.y.is_finite() && f.elevation.is_finite()) {
-            return Err(Error::invalid("a fixed peak has a non-finite coordinate or elevation"));
+            return Err(Error::invalid(
+                "a fixed peak has a non-finite coordinate or elevation",
+            ));
         }
         if f.x < 0.0 || f.y < 0.0 || f.x >= wm || f.y >= hm {
             return Err(Error::invalid(format!(
@@ -603,7 +616,34 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
                 (hmax[e] - prom_t[k]).clamp(0.0, hmax[e].max(0.0))
             })
             .collect();
-        assign_saddles(&hp, &edges, &hmax, 0.0, &mut hs, &prom_t, &dom_t, opts.iterations)?;
+        assign_saddles(
+            &hp,
+            &edges,
+            &hmax,
+            0.0,
+            &mut hs,
+            &prom_t,
+            &dom_t,
+            opts.iterations,
+        )?;
+        // Repair: a peak whose prominence fell below the profile's threshold
+        // (owners change as saddles move) gets its key saddle lowered to the
+        // threshold. Lowering saddles never lowers another peak's
+        // prominence, so this converges.
+        let thr = profile.min_prominence;
+        for _ in 0..32 {
+            let own = super::assign::owners(&hp, &edges, &hs);
+            let mut changed = false;
+            for (e, &o) in own.iter().enumerate() {
+                if hp[o] - hs[e] < thr && hs[e] > 0.0 {
+                    hs[e] = (hp[o] - thr * 1.001).max(0.0);
+                    changed = true;
+                }
+            }
+            if !changed {
+                break;
+            }
+        }
         for (s, v) in saddles.iter_mut().zip(hs) {
             s.elevation = v;
         }
@@ -638,7 +678,9 @@ impl SynthTree {
             return Err(Error::invalid("divide tree: domain size out of range"));
         }
         if !(self.cell.is_finite() && self.cell > 0.0) {
-            return Err(Error::invalid("divide tree: the cell size must be positive"));
+            return Err(Error::invalid(
+                "divide tree: the cell size must be positive",
+            ));
         }
         if self.peaks.is_empty() {
             return Err(Error::invalid("divide tree: it has no peak"));
@@ -646,8 +688,13 @@ impl SynthTree {
         if self.peaks.len() > MAX_PEAKS {
             return Err(Error::invalid("divide tree: too many peaks"));
         }
-        let (wm, hm) = (self.width as f64 * self.cell, self.height as f64 * self.cell);
-        let inside = |x: f64, y: f64| x.is_finite() && y.is_finite() && x >= 0.0 && y >= 0.0 && x < wm && y < hm;
+        let (wm, hm) = (
+            self.width as f64 * self.cell,
+            self.height as f64 * self.cell,
+        );
+        let inside = |x: f64, y: f64| {
+            x.is_finite() && y.is_finite() && x >= 0.0 && y >= 0.0 && x < wm && y < hm
+        };
         for (i, p) in self.peaks.iter().enumerate() {
             if !inside(p.x, p.y) || !p.elevation.is_finite() || p.elevation <= 0.0 {
                 return Err(Error::invalid(format!(
@@ -704,7 +751,10 @@ impl SynthTree {
 
     /// Ridges as (peak, peak) pairs, saddle by saddle.
     pub fn edges(&self) -> Vec<(usize, usize)> {
-        self.saddles.iter().map(|s| (s.peaks[0], s.peaks[1])).collect()
+        self.saddles
+            .iter()
+            .map(|s| (s.peaks[0], s.peaks[1]))
+            .collect()
     }
 
     /// Prominence of every peak (the highest: its elevation).
@@ -789,7 +839,8 @@ impl SynthTree {
                 format!("not a divide tree written by `orogen synth divide-tree`: {e}"),
             )
         })?;
-        t.validate().map_err(|e| Error::corrupt(path, e.to_string()))?;
+        t.validate()
+            .map_err(|e| Error::corrupt(path, e.to_string()))?;
         Ok(t)
     }
 
