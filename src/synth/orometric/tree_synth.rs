@@ -502,13 +502,19 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
         true
     };
     let margin = cell;
+    let mut max_placed = peaks
+        .iter()
+        .map(|p| p.elevation)
+        .fold(f64::NEG_INFINITY, f64::max);
     for k in 0..n_free {
         let hh = elev[k];
         let d = iso_of[k].max(min_sep);
         let mut placed = None;
-        // Proposals from a random higher peak at the target distance and direction.
-        let n_higher = peaks.iter().filter(|p| p.elevation >= hh).count();
-        if n_higher > 0 {
+        // Proposals from a random higher peak at the target distance and
+        // direction (free peaks come in decreasing elevation, so some placed
+        // peak is at least as high iff the highest placed one is).
+        let have_higher = max_placed >= hh;
+        if have_higher {
             for _ in 0..64 {
                 // Random placed peak that is at least as high.
                 let mut q = rng.below(peaks.len() as u64) as usize;
@@ -546,7 +552,7 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
                 if dall < min_sep || !accept_maps(&mut rng, x, y, hh) {
                     continue;
                 }
-                let dn = if n_higher > 0 {
+                let dn = if have_higher {
                     grid.nearest_higher(&peaks, x, y, hh, d * 4.0)
                 } else {
                     d
@@ -562,6 +568,7 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
             placed = best.map(|b| (b.0, b.1));
         }
         if let Some((x, y)) = placed {
+            max_placed = max_placed.max(hh);
             grid.insert(peaks.len(), x, y);
             peaks.push(SynthPeak {
                 x,
