@@ -18,6 +18,7 @@ pub mod synth_noise;
 pub mod synth_optimise;
 pub mod synth_rivers;
 pub mod synth_tectonic;
+pub mod synth_oro;
 pub mod tiles;
 pub mod view;
 pub mod viewshed;

@@ -36,6 +36,26 @@ pub enum SynthCmd {
         after_help = "Examples:\n  orogen synth tectonic --map configs/tectonic-map.geojson -o folds.tif --preview folds.png\n  orogen synth tectonic --map configs/tectonic-map.geojson --intermediates inter/ --preview p.png -o t.tif\nThe output is the terrain before hydraulic erosion, which is a separate step."
     )]
     Tectonic(super::synth_tectonic::TectonicArgs),
+    /// Orometry profile of a real DEM (target distributions for synthesis), or edit one.
+    #[command(
+        after_help = "Examples:\n  orogen synth profile alps.tif --min-prominence 30 -o alps.json\n  orogen synth profile alps.json --scale-prominence 2 -o alps_x2.json"
+    )]
+    Profile(super::synth_oro::ProfileArgs),
+    /// Divide-tree synthesis only: an editable JSON tree (and GeoJSON).
+    #[command(
+        after_help = "Example:\n  orogen synth divide-tree --profile alps.json --size 3000x3000 --cell 30 -o tree.json --geojson tree.geojson"
+    )]
+    DivideTree(super::synth_oro::DivideTreeArgs),
+    /// Terrain from a (possibly edited) divide tree.
+    #[command(
+        after_help = "Example:\n  orogen synth from-tree tree.json -o terrain.tif --preview terrain.png"
+    )]
+    FromTree(super::synth_oro::FromTreeArgs),
+    /// Orometric terrain synthesis: profile -> divide tree -> terrain.
+    #[command(
+        after_help = "Examples:\n  orogen synth orometric --profile configs/profiles/alps.json --size 3000x3000 --cell 30 -o alps_synth.tif\n  orogen synth orometric --profile alps.json --size 30000x30000 --cell 30 -o big.tiles --zstd"
+    )]
+    Orometric(super::synth_oro::OrometricArgs),
 }
 
 /// Dispatch to the chosen method.
@@ -45,5 +65,9 @@ pub fn run(args: SynthArgs) -> Result<()> {
         SynthCmd::Optimise(a) => super::synth_optimise::run(a),
         SynthCmd::Rivers(a) => super::synth_rivers::run(a),
         SynthCmd::Tectonic(a) => super::synth_tectonic::run(a),
+        SynthCmd::Profile(a) => super::synth_oro::run_profile(a),
+        SynthCmd::DivideTree(a) => super::synth_oro::run_divide_tree(a),
+        SynthCmd::FromTree(a) => super::synth_oro::run_from_tree(a),
+        SynthCmd::Orometric(a) => super::synth_oro::run_orometric(a),
     }
 }

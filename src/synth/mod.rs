@@ -1,7 +1,8 @@
 //! Terrain synthesis: seeded, tileable noise terrains (`noise`: fBm, ridged,
 //! billow, simplex, warped; `diamond_square`; `spectral`), river-network
 //! terrain (`rivers`), tectonic folds from a vector map (`tectonic`,
-//! `vector`) and example-based optimisation (`optimise`).
+//! `vector`), example-based optimisation (`optimise`) and orometric synthesis
+//! from a region's profile through a divide tree (`orometric`).
 
 pub mod diamond_square;
 pub mod noise;
@@ -11,5 +12,6 @@ pub mod simplex;
 pub mod spectral;
 pub mod tectonic;
 pub mod vector;
+pub mod orometric;
 
 pub use noise::{Fbm, FbmSource, Noise, NoiseKind, NoiseSource};

@@ -1,0 +1,25 @@
+//! Orometric terrain synthesis after Argudo, Galin, Peytavie, Paris, Gain &
+//! Guérin 2019, "Orometry-based terrain analysis and synthesis", ACM TOG
+//! 38(6) (SIGGRAPH Asia), §5–7.
+//!
+//! Pipeline: a [`SynthProfile`] (target distributions measured on a real
+//! DEM, [`profile`]) → a divide tree ([`synthesize_tree`]: peaks by dart
+//! throwing, ridges by a Delaunay minimum spanning tree, saddle elevations
+//! by optimal assignment, [`assign`]) → a terrain ([`OroTerrain`]: ridges
+//! refined and rasterised as an upper envelope of tents, any window on
+//! demand, so it streams to a tile store). The divide tree is JSON and
+//! editable between the two steps.
+//!
+//! Not here yet: the constrained multi-scale erosion with uplift (the
+//! erosion module's `erode_constrained`, wired after merge), the paper's
+//! river network / TIN valley model (replaced by the tent envelope), the
+//! type map C_T mixing several profiles, pasting real divide-tree fragments.
+
+pub mod assign;
+pub mod profile;
+pub mod terrain;
+pub mod tree_synth;
+
+pub use profile::{Hist, PeakSamples, SynthProfile};
+pub use terrain::{OroTerrain, TerrainOptions};
+pub use tree_synth::{ridge_tree, synthesize_tree, SynthPeak, SynthSaddle, SynthTree, TreeOptions};
