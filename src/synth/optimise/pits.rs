@@ -88,8 +88,14 @@ pub fn remove_pits(
 /// with flats average into small pits; ramps make them match draining
 /// shapes. Ties are broken by cell index (deterministic). `step <= 0`
 /// returns `g` unchanged; NaN cells are left alone and act as outlets.
+/// Errors for an infinite or NaN `step`.
 pub fn drain_strictly(g: &Grid<f32>, step: f32, sinks: Option<&Grid<bool>>) -> Result<Grid<f32>> {
-    if !(step > 0.0) {
+    if !step.is_finite() {
+        return Err(crate::error::Error::invalid(format!(
+            "drain step {step} must be a finite rise per cell"
+        )));
+    }
+    if step <= 0.0 {
         return Ok(g.clone());
     }
     let (w, h) = (g.width(), g.height());
