@@ -58,6 +58,11 @@ pub struct OptimiseArgs {
     /// Remove pits at the finest level too (the output is then depression-free; not in the paper).
     #[arg(long)]
     pub pit_finest: bool,
+    /// After pit removal at the coarser levels, make flats drain with this
+    /// gradient (rise / run, e.g. 0.01; 0 = off): less depression volume, more (shallow) depressions.
+    #[arg(long, default_value_t = 0.0)]
+    pub drain_slope: f32,
+
     /// Sink mask raster (output size): non-zero valid cells are extra outlets.
     #[arg(long)]
     pub sinks: Option<PathBuf>,
@@ -198,6 +203,16 @@ pub fn run(a: OptimiseArgs) -> Result<()> {
             Some(m.map(|v| v.is_finite() && v != 0.0))
         }
     };
+    // output cell size (DEM units = metres assumed when georeferenced)
+    let cell_m = {
+        let g = output_georef(&ggeo, (guide.width(), guide.height()), &sgeo, w, h);
+        if g.georeferenced {
+            let (cx, cy) = g.cell_size_m(h as i64 / 2);
+            (0.5 * (cx.abs() + cy.abs())) as f32
+        } else {
+            1.0
+        }
+    };
     let opts = OptimiseOptions {
         width: w,
         height: h,
@@ -223,6 +238,7 @@ pub fn run(a: OptimiseArgs) -> Result<()> {
         seed: a.seed,
         falloff: (!a.uniform).then_some(a.falloff),
         pit_finest: a.pit_finest,
+        drain_step: a.drain_slope * cell_m,
         keep_levels: a.previews.is_some(),
     };
     let pool = rayon::ThreadPoolBuilder::new()
@@ -264,9 +280,10 @@ pub fn run(a: OptimiseArgs) -> Result<()> {
             (1.0, 1.0)
         };
         let d = depression_stats(&syn.output, cx * cy, 1.0)?;
+        let d5 = depression_stats(&syn.output, cx * cy, 0.5)?;
         eprintln!(
-            "synthesis {secs:.2} s; output depressions: {} ({} at least 1 m deep; {} cells), volume {:.4e} m3",
-            d.count, d.deep, d.cells, d.volume
+            "synthesis {secs:.2} s; output depressions: {} ({} at least 0.5 m deep, {} at least 1 m; {} cells), volume {:.4e} m3",
+            d.count, d5.deep, d.deep, d.cells, d.volume
         );
     }
     let mem = MemRaster::from_grid(syn.output, georef);
