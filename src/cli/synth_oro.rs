@@ -359,7 +359,11 @@ fn erode_keeping_tree(
     // The tree's elevations are kept to within a centimetre.
     p.tolerance = 0.01;
     erode_constrained(&mut h, tree.cell, &fixed, radius, &p)?;
-    Ok(MemRaster::new(AnyGrid::F32(h), info.georef.clone(), info.path.clone()))
+    Ok(MemRaster::new(
+        AnyGrid::F32(h),
+        info.georef.clone(),
+        info.path.clone(),
+    ))
 }
 
 /// `orogen synth divide-tree`.

@@ -7,11 +7,11 @@
 pub mod diamond_square;
 pub mod noise;
 pub mod optimise;
+pub mod orometric;
 pub mod rivers;
 pub mod simplex;
 pub mod spectral;
 pub mod tectonic;
 pub mod vector;
-pub mod orometric;
 
 pub use noise::{Fbm, FbmSource, Noise, NoiseKind, NoiseSource};
