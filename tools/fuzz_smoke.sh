@@ -11,11 +11,15 @@
 # The toolchain is stable; cargo-fuzz needs -Z flags, hence RUSTC_BOOTSTRAP.
 # SANITIZER=address (default) makes -malloc_limit_mb catch single huge
 # allocations; SANITIZER=none builds faster but only the RSS limit applies.
+# Builds are unoptimised (--dev: a short smoke run is dominated by compile
+# time); FUZZ_RELEASE=1 builds optimised targets for long runs.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 secs="${SECONDS_PER_TARGET:-20}"
 san="${SANITIZER:-address}"
+prof=(--dev)
+[ -n "${FUZZ_RELEASE:-}" ] && prof=()
 export RUSTC_BOOTSTRAP=1
 
 if ! cargo fuzz --version >/dev/null 2>&1; then
@@ -28,7 +32,7 @@ if [ ${#targets[@]} -eq 0 ]; then
     mapfile -t targets < <(cargo fuzz list)
 fi
 
-cargo fuzz build -s "$san"
+cargo fuzz build "${prof[@]}" -s "$san"
 
 scratch="$(mktemp -d)"
 trap 'rm -rf "$scratch"' EXIT
@@ -36,7 +40,7 @@ status=0
 for t in "${targets[@]}"; do
     mkdir -p "$scratch/$t"
     echo "== fuzz_smoke: $t (${secs}s)" >&2
-    if ! cargo fuzz run -s "$san" "$t" "$scratch/$t" "fuzz/corpus/$t" -- \
+    if ! cargo fuzz run "${prof[@]}" -s "$san" "$t" "$scratch/$t" "fuzz/corpus/$t" -- \
         -max_total_time="$secs" -rss_limit_mb=2048 -malloc_limit_mb=1024 \
         -timeout=10 -print_final_stats=1 2>"$scratch/$t.log"; then
         echo "fuzz_smoke: FINDING in target $t (see fuzz/artifacts/$t/):" >&2
