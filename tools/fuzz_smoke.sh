@@ -42,7 +42,7 @@ for t in "${targets[@]}"; do
     echo "== fuzz_smoke: $t (${secs}s)" >&2
     if ! cargo fuzz run "${prof[@]}" -s "$san" "$t" "$scratch/$t" "fuzz/corpus/$t" -- \
         -max_total_time="$secs" -rss_limit_mb=2048 -malloc_limit_mb=1024 \
-        -timeout=10 -print_final_stats=1 2>"$scratch/$t.log"; then
+        -timeout=60 -print_final_stats=1 2>"$scratch/$t.log"; then
         echo "fuzz_smoke: FINDING in target $t (see fuzz/artifacts/$t/):" >&2
         tail -n 40 "$scratch/$t.log" >&2
         status=1
