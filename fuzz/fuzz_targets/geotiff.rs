@@ -1,0 +1,10 @@
+#![no_main]
+//! Fuzz target: open a geotiff file with `io::open_raster` and read windows.
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    let p = fuzz_common::file("geotiff.tif", data);
+    if let Ok(src) = orogen::io::open_raster(&p, &orogen::io::OpenOptions::default()) {
+        fuzz_common::read_some(src.as_ref());
+    }
+});

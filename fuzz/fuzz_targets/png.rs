@@ -1,0 +1,14 @@
+#![no_main]
+//! Fuzz target: open a PNG heightmap with `io::open_raster` and read windows.
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    let p = fuzz_common::file("height.png", data);
+    let opts = orogen::io::OpenOptions {
+        png_scale: 0.5,
+        png_offset: -10.0,
+    };
+    if let Ok(src) = orogen::io::open_raster(&p, &opts) {
+        fuzz_common::read_some(src.as_ref());
+    }
+});
