@@ -36,6 +36,8 @@ fn dem(dir: &Path) -> PathBuf {
         "61x47",
         "--wavelength",
         "24",
+        "--octaves",
+        "5",
         "--cell",
         "10",
         "-q",

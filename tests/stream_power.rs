@@ -562,9 +562,16 @@ fn cli_erode_sp() {
     }
     // Bad parameters: non-zero exit, one clear sentence, no output.
     for (args, want) in [
-        (vec!["--k=-1"], "K (erodibility)"),
+        (vec!["--steps", "5", "--k=-1"], "K (erodibility)"),
         (vec!["--steps", "0"], "steps"),
-        (vec!["--radius", "100"], "--fixed-points and --radius"),
+        (
+            vec!["--steps", "5", "--radius", "100"],
+            "--fixed-points and --radius",
+        ),
+        (
+            vec!["--steps", "5", "--talus", "30"],
+            "applies to the hydraulic",
+        ),
     ] {
         let bad = dir.path().join("bad.asc");
         let st = Command::new(bin)

@@ -413,6 +413,8 @@ fn cli_writes_output_and_previews() {
             "120",
             "--wavelength",
             "20",
+            "--octaves",
+            "5",
             "-q",
             "-o",
         ])

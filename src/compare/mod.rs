@@ -271,49 +271,14 @@ fn row_areas(georef: &GeoRef, h: usize) -> Vec<f64> {
 
 /// Depressions: cells the fill raised, grouped into 8-connected regions.
 fn pits(dem: &Grid<f32>, filled: &Grid<f32>, areas: &[f64], area_km2: f64) -> Pits {
-    let (w, h) = (dem.width(), dem.height());
-    let (z, f) = (dem.data(), filled.data());
-    let raised: Vec<bool> = z
-        .iter()
-        .zip(f)
-        .map(|(&a, &b)| a.is_finite() && b > a)
-        .collect();
-    let mut seen = vec![false; w * h];
-    let mut stack: Vec<usize> = Vec::new();
-    let (mut count, mut volume, mut area) = (0u64, 0.0f64, 0.0f64);
-    for c in 0..w * h {
-        if !raised[c] || seen[c] {
-            continue;
-        }
-        count += 1;
-        seen[c] = true;
-        stack.push(c);
-        while let Some(i) = stack.pop() {
-            let (x, y) = (i % w, i / w);
-            volume += (f[i] as f64 - z[i] as f64) * areas[y];
-            area += areas[y];
-            for dy in -1i64..=1 {
-                for dx in -1i64..=1 {
-                    let (nx, ny) = (x as i64 + dx, y as i64 + dy);
-                    if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
-                        continue;
-                    }
-                    let n = ny as usize * w + nx as usize;
-                    if raised[n] && !seen[n] {
-                        seen[n] = true;
-                        stack.push(n);
-                    }
-                }
-            }
-        }
-    }
+    let d = crate::hydro::depressions::depressions(dem, filled, areas, 0.0);
     let per = |v: f64| if area_km2 > 0.0 { v / area_km2 } else { 0.0 };
     Pits {
-        count,
-        volume_m3: volume,
-        area_km2: area / 1e6,
-        count_per_km2: per(count as f64),
-        volume_m3_per_km2: per(volume),
+        count: d.count as u64,
+        volume_m3: d.volume,
+        area_km2: d.area / 1e6,
+        count_per_km2: per(d.count as f64),
+        volume_m3_per_km2: per(d.volume),
     }
 }
 

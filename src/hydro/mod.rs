@@ -34,6 +34,7 @@ pub mod accum;
 pub mod basin_metrics;
 pub mod basins;
 pub mod breach;
+pub mod depressions;
 pub mod dinf;
 pub mod fill;
 pub mod fill_zhou;

@@ -164,48 +164,11 @@ pub struct DepressionStats {
 /// `deep` counts those at least `min_depth` deep.
 pub fn depression_stats(g: &Grid<f32>, cell_area: f64, min_depth: f32) -> Result<DepressionStats> {
     let f = fill(g)?;
-    let (w, h) = (g.width(), g.height());
-    let z = g.data();
-    let fz = f.data();
-    let raised: Vec<bool> = z.iter().zip(fz).map(|(a, b)| b > a).collect();
-    let mut seen = vec![false; w * h];
-    let mut stack = Vec::new();
-    let (mut count, mut cells, mut vol, mut deep) = (0usize, 0usize, 0f64, 0usize);
-    for start in 0..w * h {
-        if !raised[start] || seen[start] {
-            continue;
-        }
-        count += 1;
-        seen[start] = true;
-        stack.push(start);
-        let mut depth = 0f32;
-        while let Some(c) = stack.pop() {
-            cells += 1;
-            vol += (fz[c] - z[c]) as f64;
-            depth = depth.max(fz[c] - z[c]);
-            let (x, y) = ((c % w) as i64, (c / w) as i64);
-            for dy in -1..=1i64 {
-                for dx in -1..=1i64 {
-                    let (nx, ny) = (x + dx, y + dy);
-                    if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
-                        continue;
-                    }
-                    let n = ny as usize * w + nx as usize;
-                    if raised[n] && !seen[n] {
-                        seen[n] = true;
-                        stack.push(n);
-                    }
-                }
-            }
-        }
-        if depth >= min_depth {
-            deep += 1;
-        }
-    }
+    let d = crate::hydro::depressions::depressions(g, &f, &vec![cell_area; g.height()], min_depth);
     Ok(DepressionStats {
-        count,
-        cells,
-        volume: vol * cell_area,
-        deep,
+        count: d.count,
+        cells: d.cells,
+        volume: d.volume,
+        deep: d.deep,
     })
 }
