@@ -2,8 +2,8 @@
 //! output per requested metric (NaN = nodata) and the largest halo any of
 //! them needs. Intermediate products are computed once per tile and shared:
 //! the quadric coefficients (all curvatures of one radius), one summed-area table of
-//! values, counts and squares (mean, stdev, variance, TPI, NTPI at any
-//! radius), one field of fixed-point unit normals (roughness at any radius,
+//! values, counts and squares (stdev, variance, NTPI, disk windows at any
+//! radius; square-window mean and TPI use exact running sums instead), one field of fixed-point unit normals (roughness at any radius,
 //! by running sums), and one horizon scan per (radius, directions) for openness and
 //! sky view.
 //!
@@ -17,9 +17,11 @@ use super::horizon::{horizon, HorizonOut};
 use super::landform;
 use super::neighbourhood::{walk_3x3, EdgeMode};
 use super::quadric::{laplacian, rugosity, tri_riley, tri_wilson, wood_fit, Quadric};
-use super::registry::{is_curvature, resolve, MetricKind, MetricSpec, Resolved};
+use super::registry::{is_curvature, resolve, MetricKind, MetricSpec, Resolved, MAX_RADIUS_CELLS};
 use super::terrain::horn_gradient;
-use super::windowed::{open_close, running_max, Sat};
+use super::windowed::{
+    open_close, running_max, to_fixed, Sat, WindowSums, FRAC_BITS, MAX_ABS_VALUE,
+};
 use crate::error::{Error, Result};
 use crate::exec::{EngineConfig, LocalStep};
 use crate::io::OutputOptions;
@@ -98,8 +100,8 @@ impl MultiMetric {
             b += region(r) * (8 + 4 + 16 + 16) + 2 * core * 4;
         }
         if let Some(r) = radius(&|k| k == MetricKind::Roughness) {
-            // three normal components (f64) + three (count, i128) tables
-            b += region(r) * (3 * 8 + 3 * (4 + 16));
+            // fixed-point normals: six i32 limbs + an i32 count per cell
+            b += region(r) * (7 * 4);
         }
         if let Some(r) = radius(&|k| k == MetricKind::Relief) {
             b += region(r) * 8 + (tile + 2 * r) as u64 * tile as u64 * 16;
@@ -178,6 +180,11 @@ fn is_sat(k: MetricKind) -> bool {
     matches!(k, Mean | Stdev | Variance | Tpi | Ntpi)
 }
 
+/// Square-window mean and TPI: running sums ([`box_stat`]), no SAT.
+fn is_box(k: MetricKind, disk: bool) -> bool {
+    matches!(k, MetricKind::Mean | MetricKind::Tpi) && !disk
+}
+
 fn is_horizon(k: MetricKind) -> bool {
     use MetricKind::*;
     matches!(k, OpennessPositive | OpennessNegative | SkyView)
@@ -236,7 +243,7 @@ impl LocalStep for MultiMetric {
         let sat_r = self
             .metrics
             .iter()
-            .filter(|m| is_sat(m.spec.kind))
+            .filter(|m| is_sat(m.spec.kind) && !is_box(m.spec.kind, m.spec.disk))
             .map(|m| m.radius_cells)
             .chain(
                 self.metrics
@@ -343,6 +350,9 @@ impl LocalStep for MultiMetric {
                             }) as f32
                         };
                     }
+                }
+                Mean | Tpi if !m.spec.disk => {
+                    box_stat(view, m.radius_cells, m.spec.kind, &self.path, o)?;
                 }
                 Mean | Stdev | Variance | Tpi | Ntpi => {
                     let Some((big, sat)) = sat.as_ref() else {
@@ -721,35 +731,141 @@ fn windowed_stat(
             } else {
                 sat.window(x + big - r, y0, x + big + r + 1, y1)
             };
-            let v = match kind {
-                MetricKind::Mean => ws.mean(),
-                MetricKind::Variance => ws.variance(),
-                MetricKind::Stdev => ws.variance().sqrt(),
-                _ => {
-                    // The window without its centre.
-                    let mut others = ws;
-                    others.n -= 1;
-                    others.sum = others
-                        .sum
-                        .wrapping_sub(super::windowed::to_fixed(z as f64, ws.frac));
-                    let tpi = z as f64 - others.mean();
-                    if kind == MetricKind::Tpi {
-                        tpi
-                    } else {
-                        let sd = ws.variance().sqrt();
-                        if tpi.is_nan() {
-                            f64::NAN
-                        } else if sd == 0.0 {
-                            0.0
-                        } else {
-                            tpi / sd
-                        }
-                    }
-                }
-            };
-            o.set(x, y, v as f32);
+            o.set(x, y, stat_value(ws, z, kind) as f32);
         }
     }
+}
+
+/// Mean, variance, stdev, TPI or NTPI of a valid centre `z` from its
+/// window's exact sums.
+#[inline]
+fn stat_value(ws: WindowSums, z: f32, kind: MetricKind) -> f64 {
+    match kind {
+        MetricKind::Mean => ws.mean(),
+        MetricKind::Variance => ws.variance(),
+        MetricKind::Stdev => ws.variance().sqrt(),
+        _ => {
+            // The window without its centre.
+            let mut others = ws;
+            others.n -= 1;
+            others.sum = others
+                .sum
+                .wrapping_sub(super::windowed::to_fixed(z as f64, ws.frac));
+            let tpi = z as f64 - others.mean();
+            if kind == MetricKind::Tpi {
+                tpi
+            } else {
+                let sd = ws.variance().sqrt();
+                if tpi.is_nan() {
+                    f64::NAN
+                } else if sd == 0.0 {
+                    0.0
+                } else {
+                    tpi / sd
+                }
+            }
+        }
+    }
+}
+
+/// Mean or TPI over square windows of half-side `r` by exact running sums
+/// (no summed-area table): each value's fixed-point `q` ([`FRAC_BITS`]) is
+/// split into limbs `q = hi·2²⁴ + lo`, `0 ≤ lo < 2²⁴`, `|hi| ≤ 5·10⁷ < 2²⁶`
+/// ([`MAX_ABS_VALUE`]); column sums of the `2r+1` rows are slid down the
+/// rows and row sums along them. With at most (2·2000+1)² < 2²⁴ cells per
+/// window ([`MAX_RADIUS_CELLS`]), |Σhi| < 2⁵⁰ and Σlo < 2⁴⁸: both limbs sum
+/// in i64 without overflow, the row loops are plain i64 adds the compiler
+/// vectorises, and `Σq = Σhi·2²⁴ + Σlo` is the same integer the SAT gave
+/// (same bits, whatever the tiling). Nodata cells add zero limbs and no
+/// count. `what` names the input in the range error.
+fn box_stat(
+    view: &TileView<f32>,
+    r: usize,
+    kind: MetricKind,
+    what: &str,
+    o: &mut Grid<f32>,
+) -> Result<()> {
+    const _: () = assert!(FRAC_BITS == 24 && MAX_ABS_VALUE <= 67_108_864.0);
+    const _: () = assert!(MAX_RADIUS_CELLS <= 2000);
+    let (cw, ch) = (view.core.w, view.core.h);
+    if cw == 0 || ch == 0 {
+        return Ok(());
+    }
+    let h = view.halo;
+    let gw = view.grid.width();
+    let data = view.grid.data();
+    let (cols, rows, k) = (cw + 2 * r, ch + 2 * r, 2 * r + 1);
+    let mut hi = vec![0i32; cols * rows];
+    let mut lo = vec![0i32; cols * rows];
+    let mut cnt = vec![0i32; cols * rows];
+    for y in 0..rows {
+        let start = (y + h - r) * gw + h - r;
+        let row = &data[start..start + cols];
+        for (x, &z) in row.iter().enumerate() {
+            if z.is_nan() {
+                continue;
+            }
+            let z = z as f64;
+            if z.abs() > MAX_ABS_VALUE {
+                return Err(Error::invalid(format!(
+                    "{what}: value {z} is beyond ±{MAX_ABS_VALUE}, the range of the windowed statistics: rescale the input"
+                )));
+            }
+            let q = to_fixed(z, FRAC_BITS) as i64;
+            let i = y * cols + x;
+            hi[i] = (q >> FRAC_BITS) as i32;
+            lo[i] = (q & ((1 << FRAC_BITS) - 1)) as i32;
+            cnt[i] = 1;
+        }
+    }
+    let (mut chi, mut clo, mut cc) = (vec![0i64; cols], vec![0i64; cols], vec![0i32; cols]);
+    for y in 0..k {
+        let b = y * cols;
+        for c in 0..cols {
+            chi[c] += hi[b + c] as i64;
+            clo[c] += lo[b + c] as i64;
+            cc[c] += cnt[b + c];
+        }
+    }
+    for y in 0..ch {
+        if y > 0 {
+            let (a, b) = ((y + k - 1) * cols, (y - 1) * cols);
+            let (ha, hb) = (&hi[a..a + cols], &hi[b..b + cols]);
+            let (la, lb) = (&lo[a..a + cols], &lo[b..b + cols]);
+            let (na, nb) = (&cnt[a..a + cols], &cnt[b..b + cols]);
+            for c in 0..cols {
+                chi[c] += ha[c] as i64 - hb[c] as i64;
+                clo[c] += la[c] as i64 - lb[c] as i64;
+                cc[c] += na[c] - nb[c];
+            }
+        }
+        let (mut sh, mut sl, mut n) = (0i64, 0i64, 0i32);
+        for c in 0..k {
+            sh += chi[c];
+            sl += clo[c];
+            n += cc[c];
+        }
+        let zrow = &data[(y + h) * gw + h..(y + h) * gw + h + cw];
+        for (x, &z) in zrow.iter().enumerate() {
+            if x > 0 {
+                sh += chi[x + k - 1] - chi[x - 1];
+                sl += clo[x + k - 1] - clo[x - 1];
+                n += cc[x + k - 1] - cc[x - 1];
+            }
+            if z.is_nan() {
+                o.set(x, y, f32::NAN);
+                continue;
+            }
+            let ws = WindowSums {
+                n: n as u32,
+                sum: ((sh as i128) << FRAC_BITS) + sl as i128,
+                sumsq: 0,
+                frac: FRAC_BITS,
+            };
+            o.set(x, y, stat_value(ws, z, kind) as f32);
+        }
+    }
+    Ok(())
 }
 
 /// Elevation percentile: 100 · (number of the other valid cells of the
@@ -845,41 +961,75 @@ fn relief(view: &TileView<f32>, r: usize, o: &mut Grid<f32>, g1: &mut Vec<f64>, 
 }
 
 /// Fixed-point unit normals (Horn gradient, [`NORMAL_FRAC`] fractional
-/// bits) of the core plus `r` cells on each side, row-major, with a validity
-/// mask (cells whose 3x3 window holds nodata or lies beyond the raster are
-/// left out).
-fn normal_field(view: &TileView<f32>, r: usize) -> (Vec<[i64; 3]>, Vec<bool>) {
+/// bits, |component| ≤ 2⁶⁰) of the core plus `r` cells on each side,
+/// row-major, each component split into 30-bit limbs `v = hi·2³⁰ + lo`
+/// (`0 ≤ lo < 2³⁰`, `|hi| ≤ 2³⁰`: both fit i32), with a 0/1 validity count
+/// (cells whose 3x3 window holds nodata or lies beyond the raster have zero
+/// limbs and count 0).
+struct NormalField {
+    /// `hi[j]`, `lo[j]`: limbs of component j (x, y, z).
+    hi: [Vec<i32>; 3],
+    lo: [Vec<i32>; 3],
+    count: Vec<i32>,
+}
+
+#[allow(clippy::needless_range_loop)] // parallel per-column arrays
+fn normal_field(view: &TileView<f32>, r: usize) -> NormalField {
+    const _: () = assert!(NORMAL_FRAC == 60);
     let h = view.halo;
     let gw = view.grid.width();
     let data = view.grid.data();
     let (w, hh) = (view.core.w + 2 * r, view.core.h + 2 * r);
-    let mut n = vec![[0i64; 3]; w * hh];
-    let mut valid = vec![false; w * hh];
+    let zero = || vec![0i32; w * hh];
+    let mut f = NormalField {
+        hi: [zero(), zero(), zero()],
+        lo: [zero(), zero(), zero()],
+        count: zero(),
+    };
     let fix = |v: f64| super::windowed::to_fixed(v, NORMAL_FRAC) as i64;
+    let mut nb = [vec![0.0f64; w], vec![0.0f64; w], vec![0.0f64; w]];
+    let mut ok = vec![false; w];
     for y in 0..hh {
         let vy = y + h - r;
         let (ew, ns) = view.georef.cell_size_m(view.core.y + vy as i64 - h as i64);
+        // Rows above, at and below, from the column left of region column 0.
+        let row = |yy: usize| &data[yy * gw + h - r - 1..yy * gw + h - r + w + 1];
+        let (a, b, c) = (row(vy - 1), row(vy), row(vy + 1));
+        // Two passes per row: the floating-point normals (branch-free, so
+        // the divisions and square roots vectorise), then their fixed point.
         for x in 0..w {
-            let vx = x + h - r;
-            let mut win = [0.0; 9];
-            let mut k = 0;
-            for yy in vy - 1..=vy + 1 {
-                for xx in vx - 1..=vx + 1 {
-                    win[k] = data[yy * gw + xx] as f64;
-                    k += 1;
-                }
-            }
-            if win.iter().sum::<f64>().is_nan() {
-                continue;
-            }
+            let win = [
+                a[x] as f64,
+                a[x + 1] as f64,
+                a[x + 2] as f64,
+                b[x] as f64,
+                b[x + 1] as f64,
+                b[x + 2] as f64,
+                c[x] as f64,
+                c[x + 1] as f64,
+                c[x + 2] as f64,
+            ];
+            ok[x] = !win.iter().sum::<f64>().is_nan();
             let (p, q) = horn_gradient(&win, ew, ns);
             let d = (1.0 + p * p + q * q).sqrt();
-            let i = y * w + x;
-            n[i] = [fix(-p / d), fix(-q / d), fix(1.0 / d)];
-            valid[i] = true;
+            nb[0][x] = -p / d;
+            nb[1][x] = -q / d;
+            nb[2][x] = 1.0 / d;
+        }
+        let i0 = y * w;
+        for x in 0..w {
+            if !ok[x] {
+                continue;
+            }
+            for j in 0..3 {
+                let v = fix(nb[j][x]);
+                f.hi[j][i0 + x] = (v >> 30) as i32;
+                f.lo[j][i0 + x] = (v & ((1 << 30) - 1)) as i32;
+            }
+            f.count[i0 + x] = 1;
         }
     }
-    (n, valid)
+    f
 }
 
 /// Spherical standard deviation of the unit normals in the window (Lindsay
@@ -888,17 +1038,15 @@ fn normal_field(view: &TileView<f32>, r: usize) -> (Vec<[i64; 3]>, Vec<bool>) {
 /// smooth first; smooth the input for their multiscale variant). The sums
 /// are exact integers (fixed-point normals) kept as running column sums
 /// slid down the rows and running row sums along them: O(1) per cell, no
-/// tables, and the same bits whatever the tiling. `field` covers the core
-/// plus `big ≥ r` cells on each side.
+/// tables, and the same bits whatever the tiling. They are kept per 30-bit
+/// limb ([`NormalField`]) in i64: with at most (2·2000+1)² < 2²⁴ cells per
+/// window ([`MAX_RADIUS_CELLS`]), |Σhi| ≤ 2⁵⁴ and Σlo < 2⁵⁴, so nothing
+/// overflows, the row loops are plain i64 adds (vectorised), and
+/// `Σv = Σhi·2³⁰ + Σlo` is formed in i128 once per cell. `field` covers the
+/// core plus `big ≥ r` cells on each side.
 #[allow(clippy::needless_range_loop)] // parallel per-column arrays
-fn roughness(
-    view: &TileView<f32>,
-    field: &(Vec<[i64; 3]>, Vec<bool>),
-    big: usize,
-    r: usize,
-    o: &mut Grid<f32>,
-) {
-    let (normals, valid) = field;
+fn roughness(view: &TileView<f32>, field: &NormalField, big: usize, r: usize, o: &mut Grid<f32>) {
+    const _: () = assert!(MAX_RADIUS_CELLS <= 2000);
     let h = view.halo;
     let gw = view.grid.width();
     let data = view.grid.data();
@@ -910,61 +1058,78 @@ fn roughness(
     let off = big - r;
     let k = 2 * r + 1;
     let cols = cw + 2 * r;
-    // Column c of the sums is region column off + c.
-    let mut cs = vec![[0i128; 3]; cols];
-    let mut cn = vec![0u32; cols];
-    let add_row = |ry: usize, add: bool, cs: &mut [[i128; 3]], cn: &mut [u32]| {
-        let base = ry * w + off;
-        for c in 0..cols {
-            if !valid[base + c] {
-                continue;
-            }
-            let v = normals[base + c];
-            for j in 0..3 {
-                if add {
-                    cs[c][j] += v[j] as i128;
-                } else {
-                    cs[c][j] -= v[j] as i128;
-                }
-            }
-            if add {
-                cn[c] += 1;
-            } else {
-                cn[c] -= 1;
-            }
+    // Column c of the sums is region column off + c. Seven running column
+    // sums: hi and lo limbs of x, y, z, and the count.
+    let mut cs: [Vec<i64>; 7] = std::array::from_fn(|_| vec![0i64; cols]);
+    let lane = |j: usize| -> &[i32] {
+        match j {
+            0..=2 => &field.hi[j],
+            3..=5 => &field.lo[j - 3],
+            _ => &field.count,
         }
     };
     for ry in off..off + k {
-        add_row(ry, true, &mut cs, &mut cn);
+        let base = ry * w + off;
+        for (j, c) in cs.iter_mut().enumerate() {
+            let src = &lane(j)[base..base + cols];
+            for (c, &v) in c.iter_mut().zip(src) {
+                *c += v as i64;
+            }
+        }
     }
     let f = |s: i128| super::windowed::fixed_to_f64(s, NORMAL_FRAC);
+    let (mut len2, mut cnt) = (vec![0.0f64; cw], vec![0.0f64; cw]);
     for y in 0..ch {
         if y > 0 {
-            add_row(off + y - 1, false, &mut cs, &mut cn);
-            add_row(off + y + k - 1, true, &mut cs, &mut cn);
-        }
-        let mut s = [0i128; 3];
-        let mut n = 0u32;
-        for c in 0..k {
-            for j in 0..3 {
-                s[j] += cs[c][j];
+            let (a, b) = ((off + y + k - 1) * w + off, (off + y - 1) * w + off);
+            for (j, c) in cs.iter_mut().enumerate() {
+                let l = lane(j);
+                let (na, ob) = (&l[a..a + cols], &l[b..b + cols]);
+                for ((c, &p), &m) in c.iter_mut().zip(na).zip(ob) {
+                    *c += p as i64 - m as i64;
+                }
             }
-            n += cn[c];
         }
+        let mut s = [0i64; 7];
+        for c in 0..k {
+            for j in 0..7 {
+                s[j] += cs[j][c];
+            }
+        }
+        // Three passes per row: the exact sums as f64 (|Σn|², N), then R̄
+        // (vectorised square roots and divisions), its logarithm (libm) and
+        // the degrees; empty windows and nodata centres are NaN.
+        let zrow = &data[(y + h) * gw + h..(y + h) * gw + h + cw];
         for x in 0..cw {
             if x > 0 {
-                for j in 0..3 {
-                    s[j] += cs[x + k - 1][j] - cs[x - 1][j];
+                for j in 0..7 {
+                    s[j] += cs[j][x + k - 1] - cs[j][x - 1];
                 }
-                n = n + cn[x + k - 1] - cn[x - 1];
             }
-            if data[(y + h) * gw + x + h].is_nan() || n == 0 {
-                o.set(x, y, f32::NAN);
-                continue;
-            }
-            let (sx, sy, sz) = (f(s[0]), f(s[1]), f(s[2]));
-            let rbar = ((sx * sx + sy * sy + sz * sz).sqrt() / n as f64).min(1.0);
-            o.set(x, y, (-2.0 * rbar.ln()).max(0.0).sqrt().to_degrees() as f32);
+            let sum = |j: usize| f(((s[j] as i128) << 30) + s[j + 3] as i128);
+            let (sx, sy, sz) = (sum(0), sum(1), sum(2));
+            len2[x] = sx * sx + sy * sy + sz * sz;
+            cnt[x] = if zrow[x].is_nan() || s[6] == 0 {
+                f64::NAN
+            } else {
+                s[6] as f64
+            };
+        }
+        for x in 0..cw {
+            // Not `min`: a NaN (no value) must stay NaN.
+            let v = len2[x].sqrt() / cnt[x];
+            len2[x] = if v > 1.0 { 1.0 } else { v };
+        }
+        for v in len2.iter_mut() {
+            *v = v.ln();
+        }
+        let orow = &mut o.data_mut()[y * cw..(y + 1) * cw];
+        for (o, &l) in orow.iter_mut().zip(&len2) {
+            *o = if l.is_nan() {
+                f32::NAN
+            } else {
+                (-2.0 * l).max(0.0).sqrt().to_degrees() as f32
+            };
         }
     }
 }

@@ -19,7 +19,9 @@
 //! non-integers are rounded to 2⁻²⁴ ≈ 6e-8) and summed in wrapping integer
 //! arithmetic: inclusion–exclusion over a wrapping SAT yields the exact window
 //! sum whenever that sum itself fits, which [`MAX_ABS_VALUE`] and the radius
-//! limit guarantee. Variances are formed exactly in integers too.
+//! limit guarantee. Variances are formed exactly in integers too. Square
+//! windows of the mean and TPI skip the tables: the same integers are summed
+//! by running column and row sums in i64 limbs (`metrics::multi::box_stat`).
 
 use crate::error::{Error, Result};
 
@@ -33,14 +35,24 @@ pub const MAX_ABS_VALUE: f64 = 5e7;
 /// Fixed-point value of `z` with `frac` fractional bits (|z| small enough).
 #[inline]
 pub fn to_fixed(z: f64, frac: u32) -> i128 {
-    let v = (z * pow2(frac)).round();
+    let v = z * pow2(frac);
     // Through the hardware i64 conversion when the value fits (always for
-    // FRAC_BITS and |z| ≤ MAX_ABS_VALUE); `as i128` is a slow software
-    // routine. Both are exact on these integral values.
+    // FRAC_BITS and |z| ≤ MAX_ABS_VALUE); `as i128` and `f64::round` (a
+    // libm call without SSE4.1) are slow. `t = trunc(v)` is exact, and so is
+    // the fraction `v − t` (|v| < 2⁶³: for |v| ≥ 2⁵² v is integral and the
+    // fraction is 0), so rounding half away from zero from it is `v.round()`.
     if v.abs() < 9.0e18 {
-        v as i64 as i128
+        let t = v as i64;
+        let f = v - t as f64;
+        (if f >= 0.5 {
+            t + 1
+        } else if f <= -0.5 {
+            t - 1
+        } else {
+            t
+        }) as i128
     } else {
-        v as i128
+        v.round() as i128
     }
 }
 
@@ -370,6 +382,26 @@ mod tests {
         for z in [0.0, 1.5, -2.25, 8848.86, -4.9e7, 4.9e7, 1e-9, -0.3] {
             let want = (z * (1u128 << FRAC_BITS) as f64).round() as i128;
             assert_eq!(to_fixed(z, FRAC_BITS), want);
+        }
+        // Ties (half away from zero like f64::round), tiny and huge values.
+        let mut x = 0x2545_f491_4f6c_dd1du64;
+        for i in 0..20_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let z = match i % 4 {
+                0 => (x % 2001) as f64 / 2.0 - 500.0,
+                1 => f64::from_bits(x >> 2) * if x & 1 == 0 { 1.0 } else { -1.0 },
+                2 => (x % 1_000_000) as f64 * 1e-7 - 0.05,
+                _ => (x as i64 as f64) * 2f64.powi(-((x % 70) as i32)),
+            };
+            for frac in [0u32, 24, 60] {
+                let v = z * pow2(frac);
+                if !v.is_finite() || v.abs() >= 1.6e38 {
+                    continue;
+                }
+                assert_eq!(to_fixed(z, frac), v.round() as i128, "{z} {frac}");
+            }
         }
     }
 
