@@ -104,17 +104,7 @@ pub fn resize_bilinear(g: &Grid<f32>, w: usize, h: usize) -> Grid<f32> {
     };
     let cols: Vec<(usize, usize, f32)> = (0..w).map(|x| coord(x, w, gw)).collect();
     let rows: Vec<(usize, usize, f32)> = (0..h).map(|y| coord(y, h, gh)).collect();
-    Grid::from_fn(w, h, |x, y| {
-        let (x0, x1, fx) = cols[x];
-        let (y0, y1, fy) = rows[y];
-        let a = d[y0 * gw + x0];
-        let b = d[y0 * gw + x1];
-        let c = d[y1 * gw + x0];
-        let e = d[y1 * gw + x1];
-        let top = a + fx * (b - a);
-        let bot = c + fx * (e - c);
-        top + fy * (bot - top)
-    })
+    gather_bilinear(d, gw, &cols, &rows)
 }
 
 /// Bilinear upsampling from a pyramid level to the next finer one
@@ -131,7 +121,19 @@ pub fn expand(g: &Grid<f32>, w: usize, h: usize) -> Grid<f32> {
     };
     let cols: Vec<(usize, usize, f32)> = (0..w).map(|x| coord(x, gw)).collect();
     let rows: Vec<(usize, usize, f32)> = (0..h).map(|y| coord(y, gh)).collect();
-    Grid::from_fn(w, h, |x, y| {
+    gather_bilinear(d, gw, &cols, &rows)
+}
+
+/// Bilinear interpolation of the row-major grid `d` (width `gw`) at the
+/// separable positions `cols` × `rows`, each `(lower index, upper index,
+/// fraction)`.
+fn gather_bilinear(
+    d: &[f32],
+    gw: usize,
+    cols: &[(usize, usize, f32)],
+    rows: &[(usize, usize, f32)],
+) -> Grid<f32> {
+    Grid::from_fn(cols.len(), rows.len(), |x, y| {
         let (x0, x1, fx) = cols[x];
         let (y0, y1, fy) = rows[y];
         let a = d[y0 * gw + x0];
