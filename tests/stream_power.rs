@@ -570,6 +570,10 @@ fn cli_erode_sp() {
         ),
         (
             vec!["--steps", "5", "--talus", "30"],
+            "does not apply to --model stream-power",
+        ),
+        (
+            vec!["--steps", "5", "--exchange", "4"],
             "applies to the hydraulic",
         ),
     ] {

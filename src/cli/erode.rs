@@ -101,8 +101,6 @@ fn run_stream_power(mut a: ErodeArgs) -> Result<()> {
     let local_only = [
         (a.params.is_some(), "--params"),
         (!a.set.is_empty(), "--set"),
-        (a.seed.is_some(), "--seed"),
-        (a.talus.is_some(), "--talus"),
         (a.exchange.is_some(), "--exchange"),
         (a.water.is_some(), "--water"),
         (a.sediment.is_some(), "--sediment"),
@@ -230,7 +228,7 @@ fn gather(a: &ErodeArgs) -> Result<(toml::Table, Option<u64>, Option<usize>)> {
         flag(
             &mut table,
             "diffusivity",
-            a.model == Diffusion,
+            a.model == Diffusion || a.model == StreamPower,
             toml::Value::Float(v),
         )?;
     }
@@ -335,9 +333,6 @@ fn cell_of(src: &dyn orogen::raster::RasterSource, has_cell: bool) -> Result<Cel
 
 /// Run `orogen erode`.
 pub fn run(a: ErodeArgs) -> Result<()> {
-    if a.model == ModelArg::StreamPower {
-        return run_stream_power(a);
-    }
     let (table, file_steps, file_exchange) = gather(&a)?;
     let Some(steps) = a.steps.or(file_steps) else {
         bail!("give the number of steps with --steps N (or `steps` in --params)");
@@ -379,6 +374,6 @@ pub fn run(a: ErodeArgs) -> Result<()> {
             let model = Diffusion::new(p, steps, cell_of(src.as_ref(), has_cell)?)?;
             execute(&model, &a, src.as_ref(), exchange)
         }
-        ModelArg::StreamPower => unreachable!("stream power returns above"),
+        ModelArg::StreamPower => run_stream_power(a),
     }
 }
