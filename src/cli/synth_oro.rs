@@ -70,6 +70,32 @@ pub struct TreeArgs {
     /// terrain's higher ground is nearer than the higher summit).
     #[arg(long, default_value_t = 1.2)]
     pub isolation_stretch: f64,
+    // Multi-pass placement and authoring (Argudo et al. 2019 §5, §7).
+    /// Placement passes by prominence bins: the most prominent bin first,
+    /// each next bin about twice as many peaks; 1 = one pass.
+    #[arg(long, default_value_t = orogen::synth::orometric::tree_synth::DEFAULT_PASSES)]
+    pub passes: usize,
+    /// Weight (0..1) of the diffused ridges of earlier passes in the
+    /// acceptance of later peaks (0: none).
+    #[arg(long, default_value_t = orogen::synth::orometric::tree_synth::DEFAULT_RIDGE_ATTRACTION)]
+    pub ridge_attraction: f64,
+    /// Type map C_T: a raster of integer region labels stretched over the
+    /// domain (nodata: no peaks); labels without --type-profile use --profile.
+    #[arg(long)]
+    pub type_map: Option<PathBuf>,
+    /// Profile of a type-map label, LABEL=PROFILE.json (repeat per label).
+    #[arg(long = "type-profile", value_name = "LABEL=PROFILE")]
+    pub type_profiles: Vec<String>,
+    /// Paste a fragment of a real divide tree: the peaks.csv `orogen peaks`
+    /// wrote for a real DEM (give --cell = that DEM's cell size).
+    #[arg(long)]
+    pub paste: Option<PathBuf>,
+    /// Window of the real DEM to paste, COL,ROW,WIDTH,HEIGHT in its cells.
+    #[arg(long)]
+    pub paste_window: Option<String>,
+    /// Where the window's top-left cell goes in the synthesised domain, COL,ROW.
+    #[arg(long, default_value = "0,0")]
+    pub paste_at: String,
 }
 
 /// Terrain options shared by `from-tree` and `orometric`.
@@ -119,6 +145,15 @@ pub struct DivideTreeArgs {
 pub struct FromTreeArgs {
     /// Divide tree (.json) from `orogen synth divide-tree`, possibly edited.
     pub tree: PathBuf,
+    // Edits and regeneration (Argudo et al. 2019 §7).
+    /// Apply an edit file (JSON "orogen-tree-edits": move_peak, set_peak,
+    /// insert_peak, delete_peak, move_saddle, set_saddle, delete_ridge; see
+    /// the docs) to the tree, then regenerate ridges and saddles.
+    #[arg(long)]
+    pub edits: Option<PathBuf>,
+    /// Save the edited and regenerated tree (.json).
+    #[arg(long)]
+    pub edited_tree: Option<PathBuf>,
     #[command(flatten)]
     pub terrain: TerrainArgs,
     #[command(flatten)]
@@ -273,7 +308,71 @@ fn make_tree(t: &TreeArgs) -> Result<SynthTree> {
     if let Some(p) = &t.fixed_peaks {
         o.fixed_peaks = read_fixed(p, h, t.cell)?;
     }
+    author_options(t, &mut o)?;
     Ok(synthesize_tree(&prof, &o)?)
+}
+
+/// Parse "a,b,…" into exactly `n` integers.
+fn ints(s: &str, n: usize, what: &str) -> Result<Vec<i64>> {
+    let v: Vec<i64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<i64>())
+        .collect::<std::result::Result<_, _>>()
+        .with_context(|| format!("{what} {s:?}: expected {n} integers separated by commas"))?;
+    if v.len() != n {
+        bail!("{what} {s:?}: expected {n} integers separated by commas");
+    }
+    Ok(v)
+}
+
+/// The multi-pass, type-map and pasted-fragment options of `t` into `o`.
+fn author_options(t: &TreeArgs, o: &mut TreeOptions) -> Result<()> {
+    o.passes = t.passes;
+    o.ridge_attraction = t.ridge_attraction;
+    if let Some(p) = &t.type_map {
+        let labels = read_map(p)?;
+        let mut regions = Vec::new();
+        for tp in &t.type_profiles {
+            let Some((l, f)) = tp.split_once('=') else {
+                bail!("--type-profile {tp:?}: expected LABEL=PROFILE.json");
+            };
+            let l: i64 = l
+                .trim()
+                .parse()
+                .with_context(|| format!("--type-profile {tp:?}: the label must be an integer"))?;
+            regions.push((l, SynthProfile::load(Path::new(f.trim()))?));
+        }
+        o.type_map = Some(
+            orogen::synth::orometric::TypeMap::new(labels, regions)
+                .with_context(|| format!("type map {}", p.display()))?,
+        );
+    } else if !t.type_profiles.is_empty() {
+        bail!("--type-profile needs --type-map");
+    }
+    if let Some(csv) = &t.paste {
+        let Some(win) = &t.paste_window else {
+            bail!("--paste needs --paste-window COL,ROW,WIDTH,HEIGHT (cells of the real DEM)");
+        };
+        let w = ints(win, 4, "--paste-window")?;
+        if w[2] <= 0 || w[3] <= 0 {
+            bail!("--paste-window {win}: the width and height must be > 0");
+        }
+        let at = ints(&t.paste_at, 2, "--paste-at")?;
+        let frag = orogen::synth::orometric::Fragment::from_peaks_csv(
+            csv,
+            Window::new(w[0], w[1], w[2] as usize, w[3] as usize),
+            t.cell,
+        )?;
+        let (peaks, ridges, rect) = frag.placed(
+            at[0] as f64 * t.cell,
+            at[1] as f64 * t.cell,
+            o.fixed_peaks.len(),
+        );
+        o.fixed_peaks.extend(peaks);
+        o.fixed_ridges.extend(ridges);
+        o.keep_out.push(rect);
+    }
+    Ok(())
 }
 
 fn terrain_opts(t: &TerrainArgs) -> TerrainOptions {
@@ -380,7 +479,18 @@ pub fn run_divide_tree(a: DivideTreeArgs) -> Result<()> {
 
 /// `orogen synth from-tree`.
 pub fn run_from_tree(a: FromTreeArgs) -> Result<()> {
-    let tree = SynthTree::load(&a.tree)?;
+    let mut tree = SynthTree::load(&a.tree)?;
+    if let Some(e) = &a.edits {
+        let edits = orogen::synth::orometric::TreeEdits::load(e)?;
+        tree = orogen::synth::orometric::apply_edits(&tree, &edits)
+            .with_context(|| format!("edits {}", e.display()))?;
+        if let Some(p) = &a.edited_tree {
+            tree.save(p)?;
+            wrote(p);
+        }
+    } else if a.edited_tree.is_some() {
+        bail!("--edited-tree needs --edits");
+    }
     write_terrain(&tree, &a.terrain, &a.out, &a.run)
 }
 

@@ -159,3 +159,136 @@ pub fn assign_saddles(
     }
     Ok(())
 }
+
+/// Target distributions of one group of peaks (a region of the type map
+/// C_T, or the whole domain).
+#[derive(Debug, Clone, Copy)]
+pub struct GroupTargets<'a> {
+    pub prominence: &'a super::profile::Hist,
+    pub dominance: &'a super::profile::Hist,
+}
+
+/// One pass of [`assign_pass`] where each saddle draws its target from the
+/// group of its owner: saddle e (not `pinned`) whose owner is in group
+/// `group_of_peak[own[e]]` gets one of the `k_g` stratified samples of that
+/// group's histogram (`k_g` = its number of free saddles this pass), by the
+/// same blocked assignment. With one group and nothing pinned this is
+/// [`assign_pass`] with `targets` = the stratified samples.
+#[allow(clippy::too_many_arguments)]
+pub fn assign_pass_grouped(
+    h: &[f64],
+    edges: &[(usize, usize)],
+    hmax: &[f64],
+    floor: f64,
+    hs: &mut [f64],
+    group_of_peak: &[usize],
+    groups: &[GroupTargets],
+    pinned: &[bool],
+    kind: Target,
+) -> Result<()> {
+    let n = edges.len();
+    if hmax.len() != n || hs.len() != n || pinned.len() != n || group_of_peak.len() != h.len() {
+        return Err(Error::invalid(
+            "saddle assignment: bounds, pins, groups and saddles differ in number",
+        ));
+    }
+    if group_of_peak.iter().any(|&g| g >= groups.len()) {
+        return Err(Error::invalid(
+            "saddle assignment: a peak belongs to no target group",
+        ));
+    }
+    let own = owners(h, edges, hs);
+    let value = |e: usize, t: f64| match kind {
+        Target::Prominence => h[own[e]] - t,
+        Target::Dominance => h[own[e]] * (1.0 - t),
+    };
+    let current = |e: usize| match kind {
+        Target::Prominence => h[own[e]] - hs[e],
+        Target::Dominance => {
+            if h[own[e]] > 0.0 {
+                (h[own[e]] - hs[e]) / h[own[e]]
+            } else {
+                0.0
+            }
+        }
+    };
+    let mut new_hs = hs.to_vec();
+    let mut cost = Vec::with_capacity(BLOCK * BLOCK);
+    for (g, gt) in groups.iter().enumerate() {
+        let mut se: Vec<usize> = (0..n)
+            .filter(|&e| !pinned[e] && group_of_peak[own[e]] == g)
+            .collect();
+        if se.is_empty() {
+            continue;
+        }
+        se.sort_by(|&a, &b| current(a).total_cmp(&current(b)).then(a.cmp(&b)));
+        let hist = match kind {
+            Target::Prominence => gt.prominence,
+            Target::Dominance => gt.dominance,
+        };
+        // Stratified samples are ascending already.
+        let st = hist.stratified(se.len());
+        for (blk_e, blk_t) in se.chunks(BLOCK).zip(st.chunks(BLOCK)) {
+            let m = blk_e.len();
+            cost.clear();
+            for &e in blk_e {
+                for &t in blk_t {
+                    let v = value(e, t);
+                    let c = v.clamp(floor, hmax[e].max(floor));
+                    let d = v - hs[e];
+                    cost.push(1e4 * (v - c) * (v - c) + d * d);
+                }
+            }
+            if cost.iter().any(|c| !c.is_finite()) {
+                return Err(Error::invalid(
+                    "saddle assignment: a cost is not finite (NaN or infinite elevation)",
+                ));
+            }
+            let (rows, cols) = lsap::solve(m, m, &cost, false)
+                .map_err(|e| Error::invalid(format!("saddle assignment failed: {e:?}")))?;
+            for (r, c) in rows.into_iter().zip(cols) {
+                let e = blk_e[r];
+                new_hs[e] = value(e, blk_t[c]).clamp(floor, hmax[e].max(floor));
+            }
+        }
+    }
+    hs.copy_from_slice(&new_hs);
+    Ok(())
+}
+
+/// [`assign_saddles`] with per-group targets and pinned saddles (see
+/// [`assign_pass_grouped`]).
+#[allow(clippy::too_many_arguments)]
+pub fn assign_saddles_grouped(
+    h: &[f64],
+    edges: &[(usize, usize)],
+    hmax: &[f64],
+    floor: f64,
+    hs: &mut [f64],
+    group_of_peak: &[usize],
+    groups: &[GroupTargets],
+    pinned: &[bool],
+    iterations: usize,
+) -> Result<()> {
+    let pass = |hs: &mut [f64], kind| {
+        assign_pass_grouped(
+            h,
+            edges,
+            hmax,
+            floor,
+            hs,
+            group_of_peak,
+            groups,
+            pinned,
+            kind,
+        )
+    };
+    for _ in 0..iterations {
+        pass(hs, Target::Prominence)?;
+        pass(hs, Target::Dominance)?;
+    }
+    for _ in 0..3 {
+        pass(hs, Target::Prominence)?;
+    }
+    Ok(())
+}

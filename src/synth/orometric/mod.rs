@@ -10,16 +10,24 @@
 //! demand, so it streams to a tile store). The divide tree is JSON and
 //! editable between the two steps.
 //!
-//! Not here yet: the constrained multi-scale erosion with uplift (the
-//! erosion module's `erode_constrained`, wired after merge), the paper's
-//! river network / TIN valley model (replaced by the tent envelope), the
-//! type map C_T mixing several profiles, pasting real divide-tree fragments.
+//! Authoring: fixed peaks, edits of a synthesised tree followed by
+//! regeneration ([`edit`]), pasting a fragment of a real divide tree
+//! ([`fragment`]) and a type map C_T mixing several profiles ([`typemap`]).
 
 pub mod assign;
+pub mod edit;
+pub mod fragment;
 pub mod profile;
 pub mod terrain;
 pub mod tree_synth;
+pub mod typemap;
 
+pub use edit::{apply_edits, TreeEdit, TreeEdits};
+pub use fragment::Fragment;
 pub use profile::{Hist, PeakSamples, SynthProfile};
 pub use terrain::{OroTerrain, TerrainOptions};
-pub use tree_synth::{ridge_tree, synthesize_tree, SynthPeak, SynthSaddle, SynthTree, TreeOptions};
+pub use tree_synth::{
+    ridge_tree, ridge_tree_with, synthesize_tree, FixedRidge, SynthPeak, SynthSaddle, SynthTree,
+    TreeOptions,
+};
+pub use typemap::TypeMap;

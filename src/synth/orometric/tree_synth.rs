@@ -19,12 +19,20 @@
 //!    sideways by up to 10 % of the ridge length; saddle elevations by
 //!    optimal assignment ([`super::assign`]).
 //!
-//! Not done (see `docs/notes/orometric.md`): the multi-pass placement by
-//! prominence bins and the diffusion of ridges into C_P; one pass places
-//! every peak.
+//! 5. Multi-pass placement by prominence bins ([`TreeOptions::passes`]):
+//!    bins of 1 : 2 : 4 : … parts, the most prominent placed first; before
+//!    each later pass the ridges (Delaunay MST) of the peaks placed so far
+//!    are rasterised, diffused and multiplied into C_P, so less prominent
+//!    peaks gather along the ridges of the prominent ones.
+//! 6. Authoring: fixed peaks, ridges kept verbatim between them (a pasted
+//!    real fragment, [`super::fragment`]), keep-out rectangles, and a type
+//!    map C_T giving each region its own profile ([`super::typemap`]): the
+//!    peak count, elevations, isolation and saddle targets of a peak come
+//!    from the profile of the region it is placed in.
 
-use super::assign::{assign_saddles, prominences};
+use super::assign::{assign_saddles_grouped, prominences, GroupTargets};
 use super::profile::SynthProfile;
+use super::typemap::TypeMap;
 use crate::error::{Error, Result};
 use crate::oro::stats::SplitMix64;
 use crate::raster::Grid;
@@ -101,6 +109,20 @@ pub struct TreeOptions {
     /// closer than its summit). Default 1.2, calibrated on the Mont Blanc
     /// and Dallas profiles (see docs/notes/orometric.md).
     pub isolation_stretch: f64,
+    /// Placement passes by prominence bins (§5): the most prominent bin
+    /// first, each next bin about twice as many peaks, earlier peaks fixed.
+    /// 1: one pass in decreasing elevation.
+    pub passes: usize,
+    /// Weight in [0, 1] of the diffused ridges of earlier passes in the
+    /// acceptance (1 − a + a · ridges): 0 leaves C_P alone.
+    pub ridge_attraction: f64,
+    /// Ridges kept verbatim between fixed peaks (a pasted real fragment).
+    pub fixed_ridges: Vec<FixedRidge>,
+    /// Rectangles [x0, y0, x1, y1] (m, the tree's frame) where no free peak
+    /// is placed (a pasted fragment's footprint).
+    pub keep_out: Vec<[f64; 4]>,
+    /// Type map C_T: a profile per region label ([`TypeMap`]).
+    pub type_map: Option<TypeMap>,
 }
 
 impl TreeOptions {
@@ -118,9 +140,19 @@ impl TreeOptions {
             iterations: 3,
             coherent: true,
             isolation_stretch: 1.2,
+            passes: DEFAULT_PASSES,
+            ridge_attraction: DEFAULT_RIDGE_ATTRACTION,
+            fixed_ridges: Vec::new(),
+            keep_out: Vec::new(),
+            type_map: None,
         }
     }
 }
+
+/// Default number of placement passes (see `docs/notes/oro_author.md`).
+pub const DEFAULT_PASSES: usize = 4;
+/// Default ridge attraction of the multi-pass placement.
+pub const DEFAULT_RIDGE_ATTRACTION: f64 = 0.8;
 
 /// Largest number of peaks a synthesis accepts (memory and the O(n log n)
 /// steps stay small; 4 M peaks ≈ a continent at 0.01 peaks/km²·…).
@@ -214,6 +246,14 @@ impl PeakGrid {
 /// profile's elevation histogram (a rank transform, as in histogram
 /// matching, Gonzalez & Woods, "Digital Image Processing", §3.3).
 pub fn coherent_elevation_map(profile: &SynthProfile, w: usize, h: usize, seed: u64) -> Grid<f32> {
+    coherent_map_with(w, h, seed, |u, _, _| profile.elevation.quantile(u))
+}
+
+/// [`coherent_elevation_map`] with the quantile function chosen per cell:
+/// `q(u, fx, fy)` maps the rank fraction u of the fBm value at the domain
+/// fraction (fx, fy) to an elevation (the type map C_T uses the profile of
+/// the region there).
+fn coherent_map_with(w: usize, h: usize, seed: u64, q: impl Fn(f64, f64, f64) -> f64) -> Grid<f32> {
     let side = 128usize;
     let (gw, gh) = if w >= h {
         (side, ((side * h) / w).max(8))
@@ -238,7 +278,11 @@ pub fn coherent_elevation_map(profile: &SynthProfile, w: usize, h: usize, seed: 
     let mut out = vec![0f32; vals.len()];
     let n = vals.len() as f64;
     for (rank, &i) in order.iter().enumerate() {
-        out[i] = profile.elevation.quantile((rank as f64 + 0.5) / n) as f32;
+        let (fx, fy) = (
+            ((i % gw) as f64 + 0.5) / gw as f64,
+            ((i / gw) as f64 + 0.5) / gh as f64,
+        );
+        out[i] = q((rank as f64 + 0.5) / n, fx, fy) as f32;
     }
     Grid::from_vec(gw, gh, out).unwrap_or_else(|_| Grid::new(gw, gh, 0.0))
 }
@@ -258,6 +302,20 @@ impl HasPosition for Vtx {
 /// Ridges: Delaunay triangulation of the peaks, then its minimum spanning
 /// tree with weights ‖Pi − Pj‖ / min(h_i, h_j)^ρ (Kruskal; ties by indices).
 pub fn ridge_tree(peaks: &[SynthPeak], rho: u8) -> Result<Vec<(usize, usize)>> {
+    ridge_tree_with(peaks, rho, &[], &[])
+}
+
+/// [`ridge_tree`] keeping the ridges `forced` (they come first in the
+/// result, in their order; e.g. a pasted real fragment or the ridges an
+/// edit left alone) and never using a pair in `forbidden` (a ridge the user
+/// deleted). Errors when the forced ridges close a loop or when the
+/// Delaunay edges left cannot connect every peak.
+pub fn ridge_tree_with(
+    peaks: &[SynthPeak],
+    rho: u8,
+    forced: &[(usize, usize)],
+    forbidden: &[(usize, usize)],
+) -> Result<Vec<(usize, usize)>> {
     if peaks.len() < 2 {
         return Ok(Vec::new());
     }
@@ -297,17 +355,129 @@ pub fn ridge_tree(peaks: &[SynthPeak], rho: u8) -> Result<Vec<(usize, usize)>> {
         x
     }
     let mut out = Vec::with_capacity(peaks.len() - 1);
+    for &(i, j) in forced {
+        if i >= peaks.len() || j >= peaks.len() || i == j {
+            return Err(Error::invalid(format!(
+                "a kept ridge joins peaks {i} and {j}; it needs two different existing peaks"
+            )));
+        }
+        let (ri, rj) = (find(&mut parent, i), find(&mut parent, j));
+        if ri == rj {
+            return Err(Error::invalid(format!(
+                "the kept ridges close a loop at peaks {i} and {j}; a divide tree has none"
+            )));
+        }
+        parent[ri] = rj;
+        out.push((i, j));
+    }
+    let banned = |i: usize, j: usize| {
+        forbidden
+            .iter()
+            .any(|&(a, b)| (a == i && b == j) || (a == j && b == i))
+    };
     for (_, i, j) in edges {
+        if !forbidden.is_empty() && banned(i, j) {
+            continue;
+        }
         let (ri, rj) = (find(&mut parent, i), find(&mut parent, j));
         if ri != rj {
             parent[ri] = rj;
             out.push((i, j));
         }
     }
+    if out.len() + 1 != peaks.len() {
+        return Err(Error::invalid(
+            "the peaks cannot be joined into one divide tree without a deleted ridge: delete fewer ridges or add a peak between the parts",
+        ));
+    }
     Ok(out)
 }
 
-/// Synthesise a divide tree matching `profile` on the domain of `opts`.
+/// A ridge of a pasted real divide-tree fragment, kept verbatim: its two
+/// peaks (indices into [`TreeOptions::fixed_peaks`]) and its saddle.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FixedRidge {
+    pub peaks: [usize; 2],
+    pub x: f64,
+    pub y: f64,
+    pub elevation: f64,
+}
+
+/// Pass (0 = the most prominent bin) of the peak of rank `r` among `n` when
+/// the bins hold 1 : 2 : 4 : … parts, the least prominent the largest
+/// (Argudo et al. 2019, §5: each less prominent bin about twice as many).
+pub fn pass_of_rank(r: usize, n: usize, passes: usize) -> usize {
+    if passes <= 1 || n == 0 {
+        return 0;
+    }
+    let total = ((1u64 << passes.min(40)) - 1) as f64;
+    let mut bound = 0.0;
+    for k in 0..passes {
+        bound += (1u64 << k.min(40)) as f64;
+        if (r as f64) < n as f64 * bound / total {
+            return k;
+        }
+    }
+    passes - 1
+}
+
+/// Ridges of the placed peaks (their Delaunay MST) rasterised on a coarse
+/// grid of `gc`-metre cells and diffused by three box blurs of radius one
+/// cell (≈ a Gaussian of σ ≈ 1.4 cells; Wells 1986, "Efficient synthesis of
+/// Gaussian filters by cascaded uniform filters", IEEE PAMI 8(2)),
+/// normalised to a maximum of 1: the attraction of the ridges of earlier
+/// passes added to C_P (Argudo et al. 2019, §5).
+fn ridge_density(peaks: &[SynthPeak], rho: u8, wm: f64, hm: f64, gc: f64) -> Result<Grid<f32>> {
+    let nx = ((wm / gc).ceil() as usize).clamp(1, 4096);
+    let ny = ((hm / gc).ceil() as usize).clamp(1, 4096);
+    let (sx, sy) = (nx as f64 / wm, ny as f64 / hm);
+    let mut g = vec![0f32; nx * ny];
+    for (i, j) in ridge_tree(peaks, rho)? {
+        let (a, b) = (&peaks[i], &peaks[j]);
+        let len = ((b.x - a.x) * sx).hypot((b.y - a.y) * sy);
+        let steps = (2.0 * len).ceil().max(1.0) as usize;
+        for s in 0..=steps {
+            let t = s as f64 / steps as f64;
+            let c = (((a.x + t * (b.x - a.x)) * sx) as usize).min(nx - 1);
+            let r = (((a.y + t * (b.y - a.y)) * sy) as usize).min(ny - 1);
+            g[r * nx + c] = 1.0;
+        }
+    }
+    let mut tmp = vec![0f32; nx * ny];
+    for _ in 0..3 {
+        // Horizontal then vertical box of radius 1 (edges clamped).
+        for r in 0..ny {
+            for c in 0..nx {
+                let (l, rr) = (c.saturating_sub(1), (c + 1).min(nx - 1));
+                tmp[r * nx + c] = (g[r * nx + l] + g[r * nx + c] + g[r * nx + rr]) / 3.0;
+            }
+        }
+        for r in 0..ny {
+            let (u, d) = (r.saturating_sub(1), (r + 1).min(ny - 1));
+            for c in 0..nx {
+                g[r * nx + c] = (tmp[u * nx + c] + tmp[r * nx + c] + tmp[d * nx + c]) / 3.0;
+            }
+        }
+    }
+    let max = g.iter().fold(0f32, |a, &b| a.max(b));
+    if max > 0.0 {
+        g.iter_mut().for_each(|v| *v /= max);
+    }
+    Grid::from_vec(nx, ny, g)
+}
+
+/// A peak still to place: its targets and region, and its pass.
+struct Job {
+    elev: f64,
+    iso: f64,
+    dir: f64,
+    region: usize,
+    pass: usize,
+}
+
+/// Synthesise a divide tree matching `profile` on the domain of `opts`
+/// (with a type map C_T, `profile` holds wherever the map's label has no
+/// profile of its own).
 pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<SynthTree> {
     profile.validate()?;
     let (w, h, cell) = (opts.width, opts.height, opts.cell);
@@ -331,18 +501,103 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
             "isolation_stretch must be a positive number",
         ));
     }
+    if opts.passes == 0 || opts.passes > 16 {
+        return Err(Error::invalid(
+            "passes (prominence bins placed one after the other) must be 1..16",
+        ));
+    }
+    if !(0.0..=1.0).contains(&opts.ridge_attraction) {
+        return Err(Error::invalid(
+            "ridge_attraction must lie in [0, 1] (0: ridges of earlier passes do not attract peaks)",
+        ));
+    }
     let (wm, hm) = (w as f64 * cell, h as f64 * cell);
     let area_km2 = wm * hm / 1e6;
-    let n_wanted = match opts.n_peaks {
-        Some(n) => n,
-        None => (profile.peak_density_per_km2 * area_km2).round() as usize,
+    // Regions: 0 = `profile`, then the type map's labelled profiles.
+    let tm = opts.type_map.as_ref();
+    let mut profiles: Vec<&SynthProfile> = vec![profile];
+    if let Some(t) = tm {
+        profiles.extend(t.regions.iter().map(|r| &r.1));
+    }
+    let nreg = profiles.len();
+    let region_at = |x: f64, y: f64| -> Option<usize> {
+        match tm {
+            None => Some(0),
+            Some(t) => t.region_at(x / wm, y / hm),
+        }
     };
-    let n = n_wanted.max(opts.fixed_peaks.len()).max(1);
-    if n > MAX_PEAKS {
+    let frac = match tm {
+        None => vec![1.0],
+        Some(t) => t.fractions(),
+    };
+    // Peaks wanted per region: density × area (or `n_peaks` shared in
+    // proportion to it, largest remainders).
+    let mut want: Vec<usize> = (0..nreg)
+        .map(|r| (profiles[r].peak_density_per_km2 * area_km2 * frac[r]).round() as usize)
+        .collect();
+    if let Some(total) = opts.n_peaks {
+        if nreg == 1 {
+            want[0] = total;
+        } else {
+            let wts: Vec<f64> = (0..nreg)
+                .map(|r| profiles[r].peak_density_per_km2 * frac[r])
+                .collect();
+            let sw: f64 = wts.iter().sum();
+            if sw <= 0.0 {
+                return Err(Error::invalid("the type map leaves no region with peaks"));
+            }
+            let raw: Vec<f64> = wts.iter().map(|v| v / sw * total as f64).collect();
+            want = raw.iter().map(|v| v.floor() as usize).collect();
+            let mut rest: Vec<usize> = (0..nreg).collect();
+            rest.sort_by(|&a, &b| {
+                (raw[b] - raw[b].floor())
+                    .total_cmp(&(raw[a] - raw[a].floor()))
+                    .then(a.cmp(&b))
+            });
+            let short = total - want.iter().sum::<usize>();
+            for &r in rest.iter().take(short) {
+                want[r] += 1;
+            }
+        }
+    }
+    let n_wanted: usize = want.iter().sum();
+    if n_wanted.max(opts.fixed_peaks.len()) > MAX_PEAKS {
         return Err(Error::invalid(format!(
-            "{n} peaks requested; at most {MAX_PEAKS} per synthesis (use a smaller domain or density)"
+            "{} peaks requested; at most {MAX_PEAKS} per synthesis (use a smaller domain or density)",
+            n_wanted.max(opts.fixed_peaks.len())
         )));
     }
+    for f in &opts.fixed_peaks {
+        if !(f.x.is_finite() && f.y.is_finite() && f.elevation.is_finite()) {
+            return Err(Error::invalid(
+                "a fixed peak has a non-finite coordinate or elevation",
+            ));
+        }
+        if f.x < 0.0 || f.y < 0.0 || f.x >= wm || f.y >= hm {
+            return Err(Error::invalid(format!(
+                "fixed peak at ({:.0}, {:.0}) m lies outside the {wm:.0} x {hm:.0} m domain",
+                f.x, f.y
+            )));
+        }
+        if f.elevation <= 0.0 {
+            return Err(Error::invalid("a fixed peak must be above 0 m"));
+        }
+    }
+    // Free peaks per region: what is wanted less the fixed peaks there.
+    let mut fixed_in = vec![0usize; nreg];
+    for f in &opts.fixed_peaks {
+        fixed_in[region_at(f.x, f.y).unwrap_or(0)] += 1;
+    }
+    let mut n_free: Vec<usize> = (0..nreg)
+        .map(|r| want[r].saturating_sub(fixed_in[r]))
+        .collect();
+    if opts.fixed_peaks.is_empty() && n_free.iter().all(|&k| k == 0) {
+        let big = (0..nreg)
+            .max_by(|&a, &b| frac[a].total_cmp(&frac[b]).then(b.cmp(&a)))
+            .unwrap_or(0);
+        n_free[big] = 1;
+    }
+    let n = opts.fixed_peaks.len() + n_free.iter().sum::<usize>();
     // Peaks need distinct cells with room around them.
     if n as f64 * 4.0 > (w as f64) * (h as f64) {
         return Err(Error::invalid(format!(
@@ -379,12 +634,20 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
     };
     // Without a user C_H, a coherent one: low-frequency fBm whose values are
     // mapped through the profile's peak-elevation quantiles, so high peaks
-    // gather in massifs as in real ranges instead of landing next to low ones.
+    // gather in massifs as in real ranges instead of landing next to low ones
+    // (with a type map: the quantiles of the region's profile).
     let auto_ch;
     let ch_src = match &opts.elevation_map {
         Some(g) => Some(g),
         None if opts.coherent => {
-            auto_ch = coherent_elevation_map(profile, w, h, opts.seed);
+            auto_ch = match tm {
+                None => coherent_elevation_map(profile, w, h, opts.seed),
+                Some(t) => coherent_map_with(w, h, opts.seed, |u, fx, fy| {
+                    profiles[t.region_at(fx, fy).unwrap_or(0)]
+                        .elevation
+                        .quantile(u)
+                }),
+            };
             Some(&auto_ch)
         }
         None => None,
@@ -417,55 +680,71 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
     let snap =
         |v: f64, nmax: usize| ((v / cell).floor().clamp(0.0, nmax as f64 - 1.0) + 0.5) * cell;
 
-    // Elevations: stratified, decreasing; fixed peaks come first.
-    for f in &opts.fixed_peaks {
-        if !(f.x.is_finite() && f.y.is_finite() && f.elevation.is_finite()) {
-            return Err(Error::invalid(
-                "a fixed peak has a non-finite coordinate or elevation",
-            ));
+    // Per region: elevations stratified, decreasing; isolation targets
+    // (m) stratified, larger for higher peaks with a random rank jitter
+    // (real isolation correlates with elevation rank, not perfectly);
+    // directions stratified sectors, shuffled.
+    let mut jobs: Vec<Job> = Vec::with_capacity(n);
+    for (r, prof) in profiles.iter().enumerate() {
+        let nf = n_free[r];
+        if nf == 0 {
+            continue;
         }
-        if f.x < 0.0 || f.y < 0.0 || f.x >= wm || f.y >= hm {
-            return Err(Error::invalid(format!(
-                "fixed peak at ({:.0}, {:.0}) m lies outside the {wm:.0} x {hm:.0} m domain",
-                f.x, f.y
-            )));
+        let mut elev = prof.elevation.stratified(nf);
+        elev.reverse();
+        let mut iso: Vec<f64> = prof
+            .isolation_km
+            .stratified(nf)
+            .into_iter()
+            .map(|d| d * 1000.0 * opts.isolation_stretch)
+            .collect();
+        let keys: Vec<f64> = (0..nf)
+            .map(|i| i as f64 + (rng.unit() - 0.5) * 0.5 * nf as f64)
+            .collect();
+        let mut idx: Vec<usize> = (0..nf).collect();
+        idx.sort_by(|&a, &b| keys[a].total_cmp(&keys[b]).then(a.cmp(&b)));
+        iso.sort_by(|a, b| b.total_cmp(a));
+        let mut iso_of = vec![0.0; nf];
+        for (rank, &i) in idx.iter().enumerate() {
+            iso_of[i] = iso[rank];
         }
-        if f.elevation <= 0.0 {
-            return Err(Error::invalid("a fixed peak must be above 0 m"));
+        let mut dirs = prof.isolation_dir.stratified(nf);
+        for i in (1..dirs.len()).rev() {
+            let j = rng.below(i as u64 + 1) as usize;
+            dirs.swap(i, j);
+        }
+        // Prominence bins: the prominence rank of a peak is its elevation
+        // rank with a random jitter (prominent peaks are mostly high ones;
+        // the saddle assignment sets the prominences later).
+        let mut pass = vec![0usize; nf];
+        if opts.passes > 1 {
+            let pk: Vec<f64> = (0..nf)
+                .map(|i| i as f64 + (rng.unit() - 0.5) * 0.5 * nf as f64)
+                .collect();
+            let mut pidx: Vec<usize> = (0..nf).collect();
+            pidx.sort_by(|&a, &b| pk[a].total_cmp(&pk[b]).then(a.cmp(&b)));
+            for (rank, &i) in pidx.iter().enumerate() {
+                pass[i] = pass_of_rank(rank, nf, opts.passes);
+            }
+        }
+        for i in 0..nf {
+            jobs.push(Job {
+                elev: elev[i],
+                iso: iso_of[i],
+                dir: dirs[i],
+                region: r,
+                pass: pass[i],
+            });
         }
     }
-    let n_free = n - opts.fixed_peaks.len();
-    let mut elev = profile.elevation.stratified(n_free);
-    elev.reverse();
-    // Isolation targets (m): stratified, larger for higher peaks with a
-    // random rank jitter (real isolation correlates with elevation rank, not
-    // perfectly); directions: stratified sectors, shuffled.
-    let mut iso: Vec<f64> = profile
-        .isolation_km
-        .stratified(n_free)
-        .into_iter()
-        .map(|d| d * 1000.0 * opts.isolation_stretch)
-        .collect();
-    let keys: Vec<f64> = (0..n_free)
-        .map(|i| i as f64 + (rng.unit() - 0.5) * 0.5 * n_free as f64)
-        .collect();
-    let mut idx: Vec<usize> = (0..n_free).collect();
-    idx.sort_by(|&a, &b| keys[a].total_cmp(&keys[b]).then(a.cmp(&b)));
-    iso.sort_by(|a, b| b.total_cmp(a));
-    let mut iso_of = vec![0.0; n_free];
-    for (rank, &i) in idx.iter().enumerate() {
-        iso_of[i] = iso[rank];
-    }
-    let mut dirs = profile.isolation_dir.stratified(n_free);
-    for i in (1..dirs.len()).rev() {
-        let j = rng.below(i as u64 + 1) as usize;
-        dirs.swap(i, j);
-    }
+    // Placement order: pass by pass, each in decreasing elevation.
+    jobs.sort_by(|a, b| a.pass.cmp(&b.pass).then(b.elev.total_cmp(&a.elev)));
 
     let min_sep = 2.0 * cell;
     let typical = (wm * hm / n as f64).sqrt().max(min_sep);
     let mut grid = PeakGrid::new(wm, hm, typical);
     let mut peaks: Vec<SynthPeak> = Vec::with_capacity(n);
+    let mut group_of_peak: Vec<usize> = Vec::with_capacity(n);
     for f in &opts.fixed_peaks {
         let (x, y) = (snap(f.x, w), snap(f.y, h));
         if grid.nearest_higher(&peaks, x, y, f64::NEG_INFINITY, min_sep) < min_sep {
@@ -481,8 +760,27 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
             elevation: f.elevation,
             fixed: true,
         });
+        group_of_peak.push(region_at(x, y).unwrap_or(0));
     }
-    let accept_maps = |rng: &mut SplitMix64, x: f64, y: f64, hh: f64| -> bool {
+    let n_fixed = peaks.len();
+    let kept_out = |x: f64, y: f64| {
+        opts.keep_out
+            .iter()
+            .any(|k| x >= k[0] && x <= k[2] && y >= k[1] && y <= k[3])
+    };
+    let accept_maps = |rng: &mut SplitMix64,
+                       x: f64,
+                       y: f64,
+                       hh: f64,
+                       region: usize,
+                       ridges: Option<&DomainMap>|
+     -> bool {
+        if tm.is_some() && region_at(x, y) != Some(region) {
+            return false;
+        }
+        if kept_out(x, y) {
+            return false;
+        }
         if let Some((m, max)) = &cp {
             let v = m.at(x, y);
             if !(v.is_finite() && rng.unit() * max < v) {
@@ -499,6 +797,12 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
                 return false;
             }
         }
+        if let Some(m) = ridges {
+            let a = opts.ridge_attraction;
+            if rng.unit() >= (1.0 - a) + a * m.at(x, y) {
+                return false;
+            }
+        }
         true
     };
     let margin = cell;
@@ -506,13 +810,29 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
         .iter()
         .map(|p| p.elevation)
         .fold(f64::NEG_INFINITY, f64::max);
-    for k in 0..n_free {
-        let hh = elev[k];
-        let d = iso_of[k].max(min_sep);
+    let mut ridge_grid: Option<Grid<f32>> = None;
+    let mut cur_pass = 0usize;
+    for job in &jobs {
+        if job.pass != cur_pass {
+            cur_pass = job.pass;
+            // The ridges of the peaks placed so far attract the next bins.
+            ridge_grid = if opts.ridge_attraction > 0.0 && peaks.len() >= 2 {
+                Some(ridge_density(&peaks, opts.rho, wm, hm, typical)?)
+            } else {
+                None
+            };
+        }
+        let rmap = ridge_grid.as_ref().map(|g| DomainMap {
+            g,
+            sx: g.width() as f64 / wm,
+            sy: g.height() as f64 / hm,
+        });
+        let hh = job.elev;
+        let d = job.iso.max(min_sep);
         let mut placed = None;
         // Proposals from a random higher peak at the target distance and
-        // direction (free peaks come in decreasing elevation, so some placed
-        // peak is at least as high iff the highest placed one is).
+        // direction (some placed peak is at least as high iff the highest
+        // placed one is).
         let have_higher = max_placed >= hh;
         if have_higher {
             for _ in 0..64 {
@@ -526,7 +846,7 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
                 if peaks[q].elevation < hh {
                     continue;
                 }
-                let theta = ((dirs[k].floor() * 45.0) + (rng.unit() - 0.5) * 45.0).to_radians();
+                let theta = ((job.dir.floor() * 45.0) + (rng.unit() - 0.5) * 45.0).to_radians();
                 // Vector from the new peak to q points along bearing theta.
                 let x = peaks[q].x - d * theta.sin();
                 let y = peaks[q].y + d * theta.cos();
@@ -536,7 +856,10 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
                 let (x, y) = (snap(x, w), snap(y, h));
                 let dn = grid.nearest_higher(&peaks, x, y, hh, d * 1.5);
                 let dall = grid.nearest_higher(&peaks, x, y, f64::NEG_INFINITY, min_sep * 2.0);
-                if dn >= 0.85 * d && dall >= min_sep && accept_maps(&mut rng, x, y, hh) {
+                if dn >= 0.85 * d
+                    && dall >= min_sep
+                    && accept_maps(&mut rng, x, y, hh, job.region, rmap.as_ref())
+                {
                     placed = Some((x, y));
                     break;
                 }
@@ -549,7 +872,7 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
                 let x = snap(margin + rng.unit() * (wm - 2.0 * margin), w);
                 let y = snap(margin + rng.unit() * (hm - 2.0 * margin), h);
                 let dall = grid.nearest_higher(&peaks, x, y, f64::NEG_INFINITY, min_sep * 2.0);
-                if dall < min_sep || !accept_maps(&mut rng, x, y, hh) {
+                if dall < min_sep || !accept_maps(&mut rng, x, y, hh, job.region, rmap.as_ref()) {
                     continue;
                 }
                 let dn = if have_higher {
@@ -576,6 +899,7 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
                 elevation: hh,
                 fixed: false,
             });
+            group_of_peak.push(job.region);
         }
     }
     if peaks.is_empty() {
@@ -583,12 +907,48 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
             "no peak could be placed (the density map leaves no room?)",
         ));
     }
-    // Ridges and saddles.
-    let edges = ridge_tree(&peaks, opts.rho)?;
+    // Ridges (the pasted fragment's first, verbatim) and saddles.
+    let mut forced = Vec::with_capacity(opts.fixed_ridges.len());
+    for (k, fr) in opts.fixed_ridges.iter().enumerate() {
+        let [a, b] = fr.peaks;
+        if a >= n_fixed || b >= n_fixed {
+            return Err(Error::invalid(format!(
+                "kept ridge {k} joins fixed peaks {a} and {b}, but there are {n_fixed} fixed peaks"
+            )));
+        }
+        let lo = peaks[a].elevation.min(peaks[b].elevation);
+        if !(fr.elevation.is_finite() && fr.elevation >= 0.0 && fr.elevation < lo)
+            || !(fr.x.is_finite() && fr.y.is_finite())
+            || fr.x < 0.0
+            || fr.y < 0.0
+            || fr.x >= wm
+            || fr.y >= hm
+        {
+            return Err(Error::invalid(format!(
+                "kept ridge {k}: its saddle must lie in the domain, between 0 m and its lower peak ({lo} m)"
+            )));
+        }
+        forced.push((a, b));
+    }
+    let edges = ridge_tree_with(&peaks, opts.rho, &forced, &[])?;
     let mut saddles = Vec::with_capacity(edges.len());
     let mut hmax = Vec::with_capacity(edges.len());
-    for &(i, j) in &edges {
+    let mut pinned = Vec::with_capacity(edges.len());
+    for (e, &(i, j)) in edges.iter().enumerate() {
         let (a, b) = (&peaks[i], &peaks[j]);
+        let lo = a.elevation.min(b.elevation);
+        if let Some(fr) = opts.fixed_ridges.get(e) {
+            // `ridge_tree_with` puts the forced ridges first, in order.
+            saddles.push(SynthSaddle {
+                x: snap(fr.x, w),
+                y: snap(fr.y, h),
+                elevation: fr.elevation,
+                peaks: [i, j],
+            });
+            hmax.push(fr.elevation);
+            pinned.push(true);
+            continue;
+        }
         let t = 0.35 + 0.3 * rng.unit();
         let off = (rng.unit() - 0.5) * 0.2;
         let (dx, dy) = (b.x - a.x, b.y - a.y);
@@ -608,41 +968,57 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
             peaks: [i, j],
         });
         // Saddles stay at least 1 m (or 1 %) below both ends.
-        let lo = a.elevation.min(b.elevation);
         hmax.push(lo - (0.01 * lo).clamp(0.0, 1.0).max(0.01));
+        pinned.push(false);
     }
     let hp: Vec<f64> = peaks.iter().map(|p| p.elevation).collect();
     let ns = edges.len();
+    let thr_of: Vec<f64> = profiles.iter().map(|p| p.min_prominence).collect();
     if ns > 0 {
-        let prom_t = profile.prominence.stratified(ns);
-        let dom_t = profile.dominance.stratified(ns);
-        // Start: each saddle a random prominence below its lower end.
-        let mut hs: Vec<f64> = (0..ns)
-            .map(|e| {
-                let k = rng.below(ns as u64) as usize;
-                (hmax[e] - prom_t[k]).clamp(0.0, hmax[e].max(0.0))
+        let groups: Vec<GroupTargets> = profiles
+            .iter()
+            .map(|p| GroupTargets {
+                prominence: &p.prominence,
+                dominance: &p.dominance,
             })
             .collect();
-        assign_saddles(
+        // Start: each saddle a random prominence (of the profile of its
+        // lower end) below its lower end.
+        let mut hs: Vec<f64> = (0..ns)
+            .map(|e| {
+                if pinned[e] {
+                    return saddles[e].elevation;
+                }
+                let (i, j) = edges[e];
+                let low = if hp[i] <= hp[j] { i } else { j };
+                let k = rng.below(ns as u64) as usize;
+                let t = profiles[group_of_peak[low]]
+                    .prominence
+                    .quantile((k as f64 + 0.5) / ns as f64);
+                (hmax[e] - t).clamp(0.0, hmax[e].max(0.0))
+            })
+            .collect();
+        assign_saddles_grouped(
             &hp,
             &edges,
             &hmax,
             0.0,
             &mut hs,
-            &prom_t,
-            &dom_t,
+            &group_of_peak,
+            &groups,
+            &pinned,
             opts.iterations,
         )?;
-        // Repair: a peak whose prominence fell below the profile's threshold
+        // Repair: a peak whose prominence fell below its profile's threshold
         // (owners change as saddles move) gets its key saddle lowered to the
         // threshold. Lowering saddles never lowers another peak's
-        // prominence, so this converges.
-        let thr = profile.min_prominence;
+        // prominence, so this converges. Pasted saddles stay as they are.
         for _ in 0..32 {
             let own = super::assign::owners(&hp, &edges, &hs);
             let mut changed = false;
             for (e, &o) in own.iter().enumerate() {
-                if hp[o] - hs[e] < thr && hs[e] > 0.0 {
+                let thr = thr_of[group_of_peak[o]];
+                if !pinned[e] && hp[o] - hs[e] < thr && hs[e] > 0.0 {
                     hs[e] = (hp[o] - thr * 1.001).max(0.0);
                     changed = true;
                 }
@@ -662,7 +1038,7 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
         height: h,
         cell,
         seed: opts.seed,
-        min_prominence: profile.min_prominence,
+        min_prominence: thr_of.iter().copied().fold(f64::INFINITY, f64::min),
         peaks,
         saddles,
     };
