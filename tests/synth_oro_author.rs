@@ -758,7 +758,8 @@ fn cli_type_map_and_pasted_fragment() {
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let cell = 92.735703245749619;
+    let (g, geo) = load("terraindescriptors_alps_montblanc.tif").unwrap();
+    let cell = cell_of(&geo, g.height());
     let o = std::process::Command::new(exe)
         .args(["synth", "divide-tree", "--profile"])
         .arg(cfg.join("alps_montblanc.json"))

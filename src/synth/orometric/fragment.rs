@@ -207,7 +207,7 @@ impl Fragment {
             let sc = ((sx - ax) / bx - 0.5).round() as i64;
             let sr = ((sy - ay) / by - 0.5).round() as i64;
             let lo = r.z.min(rows[p].z);
-            if !in_win(sc, sr) || !(sz.is_finite() && sz >= 0.0 && sz < lo) {
+            if !(in_win(sc, sr) && sz.is_finite() && sz >= 0.0 && sz < lo) {
                 continue;
             }
             ridges.push(FixedRidge {

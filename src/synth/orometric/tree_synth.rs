@@ -917,13 +917,12 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
             )));
         }
         let lo = peaks[a].elevation.min(peaks[b].elevation);
-        if !(fr.elevation.is_finite() && fr.elevation >= 0.0 && fr.elevation < lo)
-            || !(fr.x.is_finite() && fr.y.is_finite())
-            || fr.x < 0.0
-            || fr.y < 0.0
-            || fr.x >= wm
-            || fr.y >= hm
-        {
+        let ok = fr.elevation.is_finite()
+            && fr.elevation >= 0.0
+            && fr.elevation < lo
+            && fr.x.is_finite()
+            && fr.y.is_finite();
+        if !ok || fr.x < 0.0 || fr.y < 0.0 || fr.x >= wm || fr.y >= hm {
             return Err(Error::invalid(format!(
                 "kept ridge {k}: its saddle must lie in the domain, between 0 m and its lower peak ({lo} m)"
             )));
