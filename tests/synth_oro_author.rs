@@ -792,3 +792,47 @@ fn cli_type_map_and_pasted_fragment() {
     assert_eq!(SynthTree::load(&tree).unwrap(), want);
     assert!(want.peaks.iter().filter(|p| p.fixed).count() == frag.peaks.len());
 }
+
+#[test]
+fn geojson_type_map_rasterises_polygons_with_holes() {
+    use orogen::synth::orometric::typemap::rasterize_geojson;
+    let dir = tempfile::tempdir().unwrap();
+    let f = dir.path().join("ct.geojson");
+    // Domain 1000 x 500 m. Label 1: the left half minus a square hole;
+    // label 2: a triangle on the right (y up from the bottom-left corner).
+    std::fs::write(
+        &f,
+        r#"{"type":"FeatureCollection","features":[
+ {"type":"Feature","properties":{"label":1},"geometry":{"type":"Polygon","coordinates":[
+   [[0,0],[500,0],[500,500],[0,500],[0,0]],
+   [[100,100],[200,100],[200,200],[100,200],[100,100]]]}},
+ {"type":"Feature","properties":{"label":2},"geometry":{"type":"MultiPolygon","coordinates":[
+   [[[600,0],[1000,0],[1000,300],[600,0]]]]}}]}"#,
+    )
+    .unwrap();
+    let g = rasterize_geojson(&f, 1000.0, 500.0, 100, 50).unwrap();
+    // Oracle: the shapes tested by hand at each cell centre (10 m cells).
+    for r in 0..50 {
+        for c in 0..100 {
+            let (x, y) = (c as f64 * 10.0 + 5.0, 500.0 - (r as f64 * 10.0 + 5.0));
+            let hole = (100.0..200.0).contains(&x) && (100.0..200.0).contains(&y);
+            let want = if x < 500.0 && !hole {
+                1.0
+            } else if x > 600.0 && y < 0.75 * (x - 600.0) {
+                2.0
+            } else {
+                f32::NAN
+            };
+            let got = g.get(c, r);
+            assert!(
+                got == want || (got.is_nan() && want.is_nan()),
+                "cell ({c}, {r}): {got} vs {want}"
+            );
+        }
+    }
+    std::fs::write(&f, r#"{"type":"FeatureCollection","features":[{"type":"Feature","properties":{},"geometry":{"type":"Polygon","coordinates":[]}}]}"#).unwrap();
+    let e = rasterize_geojson(&f, 1000.0, 500.0, 10, 5)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("label"), "{e}");
+}

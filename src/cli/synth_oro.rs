@@ -80,7 +80,9 @@ pub struct TreeArgs {
     #[arg(long, default_value_t = orogen::synth::orometric::tree_synth::DEFAULT_RIDGE_ATTRACTION)]
     pub ridge_attraction: f64,
     /// Type map C_T: a raster of integer region labels stretched over the
-    /// domain (nodata: no peaks); labels without --type-profile use --profile.
+    /// domain (nodata: no peaks), or GeoJSON polygons with an integer "label"
+    /// property (map metres, origin bottom-left; outside them: no peaks);
+    /// labels without --type-profile use --profile.
     #[arg(long)]
     pub type_map: Option<PathBuf>,
     /// Profile of a type-map label, LABEL=PROFILE.json (repeat per label).
@@ -330,7 +332,22 @@ fn author_options(t: &TreeArgs, o: &mut TreeOptions) -> Result<()> {
     o.passes = t.passes;
     o.ridge_attraction = t.ridge_attraction;
     if let Some(p) = &t.type_map {
-        let labels = read_map(p)?;
+        let is_geojson = p
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| e.eq_ignore_ascii_case("geojson") || e.eq_ignore_ascii_case("json"));
+        let labels = if is_geojson {
+            // 512 cells along the longer side: finer than any region matters.
+            let (w, h) = (o.width as f64, o.height as f64);
+            let (c, r) = if w >= h {
+                (512, ((512.0 * h / w).ceil() as usize).max(1))
+            } else {
+                (((512.0 * w / h).ceil() as usize).max(1), 512)
+            };
+            orogen::synth::orometric::typemap::rasterize_geojson(p, w * o.cell, h * o.cell, c, r)?
+        } else {
+            read_map(p)?
+        };
         let mut regions = Vec::new();
         for tp in &t.type_profiles {
             let Some((l, f)) = tp.split_once('=') else {

@@ -108,3 +108,123 @@ impl TypeMap {
         f
     }
 }
+
+/// Largest GeoJSON type map read.
+const MAX_GEOJSON_BYTES: u64 = 256 << 20;
+
+/// Rasterise a GeoJSON type map: Polygon / MultiPolygon features with an
+/// integer `label` property, in the output's metric frame (x east, y north
+/// from the domain's bottom-left corner, as the rasters orogen writes and
+/// `--fixed-peaks`), onto `cols` x `rows` cells over a `width_m` x
+/// `height_m` domain. A cell takes the label of the last feature whose
+/// polygon contains its centre (even–odd rule over all rings, so holes
+/// work; Shimrat 1962, "Algorithm 112: position of point relative to
+/// polygon", CACM 5(8)); cells in no polygon are nodata (no peaks).
+pub fn rasterize_geojson(
+    path: &std::path::Path,
+    width_m: f64,
+    height_m: f64,
+    cols: usize,
+    rows: usize,
+) -> Result<Grid<f32>> {
+    let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
+    if meta.len() > MAX_GEOJSON_BYTES {
+        return Err(Error::too_large(path, "a type-map GeoJSON over 256 MiB"));
+    }
+    if cols == 0 || rows == 0 || cols.saturating_mul(rows) > 1 << 24 {
+        return Err(Error::invalid("type map raster: 1..16M cells"));
+    }
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let v: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| Error::corrupt(path, format!("not JSON: {e}")))?;
+    let feats = v
+        .get("features")
+        .and_then(|f| f.as_array())
+        .ok_or_else(|| Error::corrupt(path, "expected a GeoJSON FeatureCollection of polygons"))?;
+    let mut out = vec![f32::NAN; cols * rows];
+    for (k, f) in feats.iter().enumerate() {
+        let bad = |m: &str| Error::corrupt(path, format!("feature {k}: {m}"));
+        let label = f
+            .pointer("/properties/label")
+            .and_then(|l| l.as_i64())
+            .ok_or_else(|| bad("needs an integer \"label\" property"))?;
+        let geom = f.get("geometry").ok_or_else(|| bad("no geometry"))?;
+        let coords = geom
+            .get("coordinates")
+            .ok_or_else(|| bad("no coordinates"))?;
+        let polys: Vec<&serde_json::Value> = match geom.get("type").and_then(|t| t.as_str()) {
+            Some("Polygon") => vec![coords],
+            Some("MultiPolygon") => coords
+                .as_array()
+                .ok_or_else(|| bad("malformed MultiPolygon"))?
+                .iter()
+                .collect(),
+            _ => {
+                return Err(bad(
+                    "only Polygon and MultiPolygon geometries are type regions",
+                ))
+            }
+        };
+        // Rings as flat (x, y) lists in cell units (y down).
+        let mut rings: Vec<Vec<(f64, f64)>> = Vec::new();
+        for p in polys {
+            for ring in p.as_array().ok_or_else(|| bad("malformed polygon"))? {
+                let pts = ring.as_array().ok_or_else(|| bad("malformed ring"))?;
+                let mut r = Vec::with_capacity(pts.len());
+                for q in pts {
+                    let (Some(x), Some(y)) = (
+                        q.get(0).and_then(|x| x.as_f64()),
+                        q.get(1).and_then(|y| y.as_f64()),
+                    ) else {
+                        return Err(bad("a ring point is not two numbers"));
+                    };
+                    if !(x.is_finite() && y.is_finite()) {
+                        return Err(bad("a ring point is not finite"));
+                    }
+                    r.push((
+                        x / width_m * cols as f64,
+                        (height_m - y) / height_m * rows as f64,
+                    ));
+                }
+                if r.len() >= 3 {
+                    rings.push(r);
+                }
+            }
+        }
+        // Bounding box in rows, then the even–odd test per cell centre.
+        let (ymin, ymax) = rings
+            .iter()
+            .flatten()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+                (a.min(p.1), b.max(p.1))
+            });
+        if !ymin.is_finite() {
+            continue;
+        }
+        let r0 = (ymin.floor().max(0.0) as usize).min(rows);
+        let r1 = ((ymax.ceil().max(0.0)) as usize).min(rows);
+        for r in r0..r1 {
+            let py = r as f64 + 0.5;
+            for c in 0..cols {
+                let px = c as f64 + 0.5;
+                let mut inside = false;
+                for ring in &rings {
+                    let n = ring.len();
+                    let mut j = n - 1;
+                    for i in 0..n {
+                        let (xi, yi) = ring[i];
+                        let (xj, yj) = ring[j];
+                        if (yi > py) != (yj > py) && px < xj + (py - yj) / (yi - yj) * (xi - xj) {
+                            inside = !inside;
+                        }
+                        j = i;
+                    }
+                }
+                if inside {
+                    out[r * cols + c] = label as f32;
+                }
+            }
+        }
+    }
+    Grid::from_vec(cols, rows, out)
+}
