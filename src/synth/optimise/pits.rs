@@ -93,8 +93,8 @@ fn fill_with_sinks(g: &Grid<f32>, sinks: Option<&Grid<bool>>) -> Result<Grid<f32
 /// a cell by at most its depression's depth; a flood-order breach lowers
 /// only cells below the depression's spill level (they lie on the flood's
 /// path, whose filled level is at most the spill) and never below its
-/// lowest cell. Deep depressions are given to the breach filled (so no
-/// carve starts in them) and restored afterwards.
+/// lowest cell. Deep depressions are given to the breach as extra outlets
+/// (so no carve starts in or crosses one) and restored afterwards.
 ///
 /// `max_depth = 0` (or `how = None`) returns `g` unchanged; errors for a
 /// negative or NaN `max_depth`.
@@ -144,26 +144,29 @@ pub fn remove_shallow_pits(
         depth.push(d);
     }
     let deep = |c: usize| label[c] != NONE && depth[label[c] as usize] > max_depth;
-    let mut out = match how {
-        PitRemoval::Fill => {
-            let v: Vec<f32> = (0..w * h)
-                .map(|c| {
-                    if label[c] == NONE || deep(c) {
-                        z[c]
-                    } else {
-                        fz[c]
-                    }
-                })
-                .collect();
-            return Grid::from_vec(w, h, v);
+    if how == PitRemoval::Fill {
+        let v: Vec<f32> = (0..w * h)
+            .map(|c| {
+                if label[c] == NONE || deep(c) {
+                    z[c]
+                } else {
+                    fz[c]
+                }
+            })
+            .collect();
+        return Grid::from_vec(w, h, v);
+    }
+    // Breach with the deep depressions as extra outlets: a channel from a
+    // shallow pit ends where it reaches one (the water pools there), and
+    // none starts inside one. Their cells are restored (a carve may lower
+    // the outlet cell it ends on).
+    let mut mask: Vec<bool> = (0..w * h).map(deep).collect();
+    if let Some(m) = sinks {
+        for (o, &s) in mask.iter_mut().zip(m.data()) {
+            *o |= s;
         }
-        _ => {
-            let zp: Vec<f32> = (0..w * h)
-                .map(|c| if deep(c) { fz[c] } else { z[c] })
-                .collect();
-            remove_pits(&Grid::from_vec(w, h, zp)?, how, sinks)?
-        }
-    };
+    }
+    let mut out = remove_pits(g, how, Some(&Grid::from_vec(w, h, mask)?))?;
     for (c, v) in out.data_mut().iter_mut().enumerate() {
         if deep(c) {
             *v = z[c];
