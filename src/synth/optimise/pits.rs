@@ -120,8 +120,10 @@ pub fn remove_shallow_pits(
     let mut label = vec![NONE; w * h];
     let mut depth: Vec<f32> = Vec::new();
     let mut stack: Vec<usize> = Vec::new();
+    // raised by the fill (false for NaN)
+    let raised = |c: usize| fz[c] > z[c];
     for start in 0..w * h {
-        if !(fz[start] > z[start]) || label[start] != NONE {
+        if !raised(start) || label[start] != NONE {
             continue;
         }
         let id = depth.len() as u32;
@@ -134,7 +136,7 @@ pub fn remove_shallow_pits(
             for ny in y.saturating_sub(1)..(y + 2).min(h) {
                 for nx in x.saturating_sub(1)..(x + 2).min(w) {
                     let m = ny * w + nx;
-                    if fz[m] > z[m] && label[m] == NONE {
+                    if raised(m) && label[m] == NONE {
                         label[m] = id;
                         stack.push(m);
                     }
