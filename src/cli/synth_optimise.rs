@@ -9,8 +9,8 @@ use orogen::io::render::{render_preview, RenderOptions};
 use orogen::io::{open_raster, OpenOptions};
 use orogen::raster::{read_window, GeoRef, Grid, MemRaster, Window};
 use orogen::synth::optimise::{
-    depression_stats, synthesise, OptimiseOptions, PitRemoval, SearchSpace, Weighting,
-    MAX_OUTPUT_CELLS, MAX_SOURCE_CELLS,
+    depression_stats, synthesise, FinestPits, OptimiseOptions, PitRemoval, SearchSpace, Weighting,
+    DEFAULT_DETAIL_DEPTH, MAX_OUTPUT_CELLS, MAX_SOURCE_CELLS,
 };
 use std::path::{Path, PathBuf};
 
@@ -62,6 +62,16 @@ pub struct OptimiseArgs {
     /// gradient (rise / run, e.g. 0.01; 0 = off): less depression volume, more (shallow) depressions.
     #[arg(long, default_value_t = 0.0)]
     pub drain_slope: f32,
+    /// Finest level: remove the depressions at most K times the source's
+    /// finest detail RMS deep (with the --pit method; deeper ones stay).
+    #[arg(long, default_value_t = DEFAULT_DETAIL_DEPTH)]
+    pub finest_detail: f32,
+    /// Finest level: remove the depressions at most this deep (DEM units) instead.
+    #[arg(long, conflicts_with = "finest_detail")]
+    pub finest_depth: Option<f32>,
+    /// Leave the finest level as its E-step made it (the paper: no pit removal there).
+    #[arg(long, conflicts_with_all = ["finest_detail", "finest_depth"])]
+    pub finest_keep: bool,
 
     /// Sink mask raster (output size): non-zero valid cells are extra outlets.
     #[arg(long)]
@@ -239,6 +249,13 @@ pub fn run(a: OptimiseArgs) -> Result<()> {
         falloff: (!a.uniform).then_some(a.falloff),
         pit_finest: a.pit_finest,
         drain_step: a.drain_slope * cell_m,
+        finest: if a.finest_keep {
+            FinestPits::Keep
+        } else if let Some(d) = a.finest_depth {
+            FinestPits::MaxDepth(d)
+        } else {
+            FinestPits::Detail(a.finest_detail)
+        },
         keep_levels: a.previews.is_some(),
     };
     let pool = rayon::ThreadPoolBuilder::new()
@@ -279,6 +296,9 @@ pub fn run(a: OptimiseArgs) -> Result<()> {
         } else {
             (1.0, 1.0)
         };
+        if let Some(d) = syn.finest_depth {
+            eprintln!("finest level: depressions at most {d:.3} deep removed");
+        }
         let d = depression_stats(&syn.output, cx * cy, 1.0)?;
         let d5 = depression_stats(&syn.output, cx * cy, 0.5)?;
         eprintln!(

@@ -57,7 +57,10 @@ pub mod patchmatch;
 pub mod pits;
 pub mod pyramid;
 
-pub use pits::{depression_stats, drain_strictly, remove_pits, DepressionStats, PitRemoval};
+pub use pits::{
+    depression_stats, detail_rms, drain_strictly, remove_pits, remove_shallow_pits,
+    DepressionStats, PitRemoval,
+};
 
 use crate::error::{Error, Result};
 use crate::raster::Grid;
@@ -119,6 +122,20 @@ impl Default for SearchSpace {
     }
 }
 
+/// The final pass on the finest level (after its last E-step), with the
+/// level's pit removal method, when pit removal is on.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum FinestPits {
+    /// Leave the finest level as its E-step made it (the paper).
+    Keep,
+    /// Remove the depressions at most this deep (DEM units), keep deeper
+    /// ones ([`remove_shallow_pits`]).
+    MaxDepth(f32),
+    /// Remove the depressions at most `k` times the exemplar's finest detail
+    /// RMS deep ([`detail_rms`]: the relief the finest level adds).
+    Detail(f32),
+}
+
 /// Parameters of [`synthesise`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct OptimiseOptions {
@@ -160,6 +177,10 @@ pub struct OptimiseOptions {
     /// default). Measured (docs/notes/optimise.md): it lowers the output's
     /// depression volume further but raises the depression count.
     pub drain_step: f32,
+    /// Final shallow-pit pass on the finest level (a departure from the
+    /// paper, which leaves that level alone; see [`FinestPits`]). Only
+    /// with pit removal on and without `pit_finest`.
+    pub finest: FinestPits,
     /// Keep each level's result (for previews).
     pub keep_levels: bool,
 }
@@ -182,10 +203,15 @@ impl Default for OptimiseOptions {
             falloff: Some(0.3),
             pit_finest: false,
             drain_step: 0.0,
+            finest: FinestPits::Detail(DEFAULT_DETAIL_DEPTH),
             keep_levels: false,
         }
     }
 }
+
+/// Default depth limit of the finest level's shallow-pit pass, in units of
+/// the exemplar's finest detail RMS (measured in docs/notes/optimise.md).
+pub const DEFAULT_DETAIL_DEPTH: f32 = 2.0;
 
 /// What happened at one level.
 #[derive(Debug, Clone, PartialEq)]
@@ -210,6 +236,9 @@ pub struct Synthesis {
     pub levels: Vec<LevelReport>,
     /// Each level's result, coarsest first (only with `keep_levels`).
     pub level_grids: Vec<Grid<f32>>,
+    /// Depth limit (DEM units) of the finest level's shallow-pit pass when
+    /// one ran.
+    pub finest_depth: Option<f32>,
 }
 
 fn footprint_radius(n: usize, rotation: bool) -> f32 {
@@ -256,6 +285,15 @@ fn plan(
         return Err(Error::invalid(format!(
             "synth optimise: drain step {} must be a finite rise per cell, 0 or more",
             o.drain_step
+        )));
+    }
+    let fd = match o.finest {
+        FinestPits::Keep => 0.0,
+        FinestPits::MaxDepth(d) | FinestPits::Detail(d) => d,
+    };
+    if !(fd.is_finite() && fd >= 0.0) {
+        return Err(Error::invalid(format!(
+            "synth optimise: the finest level's pit depth limit {fd} must be finite, 0 or more"
         )));
     }
     if !(o.alpha.is_finite() && (0.0..=1.0).contains(&o.alpha)) {
@@ -378,6 +416,7 @@ pub fn synthesise(
     let mut kept = Vec::new();
     let mut prev: Option<(Vec<Corr>, Geom)> = None;
     let mut x: Vec<f32> = Vec::new();
+    let mut finest_depth = None;
     for k in (0..=l).rev() {
         let sg = &src_pyr[k];
         let src = SourceLevel::new(sg, rho).ok_or_else(|| {
@@ -462,6 +501,20 @@ pub fn synthesise(
             finish(&recon, &mut x)?;
             energies.push(lev.refresh(&x, &mut corr));
         }
+        // The finest level's shallow-pit pass (after the energies: it is not
+        // part of the optimisation).
+        if k == 0 && !remove_here && o.pit != PitRemoval::None {
+            let d = match o.finest {
+                FinestPits::Keep => 0.0,
+                FinestPits::MaxDepth(d) => d,
+                FinestPits::Detail(f) => f * detail_rms(source),
+            };
+            if d > 0.0 {
+                let grid = Grid::from_vec(w, h, std::mem::take(&mut x))?;
+                x = remove_shallow_pits(&grid, d, o.pit, sinks_k)?.into_vec();
+                finest_depth = Some(d);
+            }
+        }
         reports.push(LevelReport {
             level: k,
             width: w,
@@ -481,6 +534,7 @@ pub fn synthesise(
         output: Grid::from_vec(o.width, o.height, x)?,
         levels: reports,
         level_grids: kept,
+        finest_depth,
     })
 }
 

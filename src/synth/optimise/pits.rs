@@ -53,24 +53,151 @@ pub fn remove_pits(
             max_depth,
             max_length,
         }),
-        PitRemoval::Fill => match sinks {
-            None => fill(g),
-            Some(m) => {
-                let mut holed = g.clone();
-                for (v, &s) in holed.data_mut().iter_mut().zip(m.data()) {
-                    if s {
-                        *v = f32::NAN;
-                    }
+        PitRemoval::Fill => fill_with_sinks(g, sinks),
+    }
+}
+
+/// Priority-Flood fill of `g` with the `sinks` cells as extra outlets (they
+/// are given to the fill as nodata, then restored).
+fn fill_with_sinks(g: &Grid<f32>, sinks: Option<&Grid<bool>>) -> Result<Grid<f32>> {
+    match sinks {
+        None => fill(g),
+        Some(m) => {
+            let mut holed = g.clone();
+            for (v, &s) in holed.data_mut().iter_mut().zip(m.data()) {
+                if s {
+                    *v = f32::NAN;
                 }
-                let mut f = fill(&holed)?;
-                for ((v, &s), &orig) in f.data_mut().iter_mut().zip(m.data()).zip(g.data()) {
-                    if s {
-                        *v = orig;
-                    }
-                }
-                Ok(f)
             }
-        },
+            let mut f = fill(&holed)?;
+            for ((v, &s), &orig) in f.data_mut().iter_mut().zip(m.data()).zip(g.data()) {
+                if s {
+                    *v = orig;
+                }
+            }
+            Ok(f)
+        }
+    }
+}
+
+/// Remove only the *shallow* depressions of `g`: those whose depth (spill
+/// level minus lowest cell, from the Priority-Flood fill with the border and
+/// `sinks` as outlets) is at most `max_depth`; deeper ones are left exactly
+/// as they are. `how` removes them (breach: carved to their outlet; fill:
+/// raised to their spill level; hybrid: Lindsay's selective breaching).
+///
+/// Why: the finest level of the synthesis is not pit-removed (the paper),
+/// and averaging overlapping source patches there leaves many small closed
+/// contours on the pit-free coarser shape. Removing only those no deeper
+/// than `max_depth` changes no cell by more than `max_depth`: filling raises
+/// a cell by at most its depression's depth; a flood-order breach lowers
+/// only cells below the depression's spill level (they lie on the flood's
+/// path, whose filled level is at most the spill) and never below its
+/// lowest cell. Deep depressions are given to the breach as extra outlets
+/// (so no carve starts in or crosses one) and restored afterwards.
+///
+/// `max_depth = 0` (or `how = None`) returns `g` unchanged; errors for a
+/// negative or NaN `max_depth`.
+pub fn remove_shallow_pits(
+    g: &Grid<f32>,
+    max_depth: f32,
+    how: PitRemoval,
+    sinks: Option<&Grid<bool>>,
+) -> Result<Grid<f32>> {
+    if max_depth.is_nan() || max_depth < 0.0 {
+        return Err(crate::error::Error::invalid(format!(
+            "shallow pit removal: depth limit {max_depth} must be 0 or more (DEM units)"
+        )));
+    }
+    if max_depth == 0.0 || how == PitRemoval::None {
+        return Ok(g.clone());
+    }
+    let (w, h) = (g.width(), g.height());
+    let f = fill_with_sinks(g, sinks)?;
+    let (z, fz) = (g.data(), f.data());
+    // 8-connected regions of raised cells and the depth of each.
+    const NONE: u32 = u32::MAX;
+    let mut label = vec![NONE; w * h];
+    let mut depth: Vec<f32> = Vec::new();
+    let mut stack: Vec<usize> = Vec::new();
+    // raised by the fill (false for NaN)
+    let raised = |c: usize| fz[c] > z[c];
+    for start in 0..w * h {
+        if !raised(start) || label[start] != NONE {
+            continue;
+        }
+        let id = depth.len() as u32;
+        let mut d = 0f32;
+        label[start] = id;
+        stack.push(start);
+        while let Some(c) = stack.pop() {
+            d = d.max(fz[c] - z[c]);
+            let (x, y) = (c % w, c / w);
+            for ny in y.saturating_sub(1)..(y + 2).min(h) {
+                for nx in x.saturating_sub(1)..(x + 2).min(w) {
+                    let m = ny * w + nx;
+                    if raised(m) && label[m] == NONE {
+                        label[m] = id;
+                        stack.push(m);
+                    }
+                }
+            }
+        }
+        depth.push(d);
+    }
+    let deep = |c: usize| label[c] != NONE && depth[label[c] as usize] > max_depth;
+    if how == PitRemoval::Fill {
+        let v: Vec<f32> = (0..w * h)
+            .map(|c| {
+                if label[c] == NONE || deep(c) {
+                    z[c]
+                } else {
+                    fz[c]
+                }
+            })
+            .collect();
+        return Grid::from_vec(w, h, v);
+    }
+    // Breach with the deep depressions as extra outlets: a channel from a
+    // shallow pit ends where it reaches one (the water pools there), and
+    // none starts inside one. Their cells are restored (a carve may lower
+    // the outlet cell it ends on).
+    let mut mask: Vec<bool> = (0..w * h).map(deep).collect();
+    if let Some(m) = sinks {
+        for (o, &s) in mask.iter_mut().zip(m.data()) {
+            *o |= s;
+        }
+    }
+    let mut out = remove_pits(g, how, Some(&Grid::from_vec(w, h, mask)?))?;
+    for (c, v) in out.data_mut().iter_mut().enumerate() {
+        if deep(c) {
+            *v = z[c];
+        }
+    }
+    Ok(out)
+}
+
+/// Root mean square of the exemplar's finest detail band: `g` minus its
+/// Burt & Adelson REDUCE expanded back to full size (the first level of a
+/// Laplacian pyramid), over cells where both are valid; 0 when none is.
+/// It measures the relief the finest synthesis level adds on top of the
+/// coarser levels' shape, hence the depth of the closed contours that
+/// averaging those details can make.
+pub fn detail_rms(g: &Grid<f32>) -> f32 {
+    let coarse = super::pyramid::reduce(g);
+    let up = super::pyramid::expand(&coarse, g.width(), g.height());
+    let (mut s, mut n) = (0f64, 0u64);
+    for (&a, &b) in g.data().iter().zip(up.data()) {
+        let d = (a - b) as f64;
+        if d.is_finite() {
+            s += d * d;
+            n += 1;
+        }
+    }
+    if n == 0 {
+        0.0
+    } else {
+        (s / n as f64).sqrt() as f32
     }
 }
 
