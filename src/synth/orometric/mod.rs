@@ -17,9 +17,13 @@
 
 pub mod assign;
 pub mod profile;
+pub mod rivers;
 pub mod terrain;
+pub mod terrain_tin;
+pub mod tin;
 pub mod tree_synth;
 
 pub use profile::{Hist, PeakSamples, SynthProfile};
-pub use terrain::{OroTerrain, TerrainOptions};
+pub use terrain::{build_terrain, OroTerrain, TerrainModel, TerrainOptions};
+pub use terrain_tin::TinTerrain;
 pub use tree_synth::{ridge_tree, synthesize_tree, SynthPeak, SynthSaddle, SynthTree, TreeOptions};
