@@ -86,7 +86,7 @@ pub struct TerrainArgs {
     #[arg(long, default_value_t = 100.0)]
     pub valley_width: f64,
     /// TIN model: river slope (m/m) at 1 km² of drainage area (falls as A^-0.45).
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, default_value_t = 0.2)]
     pub river_slope: f64,
     // --- end terrain model ---
     /// Flank slope (m/m) of the tents model.

@@ -10,10 +10,10 @@
 //! demand, so it streams to a tile store). The divide tree is JSON and
 //! editable between the two steps.
 //!
-//! Not here yet: the constrained multi-scale erosion with uplift (the
-//! erosion module's `erode_constrained`, wired after merge), the paper's
-//! river network / TIN valley model (replaced by the tent envelope), the
-//! type map C_T mixing several profiles, pasting real divide-tree fragments.
+//! Terrain models ([`build_terrain`]): [`TinTerrain`] (default; the paper's
+//! §6: [`rivers`] dual of the tree, valley widths, constrained TIN, [`tin`])
+//! and [`OroTerrain`] (tents). Not here yet: the type map C_T mixing several
+//! profiles, pasting real divide-tree fragments.
 
 pub mod assign;
 pub mod profile;

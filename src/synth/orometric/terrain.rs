@@ -13,10 +13,11 @@
 //! saddles the minimax points of the tree, at their cells and elevations.
 //! Valleys form where tents of neighbouring ridges meet.
 //!
-//! This replaces the paper's river network, Poisson-disk samples and
-//! constrained TIN (§6.1–6.3) by the closed-form envelope: it keeps the tree
-//! exactly (which the paper's TIN does by constraint) at a fraction of the
-//! cost, but valley shapes are V-shaped rather than fluvial (see the notes).
+//! This "tents" model stands in for the paper's river network, Poisson-disk
+//! samples and constrained TIN (§6), which [`super::terrain_tin`] builds (the
+//! default model, chosen by [`TerrainOptions::model`] and [`build_terrain`]):
+//! it keeps the tree at a fraction of the cost, but valleys are V-shaped
+//! rather than fluvial.
 //! Multifractal noise (fBm with ridged octaves, [`crate::synth::Fbm`]) of
 //! amplitude below the prominence threshold is added away from the crests.
 //!
@@ -88,7 +89,7 @@ impl Default for TerrainOptions {
             floor: None,
             model: TerrainModel::default(),
             valley_width: 100.0,
-            river_slope: 0.05,
+            river_slope: 0.2,
         }
     }
 }
