@@ -120,7 +120,11 @@ fn tin_terrain_keeps_the_tree_without_noise() {
     let (want, ok) = check_preserved(0.0);
     println!("recovered {ok} of {want}");
     assert!(want >= 50);
-    // Measured: 62 of 64 (seed 5; tents: 61 of 64).
+    // Measured: 62 of 64 (seed 5; tents: 61 of 64). The two misses are found
+    // at their cells and elevations but with a lower prominence (12 and 27 m
+    // instead of 34 and 35 m): a pass higher than the tree's saddle, likely
+    // where a river runs within half a cell of a ridge and the crest band
+    // bridges it (see the notes).
     assert!(ok as f64 >= 0.95 * want as f64, "recovered {ok} of {want}");
 }
 
@@ -332,7 +336,7 @@ fn tin_distributions_match_the_alps_profile() {
         return;
     };
     // Measured (seed 3): isolation 0.081, prominence 0.052, dominance
-    // 0.048, elevation 0.037, density 0.007 (tents: 0.063, 0.080, 0.058,
+    // 0.050, elevation 0.037, density 0.002 (tents: 0.063, 0.080, 0.058,
     // 0.042, 0.110). The paper's 3 % is not met on this tile.
     assert!(e["isolation_km"] <= 0.09, "{e:?}");
     assert!(e["prominence"] <= 0.06, "{e:?}");

@@ -24,9 +24,9 @@
 //! reach it, so the only maxima are the tree's peaks.
 //!
 //! Raster: barycentric interpolation in the TIN ([`super::tin::Tin`]);
-//! cells within 0.55 cell of a river segment read at most the river's
-//! elevation and cells within 0.55 cell of a ridge at least the ridge's
-//! (so 8-connected digital paths follow crests and channels); multifractal
+//! cells within 0.71 cell of a river segment read at most the river's
+//! elevation (a 4-connected channel no 8-path can hop over) and cells
+//! within 0.55 cell of a ridge at least the ridge's (an 8-connected crest); multifractal
 //! noise below the prominence threshold fades in over 4 cells away from
 //! both. Every cell is a pure function of its position.
 
@@ -210,6 +210,13 @@ impl Line {
         )
     }
 }
+
+/// Half-width of the channel band, cells: cells whose centres lie within
+/// (|cos θ| + |sin θ|)/2 ≤ √2/2 cell of a line form a 4-connected chain,
+/// which no 8-connected path can cross without touching (a 0.55-cell band
+/// is only 8-connected: a diagonal step could hop over the river and make
+/// a pass higher than the tree's saddle).
+const CHANNEL_BAND: f64 = 0.71;
 
 /// Bucket side of the raster indices, cells.
 const BUCKET_CELLS: f64 = 8.0;
@@ -497,7 +504,7 @@ impl TinTerrain {
             }
         }
         let band = 0.55 * cell;
-        let reach = band + 4.0 * cell;
+        let reach = CHANNEL_BAND.max(0.55) * cell + 4.0 * cell;
         let lnx = ((wm / lb).ceil() as usize).max(1);
         let lny = ((hm / lb).ceil() as usize).max(1);
         let bi = |v: f64, n: usize| ((v / lb).floor().max(0.0) as usize).min(n - 1);
@@ -616,12 +623,12 @@ impl TinTerrain {
             let l = &self.lines[i as usize];
             let (d, zl) = l.probe(x, y);
             dmin = dmin.min(d);
-            if d <= self.band {
-                if l.ridge {
+            if l.ridge {
+                if d <= self.band {
                     crest = crest.max(zl);
-                } else {
-                    chan = chan.min(zl);
                 }
+            } else if d <= CHANNEL_BAND * c {
+                chan = chan.min(zl);
             }
         }
         v = v.min(chan).max(crest);
