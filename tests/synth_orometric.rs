@@ -428,7 +428,7 @@ fn cli_profile_divide_tree_from_tree() {
         .arg(&tree)
         .arg("-o")
         .arg(&tif)
-        .args(["--tile", "64", "-q"])
+        .args(["--tile", "64", "-q", "--terrain", "tents"])
         .output()
         .unwrap();
     assert!(

@@ -8,7 +8,8 @@ use clap::Args;
 use orogen::io::{open_raster, OpenOptions};
 use orogen::raster::{read_window, Grid, Window};
 use orogen::synth::orometric::{
-    synthesize_tree, OroTerrain, SynthPeak, SynthProfile, SynthTree, TerrainOptions, TreeOptions,
+    build_terrain, synthesize_tree, SynthPeak, SynthProfile, SynthTree, TerrainModel,
+    TerrainOptions, TreeOptions,
 };
 use std::path::{Path, PathBuf};
 
@@ -103,7 +104,20 @@ pub struct TreeArgs {
 /// Terrain options shared by `from-tree` and `orometric`.
 #[derive(Args, Clone)]
 pub struct TerrainArgs {
-    /// Flank slope (m/m).
+    // --- terrain model (issue 10, §6 of the paper) ---
+    /// Terrain model: `tin` (the paper's: river network dual of the divide tree,
+    /// valley widths ∝ A^0.4, constrained Delaunay TIN) or `tents` (upper
+    /// envelope of sloped tents over the ridges; faster, V-shaped valleys).
+    #[arg(long, value_enum, default_value_t = TerrainKind::Tin)]
+    pub terrain: TerrainKind,
+    /// TIN model: valley floor width (m) at 1 km² of drainage area (grows as A^0.4).
+    #[arg(long, default_value_t = 100.0)]
+    pub valley_width: f64,
+    /// TIN model: river slope (m/m) at 1 km² of drainage area (falls as A^-0.45).
+    #[arg(long, default_value_t = 0.2)]
+    pub river_slope: f64,
+    // --- end terrain model ---
+    /// Flank slope (m/m) of the tents model.
     #[arg(long, default_value_t = 0.6)]
     pub slope: f64,
     /// Ridge refinement spacing λ (m).
@@ -127,6 +141,15 @@ pub struct TerrainArgs {
     /// Erodibility K of the constrained erosion (m^0.2/yr for m = 0.4, n = 1).
     #[arg(long, default_value_t = 2e-5)]
     pub erode_k: f64,
+}
+
+/// Terrain model of `--terrain`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TerrainKind {
+    /// River network, valley widths and a constrained TIN (Argudo et al. 2019 §6).
+    Tin,
+    /// Upper envelope of tents over the refined ridges.
+    Tents,
 }
 
 /// Arguments of `orogen synth divide-tree`.
@@ -397,18 +420,24 @@ fn terrain_opts(t: &TerrainArgs) -> TerrainOptions {
         slope: t.slope,
         spacing_m: t.spacing,
         noise_amplitude: t.noise,
+        model: match t.terrain {
+            TerrainKind::Tin => TerrainModel::Tin,
+            TerrainKind::Tents => TerrainModel::Tents,
+        },
+        valley_width: t.valley_width,
+        river_slope: t.river_slope,
         ..TerrainOptions::default()
     }
 }
 
 fn write_terrain(tree: &SynthTree, t: &TerrainArgs, out: &Out, run: &Run) -> Result<()> {
-    let ter = OroTerrain::new(tree, &terrain_opts(t))?;
+    let ter = build_terrain(tree, &terrain_opts(t))?;
     let cfg = engine(run)?;
     let oo = output_options(&out.fmt)?;
     if t.erode == 0 {
-        orogen::ops::convert(&ter, &out.output, &oo, run.tile, &cfg)?;
+        orogen::ops::convert(&*ter, &out.output, &oo, run.tile, &cfg)?;
     } else {
-        let eroded = erode_keeping_tree(tree, &ter, t, &cfg)?;
+        let eroded = erode_keeping_tree(tree, &*ter, t, &cfg)?;
         orogen::ops::convert(&eroded, &out.output, &oo, run.tile, &cfg)?;
     }
     wrote(&out.output);
@@ -428,12 +457,12 @@ fn write_terrain(tree: &SynthTree, t: &TerrainArgs, out: &Out, run: &Run) -> Res
 /// peaks and saddles are the fixed points (`erosion::constrained`).
 fn erode_keeping_tree(
     tree: &SynthTree,
-    ter: &OroTerrain,
+    ter: &dyn orogen::raster::RasterSource,
     t: &TerrainArgs,
     cfg: &orogen::exec::EngineConfig,
 ) -> Result<orogen::raster::MemRaster> {
     use orogen::erosion::constrained::{erode_constrained, ConstrainedParams};
-    use orogen::raster::{AnyGrid, MemRaster, RasterSource};
+    use orogen::raster::{AnyGrid, MemRaster};
     let info = ter.info().clone();
     // Heights, receivers, stack, areas, donors and queues of the in-memory solver.
     let need = info.width as u64 * info.height as u64 * 100;

@@ -5,10 +5,13 @@
 //! Pipeline: a [`SynthProfile`] (target distributions measured on a real
 //! DEM, [`profile`]) → a divide tree ([`synthesize_tree`]: peaks by dart
 //! throwing, ridges by a Delaunay minimum spanning tree, saddle elevations
-//! by optimal assignment, [`assign`]) → a terrain ([`OroTerrain`]: ridges
-//! refined and rasterised as an upper envelope of tents, any window on
-//! demand, so it streams to a tile store). The divide tree is JSON and
+//! by optimal assignment, [`assign`]) → a terrain (any window on demand, so
+//! it streams to a tile store). The divide tree is JSON and
 //! editable between the two steps.
+//!
+//! Terrain models ([`build_terrain`]): [`TinTerrain`] (default; the paper's
+//! §6: [`rivers`] dual of the tree, valley widths, constrained TIN, [`tin`])
+//! and [`OroTerrain`] (tents).
 //!
 //! Authoring: fixed peaks, edits of a synthesised tree followed by
 //! regeneration ([`edit`]), pasting a fragment of a real divide tree
@@ -18,14 +21,18 @@ pub mod assign;
 pub mod edit;
 pub mod fragment;
 pub mod profile;
+pub mod rivers;
 pub mod terrain;
+pub mod terrain_tin;
+pub mod tin;
 pub mod tree_synth;
 pub mod typemap;
 
 pub use edit::{apply_edits, TreeEdit, TreeEdits};
 pub use fragment::Fragment;
 pub use profile::{Hist, PeakSamples, SynthProfile};
-pub use terrain::{OroTerrain, TerrainOptions};
+pub use terrain::{build_terrain, OroTerrain, TerrainModel, TerrainOptions};
+pub use terrain_tin::TinTerrain;
 pub use tree_synth::{
     ridge_tree, ridge_tree_with, synthesize_tree, FixedRidge, SynthPeak, SynthSaddle, SynthTree,
     TreeOptions,

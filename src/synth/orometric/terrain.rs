@@ -13,10 +13,11 @@
 //! saddles the minimax points of the tree, at their cells and elevations.
 //! Valleys form where tents of neighbouring ridges meet.
 //!
-//! This replaces the paper's river network, Poisson-disk samples and
-//! constrained TIN (§6.1–6.3) by the closed-form envelope: it keeps the tree
-//! exactly (which the paper's TIN does by constraint) at a fraction of the
-//! cost, but valley shapes are V-shaped rather than fluvial (see the notes).
+//! This "tents" model stands in for the paper's river network, Poisson-disk
+//! samples and constrained TIN (§6), which [`super::terrain_tin`] builds (the
+//! default model, chosen by [`TerrainOptions::model`] and [`build_terrain`]):
+//! it keeps the tree at a fraction of the cost, but valleys are V-shaped
+//! rather than fluvial.
 //! Multifractal noise (fBm with ridged octaves, [`crate::synth::Fbm`]) of
 //! amplitude below the prominence threshold is added away from the crests.
 //!
@@ -27,6 +28,7 @@
 //! alone: [`OroTerrain`] is a [`RasterSource`], so terrains of any size
 //! stream to a tile store in memory bounded by the tree.
 
+use super::terrain_tin::TinTerrain;
 use super::tree_synth::SynthTree;
 use crate::error::{Error, Result};
 use crate::oro::stats::SplitMix64;
@@ -49,6 +51,31 @@ pub struct TerrainOptions {
     pub noise_wavelength: f64,
     /// Lowest elevation (None: the lowest saddle − the prominence threshold, ≥ 0).
     pub floor: Option<f64>,
+    /// Which terrain model renders the tree.
+    pub model: TerrainModel,
+    /// TIN model: valley floor width (m) at 1 km² of drainage area (w ∝ A^0.4).
+    pub valley_width: f64,
+    /// TIN model: river channel slope (m/m) at 1 km² of drainage area.
+    pub river_slope: f64,
+}
+
+/// Terrain model of [`build_terrain`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum TerrainModel {
+    /// The paper's model (§6): river network dual of the tree, valley-width
+    /// interpolation and a constrained TIN ([`TinTerrain`]).
+    #[default]
+    Tin,
+    /// Upper envelope of tents over the ridges ([`OroTerrain`]).
+    Tents,
+}
+
+/// The terrain of `tree` with the model `opts.model`, as a raster source.
+pub fn build_terrain(tree: &SynthTree, opts: &TerrainOptions) -> Result<Box<dyn RasterSource>> {
+    Ok(match opts.model {
+        TerrainModel::Tin => Box::new(TinTerrain::new(tree, opts)?),
+        TerrainModel::Tents => Box::new(OroTerrain::new(tree, opts)?),
+    })
 }
 
 impl Default for TerrainOptions {
@@ -60,6 +87,9 @@ impl Default for TerrainOptions {
             noise_amplitude: None,
             noise_wavelength: 24.0,
             floor: None,
+            model: TerrainModel::default(),
+            valley_width: 100.0,
+            river_slope: 0.2,
         }
     }
 }

@@ -1,0 +1,445 @@
+//! The paper's terrain model for orometric synthesis (issue 10, Argudo et
+//! al. 2019 §6): river network dual of the divide tree, valley widths,
+//! constrained TIN. Oracles: `orogen::oro::peaks` (shares no code with the
+//! synthesis) on the render, `hydro::fill`, the domain area, windows against
+//! the whole render, and the profiles of real DEMs.
+
+use orogen::io::{open_raster, OpenOptions};
+use orogen::oro::stats::SplitMix64;
+use orogen::oro::{EdgeConvention, PeakOptions};
+use orogen::raster::{read_window, Grid, Window};
+use orogen::synth::orometric::*;
+use std::path::PathBuf;
+use std::process::Command;
+
+/// A profile from hand-made peak values (no DEM needed).
+fn toy_profile() -> SynthProfile {
+    let mut r = SplitMix64(99);
+    let mut s = PeakSamples::default();
+    for _ in 0..400 {
+        let u = r.unit();
+        let e = 600.0 + 1400.0 * u;
+        let p = 30.0 + 500.0 * r.unit().powi(3) * u;
+        s.elevation.push(e);
+        s.prominence.push(p);
+        s.dominance.push(p / e);
+        s.isolation_km.push(0.3 + 2.5 * r.unit().powi(2));
+        s.isolation_dir.push((r.unit() * 8.0).floor());
+        s.saddle_km.push(0.2 + 1.5 * r.unit());
+        s.saddle_dir.push((r.unit() * 8.0).floor());
+    }
+    s.area_km2 = 400.0 / 0.25;
+    SynthProfile::from_samples(&[s], 30.0, "toy", vec!["hand".into()]).unwrap()
+}
+
+fn toy_tree(w: usize, h: usize, peaks: usize, seed: u64) -> SynthTree {
+    let mut o = TreeOptions::new(w, h, 50.0, seed);
+    o.n_peaks = Some(peaks);
+    synthesize_tree(&toy_profile(), &o).unwrap()
+}
+
+fn tin_opts(noise: f64) -> TerrainOptions {
+    TerrainOptions {
+        noise_amplitude: Some(noise),
+        model: TerrainModel::Tin,
+        ..TerrainOptions::default()
+    }
+}
+
+/// `oro::peaks` on the render against the tree: (peaks expected, recovered).
+fn check_preserved(noise: f64) -> (usize, usize) {
+    let tree = toy_tree(320, 280, 80, 5);
+    let ter = TinTerrain::new(&tree, &tin_opts(noise)).unwrap();
+    let dem = ter.render();
+    let thr = tree.min_prominence;
+    let found = orogen::oro::peaks(
+        &dem,
+        ter.georef(),
+        &PeakOptions {
+            min_prominence: thr,
+            convention: EdgeConvention::SeaLevel,
+            isolation: false,
+        },
+    )
+    .unwrap()
+    .tree;
+    let prom = tree.prominences();
+    let h: Vec<f64> = tree.peaks.iter().map(|p| p.elevation).collect();
+    let hs: Vec<f64> = tree.saddles.iter().map(|s| s.elevation).collect();
+    let own = assign::owners(&h, &tree.edges(), &hs);
+    // Raster bound of a key saddle: the pass is read at cell centres up to
+    // one cell along the ridge from the saddle point.
+    let mut sbound = vec![0.0f64; h.len()];
+    for (e, &o) in own.iter().enumerate() {
+        let s = &tree.saddles[e];
+        let g = s
+            .peaks
+            .iter()
+            .map(|&q| {
+                let p = &tree.peaks[q];
+                (p.elevation - s.elevation) / (p.x - s.x).hypot(p.y - s.y).max(tree.cell)
+            })
+            .fold(0.0, f64::max);
+        sbound[o] = g * tree.cell;
+    }
+    let (mut want, mut ok) = (0, 0);
+    for (i, p) in tree.peaks.iter().enumerate() {
+        if prom[i] < thr + 2.0 * noise + 1.0 {
+            continue;
+        }
+        want += 1;
+        let (c, r) = ((p.x / tree.cell) as i64, (p.y / tree.cell) as i64);
+        let hit = found
+            .peaks
+            .iter()
+            .find(|q| (q.col as i64 - c).abs() <= 1 && (q.row as i64 - r).abs() <= 1);
+        if let Some(q) = hit {
+            let dz = (q.elevation as f64 - p.elevation).abs();
+            assert!(dz <= noise + 0.01, "peak {i}: elevation off by {dz} m");
+            let dp = (q.prominence - prom[i]).abs();
+            if dp <= 2.0 * noise + sbound[i] + 0.01 {
+                ok += 1;
+            } else {
+                println!("peak {i}: prominence {} vs {}", q.prominence, prom[i]);
+            }
+        } else {
+            println!("peak {i} at ({c}, {r}) not recovered");
+        }
+    }
+    println!(
+        "{} found above the threshold, {} samples, {} triangles",
+        found.peaks.len(),
+        ter.n_samples(),
+        ter.tin().n_triangles()
+    );
+    (want, ok)
+}
+
+#[test]
+fn tin_terrain_keeps_the_tree_without_noise() {
+    let (want, ok) = check_preserved(0.0);
+    println!("recovered {ok} of {want}");
+    assert!(want >= 50);
+    // Measured: 62 of 64 (seed 5; tents: 61 of 64). The two misses are found
+    // at their cells and elevations but with a lower prominence (12 and 27 m
+    // instead of 34 and 35 m): a pass higher than the tree's saddle, likely
+    // where a river runs within half a cell of a ridge and the crest band
+    // bridges it (see the notes).
+    assert!(ok as f64 >= 0.95 * want as f64, "recovered {ok} of {want}");
+}
+
+#[test]
+fn tin_terrain_keeps_the_tree_with_noise() {
+    let (want, ok) = check_preserved(8.0);
+    println!("recovered {ok} of {want}");
+    assert!(want >= 40);
+    assert!(ok as f64 >= 0.9 * want as f64, "recovered {ok} of {want}");
+}
+
+#[test]
+fn rivers_descend_to_the_border_and_drain_the_domain() {
+    let tree = toy_tree(240, 200, 50, 7);
+    let ter = TinTerrain::new(&tree, &tin_opts(0.0)).unwrap();
+    let net = ter.rivers();
+    let (wm, hm) = (240.0 * 50.0, 200.0 * 50.0);
+    assert_eq!(net.sinks, 0);
+    assert!(net.nodes.len() > 100);
+    let on_border = |x: f64, y: f64| x == 0.0 || y == 0.0 || x == wm || y == hm;
+    let mut outlet_area = 0.0;
+    for (i, n) in net.nodes.iter().enumerate() {
+        match n.down {
+            Some(d) => {
+                let m = &net.nodes[d as usize];
+                assert!(m.z <= n.z, "node {i}: {} then {} downstream", n.z, m.z);
+                assert!(m.area_m2 >= n.area_m2 * (1.0 - 1e-12) || m.down.is_none());
+            }
+            None => {
+                assert!(
+                    on_border(n.x, n.y),
+                    "node {i} ends inside at ({}, {})",
+                    n.x,
+                    n.y
+                );
+                outlet_area += n.area_m2;
+            }
+        }
+        // Every node reaches an outlet.
+        let mut j = i;
+        let mut steps = 0;
+        while let Some(d) = net.nodes[j].down {
+            j = d as usize;
+            steps += 1;
+            assert!(steps <= net.nodes.len(), "loop in the river network");
+        }
+    }
+    // The outlets together drain exactly the domain.
+    assert!(
+        (outlet_area - wm * hm).abs() <= 1e-6 * wm * hm,
+        "outlets drain {outlet_area} m² of {} m²",
+        wm * hm
+    );
+    // A river never rises above the saddle of the ridge it flows past:
+    // every river node lies below the lowest ridge point within 1.5 cells.
+    let r = &net.ridges;
+    let mut checked = 0;
+    for n in &net.nodes {
+        for p in &r.pts {
+            if (p[0] - n.x).hypot(p[1] - n.y) <= 1.5 * tree.cell {
+                assert!(
+                    n.z < p[2],
+                    "river at {} m next to a ridge point at {} m",
+                    n.z,
+                    p[2]
+                );
+                checked += 1;
+            }
+        }
+    }
+    println!(
+        "{} river nodes, {checked} close to ridges, {} constraints dropped",
+        net.nodes.len(),
+        ter.dropped_constraints()
+    );
+}
+
+#[test]
+fn few_cells_are_raised_by_fill_and_windows_equal_the_render() {
+    let tree = toy_tree(203, 171, 40, 11);
+    let ter = TinTerrain::new(&tree, &tin_opts(0.0)).unwrap();
+    let all = ter.render();
+    let filled = orogen::hydro::fill(&all).unwrap();
+    let raised = all
+        .data()
+        .iter()
+        .zip(filled.data())
+        .filter(|(a, b)| **b > **a + 1e-3)
+        .count();
+    let frac = raised as f64 / all.data().len() as f64;
+    println!("fill raised {raised} cells ({:.3} %)", 100.0 * frac);
+    assert!(
+        frac <= 0.02,
+        "fill raised {:.2} % of the cells",
+        100.0 * frac
+    );
+    // Odd tiles, read as windows, equal the whole render bit for bit.
+    for tile in [37usize, 64] {
+        for y in (0..171).step_by(tile) {
+            for x in (0..203).step_by(tile) {
+                let (w, h) = (tile.min(203 - x), tile.min(171 - y));
+                let g = read_window::<f32>(&ter, Window::new(x as i64, y as i64, w, h)).unwrap();
+                for yy in 0..h {
+                    for xx in 0..w {
+                        assert_eq!(g.get(xx, yy).to_bits(), all.get(x + xx, y + yy).to_bits());
+                    }
+                }
+            }
+        }
+    }
+    // Same tree → same terrain, built again; a one-thread render agrees.
+    let again = TinTerrain::new(&tree, &tin_opts(0.0)).unwrap().render();
+    assert_eq!(again.data(), all.data());
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let one = pool.install(|| TinTerrain::new(&tree, &tin_opts(0.0)).unwrap().render());
+    assert_eq!(one.data(), all.data());
+    // Noise stays within its amplitude of the noiseless surface.
+    let noisy = TinTerrain::new(&tree, &tin_opts(6.0)).unwrap().render();
+    let worst = noisy
+        .data()
+        .iter()
+        .zip(all.data())
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0f32, f32::max);
+    assert!(worst <= 6.0 * 1.01, "noise moved a cell by {worst} m");
+}
+
+#[test]
+fn bad_terrain_options_are_refused() {
+    let tree = toy_tree(100, 80, 12, 3);
+    for (o, msg) in [
+        (
+            TerrainOptions {
+                spacing_m: -1.0,
+                ..tin_opts(0.0)
+            },
+            "spacing",
+        ),
+        (
+            TerrainOptions {
+                valley_width: f64::NAN,
+                ..tin_opts(0.0)
+            },
+            "valley width",
+        ),
+        (
+            TerrainOptions {
+                river_slope: 3.0,
+                ..tin_opts(0.0)
+            },
+            "river slope",
+        ),
+        (tin_opts(20.0), "half the threshold"),
+    ] {
+        let e = TinTerrain::new(&tree, &o)
+            .err()
+            .expect("refused")
+            .to_string();
+        assert!(e.contains(msg), "{e}");
+    }
+    let mut big = tree.clone();
+    big.width = 2_000_000;
+    big.height = 2_000_000;
+    assert!(TinTerrain::new(&big, &tin_opts(0.0)).is_err());
+}
+
+fn shared(name: &str) -> Option<PathBuf> {
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data")
+        .join(name);
+    if p.exists() {
+        Some(p)
+    } else {
+        println!("note: {} absent, real-data check skipped", p.display());
+        None
+    }
+}
+
+/// Profile of a real DEM, synthesis of the same size with the TIN model,
+/// and the histogram errors (total variation) of the terrain's orometry.
+fn real_errors(name: &str, min_prom: f64) -> Option<std::collections::BTreeMap<String, f64>> {
+    let p = shared(name)?;
+    let src = open_raster(&p, &OpenOptions::default()).unwrap();
+    let (w, h) = (src.info().width, src.info().height);
+    let g = read_window::<f32>(&*src, Window::full(w, h)).unwrap();
+    let geo = src.info().georef.clone();
+    let prof = SynthProfile::from_dem(&g, &geo, min_prom, name, name).unwrap();
+    let (sx, sy) = geo.cell_size_m(h as i64 / 2);
+    let cell = (sx * sy).sqrt();
+    let t = synthesize_tree(&prof, &TreeOptions::new(w, h, cell, 3)).unwrap();
+    let ter = TinTerrain::new(&t, &TerrainOptions::default()).unwrap();
+    let dem = ter.render();
+    let s = PeakSamples::of_dem(&dem, ter.georef(), prof.min_prominence).unwrap();
+    let e = prof.errors(&s);
+    println!(
+        "{name}: {} synthesised peaks, {} measured; errors {e:?}",
+        t.peaks.len(),
+        s.elevation.len()
+    );
+    Some(e)
+}
+
+#[test]
+fn tin_distributions_match_the_alps_profile() {
+    let Some(e) = real_errors("terraindescriptors_alps_montblanc.tif", 30.0) else {
+        return;
+    };
+    // Measured (seed 3): isolation 0.081, prominence 0.052, dominance
+    // 0.050, elevation 0.037, density 0.002 (tents: 0.063, 0.080, 0.058,
+    // 0.042, 0.110). The paper's 3 % is not met on this tile.
+    assert!(e["isolation_km"] <= 0.09, "{e:?}");
+    assert!(e["prominence"] <= 0.06, "{e:?}");
+    assert!(e["dominance"] <= 0.055, "{e:?}");
+    assert!(e["elevation"] <= 0.045, "{e:?}");
+    assert!(e["peak_density"] <= 0.02, "{e:?}");
+}
+
+#[test]
+fn tin_distributions_match_the_low_relief_profile() {
+    let Some(e) = real_errors("pysheds_dem.tif", 5.0) else {
+        return;
+    };
+    // Measured (seed 3): isolation 0.053, prominence 0.012, dominance
+    // 0.047, elevation 0.067, density 0.018 (tents: 0.078, 0.012, 0.045,
+    // 0.048, 0.012). The paper's 8 % and 3 % hold for isolation and prominence.
+    assert!(e["isolation_km"] <= 0.08, "{e:?}");
+    assert!(e["prominence"] <= 0.03, "{e:?}");
+    assert!(e["dominance"] <= 0.06, "{e:?}");
+    assert!(e["elevation"] <= 0.08, "{e:?}");
+    assert!(e["peak_density"] <= 0.025, "{e:?}");
+}
+
+#[test]
+fn cli_terrain_models_and_erosion() {
+    let exe = env!("CARGO_BIN_EXE_orogen");
+    let dir = tempfile::tempdir().unwrap();
+    let t = toy_tree(150, 130, 25, 4);
+    let tree = dir.path().join("tree.json");
+    t.save(&tree).unwrap();
+    for (model, want) in [
+        (
+            "tin",
+            TinTerrain::new(&t, &TerrainOptions::default())
+                .unwrap()
+                .render(),
+        ),
+        (
+            "tents",
+            OroTerrain::new(&t, &TerrainOptions::default())
+                .unwrap()
+                .render(),
+        ),
+    ] {
+        let tif = dir.path().join(format!("{model}.tif"));
+        let st = Command::new(exe)
+            .args(["synth", "from-tree"])
+            .arg(&tree)
+            .args(["--terrain", model, "--tile", "37", "-q", "-o"])
+            .arg(&tif)
+            .output()
+            .unwrap();
+        assert!(
+            st.status.success(),
+            "{}",
+            String::from_utf8_lossy(&st.stderr)
+        );
+        let src = open_raster(&tif, &OpenOptions::default()).unwrap();
+        let got = read_window::<f32>(&*src, Window::full(150, 130)).unwrap();
+        assert_eq!(got.data(), want.data(), "{model}");
+    }
+    // Constrained erosion on the TIN terrain keeps the tree's elevations.
+    let tif = dir.path().join("eroded.tif");
+    let st = Command::new(exe)
+        .args(["synth", "from-tree"])
+        .arg(&tree)
+        .args(["--erode", "2", "--erode-radius", "120", "-q", "-o"])
+        .arg(&tif)
+        .output()
+        .unwrap();
+    assert!(
+        st.status.success(),
+        "{}",
+        String::from_utf8_lossy(&st.stderr)
+    );
+    let src = open_raster(&tif, &OpenOptions::default()).unwrap();
+    let got: Grid<f32> = read_window::<f32>(&*src, Window::full(150, 130)).unwrap();
+    let before = TinTerrain::new(&t, &TerrainOptions::default())
+        .unwrap()
+        .render();
+    let mut changed = 0;
+    for (a, b) in got.data().iter().zip(before.data()) {
+        if (a - b).abs() > 0.01 {
+            changed += 1;
+        }
+    }
+    assert!(changed > 100, "erosion changed only {changed} cells");
+    for p in &t.peaks {
+        let (c, r) = ((p.x / t.cell) as usize, (p.y / t.cell) as usize);
+        assert!(
+            (got.get(c, r) as f64 - p.elevation).abs() <= 0.02,
+            "peak moved from {} to {}",
+            p.elevation,
+            got.get(c, r)
+        );
+    }
+    // A bad model name is refused by the parser.
+    let st = Command::new(exe)
+        .args(["synth", "from-tree"])
+        .arg(&tree)
+        .args(["--terrain", "cones", "-o"])
+        .arg(dir.path().join("x.tif"))
+        .output()
+        .unwrap();
+    assert!(!st.status.success());
+}
