@@ -10,7 +10,8 @@
 //!    neighbour (slope = drop / distance, diagonals at `√2·dx`; ties broken by
 //!    the neighbour order E, SE, S, SW, W, NW, N, NE of [`crate::hydro`]).
 //!    Depressions are routed by [`Depressions`]: filling (a priority flood;
-//!    lake cells drain through the flood tree to the spill point), the basin
+//!    receivers by steepest descent on the water surface, flats of it drained
+//!    along breadth-first distances to their outlet), the basin
 //!    graph of Cordonnier, Bovy & Braun (2019, *Earth Surf. Dynam.* 7, 549–562:
 //!    basins of the local minima, minimum spanning tree of their passes
 //!    (Kruskal), receivers reversed from each pass down to the basin's pit —
@@ -42,7 +43,8 @@
 //! The solver is sequential and uses no hashing or threads: the result is the
 //! same bytes on every run.
 //!
-//! Not done: the tiled (out-of-core) solve; the grid must fit in memory.
+//! The tiled (out-of-core) solve with the same result bit for bit is
+//! [`super::stream_power_tiled`] (fill and no routing; not the basin graph).
 
 use crate::error::{Error, Result};
 use crate::raster::Grid;
@@ -50,17 +52,18 @@ use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
 /// Column offsets of the 8 neighbours (E, SE, S, SW, W, NW, N, NE), as in `hydro`.
-const DX: [isize; 8] = [1, 1, 0, -1, -1, -1, 0, 1];
+pub(crate) const DX: [isize; 8] = [1, 1, 0, -1, -1, -1, 0, 1];
 /// Row offsets of the 8 neighbours (y grows southwards).
-const DY: [isize; 8] = [0, 1, 1, 1, 0, -1, -1, -1];
+pub(crate) const DY: [isize; 8] = [0, 1, 1, 1, 0, -1, -1, -1];
 /// Largest number of explicit diffusion substeps one step may need.
-const MAX_DIFFUSION_SUBSTEPS: usize = 100_000;
+pub(crate) const MAX_DIFFUSION_SUBSTEPS: usize = 100_000;
 
 /// How flow crosses closed depressions when receivers are computed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Depressions {
-    /// Priority-flood filling (Barnes, Lehman & Mulla 2014): lake cells drain
-    /// along the flood tree towards the spill point.
+    /// Priority-flood filling (Barnes, Lehman & Mulla 2014): steepest descent
+    /// on the water surface; its flats drain along breadth-first distances to
+    /// their outlet (same definition in the tiled solve).
     Fill,
     /// Cordonnier, Bovy & Braun (2019) basin graph: minimum spanning tree of
     /// basin passes; receivers reversed from each pass to its pit.
@@ -253,8 +256,10 @@ pub struct StreamPower {
     scratch: Vec<f64>,
 }
 
-const VALID: u8 = 1;
-const BASE: u8 = 2;
+/// Cell flag: valid (finite) cell.
+pub(crate) const VALID: u8 = 1;
+/// Cell flag: base level.
+pub(crate) const BASE: u8 = 2;
 
 impl StreamPower {
     /// Prepare a solver for `h` (sets base levels to 0 if asked).
@@ -503,18 +508,28 @@ impl StreamPower {
         }
     }
 
-    /// Priority flood from the base levels: a cell reached from a cell whose
-    /// water level is at or above it is a lake cell and drains to that cell;
-    /// the others take the steepest descent on the water levels, which has a
-    /// strictly lower neighbour (the one that reached it). Along every
-    /// receiver path (level, flood order) strictly decreases: no cycles.
+    /// Depression filling, defined so that a tiled solve can reproduce it
+    /// exactly (see [`super::stream_power_tiled`]):
+    /// 1. water level `L` = the minimax ("priority-flood") level of Barnes,
+    ///    Lehman & Mulla (2014): `L = h` on base levels, elsewhere
+    ///    `L(i) = max(h(i), min over valid neighbours L(j))` — unique, and
+    ///    computed with `max`/`min` only, so any order gives the same bits;
+    /// 2. on flats of `L` (valid non-base cells with no strictly lower
+    ///    neighbour: lake surfaces and flat ground), the breadth-first
+    ///    distance `D` over equal-`L` 8-neighbours from the cells that drain
+    ///    (base levels and cells with a strictly lower neighbour, `D = 0`) —
+    ///    the "towards lower terrain" gradient of Barnes, Lehman & Mulla
+    ///    (2014, Computers & Geosciences 62, 128–135);
+    /// 3. receivers: steepest descent on `L` (ties to the first neighbour in
+    ///    E, SE, S, ... order); a flat cell drains to its equal-`L` neighbour
+    ///    of least `D` (first in that order), which is one step nearer the
+    ///    outlet. Along every receiver path `(L, D)` strictly decreases: no cycles.
     fn route_fill(&mut self, h: &[f64]) {
         let n = self.w * self.h;
         let (w, ht) = (self.w, self.h);
         self.level.clear();
         self.level.extend_from_slice(h);
         let mut seen = vec![false; n];
-        let mut lake = vec![false; n];
         let mut heap: BinaryHeap<Reverse<(u64, u32)>> = BinaryHeap::new();
         for i in 0..n {
             if self.flags[i] & BASE != 0 {
@@ -538,22 +553,107 @@ impl StreamPower {
                     continue;
                 }
                 seen[j] = true;
-                if h[j] <= wc {
-                    self.level[j] = wc;
-                    lake[j] = true;
-                    self.rec[j] = c as u32;
-                    self.dist[j] = self.step_len(d);
-                }
+                self.level[j] = h[j].max(wc);
                 heap.push(Reverse((order_key(self.level[j]), j as u32)));
             }
         }
-        // Non-lake cells: steepest descent on the water levels. Cells the
-        // flood never reached cannot exist (every valid cell connects to a
-        // base level or a nodata cell, itself next to a base level) except
-        // in components without any base level, which keep their own pits.
+        drop(seen);
         let level = std::mem::take(&mut self.level);
-        let not_lake: Vec<bool> = lake.iter().zip(&seen).map(|(l, s)| !*l && *s).collect();
-        self.steepest(&level, Some(&not_lake));
+        // Flat distances by breadth-first search from the draining cells.
+        let mut dd = vec![u32::MAX; n];
+        let mut queue = std::collections::VecDeque::new();
+        for y in 0..ht {
+            for x in 0..w {
+                let i = y * w + x;
+                let f = self.flags[i];
+                if f & VALID == 0 {
+                    continue;
+                }
+                let mut drains = f & BASE != 0;
+                if !drains {
+                    for d in 0..8 {
+                        let (nx, ny) = (x as isize + DX[d], y as isize + DY[d]);
+                        if nx < 0 || ny < 0 || nx as usize >= w || ny as usize >= ht {
+                            continue;
+                        }
+                        let j = ny as usize * w + nx as usize;
+                        if self.flags[j] & VALID != 0 && level[j] < level[i] {
+                            drains = true;
+                            break;
+                        }
+                    }
+                }
+                if drains {
+                    dd[i] = 0;
+                    queue.push_back(i as u32);
+                }
+            }
+        }
+        while let Some(c) = queue.pop_front() {
+            let c = c as usize;
+            let (x, y) = (c % w, c / w);
+            let next = dd[c] + 1;
+            for d in 0..8 {
+                let (nx, ny) = (x as isize + DX[d], y as isize + DY[d]);
+                if nx < 0 || ny < 0 || nx as usize >= w || ny as usize >= ht {
+                    continue;
+                }
+                let j = ny as usize * w + nx as usize;
+                if self.flags[j] & VALID != 0 && dd[j] == u32::MAX && level[j] == level[c] {
+                    dd[j] = next;
+                    queue.push_back(j as u32);
+                }
+            }
+        }
+        // Receivers on the water surface.
+        for y in 0..ht {
+            for x in 0..w {
+                let i = y * w + x;
+                self.rec[i] = i as u32;
+                self.dist[i] = 0.0;
+                if self.flags[i] != VALID {
+                    continue;
+                }
+                let zi = level[i];
+                let mut best = 0.0;
+                let mut bj = i;
+                let mut bd = 0.0;
+                for d in 0..8 {
+                    let (nx, ny) = (x as isize + DX[d], y as isize + DY[d]);
+                    if nx < 0 || ny < 0 || nx as usize >= w || ny as usize >= ht {
+                        continue;
+                    }
+                    let j = ny as usize * w + nx as usize;
+                    if self.flags[j] & VALID == 0 {
+                        continue;
+                    }
+                    let len = self.step_len(d);
+                    let s = (zi - level[j]) / len;
+                    if s > best {
+                        best = s;
+                        bj = j;
+                        bd = len;
+                    }
+                }
+                if bj == i {
+                    let mut bdd = dd[i];
+                    for d in 0..8 {
+                        let (nx, ny) = (x as isize + DX[d], y as isize + DY[d]);
+                        if nx < 0 || ny < 0 || nx as usize >= w || ny as usize >= ht {
+                            continue;
+                        }
+                        let j = ny as usize * w + nx as usize;
+                        if self.flags[j] & VALID != 0 && level[j] == zi && dd[j] < bdd {
+                            bdd = dd[j];
+                            bj = j;
+                            bd = self.step_len(d);
+                        }
+                    }
+                }
+                self.rec[i] = bj as u32;
+                self.dist[i] = bd;
+            }
+        }
         self.level = level;
         self.has_lakes = true;
     }
@@ -843,7 +943,7 @@ impl StreamPower {
 /// with `Δ = hs − hr`, in the cancellation-free form `D = 2Δ/(1 + √(1 + 4cΔ/d²))`.
 /// Otherwise Newton from `hs` (one `powf` per iteration); a step that would
 /// leave the bracket `(lo, hi)` is replaced by bisection.
-fn newton(hs: f64, hr: f64, d: f64, c: f64, n: f64) -> f64 {
+pub(crate) fn newton(hs: f64, hr: f64, d: f64, c: f64, n: f64) -> f64 {
     if n == 2.0 {
         let delta = hs - hr;
         return hr + 2.0 * delta / (1.0 + (1.0 + 4.0 * c * delta / (d * d)).sqrt());
@@ -875,7 +975,7 @@ fn newton(hs: f64, hr: f64, d: f64, c: f64, n: f64) -> f64 {
 
 /// Order-preserving map of a finite f64 to u64 (for heap and sort keys).
 #[inline]
-fn order_key(v: f64) -> u64 {
+pub(crate) fn order_key(v: f64) -> u64 {
     let b = v.to_bits();
     if b >> 63 == 1 {
         !b
