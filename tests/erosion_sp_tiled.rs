@@ -71,8 +71,7 @@ fn check(
     };
     stream_power(&mut a, 50.0, p, &u, steps).unwrap();
     for &t in tiles {
-        let (b, _) =
-            stream_power_tiled_grid(g, 50.0, p, up, steps, t, &SpBackend::Memory).unwrap();
+        let (b, _) = stream_power_tiled_grid(g, 50.0, p, up, steps, t, &SpBackend::Memory).unwrap();
         if let Some((i, x, y)) = same_bits(&a, &b) {
             panic!(
                 "tile {t}, {:?}: cell ({}, {}) untiled {x} tiled {y}",
@@ -98,7 +97,9 @@ fn params(dep: Depressions, n: f64, kd: f64) -> StreamPowerParams {
 }
 
 fn uplift_map(w: usize, h: usize) -> Grid<f64> {
-    Grid::from_fn(w, h, |x, y| 1e-3 * (1.0 + ((x * 3 + y * 5) % 7) as f64 / 7.0))
+    Grid::from_fn(w, h, |x, y| {
+        1e-3 * (1.0 + ((x * 3 + y * 5) % 7) as f64 / 7.0)
+    })
 }
 
 #[test]
@@ -201,7 +202,8 @@ fn scratch_files_give_the_same_bits() {
     let g = terrain(45, 38, 5, true);
     let up = uplift_map(45, 38);
     let p = params(Depressions::Fill, 1.0, 0.2);
-    let (mem, _) = stream_power_tiled_grid(&g, 50.0, &p, Some(&up), 4, 9, &SpBackend::Memory).unwrap();
+    let (mem, _) =
+        stream_power_tiled_grid(&g, 50.0, &p, Some(&up), 4, 9, &SpBackend::Memory).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let (disk, _) = stream_power_tiled_grid(
         &g,
@@ -251,7 +253,13 @@ fn real_dems_equal_untiled() {
             .map(|(a, b)| (a - b).abs())
             .sum();
         assert!(diff > 1.0, "{path}: nothing changed");
-        check(&g, &params(Depressions::None, 1.0, 0.0), Some(&up), 3, &[13, 64]);
+        check(
+            &g,
+            &params(Depressions::None, 1.0, 0.0),
+            Some(&up),
+            3,
+            &[13, 64],
+        );
     }
 }
 
@@ -271,7 +279,10 @@ fn bad_input_is_refused() {
     let p = params(Depressions::Fill, 1.0, 0.0);
     assert!(stream_power_tiled_grid(&g, 50.0, &p, None, 0, 7, &SpBackend::Memory).is_err());
     assert!(stream_power_tiled_grid(&g, 0.0, &p, None, 1, 7, &SpBackend::Memory).is_err());
-    let bad = StreamPowerParams { k: -1.0, ..p.clone() };
+    let bad = StreamPowerParams {
+        k: -1.0,
+        ..p.clone()
+    };
     assert!(stream_power_tiled_grid(&g, 50.0, &bad, None, 1, 7, &SpBackend::Memory).is_err());
     let up = Grid::new(19, 20, 1e-3);
     assert!(stream_power_tiled_grid(&g, 50.0, &p, Some(&up), 1, 7, &SpBackend::Memory).is_err());
@@ -305,15 +316,24 @@ fn sp_fill_definition() {
     let hv = g.data();
     let nb = |i: usize| {
         let (x, y) = ((i % w) as i64, (i / w) as i64);
-        [(1, 0), (1, 1), (0, 1), (-1, 1), (-1, 0), (-1, -1), (0, -1), (1, -1)]
-            .iter()
-            .enumerate()
-            .filter_map(move |(d, (dx, dy))| {
-                let (nx, ny) = (x + dx, y + dy);
-                (nx >= 0 && ny >= 0 && nx < w as i64 && ny < h as i64)
-                    .then(|| (d, ny as usize * w + nx as usize))
-            })
-            .collect::<Vec<_>>()
+        [
+            (1, 0),
+            (1, 1),
+            (0, 1),
+            (-1, 1),
+            (-1, 0),
+            (-1, -1),
+            (0, -1),
+            (1, -1),
+        ]
+        .iter()
+        .enumerate()
+        .filter_map(move |(d, (dx, dy))| {
+            let (nx, ny) = (x + dx, y + dy);
+            (nx >= 0 && ny >= 0 && nx < w as i64 && ny < h as i64)
+                .then(|| (d, ny as usize * w + nx as usize))
+        })
+        .collect::<Vec<_>>()
     };
     let valid = |i: usize| hv[i].is_finite();
     let mut lev: Vec<f64> = (0..w * h)
@@ -340,7 +360,8 @@ fn sp_fill_definition() {
             break;
         }
     }
-    let drains = |i: usize| sp.is_base(i) || nb(i).iter().any(|&(_, j)| valid(j) && lev[j] < lev[i]);
+    let drains =
+        |i: usize| sp.is_base(i) || nb(i).iter().any(|&(_, j)| valid(j) && lev[j] < lev[i]);
     let mut dd: Vec<u64> = (0..w * h)
         .map(|i| if valid(i) && drains(i) { 0 } else { u64::MAX })
         .collect();
@@ -377,7 +398,11 @@ fn sp_fill_definition() {
             if !valid(j) {
                 continue;
             }
-            let len = if d % 2 == 1 { 10.0 * std::f64::consts::SQRT_2 } else { 10.0 };
+            let len = if d % 2 == 1 {
+                10.0 * std::f64::consts::SQRT_2
+            } else {
+                10.0
+            };
             let s = (lev[i] - lev[j]) / len;
             if s > best.0 {
                 best = (s, j);

@@ -39,6 +39,9 @@
 //! Tiles are processed one after another (one thread); the result does not
 //! depend on the order nor on the tile size.
 
+// Tile and cell loops index several parallel arrays and `self` at once.
+#![allow(clippy::needless_range_loop)]
+
 use super::stream_power::{
     newton, order_key, BaseHeight, Depressions, StreamPowerParams, BASE, DX, DY,
     MAX_DIFFUSION_SUBSTEPS, VALID,
@@ -384,10 +387,8 @@ impl Solver {
         let mut edges = Vec::with_capacity(lay.count());
         for id in 0..lay.count() {
             let win = lay.window(id);
-            let padded = read_window::<f64>(
-                src,
-                Window::new(win.x - 1, win.y - 1, win.w + 2, win.h + 2),
-            )?;
+            let padded =
+                read_window::<f64>(src, Window::new(win.x - 1, win.y - 1, win.w + 2, win.h + 2))?;
             let pd = Pad::new(win);
             let pv = padded.data();
             let n = win.w * win.h;
@@ -485,7 +486,13 @@ impl Solver {
 
     /// The tile's field padded with a ring read from the neighbours'
     /// perimeters (`outside` beyond the raster).
-    fn pad<T: Copy>(&self, pd: &Pad, core: &[T], field: impl Fn(&Edge, usize) -> T, outside: T) -> Vec<T> {
+    fn pad<T: Copy>(
+        &self,
+        pd: &Pad,
+        core: &[T],
+        field: impl Fn(&Edge, usize) -> T,
+        outside: T,
+    ) -> Vec<T> {
         let (pw, ph) = (pd.w + 2, pd.h + 2);
         let mut v = vec![outside; pw * ph];
         for y in 0..pd.h {
@@ -1027,13 +1034,18 @@ impl Solver {
                 let pd = Pad::new(win);
                 let mut t = self.store.take(id, &self.lay)?;
                 let nc = t.h.len();
-                let hnp = self.pad(&pd, &vec![f64::NAN; nc], |e, k| {
-                    if e.hn_ok[k] {
-                        e.hn[k]
-                    } else {
-                        f64::NAN
-                    }
-                }, f64::NAN);
+                let hnp = self.pad(
+                    &pd,
+                    &vec![f64::NAN; nc],
+                    |e, k| {
+                        if e.hn_ok[k] {
+                            e.hn[k]
+                        } else {
+                            f64::NAN
+                        }
+                    },
+                    f64::NAN,
+                );
                 let okp = self.pad(&pd, &vec![false; nc], |e, k| e.hn_ok[k], false);
                 work.clear();
                 for i in 0..nc {
