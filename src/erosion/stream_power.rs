@@ -48,8 +48,6 @@
 
 use crate::error::{Error, Result};
 use crate::raster::Grid;
-use std::cmp::Reverse;
-use std::collections::BinaryHeap;
 
 /// Column offsets of the 8 neighbours (E, SE, S, SW, W, NW, N, NE), as in `hydro`.
 pub(crate) const DX: [isize; 8] = [1, 1, 0, -1, -1, -1, 0, 1];
@@ -504,7 +502,7 @@ impl StreamPower {
         match self.p.depressions {
             Depressions::None => {}
             Depressions::Fill => self.route_fill(h),
-            Depressions::BasinGraph => self.route_basin_graph(h),
+            Depressions::BasinGraph => self.route_basin_graph(h, true),
         }
     }
 
@@ -524,136 +522,131 @@ impl StreamPower {
     ///    E, SE, S, ... order); a flat cell drains to its equal-`L` neighbour
     ///    of least `D` (first in that order), which is one step nearer the
     ///    outlet. Along every receiver path `(L, D)` strictly decreases: no cycles.
+    ///
+    /// The levels come from the basin graph of the steepest-descent receivers
+    /// (no carving): a basin's level is the highest pass on its minimum
+    /// spanning tree path to the base levels, which is the minimax level a
+    /// priority flood gives (Cordonnier et al. 2019), at O(n) plus a sort of
+    /// the passes between basins instead of a heap operation per cell.
     fn route_fill(&mut self, h: &[f64]) {
         let n = self.w * self.h;
         let (w, ht) = (self.w, self.h);
-        self.level.clear();
-        self.level.extend_from_slice(h);
-        let mut seen = vec![false; n];
-        let mut heap: BinaryHeap<Reverse<(u64, u32)>> = BinaryHeap::new();
-        for i in 0..n {
-            if self.flags[i] & BASE != 0 {
-                seen[i] = true;
-                heap.push(Reverse((order_key(h[i]), i as u32)));
-            } else if self.flags[i] & VALID == 0 {
-                seen[i] = true;
-            }
-        }
-        while let Some(Reverse((_, c))) = heap.pop() {
-            let c = c as usize;
-            let (x, y) = (c % w, c / w);
-            let wc = self.level[c];
-            for d in 0..8 {
-                let (nx, ny) = (x as isize + DX[d], y as isize + DY[d]);
-                if nx < 0 || ny < 0 || nx as usize >= w || ny as usize >= ht {
-                    continue;
-                }
-                let j = ny as usize * w + nx as usize;
-                if seen[j] {
-                    continue;
-                }
-                seen[j] = true;
-                self.level[j] = h[j].max(wc);
-                heap.push(Reverse((order_key(self.level[j]), j as u32)));
-            }
-        }
-        drop(seen);
+        self.route_basin_graph(h, false);
         let level = std::mem::take(&mut self.level);
-        // Flat distances by breadth-first search from the draining cells.
-        let mut dd = vec![u32::MAX; n];
-        let mut queue = std::collections::VecDeque::new();
-        for y in 0..ht {
-            for x in 0..w {
-                let i = y * w + x;
-                let f = self.flags[i];
-                if f & VALID == 0 {
-                    continue;
-                }
-                let mut drains = f & BASE != 0;
-                if !drains {
-                    for d in 0..8 {
-                        let (nx, ny) = (x as isize + DX[d], y as isize + DY[d]);
-                        if nx < 0 || ny < 0 || nx as usize >= w || ny as usize >= ht {
-                            continue;
-                        }
-                        let j = ny as usize * w + nx as usize;
-                        if self.flags[j] & VALID != 0 && level[j] < level[i] {
-                            drains = true;
-                            break;
-                        }
-                    }
-                }
-                if drains {
-                    dd[i] = 0;
-                    queue.push_back(i as u32);
-                }
-            }
-        }
-        while let Some(c) = queue.pop_front() {
-            let c = c as usize;
-            let (x, y) = (c % w, c / w);
-            let next = dd[c] + 1;
-            for d in 0..8 {
-                let (nx, ny) = (x as isize + DX[d], y as isize + DY[d]);
-                if nx < 0 || ny < 0 || nx as usize >= w || ny as usize >= ht {
-                    continue;
-                }
-                let j = ny as usize * w + nx as usize;
-                if self.flags[j] & VALID != 0 && dd[j] == u32::MAX && level[j] == level[c] {
-                    dd[j] = next;
-                    queue.push_back(j as u32);
-                }
-            }
-        }
-        // Receivers on the water surface.
+        // One scan: steepest descent on the levels; `dd` = 0 for cells that
+        // drain (base levels, cells with a strictly lower neighbour), MAX for
+        // flat cells, which are collected.
+        let mut dd = std::mem::take(&mut self.basin);
+        dd.clear();
+        dd.resize(n, u32::MAX);
+        let mut flats: Vec<u32> = Vec::new();
+        let off: [isize; 8] = std::array::from_fn(|d| DY[d] * w as isize + DX[d]);
         for y in 0..ht {
             for x in 0..w {
                 let i = y * w + x;
                 self.rec[i] = i as u32;
                 self.dist[i] = 0.0;
-                if self.flags[i] != VALID {
+                let f = self.flags[i];
+                if f != VALID {
+                    if f & BASE != 0 {
+                        dd[i] = 0;
+                    }
                     continue;
                 }
                 let zi = level[i];
                 let mut best = 0.0;
                 let mut bj = i;
                 let mut bd = 0.0;
+                let mut lower = false;
+                let interior = x > 0 && y > 0 && x + 1 < w && y + 1 < ht;
                 for d in 0..8 {
-                    let (nx, ny) = (x as isize + DX[d], y as isize + DY[d]);
-                    if nx < 0 || ny < 0 || nx as usize >= w || ny as usize >= ht {
-                        continue;
-                    }
-                    let j = ny as usize * w + nx as usize;
+                    let j = if interior {
+                        (i as isize + off[d]) as usize
+                    } else {
+                        let (nx, ny) = (x as isize + DX[d], y as isize + DY[d]);
+                        if nx < 0 || ny < 0 || nx as usize >= w || ny as usize >= ht {
+                            continue;
+                        }
+                        ny as usize * w + nx as usize
+                    };
                     if self.flags[j] & VALID == 0 {
                         continue;
                     }
+                    let zj = level[j];
+                    lower |= zj < zi;
                     let len = self.step_len(d);
-                    let s = (zi - level[j]) / len;
+                    let s = (zi - zj) / len;
                     if s > best {
                         best = s;
                         bj = j;
                         bd = len;
                     }
                 }
-                if bj == i {
-                    let mut bdd = dd[i];
-                    for d in 0..8 {
-                        let (nx, ny) = (x as isize + DX[d], y as isize + DY[d]);
-                        if nx < 0 || ny < 0 || nx as usize >= w || ny as usize >= ht {
-                            continue;
-                        }
-                        let j = ny as usize * w + nx as usize;
-                        if self.flags[j] & VALID != 0 && level[j] == zi && dd[j] < bdd {
-                            bdd = dd[j];
-                            bj = j;
-                            bd = self.step_len(d);
-                        }
-                    }
-                }
                 self.rec[i] = bj as u32;
                 self.dist[i] = bd;
+                if lower {
+                    dd[i] = 0;
+                } else {
+                    flats.push(i as u32);
+                }
             }
         }
+        if !flats.is_empty() {
+            // Breadth-first distances over equal-level flat cells, from the
+            // draining cells next to them (the only seeds that reach a flat).
+            let mut queue = std::collections::VecDeque::new();
+            for &f in &flats {
+                let f = f as usize;
+                let (x, y) = (f % w, f / w);
+                for d in 0..8 {
+                    let (nx, ny) = (x as isize + DX[d], y as isize + DY[d]);
+                    if nx < 0 || ny < 0 || nx as usize >= w || ny as usize >= ht {
+                        continue;
+                    }
+                    let j = ny as usize * w + nx as usize;
+                    if self.flags[j] & VALID != 0 && dd[j] == 0 && level[j] == level[f] {
+                        queue.push_back(j as u32);
+                    }
+                }
+            }
+            while let Some(c) = queue.pop_front() {
+                let c = c as usize;
+                let (x, y) = (c % w, c / w);
+                let next = dd[c] + 1;
+                for d in 0..8 {
+                    let (nx, ny) = (x as isize + DX[d], y as isize + DY[d]);
+                    if nx < 0 || ny < 0 || nx as usize >= w || ny as usize >= ht {
+                        continue;
+                    }
+                    let j = ny as usize * w + nx as usize;
+                    if self.flags[j] & VALID != 0 && dd[j] == u32::MAX && level[j] == level[c] {
+                        dd[j] = next;
+                        queue.push_back(j as u32);
+                    }
+                }
+            }
+            // Flat cells without a strictly lower neighbour on the levels
+            // drain to the equal-level neighbour nearest the outlet.
+            for &f in &flats {
+                let i = f as usize;
+                let (x, y) = (i % w, i / w);
+                let zi = level[i];
+                let mut bdd = dd[i];
+                for d in 0..8 {
+                    let (nx, ny) = (x as isize + DX[d], y as isize + DY[d]);
+                    if nx < 0 || ny < 0 || nx as usize >= w || ny as usize >= ht {
+                        continue;
+                    }
+                    let j = ny as usize * w + nx as usize;
+                    if self.flags[j] & VALID != 0 && level[j] == zi && dd[j] < bdd {
+                        bdd = dd[j];
+                        self.rec[i] = j as u32;
+                        self.dist[i] = self.step_len(d);
+                    }
+                }
+            }
+        }
+        self.basin = dd;
         self.level = level;
         self.has_lakes = true;
     }
@@ -664,7 +657,7 @@ impl StreamPower {
     /// every base-level basin merged into one root, then, from the root
     /// outwards, each basin's receivers reversed from its pass cell down to
     /// its pit, and the pass cell pointed across the pass ("carving").
-    fn route_basin_graph(&mut self, h: &[f64]) {
+    fn route_basin_graph(&mut self, h: &[f64], carve: bool) {
         let (w, ht) = (self.w, self.h);
         let n = w * ht;
         // Basin of each cell = its root, found by the stack walk.
@@ -763,6 +756,9 @@ impl StreamPower {
                 queue.push_back(c);
                 let pass = h[out_cell as usize].max(h[in_cell as usize]);
                 water[c as usize] = pass.max(water[b as usize]);
+                if !carve {
+                    continue;
+                }
                 // Reverse the path in_cell -> ... -> pit, then in_cell -> out_cell.
                 let pit = pit_of[c as usize] as usize;
                 let mut prev = out_cell as usize;
