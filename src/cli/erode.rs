@@ -51,7 +51,8 @@ pub struct ErodeArgs {
     #[arg(long)]
     pub steps: Option<u64>,
     /// TOML parameter file: optional top-level `steps` and `exchange`, and one table per
-    /// model ([hydraulic], [thermal], [diffusion]); see configs/erosion-hydraulic.toml.
+    /// model ([hydraulic], [thermal], [diffusion], [stream-power]); see
+    /// configs/erosion-hydraulic.toml and configs/erosion-stream-power.toml.
     #[arg(long, value_name = "FILE")]
     pub params: Option<PathBuf>,
     /// Set a model parameter (repeatable), e.g. --set rain=0.02 --set settle=false.
