@@ -51,7 +51,8 @@ pub struct ErodeArgs {
     #[arg(long)]
     pub steps: Option<u64>,
     /// TOML parameter file: optional top-level `steps` and `exchange`, and one table per
-    /// model ([hydraulic], [thermal], [diffusion]); see configs/erosion-hydraulic.toml.
+    /// model ([hydraulic], [thermal], [diffusion], [stream-power]); see
+    /// configs/erosion-hydraulic.toml and configs/erosion-stream-power.toml.
     #[arg(long, value_name = "FILE")]
     pub params: Option<PathBuf>,
     /// Set a model parameter (repeatable), e.g. --set rain=0.02 --set settle=false.
@@ -88,39 +89,35 @@ pub struct ErodeArgs {
     pub scratch: Option<PathBuf>,
     /// Stream-power options (--model stream-power).
     #[command(flatten)]
-    pub sp: crate::cli::erode_sp::StreamPowerArgs,
+    pub sp: Box<crate::cli::erode_sp::StreamPowerArgs>,
     #[command(flatten)]
     pub out: Out,
     #[command(flatten)]
     pub run: Run,
 }
 
-/// `--model stream-power`: the implicit solver in memory, with `--steps`,
-/// `--dt` (years) and `--diffusivity` (Kd) taken from the common flags.
-fn run_stream_power(mut a: ErodeArgs) -> Result<()> {
+/// `--model stream-power`: the implicit solver, in memory or tiled (out of core).
+/// Parameters: the `[stream-power]` table of `--params`, then `--set`, then
+/// `--dt`/`--diffusivity` (merged in `table` by [`gather`]), then the
+/// stream-power flags (`--k`, `--m`, ...), which win.
+fn run_stream_power(mut a: ErodeArgs, table: toml::Table, steps: u64) -> Result<()> {
     let local_only = [
-        (a.params.is_some(), "--params"),
-        (!a.set.is_empty(), "--set"),
         (a.exchange.is_some(), "--exchange"),
         (a.water.is_some(), "--water"),
         (a.sediment.is_some(), "--sediment"),
-        (a.scratch.is_some(), "--scratch"),
     ];
     for (given, flag) in local_only {
         if given {
-            bail!("{flag} applies to the hydraulic, thermal and diffusion models; stream power takes its parameters as flags (--k --m --n --uplift --uplift-map --depressions ...)");
+            bail!("{flag} applies to the hydraulic, thermal and diffusion models, not to stream power");
         }
     }
-    let Some(steps) = a.steps else {
-        bail!("give the number of steps with --steps N");
-    };
     a.sp.steps = usize::try_from(steps).context("--steps is too large")?;
-    if let Some(dt) = a.dt {
-        a.sp.dt = dt;
-    }
-    if let Some(kd) = a.diffusivity {
-        a.sp.diffusion = kd;
-    }
+    let from = match &a.params {
+        Some(p) => format!("[stream-power] of {} and --set", p.display()),
+        None => "--set".to_string(),
+    };
+    a.sp.merge_table(table, &from)?;
+    a.sp.scratch = a.scratch.clone();
     if let Some(dir) = &a.preview {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("{}: cannot create the preview folder", dir.display()))?;
@@ -140,7 +137,14 @@ fn run_stream_power(mut a: ErodeArgs) -> Result<()> {
 }
 
 /// Top-level keys of a parameter file.
-const FILE_KEYS: [&str; 5] = ["steps", "exchange", "hydraulic", "thermal", "diffusion"];
+const FILE_KEYS: [&str; 6] = [
+    "steps",
+    "exchange",
+    "hydraulic",
+    "thermal",
+    "diffusion",
+    "stream-power",
+];
 
 /// Default substeps between exchanges.
 pub const DEFAULT_EXCHANGE: usize = 8;
@@ -374,6 +378,6 @@ pub fn run(a: ErodeArgs) -> Result<()> {
             let model = Diffusion::new(p, steps, cell_of(src.as_ref(), has_cell)?)?;
             execute(&model, &a, src.as_ref(), exchange)
         }
-        ModelArg::StreamPower => run_stream_power(a),
+        ModelArg::StreamPower => run_stream_power(a, table, steps),
     }
 }

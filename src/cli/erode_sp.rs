@@ -46,34 +46,41 @@ pub struct StreamPowerArgs {
     /// Time step in years: `orogen erode --dt` (default 1000).
     #[arg(skip = 1000.0)]
     pub dt: f64,
-    /// Erodibility K (for n = 1: m^(1-2m)/yr).
-    #[arg(long = "k", default_value_t = 1e-5)]
-    pub k: f64,
-    /// Drainage-area exponent m.
-    #[arg(long = "m", default_value_t = 0.4)]
-    pub m: f64,
-    /// Slope exponent n (n != 1 is solved by Newton iteration).
-    #[arg(long = "n", default_value_t = 1.0)]
-    pub n: f64,
-    /// Uniform uplift rate in m/yr.
-    #[arg(long, default_value_t = 0.0, conflicts_with = "uplift_map")]
-    pub uplift: f64,
+    /// Erodibility K (for n = 1: m^(1-2m)/yr) [default 1e-5].
+    #[arg(long = "k")]
+    pub k: Option<f64>,
+    /// Drainage-area exponent m [default 0.4].
+    #[arg(long = "m")]
+    pub m: Option<f64>,
+    /// Slope exponent n (n != 1 is solved by Newton iteration) [default 1].
+    #[arg(long = "n")]
+    pub n: Option<f64>,
+    /// Uniform uplift rate in m/yr [default 0].
+    #[arg(long, conflicts_with = "uplift_map")]
+    pub uplift: Option<f64>,
     /// Uplift rate map (m/yr), a raster of the DEM's size.
     #[arg(long)]
     pub uplift_map: Option<PathBuf>,
     /// Hillslope diffusivity Kd in m^2/yr (0 = none): `orogen erode --diffusivity`.
     #[arg(skip = 0.0)]
     pub diffusion: f64,
-    /// Depression routing.
-    #[arg(long, value_enum, default_value_t = DepressionsArg::Fill)]
-    pub depressions: DepressionsArg,
-    /// Base-level borders: all, none, or a list of north,south,east,west.
-    /// Cells next to nodata are always base levels.
-    #[arg(long, default_value = "all")]
-    pub base_level: String,
-    /// Height of the base-level cells.
-    #[arg(long, value_enum, default_value_t = BaseHeightArg::Initial)]
-    pub base_height: BaseHeightArg,
+    /// Depression routing [default fill].
+    #[arg(long, value_enum)]
+    pub depressions: Option<DepressionsArg>,
+    /// Base-level borders: all, none, or a list of north,south,east,west
+    /// [default all]. Cells next to nodata are always base levels.
+    #[arg(long)]
+    pub base_level: Option<String>,
+    /// Height of the base-level cells [default initial].
+    #[arg(long, value_enum)]
+    pub base_height: Option<BaseHeightArg>,
+    /// Force the tiled (out-of-core) solve, which is otherwise chosen when the
+    /// DEM does not fit in --memory; same result bit for bit.
+    #[arg(long)]
+    pub tiled: bool,
+    /// Scratch folder of the tiled solve (set by `orogen erode --scratch`).
+    #[arg(skip)]
+    pub scratch: Option<PathBuf>,
     /// Fixed points to keep (constrained erosion): CSV with col,row columns
     /// (orogen's peaks.csv; its saddle_x/saddle_y columns are kept too) or x,y
     /// map coordinates, or GeoJSON (Point, MultiPoint, LineString vertices).
@@ -93,6 +100,24 @@ pub struct StreamPowerArgs {
     pub cell: Option<f64>,
 }
 
+/// The `[stream-power]` table of a parameter file (every key optional).
+#[derive(serde::Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct SpTable {
+    k: Option<f64>,
+    m: Option<f64>,
+    n: Option<f64>,
+    dt: Option<f64>,
+    diffusivity: Option<f64>,
+    uplift: Option<f64>,
+    uplift_map: Option<PathBuf>,
+    depressions: Option<String>,
+    base_level: Option<String>,
+    base_height: Option<String>,
+    cell: Option<f64>,
+    tiled: Option<bool>,
+}
+
 /// Bytes per cell the in-memory solver needs (heights, receivers, distances,
 /// stack, area, donors, levels, flags, queue), checked against --memory.
 const BYTES_PER_CELL: u64 = 96;
@@ -101,18 +126,19 @@ impl StreamPowerArgs {
     /// The library parameters (validated).
     pub fn params(&self) -> Result<StreamPowerParams> {
         let p = StreamPowerParams {
-            k: self.k,
-            m: self.m,
-            n: self.n,
+            k: self.k.unwrap_or(1e-5),
+            m: self.m.unwrap_or(0.4),
+            n: self.n.unwrap_or(1.0),
             dt: self.dt,
             kd: self.diffusion,
-            depressions: match self.depressions {
+            depressions: match self.depressions.unwrap_or(DepressionsArg::Fill) {
                 DepressionsArg::Fill => Depressions::Fill,
                 DepressionsArg::BasinGraph => Depressions::BasinGraph,
                 DepressionsArg::None => Depressions::None,
             },
-            boundary: Boundary::parse(&self.base_level).context("--base-level")?,
-            base_height: match self.base_height {
+            boundary: Boundary::parse(self.base_level.as_deref().unwrap_or("all"))
+                .context("--base-level")?,
+            base_height: match self.base_height.unwrap_or(BaseHeightArg::Initial) {
                 BaseHeightArg::Initial => BaseHeight::Initial,
                 BaseHeightArg::Zero => BaseHeight::Zero,
             },
@@ -121,8 +147,11 @@ impl StreamPowerArgs {
         if self.steps == 0 {
             bail!("--steps 0: give at least one time step");
         }
-        if !self.uplift.is_finite() {
-            bail!("--uplift {}: give a finite rate in m/yr", self.uplift);
+        if !self.uplift_rate().is_finite() {
+            bail!(
+                "--uplift {}: give a finite rate in m/yr",
+                self.uplift_rate()
+            );
         }
         if self.fixed_points.is_some() != self.radius.is_some() {
             bail!("--fixed-points and --radius go together (radius in metres, e.g. 10 cells)");
@@ -131,6 +160,74 @@ impl StreamPowerArgs {
             bail!("--compensate-every 0: give at least 1 step");
         }
         Ok(p)
+    }
+
+    /// The uniform uplift rate (m/yr), 0 unless given.
+    pub fn uplift_rate(&self) -> f64 {
+        self.uplift.unwrap_or(0.0)
+    }
+
+    /// Fill the options not given on the command line from a `[stream-power]`
+    /// parameter table (file, then `--set`, then `--dt`/`--diffusivity`, as
+    /// merged by `orogen erode`). Unknown keys are refused with the valid ones.
+    pub fn merge_table(&mut self, table: toml::Table, from: &str) -> Result<()> {
+        let f: SpTable = toml::Value::Table(table).try_into().map_err(|e| {
+            anyhow::anyhow!(
+                "stream-power parameters ({from}): {}",
+                e.to_string().trim_end()
+            )
+        })?;
+        let pick = |v: Option<String>, key: &str| -> Result<Option<String>> {
+            Ok(v.map(|s| s.trim().to_ascii_lowercase()).map(|s| {
+                if key == "depressions" {
+                    s.replace('_', "-")
+                } else {
+                    s
+                }
+            }))
+        };
+        self.k = self.k.or(f.k);
+        self.m = self.m.or(f.m);
+        self.n = self.n.or(f.n);
+        if self.uplift.is_none() && self.uplift_map.is_none() {
+            match (f.uplift, f.uplift_map) {
+                (Some(_), Some(_)) => {
+                    bail!("stream-power parameters ({from}): give uplift or uplift_map, not both")
+                }
+                (u, m) => {
+                    self.uplift = u;
+                    self.uplift_map = m;
+                }
+            }
+        }
+        if let Some(dt) = f.dt {
+            self.dt = dt;
+        }
+        if let Some(kd) = f.diffusivity {
+            self.diffusion = kd;
+        }
+        if self.depressions.is_none() {
+            if let Some(d) = pick(f.depressions, "depressions")? {
+                self.depressions = Some(DepressionsArg::from_str(&d, true).map_err(|_| {
+                    anyhow::anyhow!(
+                        "stream-power parameters ({from}): depressions = {d:?}; use fill, basin-graph or none"
+                    )
+                })?);
+            }
+        }
+        if self.base_height.is_none() {
+            if let Some(d) = pick(f.base_height, "base_height")? {
+                self.base_height = Some(BaseHeightArg::from_str(&d, true).map_err(|_| {
+                    anyhow::anyhow!(
+                        "stream-power parameters ({from}): base_height = {d:?}; use initial or zero"
+                    )
+                })?);
+            }
+        }
+        self.base_level = self.base_level.take().or(f.base_level);
+        self.cell = self.cell.or(f.cell);
+        self.tiled |= f.tiled.unwrap_or(false);
+        Ok(())
     }
 
     /// Erode `h` (f64, NaN = nodata) with these options; `georef` places the
@@ -171,7 +268,7 @@ impl StreamPowerArgs {
                     up_level = downsample_area(m, g.width(), g.height())?;
                     Uplift::Map(&up_level)
                 }
-                None => Uplift::Uniform(self.uplift),
+                None => Uplift::Uniform(self.uplift_rate()),
             };
             match &fixed {
                 None => stream_power(g, c, &p, &up, self.steps)?,
@@ -183,7 +280,7 @@ impl StreamPowerArgs {
                     let every = self.compensate_every.min(self.steps);
                     let cp = ConstrainedParams {
                         stream: p.clone(),
-                        uplift: self.uplift,
+                        uplift: self.uplift_rate(),
                         iterations: self.steps.div_ceil(every),
                         steps_per_iteration: every,
                         ..Default::default()
@@ -436,16 +533,26 @@ pub fn run(
     let oo = crate::output_options(&a.out.fmt)?;
     let info = src.info().clone();
     let need = info.width as u64 * info.height as u64 * BYTES_PER_CELL;
-    if need > cfg.memory_budget {
-        bail!(
-            "{}: stream power runs in memory and needs about {:.1} GiB for {}x{} cells; \
-             raise --memory (e.g. --memory {}GiB) or crop the DEM",
-            a.input.input.display(),
-            need as f64 / (1u64 << 30) as f64,
-            info.width,
-            info.height,
-            need.div_ceil(1 << 30)
-        );
+    let tiled = a.model.tiled || need > cfg.memory_budget;
+    if tiled {
+        if !a.model.levels.is_empty() || a.model.fixed_points.is_some() {
+            bail!(
+                "{}: --levels and --fixed-points run in memory only ({}); raise --memory (about {:.1} GiB) or drop them",
+                a.input.input.display(),
+                if a.model.tiled { "--tiled was given" } else { "the DEM does not fit in --memory" },
+                need as f64 / (1u64 << 30) as f64
+            );
+        }
+        if a.model.depressions == Some(DepressionsArg::BasinGraph) {
+            bail!(
+                "{}: --depressions basin-graph runs in memory only ({}); use --depressions fill or none, or raise --memory (about {:.1} GiB)",
+                a.input.input.display(),
+                if a.model.tiled { "--tiled was given" } else { "the DEM does not fit in --memory" },
+                need as f64 / (1u64 << 30) as f64
+            );
+        }
+    } else if a.model.scratch.is_some() {
+        bail!("--scratch applies to the tiled stream-power solve only (give --tiled, or a DEM larger than --memory)");
     }
     let cell = match a.model.cell {
         Some(c) => {
@@ -466,6 +573,9 @@ pub fn run(
             0.5 * (cx + cy)
         }
     };
+    if tiled {
+        return run_tiled(a.model, src.as_ref(), cell, a.out, a.run, &oo, &cfg);
+    }
     let dem = read_window::<f64>(src.as_ref(), Window::full(info.width, info.height))?;
     let out = a
         .model
@@ -485,5 +595,117 @@ pub fn run(
     );
     orogen::ops::convert(&mem, &a.out.output, &oo, a.run.tile, &cfg)?;
     crate::wrote(&a.out.output);
+    Ok(())
+}
+
+/// The tiled (out-of-core) solve, written tile by tile to the output.
+fn run_tiled(
+    model: &StreamPowerArgs,
+    src: &dyn orogen::raster::RasterSource,
+    cell: f64,
+    out: &crate::Out,
+    run: &crate::Run,
+    oo: &orogen::io::OutputOptions,
+    cfg: &orogen::exec::EngineConfig,
+) -> Result<()> {
+    use orogen::erosion::stream_power_tiled::{
+        stream_power_tiled, SpBackend, TiledUplift, TILE_BYTES_PER_CELL,
+    };
+    let p = model.params()?;
+    let info = src.info().clone();
+    let t0 = std::time::Instant::now();
+    let layout = orogen::ops::choose_layout(src, std::slice::from_ref(&out.output), oo, run.tile);
+    let map_src = match &model.uplift_map {
+        Some(path) => Some(orogen::io::open_raster(path, &Default::default())?),
+        None => None,
+    };
+    let uplift = match &map_src {
+        Some(m) => TiledUplift::Map(m.as_ref()),
+        None => TiledUplift::Uniform(model.uplift_rate()),
+    };
+    let cells = info.width as u64 * info.height as u64;
+    let (backend, cleanup) = match &model.scratch {
+        None if cells.saturating_mul(TILE_BYTES_PER_CELL) <= cfg.memory_budget / 2 => {
+            (SpBackend::Memory, None)
+        }
+        Some(d) => {
+            let dir = d.join("orogen-sp-scratch");
+            (SpBackend::Disk(dir.clone()), Some(dir))
+        }
+        None => {
+            let name = out
+                .output
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_else(|| "erosion".into());
+            let dir = out.output.with_file_name(format!(".{name}.sp-scratch"));
+            (SpBackend::Disk(dir.clone()), Some(dir))
+        }
+    };
+    let georef = info.georef.clone().with_nodata(Some(FILL_NODATA));
+    let prov = orogen::store::Provenance::new(
+        "erode-stream-power",
+        serde_json::json!({
+            "model": "stream-power", "k": p.k, "m": p.m, "n": p.n, "dt": p.dt, "kd": p.kd,
+            "steps": model.steps, "uplift": model.uplift_rate(),
+            "uplift_map": model.uplift_map.as_ref().map(|p| p.display().to_string()),
+            "depressions": format!("{:?}", p.depressions), "cell": cell,
+        }),
+        vec![info.path.display().to_string()],
+    );
+    let mut sink = orogen::io::create_sink(
+        &out.output,
+        info.width,
+        info.height,
+        orogen::raster::DType::F32,
+        &georef,
+        oo,
+        prov,
+    )?;
+    let result = stream_power_tiled(
+        src,
+        cell,
+        &p,
+        &uplift,
+        model.steps,
+        layout.tile,
+        &backend,
+        |id, win, g| {
+            let g = g.map(|v| {
+                if v.is_finite() {
+                    v as f32
+                } else {
+                    FILL_NODATA as f32
+                }
+            });
+            sink.write(id, win, AnyGrid::F32(g))
+        },
+    );
+    if let Some(dir) = &cleanup {
+        if let Err(e) = std::fs::remove_dir_all(dir) {
+            if e.kind() != std::io::ErrorKind::NotFound {
+                eprintln!(
+                    "warning: {}: cannot remove the scratch folder: {e}",
+                    dir.display()
+                );
+            }
+        }
+    }
+    let stats = result.with_context(|| format!("{}", info.path.display()))?;
+    sink.finish()?;
+    if !run.quiet {
+        eprintln!(
+            "erode: stream power (tiled, {}-cell tiles, {}) on {}x{} cells, {} steps, {} tile passes (longest round {}), {:.1} s",
+            layout.tile,
+            if cleanup.is_some() { "scratch files" } else { "in memory" },
+            info.width,
+            info.height,
+            model.steps,
+            stats.passes,
+            stats.max_round,
+            t0.elapsed().as_secs_f64()
+        );
+    }
+    crate::wrote(&out.output);
     Ok(())
 }

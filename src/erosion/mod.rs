@@ -202,3 +202,4 @@ pub(crate) fn valid(v: f64) -> bool {
 pub mod constrained;
 pub mod multires;
 pub mod stream_power;
+pub mod stream_power_tiled;

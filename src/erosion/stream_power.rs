@@ -10,7 +10,8 @@
 //!    neighbour (slope = drop / distance, diagonals at `√2·dx`; ties broken by
 //!    the neighbour order E, SE, S, SW, W, NW, N, NE of [`crate::hydro`]).
 //!    Depressions are routed by [`Depressions`]: filling (a priority flood;
-//!    lake cells drain through the flood tree to the spill point), the basin
+//!    receivers by steepest descent on the water surface, flats of it drained
+//!    along breadth-first distances to their outlet), the basin
 //!    graph of Cordonnier, Bovy & Braun (2019, *Earth Surf. Dynam.* 7, 549–562:
 //!    basins of the local minima, minimum spanning tree of their passes
 //!    (Kruskal), receivers reversed from each pass down to the basin's pit —
@@ -42,25 +43,25 @@
 //! The solver is sequential and uses no hashing or threads: the result is the
 //! same bytes on every run.
 //!
-//! Not done: the tiled (out-of-core) solve; the grid must fit in memory.
+//! The tiled (out-of-core) solve with the same result bit for bit is
+//! [`super::stream_power_tiled`] (fill and no routing; not the basin graph).
 
 use crate::error::{Error, Result};
 use crate::raster::Grid;
-use std::cmp::Reverse;
-use std::collections::BinaryHeap;
 
 /// Column offsets of the 8 neighbours (E, SE, S, SW, W, NW, N, NE), as in `hydro`.
-const DX: [isize; 8] = [1, 1, 0, -1, -1, -1, 0, 1];
+pub(crate) const DX: [isize; 8] = [1, 1, 0, -1, -1, -1, 0, 1];
 /// Row offsets of the 8 neighbours (y grows southwards).
-const DY: [isize; 8] = [0, 1, 1, 1, 0, -1, -1, -1];
+pub(crate) const DY: [isize; 8] = [0, 1, 1, 1, 0, -1, -1, -1];
 /// Largest number of explicit diffusion substeps one step may need.
-const MAX_DIFFUSION_SUBSTEPS: usize = 100_000;
+pub(crate) const MAX_DIFFUSION_SUBSTEPS: usize = 100_000;
 
 /// How flow crosses closed depressions when receivers are computed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Depressions {
-    /// Priority-flood filling (Barnes, Lehman & Mulla 2014): lake cells drain
-    /// along the flood tree towards the spill point.
+    /// Priority-flood filling (Barnes, Lehman & Mulla 2014): steepest descent
+    /// on the water surface; its flats drain along breadth-first distances to
+    /// their outlet (same definition in the tiled solve).
     Fill,
     /// Cordonnier, Bovy & Braun (2019) basin graph: minimum spanning tree of
     /// basin passes; receivers reversed from each pass to its pit.
@@ -253,8 +254,10 @@ pub struct StreamPower {
     scratch: Vec<f64>,
 }
 
-const VALID: u8 = 1;
-const BASE: u8 = 2;
+/// Cell flag: valid (finite) cell.
+pub(crate) const VALID: u8 = 1;
+/// Cell flag: base level.
+pub(crate) const BASE: u8 = 2;
 
 impl StreamPower {
     /// Prepare a solver for `h` (sets base levels to 0 if asked).
@@ -499,61 +502,151 @@ impl StreamPower {
         match self.p.depressions {
             Depressions::None => {}
             Depressions::Fill => self.route_fill(h),
-            Depressions::BasinGraph => self.route_basin_graph(h),
+            Depressions::BasinGraph => self.route_basin_graph(h, true),
         }
     }
 
-    /// Priority flood from the base levels: a cell reached from a cell whose
-    /// water level is at or above it is a lake cell and drains to that cell;
-    /// the others take the steepest descent on the water levels, which has a
-    /// strictly lower neighbour (the one that reached it). Along every
-    /// receiver path (level, flood order) strictly decreases: no cycles.
+    /// Depression filling, defined so that a tiled solve can reproduce it
+    /// exactly (see [`super::stream_power_tiled`]):
+    /// 1. water level `L` = the minimax ("priority-flood") level of Barnes,
+    ///    Lehman & Mulla (2014): `L = h` on base levels, elsewhere
+    ///    `L(i) = max(h(i), min over valid neighbours L(j))` — unique, and
+    ///    computed with `max`/`min` only, so any order gives the same bits;
+    /// 2. on flats of `L` (valid non-base cells with no strictly lower
+    ///    neighbour: lake surfaces and flat ground), the breadth-first
+    ///    distance `D` over equal-`L` 8-neighbours from the cells that drain
+    ///    (base levels and cells with a strictly lower neighbour, `D = 0`) —
+    ///    the "towards lower terrain" gradient of Barnes, Lehman & Mulla
+    ///    (2014, Computers & Geosciences 62, 128–135);
+    /// 3. receivers: steepest descent on `L` (ties to the first neighbour in
+    ///    E, SE, S, ... order); a flat cell drains to its equal-`L` neighbour
+    ///    of least `D` (first in that order), which is one step nearer the
+    ///    outlet. Along every receiver path `(L, D)` strictly decreases: no cycles.
+    ///
+    /// The levels come from the basin graph of the steepest-descent receivers
+    /// (no carving): a basin's level is the highest pass on its minimum
+    /// spanning tree path to the base levels, which is the minimax level a
+    /// priority flood gives (Cordonnier et al. 2019), at O(n) plus a sort of
+    /// the passes between basins instead of a heap operation per cell.
     fn route_fill(&mut self, h: &[f64]) {
         let n = self.w * self.h;
         let (w, ht) = (self.w, self.h);
-        self.level.clear();
-        self.level.extend_from_slice(h);
-        let mut seen = vec![false; n];
-        let mut lake = vec![false; n];
-        let mut heap: BinaryHeap<Reverse<(u64, u32)>> = BinaryHeap::new();
-        for i in 0..n {
-            if self.flags[i] & BASE != 0 {
-                seen[i] = true;
-                heap.push(Reverse((order_key(h[i]), i as u32)));
-            } else if self.flags[i] & VALID == 0 {
-                seen[i] = true;
-            }
-        }
-        while let Some(Reverse((_, c))) = heap.pop() {
-            let c = c as usize;
-            let (x, y) = (c % w, c / w);
-            let wc = self.level[c];
-            for d in 0..8 {
-                let (nx, ny) = (x as isize + DX[d], y as isize + DY[d]);
-                if nx < 0 || ny < 0 || nx as usize >= w || ny as usize >= ht {
-                    continue;
-                }
-                let j = ny as usize * w + nx as usize;
-                if seen[j] {
-                    continue;
-                }
-                seen[j] = true;
-                if h[j] <= wc {
-                    self.level[j] = wc;
-                    lake[j] = true;
-                    self.rec[j] = c as u32;
-                    self.dist[j] = self.step_len(d);
-                }
-                heap.push(Reverse((order_key(self.level[j]), j as u32)));
-            }
-        }
-        // Non-lake cells: steepest descent on the water levels. Cells the
-        // flood never reached cannot exist (every valid cell connects to a
-        // base level or a nodata cell, itself next to a base level) except
-        // in components without any base level, which keep their own pits.
+        self.route_basin_graph(h, false);
         let level = std::mem::take(&mut self.level);
-        let not_lake: Vec<bool> = lake.iter().zip(&seen).map(|(l, s)| !*l && *s).collect();
-        self.steepest(&level, Some(&not_lake));
+        // One scan: steepest descent on the levels; `dd` = 0 for cells that
+        // drain (base levels, cells with a strictly lower neighbour), MAX for
+        // flat cells, which are collected.
+        let mut dd = std::mem::take(&mut self.basin);
+        dd.clear();
+        dd.resize(n, u32::MAX);
+        let mut flats: Vec<u32> = Vec::new();
+        let off: [isize; 8] = std::array::from_fn(|d| DY[d] * w as isize + DX[d]);
+        for y in 0..ht {
+            for x in 0..w {
+                let i = y * w + x;
+                self.rec[i] = i as u32;
+                self.dist[i] = 0.0;
+                let f = self.flags[i];
+                if f != VALID {
+                    if f & BASE != 0 {
+                        dd[i] = 0;
+                    }
+                    continue;
+                }
+                let zi = level[i];
+                let mut best = 0.0;
+                let mut bj = i;
+                let mut bd = 0.0;
+                let mut lower = false;
+                let interior = x > 0 && y > 0 && x + 1 < w && y + 1 < ht;
+                for d in 0..8 {
+                    let j = if interior {
+                        (i as isize + off[d]) as usize
+                    } else {
+                        let (nx, ny) = (x as isize + DX[d], y as isize + DY[d]);
+                        if nx < 0 || ny < 0 || nx as usize >= w || ny as usize >= ht {
+                            continue;
+                        }
+                        ny as usize * w + nx as usize
+                    };
+                    if self.flags[j] & VALID == 0 {
+                        continue;
+                    }
+                    let zj = level[j];
+                    lower |= zj < zi;
+                    let len = self.step_len(d);
+                    let s = (zi - zj) / len;
+                    if s > best {
+                        best = s;
+                        bj = j;
+                        bd = len;
+                    }
+                }
+                self.rec[i] = bj as u32;
+                self.dist[i] = bd;
+                if lower {
+                    dd[i] = 0;
+                } else {
+                    flats.push(i as u32);
+                }
+            }
+        }
+        if !flats.is_empty() {
+            // Breadth-first distances over equal-level flat cells, from the
+            // draining cells next to them (the only seeds that reach a flat).
+            let mut queue = std::collections::VecDeque::new();
+            for &f in &flats {
+                let f = f as usize;
+                let (x, y) = (f % w, f / w);
+                for d in 0..8 {
+                    let (nx, ny) = (x as isize + DX[d], y as isize + DY[d]);
+                    if nx < 0 || ny < 0 || nx as usize >= w || ny as usize >= ht {
+                        continue;
+                    }
+                    let j = ny as usize * w + nx as usize;
+                    if self.flags[j] & VALID != 0 && dd[j] == 0 && level[j] == level[f] {
+                        queue.push_back(j as u32);
+                    }
+                }
+            }
+            while let Some(c) = queue.pop_front() {
+                let c = c as usize;
+                let (x, y) = (c % w, c / w);
+                let next = dd[c] + 1;
+                for d in 0..8 {
+                    let (nx, ny) = (x as isize + DX[d], y as isize + DY[d]);
+                    if nx < 0 || ny < 0 || nx as usize >= w || ny as usize >= ht {
+                        continue;
+                    }
+                    let j = ny as usize * w + nx as usize;
+                    if self.flags[j] & VALID != 0 && dd[j] == u32::MAX && level[j] == level[c] {
+                        dd[j] = next;
+                        queue.push_back(j as u32);
+                    }
+                }
+            }
+            // Flat cells without a strictly lower neighbour on the levels
+            // drain to the equal-level neighbour nearest the outlet.
+            for &f in &flats {
+                let i = f as usize;
+                let (x, y) = (i % w, i / w);
+                let zi = level[i];
+                let mut bdd = dd[i];
+                for d in 0..8 {
+                    let (nx, ny) = (x as isize + DX[d], y as isize + DY[d]);
+                    if nx < 0 || ny < 0 || nx as usize >= w || ny as usize >= ht {
+                        continue;
+                    }
+                    let j = ny as usize * w + nx as usize;
+                    if self.flags[j] & VALID != 0 && level[j] == zi && dd[j] < bdd {
+                        bdd = dd[j];
+                        self.rec[i] = j as u32;
+                        self.dist[i] = self.step_len(d);
+                    }
+                }
+            }
+        }
+        self.basin = dd;
         self.level = level;
         self.has_lakes = true;
     }
@@ -564,7 +657,7 @@ impl StreamPower {
     /// every base-level basin merged into one root, then, from the root
     /// outwards, each basin's receivers reversed from its pass cell down to
     /// its pit, and the pass cell pointed across the pass ("carving").
-    fn route_basin_graph(&mut self, h: &[f64]) {
+    fn route_basin_graph(&mut self, h: &[f64], carve: bool) {
         let (w, ht) = (self.w, self.h);
         let n = w * ht;
         // Basin of each cell = its root, found by the stack walk.
@@ -663,6 +756,9 @@ impl StreamPower {
                 queue.push_back(c);
                 let pass = h[out_cell as usize].max(h[in_cell as usize]);
                 water[c as usize] = pass.max(water[b as usize]);
+                if !carve {
+                    continue;
+                }
                 // Reverse the path in_cell -> ... -> pit, then in_cell -> out_cell.
                 let pit = pit_of[c as usize] as usize;
                 let mut prev = out_cell as usize;
@@ -843,7 +939,7 @@ impl StreamPower {
 /// with `Δ = hs − hr`, in the cancellation-free form `D = 2Δ/(1 + √(1 + 4cΔ/d²))`.
 /// Otherwise Newton from `hs` (one `powf` per iteration); a step that would
 /// leave the bracket `(lo, hi)` is replaced by bisection.
-fn newton(hs: f64, hr: f64, d: f64, c: f64, n: f64) -> f64 {
+pub(crate) fn newton(hs: f64, hr: f64, d: f64, c: f64, n: f64) -> f64 {
     if n == 2.0 {
         let delta = hs - hr;
         return hr + 2.0 * delta / (1.0 + (1.0 + 4.0 * c * delta / (d * d)).sqrt());
@@ -875,7 +971,7 @@ fn newton(hs: f64, hr: f64, d: f64, c: f64, n: f64) -> f64 {
 
 /// Order-preserving map of a finite f64 to u64 (for heap and sort keys).
 #[inline]
-fn order_key(v: f64) -> u64 {
+pub(crate) fn order_key(v: f64) -> u64 {
     let b = v.to_bits();
     if b >> 63 == 1 {
         !b
