@@ -449,3 +449,131 @@ fn every_registered_metric_tiled_equals_untiled() {
     assert!(METRICS.iter().any(|d| d.kind == MetricKind::PeakednessDw));
     let _ = MetricSpec::new(MetricKind::PeakPrototypicality);
 }
+
+/// Xu's spherical measures evaluated with explicit 2-D vectors in the plane
+/// of the two points and the planet's centre: `[dominance, submission, jut, rut]`.
+fn xu_oracle(d: &[f32], w: usize, h: usize, radius: f64, planet: f64) -> [Vec<f64>; 4] {
+    let mut out: [Vec<f64>; 4] = std::array::from_fn(|_| vec![f64::NAN; w * h]);
+    let r = (radius / CELL).ceil() as i64;
+    for y in 0..h as i64 {
+        for x in 0..w as i64 {
+            let zp = d[y as usize * w + x as usize] as f64;
+            if zp.is_nan() {
+                continue;
+            }
+            let mut m = [0.0f64; 4];
+            for dy in -r..=r {
+                for dx in -r..=r {
+                    let (qx, qy) = (x + dx, y + dy);
+                    let dist = ((dx * dx + dy * dy) as f64).sqrt() * CELL;
+                    if (dx, dy) == (0, 0)
+                        || dist > radius
+                        || qx < 0
+                        || qy < 0
+                        || qx >= w as i64
+                        || qy >= h as i64
+                    {
+                        continue;
+                    }
+                    let zq = d[qy as usize * w + qx as usize] as f64;
+                    if zq.is_nan() {
+                        continue;
+                    }
+                    let t = dist / planet;
+                    let p = [0.0, planet + zp];
+                    let q = [(planet + zq) * t.sin(), (planet + zq) * t.cos()];
+                    let (kp, kq) = ([0.0, 1.0], [t.sin(), t.cos()]);
+                    let dot = |a: [f64; 2], b: [f64; 2]| a[0] * b[0] + a[1] * b[1];
+                    let pq = [p[0] - q[0], p[1] - q[1]];
+                    let qp = [-pq[0], -pq[1]];
+                    let l = dot(pq, pq).sqrt();
+                    let h_p_over_q = dot(pq, kq); // summit p, base q
+                    let h_q_over_p = dot(qp, kp); // summit q, base p
+                    m[0] = m[0].max(h_p_over_q);
+                    m[1] = m[1].max(h_q_over_p);
+                    m[2] = m[2].max(h_p_over_q * h_p_over_q.abs() / l);
+                    m[3] = m[3].max(h_q_over_p * h_q_over_p.abs() / l);
+                }
+            }
+            for k in 0..4 {
+                out[k][y as usize * w + x as usize] = m[k];
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn xu_spherical_brute_force_and_limits() {
+    let (w, h) = (45, 38);
+    let d = hills(w, h, 5, 0.03);
+    let src = source(&d, w, h);
+    // A 2 km planet: at 100 m the horizon drops by ~2.5 m, comparable to the relief.
+    for (radius, planet_km) in [(100.0, 2.0), (70.0, 1.0), (150.0, 6371.0)] {
+        let want = xu_oracle(&d, w, h, radius, planet_km * 1000.0);
+        for (k, name) in ["dominance", "submission", "jut", "rut"].iter().enumerate() {
+            let spec = format!("{name}:radius={radius}m:planet={planet_km}");
+            let got = run(&src, &spec, 16, 2).remove(0);
+            // f32 outputs of values up to ~400 m.
+            check(&spec, &got, &want[k], w, 1e-4 * 400.0);
+            // Tiled == untiled, bit for bit.
+            let one = run(&src, &spec, 64, 1).remove(0);
+            let t7 = run(&src, &spec, 7, 2).remove(0);
+            assert!(
+                one.iter()
+                    .map(|v| v.to_bits())
+                    .eq(t7.iter().map(|v| v.to_bits())),
+                "{spec}: tiled differs"
+            );
+        }
+    }
+    // A huge planet gives the planar values (to f32 rounding).
+    for name in ["dominance", "submission", "jut", "rut"] {
+        let flat = run(&src, &format!("{name}:radius=90m"), 16, 1).remove(0);
+        let big = run(&src, &format!("{name}:radius=90m:planet=1000000"), 16, 1).remove(0);
+        for (a, b) in flat.iter().zip(&big) {
+            assert!(
+                a.is_nan() == b.is_nan() && (a.is_nan() || (a - b).abs() <= 2e-3),
+                "{name}: {a} vs {b}"
+            );
+        }
+    }
+    // Closed forms on a spike of height s on flat ground (planet R):
+    // the spike's dominance is s − (R+s)(1 − cos(c/R)) from its nearest
+    // neighbour; a flat cell's dominance and submission away from the
+    // spike are 0 (every other cell is below its horizon plane).
+    let (n, s, rp) = (21usize, 30.0f32, 1000.0f64);
+    let mut g = vec![0.0f32; n * n];
+    g[10 * n + 10] = s;
+    let spike = source(&g, n, n);
+    let dom = run(&spike, "dominance:radius=40m:planet=1", 8, 2).remove(0);
+    let want = s as f64 - (rp + s as f64) * (1.0 - (CELL / rp).cos());
+    assert!(
+        (dom[10 * n + 10] as f64 - want).abs() < 1e-4,
+        "{} vs {want}",
+        dom[10 * n + 10]
+    );
+    assert_eq!(dom[2 * n + 2], 0.0);
+    let sub = run(&spike, "submission:radius=40m:planet=1", 8, 2).remove(0);
+    assert_eq!(sub[2 * n + 2], 0.0);
+    // Next to the spike: submission = its height above the neighbour's horizon.
+    let want = (rp + s as f64) * (CELL / rp).cos() - rp;
+    assert!((sub[10 * n + 11] as f64 - want).abs() < 1e-4);
+    // Bad planet radii.
+    for (spec, want) in [
+        ("jut:planet=0", "outside"),
+        ("rut:planet=-3", "outside"),
+        ("dominance:planet=abc", "not a number"),
+        ("ors:planet=6371", "has no parameter 'planet'"),
+    ] {
+        let e = parse_specs(spec).unwrap_err().to_string();
+        assert!(e.contains(want), "{spec}: {e}");
+    }
+    // Labels name the planet; the planar default keeps the old names.
+    let l: Vec<String> = parse_specs("jut:radius=1km,jut:radius=1km:planet=6371")
+        .unwrap()
+        .iter()
+        .map(|s| s.label())
+        .collect();
+    assert_eq!(l, ["jut_r1000m", "jut_r1000m_planet6371"]);
+}

@@ -28,3 +28,4 @@ pub mod table;
 pub mod dominance;
 // descr4
 pub mod peak_dw;
+pub mod xu;

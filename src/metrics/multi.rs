@@ -620,6 +620,18 @@ impl LocalStep for MultiMetric {
                     m.spec.exponent.unwrap_or(0.5),
                     o,
                 ),
+                // descr4: Xu's spherical forms when a planet radius is given.
+                Dominance | Submission | Jut | Rut if m.spec.value("planet").is_some() => {
+                    use super::xu::{spherical, Xu};
+                    let which = match m.spec.kind {
+                        Dominance => Xu::Dominance,
+                        Submission => Xu::Submission,
+                        Jut => Xu::Jut,
+                        _ => Xu::Rut,
+                    };
+                    let planet_m = m.spec.value("planet").unwrap_or(f64::INFINITY) * 1000.0;
+                    spherical(view, m.radius_cells, m.radius_m, planet_m, which, o);
+                }
                 Ors | Jut | Rut => {
                     use super::relief_shape::{relief_shape, ReliefShape};
                     let which = match m.spec.kind {

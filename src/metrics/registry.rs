@@ -232,6 +232,12 @@ const AZIMUTH: ParamDef = ParamDef {
     range: "degrees clockwise from north, any finite number (taken mod 360)",
 };
 // descr4
+const PLANET: ParamDef = ParamDef {
+    name: "planet",
+    kind: ParamKind::Value,
+    default: "none",
+    range: "planet radius in km (1..=1e6; 6371 for the Earth) for the spherical form (heights measured along the base's plumb line, horizontal distances as arcs), or none (planar)",
+};
 const TOP: ParamDef = ParamDef {
     name: "top",
     kind: ParamKind::Threshold,
@@ -755,18 +761,18 @@ pub const METRICS: &[MetricDef] = &[
     def!(
         Jut,
         "jut",
-        &[RADIUS_CUTOFF],
+        &[RADIUS_CUTOFF, PLANET],
         "z",
         "max over the disk of the angle-reduced height dz*|dz|/d3 of the cell above others (planar, >= 0)",
-        "Xu 2022, Datumless topography (arXiv 2208.01600), planar form; disk cutoff"
+        "Xu 2022, Beyond elevation / datumless topography (arXiv 2208.01600); planar, or spherical with planet=R km; disk cutoff"
     ),
     def!(
         Rut,
         "rut",
-        &[RADIUS_CUTOFF],
+        &[RADIUS_CUTOFF, PLANET],
         "z",
         "max over the disk of the angle-reduced height dz*|dz|/d3 of others above the cell (planar, >= 0)",
-        "Xu 2022, Datumless topography (arXiv 2208.01600), planar form; disk cutoff"
+        "Xu 2022, Beyond elevation / datumless topography (arXiv 2208.01600); planar, or spherical with planet=R km; disk cutoff"
     ),
     def!(
         FuzzyLandform,
@@ -780,18 +786,18 @@ pub const METRICS: &[MetricDef] = &[
     def!(
         Dominance,
         "dominance",
-        &[RADIUS_CUTOFF],
+        &[RADIUS_CUTOFF, PLANET],
         "z",
         "how far the cell rises above the lowest valid cell of the disk: max(0, max (z - z_q)); 0 = submissive",
-        "Xu 2022, Datumless topography (arXiv 2208.01600), planar form as jut; disk cutoff"
+        "Xu 2022, Beyond elevation / datumless topography (arXiv 2208.01600); planar, or spherical with planet=R km; disk cutoff"
     ),
     def!(
         Submission,
         "submission",
-        &[RADIUS_CUTOFF],
+        &[RADIUS_CUTOFF, PLANET],
         "z",
         "how far the cell dips below the highest valid cell of the disk: max(0, max (z_q - z)); 0 = dominant",
-        "Xu 2022, Datumless topography (arXiv 2208.01600), planar form as rut; disk cutoff"
+        "Xu 2022, Beyond elevation / datumless topography (arXiv 2208.01600); planar, or spherical with planet=R km; disk cutoff"
     ),
     def!(
         Peakedness,
