@@ -47,6 +47,9 @@
 //! are local maxima over windows of at least 11 x 11 cells, so there are at
 //! most about one per 36 cells except on flat summit plateaus.
 
+// The four factors are parallel fixed-size arrays indexed together.
+#![allow(clippy::needless_range_loop)]
+
 use super::directional::gradient_region;
 use super::registry::{MetricKind, Resolved};
 use super::windowed::{box_max, Sat};
@@ -594,6 +597,9 @@ pub fn run(
     Ok(stats)
 }
 
+/// `(prototypicality, similarity)` grids, each if requested.
+pub type Outputs = (Option<Grid<f32>>, Option<Grid<f32>>);
+
 /// Both outputs in memory (whole raster), for tests and the cost table:
 /// `(prototypicality, similarity)` as requested.
 pub fn run_to_memory(
@@ -603,7 +609,7 @@ pub fn run_to_memory(
     cfg: &EngineConfig,
     want_proto: bool,
     want_similarity: bool,
-) -> Result<(Option<Grid<f32>>, Option<Grid<f32>>)> {
+) -> Result<Outputs> {
     let (w, h) = (layout.width, layout.height);
     let mk = |want: bool| {
         want.then(|| {
@@ -696,4 +702,18 @@ pub fn compute_paths(
         }
     }
     Ok(())
+}
+
+/// True if the statistics pass finds a peak at some scale on `src` (one
+/// tile, one thread), i.e. if `peakedness_dw` is defined there.
+pub fn has_peaks(src: &dyn RasterSource) -> bool {
+    let info = src.info();
+    let cfg = EngineConfig {
+        threads: 1,
+        ..EngineConfig::default()
+    };
+    let layout = TileLayout::new(info.width, info.height, info.width.max(info.height).max(1));
+    run(src, DEFAULT_TOP, layout, &cfg, None, None)
+        .map(|st| st.iter().any(|s| s.centroid.is_some()))
+        .unwrap_or(false)
 }

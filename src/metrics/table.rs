@@ -220,9 +220,18 @@ pub fn cost_table(
                 Err(e) => row.skipped = Some(e.to_string()),
                 Ok(r) => {
                     row.radius_cells = r[0].radius_cells;
-                    let (_, t) = run_whole(src, std::slice::from_ref(&spec), repeats)?;
-                    row.seconds = t;
-                    row.relative = t / slope_t;
+                    match run_whole(src, std::slice::from_ref(&spec), repeats) {
+                        Ok((_, t)) => {
+                            row.seconds = t;
+                            row.relative = t / slope_t;
+                        }
+                        // descr4: a whole-raster metric can be undefined on a
+                        // raster (peakedness_dw without any peak): skipped, said why.
+                        Err(e) if super::peak_dw::is_whole_raster(d.kind) => {
+                            row.skipped = Some(e.to_string())
+                        }
+                        Err(e) => return Err(e),
+                    }
                 }
             }
             progress(&row);
@@ -361,7 +370,10 @@ pub fn correlation(
 /// raster at all (e.g. solar metrics on a raster without a usable latitude)
 /// are left out.
 pub fn correlation_specs(src: &dyn RasterSource, radius_m: f64) -> Vec<MetricSpec> {
-    let ok = |s: &MetricSpec| super::multi::check(std::slice::from_ref(s), src.info()).is_ok();
+    let ok = |s: &MetricSpec| {
+        super::multi::check(std::slice::from_ref(s), src.info()).is_ok()
+            && (s.kind != MetricKind::PeakednessDw || super::peak_dw::has_peaks(src))
+    };
     METRICS
         .iter()
         .filter(|d| !is_categorical(d.kind))
