@@ -763,7 +763,7 @@ pub const METRICS: &[MetricDef] = &[
         "jut",
         &[RADIUS_CUTOFF, PLANET],
         "z",
-        "max over the disk of the angle-reduced height dz*|dz|/d3 of the cell above others (planar, >= 0)",
+        "max over the disk of the angle-reduced height dz*|dz|/d3 of the cell above others (planar; with planet=R km heights above the base horizon on a sphere; >= 0)",
         "Xu 2022, Beyond elevation / datumless topography (arXiv 2208.01600); planar, or spherical with planet=R km; disk cutoff"
     ),
     def!(
@@ -771,7 +771,7 @@ pub const METRICS: &[MetricDef] = &[
         "rut",
         &[RADIUS_CUTOFF, PLANET],
         "z",
-        "max over the disk of the angle-reduced height dz*|dz|/d3 of others above the cell (planar, >= 0)",
+        "max over the disk of the angle-reduced height dz*|dz|/d3 of others above the cell (planar; with planet=R km heights above the base horizon on a sphere; >= 0)",
         "Xu 2022, Beyond elevation / datumless topography (arXiv 2208.01600); planar, or spherical with planet=R km; disk cutoff"
     ),
     def!(
@@ -788,7 +788,7 @@ pub const METRICS: &[MetricDef] = &[
         "dominance",
         &[RADIUS_CUTOFF, PLANET],
         "z",
-        "how far the cell rises above the lowest valid cell of the disk: max(0, max (z - z_q)); 0 = submissive",
+        "how far the cell rises above the lowest valid cell of the disk: max(0, max (z - z_q)) (planar; planet=R km: height above the horizon plane of q on a sphere); 0 = submissive",
         "Xu 2022, Beyond elevation / datumless topography (arXiv 2208.01600); planar, or spherical with planet=R km; disk cutoff"
     ),
     def!(
@@ -796,7 +796,7 @@ pub const METRICS: &[MetricDef] = &[
         "submission",
         &[RADIUS_CUTOFF, PLANET],
         "z",
-        "how far the cell dips below the highest valid cell of the disk: max(0, max (z_q - z)); 0 = dominant",
+        "how far the cell dips below the highest valid cell of the disk: max(0, max (z_q - z)) (planar; planet=R km: height of q above the horizon plane of the cell); 0 = dominant",
         "Xu 2022, Beyond elevation / datumless topography (arXiv 2208.01600); planar, or spherical with planet=R km; disk cutoff"
     ),
     def!(
