@@ -26,3 +26,6 @@ pub mod shary;
 pub mod table;
 // last descriptors
 pub mod dominance;
+// descr4
+pub mod peak_dw;
+pub mod xu;

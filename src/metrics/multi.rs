@@ -48,6 +48,16 @@ impl MultiMetric {
     /// Bind `specs` to the raster described by `info` (radii to cells).
     pub fn new(specs: &[MetricSpec], info: &RasterInfo) -> Result<MultiMetric> {
         let metrics = resolve(specs, info)?;
+        // descr4: whole-raster metrics run their own global passes.
+        if let Some(m) = metrics
+            .iter()
+            .find(|m| super::peak_dw::is_whole_raster(m.spec.kind))
+        {
+            return Err(Error::invalid(format!(
+                "{} needs whole-raster statistics and is not a local (tile + halo) metric: compute it with metrics::compute (orogen metric), which runs its global passes",
+                m.spec.def().name
+            )));
+        }
         let halo = metrics.iter().map(Resolved::halo).max().unwrap_or(1).max(1);
         Ok(MultiMetric {
             metrics,
@@ -610,6 +620,18 @@ impl LocalStep for MultiMetric {
                     m.spec.exponent.unwrap_or(0.5),
                     o,
                 ),
+                // descr4: Xu's spherical forms when a planet radius is given.
+                Dominance | Submission | Jut | Rut if m.spec.value("planet").is_some() => {
+                    use super::xu::{spherical, Xu};
+                    let which = match m.spec.kind {
+                        Dominance => Xu::Dominance,
+                        Submission => Xu::Submission,
+                        Jut => Xu::Jut,
+                        _ => Xu::Rut,
+                    };
+                    let planet_m = m.spec.value("planet").unwrap_or(f64::INFINITY) * 1000.0;
+                    spherical(view, m.radius_cells, m.radius_m, planet_m, which, o);
+                }
                 Ors | Jut | Rut => {
                     use super::relief_shape::{relief_shape, ReliefShape};
                     let which = match m.spec.kind {
@@ -665,6 +687,13 @@ impl LocalStep for MultiMetric {
                     m.spec.threshold.unwrap_or(45.0),
                     o,
                 ),
+                // descr4: refused by `new`.
+                PeakednessDw | PeakPrototypicality => {
+                    return Err(Error::invalid(format!(
+                        "{} is a whole-raster metric: use metrics::compute",
+                        m.spec.def().name
+                    )))
+                }
             }
         }
         Ok(())
@@ -1144,7 +1173,6 @@ pub fn compute(
     tile: Option<usize>,
     cfg: &EngineConfig,
 ) -> Result<()> {
-    let step = MultiMetric::new(specs, src.info())?;
     if outputs.len() != specs.len() {
         return Err(Error::invalid(format!(
             "{} metric(s) requested but {} output path(s) given",
@@ -1152,6 +1180,38 @@ pub fn compute(
             outputs.len()
         )));
     }
-    let types = vec![(DType::F32, Some(METRIC_NODATA)); outputs.len()];
-    crate::ops::run_local_to_paths(&step, &[src], outputs, &types, oo, tile, cfg)
+    // Validate every spec (radii, ranges) before any pass runs.
+    resolve(specs, src.info())?;
+    // descr4: local metrics in one tiled pass, whole-raster ones in their
+    // own global passes.
+    let (whole, local): (Vec<usize>, Vec<usize>) =
+        (0..specs.len()).partition(|&i| super::peak_dw::is_whole_raster(specs[i].kind));
+    if !local.is_empty() {
+        let ls: Vec<MetricSpec> = local.iter().map(|&i| specs[i].clone()).collect();
+        let lp: Vec<PathBuf> = local.iter().map(|&i| outputs[i].clone()).collect();
+        let step = MultiMetric::new(&ls, src.info())?;
+        let types = vec![(DType::F32, Some(METRIC_NODATA)); lp.len()];
+        crate::ops::run_local_to_paths(&step, &[src], &lp, &types, oo, tile, cfg)?;
+    }
+    if !whole.is_empty() {
+        let ws: Vec<MetricSpec> = whole.iter().map(|&i| specs[i].clone()).collect();
+        let wp: Vec<PathBuf> = whole.iter().map(|&i| outputs[i].clone()).collect();
+        super::peak_dw::compute_paths(src, &ws, &wp, oo, tile, cfg)?;
+    }
+    Ok(())
+}
+
+/// Check that `specs` can run on a raster described by `info` (local or
+/// whole-raster metrics), as [`compute`] would, without running them.
+pub fn check(specs: &[MetricSpec], info: &RasterInfo) -> Result<()> {
+    let local: Vec<MetricSpec> = specs
+        .iter()
+        .filter(|s| !super::peak_dw::is_whole_raster(s.kind))
+        .cloned()
+        .collect();
+    resolve(specs, info)?;
+    if !local.is_empty() {
+        MultiMetric::new(&local, info)?;
+    }
+    Ok(())
 }

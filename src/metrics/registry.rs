@@ -85,6 +85,9 @@ pub enum MetricKind {
     Domination,
     // descr3
     AsymmetryIndex,
+    // descr4
+    PeakednessDw,
+    PeakPrototypicality,
 }
 
 /// What a metric's parameters are.
@@ -227,6 +230,19 @@ const AZIMUTH: ParamDef = ParamDef {
     kind: ParamKind::Azimuth,
     default: "0",
     range: "degrees clockwise from north, any finite number (taken mod 360)",
+};
+// descr4
+const PLANET: ParamDef = ParamDef {
+    name: "planet",
+    kind: ParamKind::Value,
+    default: "none",
+    range: "planet radius in km (1..=1e6; 6371 for the Earth) for the spherical form (heights measured along the base's plumb line, horizontal distances as arcs), or none (planar)",
+};
+const TOP: ParamDef = ParamDef {
+    name: "top",
+    kind: ParamKind::Threshold,
+    default: "0.2",
+    range: "share of the peaks (by prototypicality) averaged into the centroid, 0 < top <= 1",
 };
 const RADIUS_CUTOFF: ParamDef = ParamDef {
     name: "radius",
@@ -745,18 +761,18 @@ pub const METRICS: &[MetricDef] = &[
     def!(
         Jut,
         "jut",
-        &[RADIUS_CUTOFF],
+        &[RADIUS_CUTOFF, PLANET],
         "z",
-        "max over the disk of the angle-reduced height dz*|dz|/d3 of the cell above others (planar, >= 0)",
-        "Xu 2022, Datumless topography (arXiv 2208.01600), planar form; disk cutoff"
+        "max over the disk of the angle-reduced height dz*|dz|/d3 of the cell above others (planar; with planet=R km heights above the base horizon on a sphere; >= 0)",
+        "Xu 2022, Beyond elevation / datumless topography (arXiv 2208.01600); planar, or spherical with planet=R km; disk cutoff"
     ),
     def!(
         Rut,
         "rut",
-        &[RADIUS_CUTOFF],
+        &[RADIUS_CUTOFF, PLANET],
         "z",
-        "max over the disk of the angle-reduced height dz*|dz|/d3 of others above the cell (planar, >= 0)",
-        "Xu 2022, Datumless topography (arXiv 2208.01600), planar form; disk cutoff"
+        "max over the disk of the angle-reduced height dz*|dz|/d3 of others above the cell (planar; with planet=R km heights above the base horizon on a sphere; >= 0)",
+        "Xu 2022, Beyond elevation / datumless topography (arXiv 2208.01600); planar, or spherical with planet=R km; disk cutoff"
     ),
     def!(
         FuzzyLandform,
@@ -770,18 +786,18 @@ pub const METRICS: &[MetricDef] = &[
     def!(
         Dominance,
         "dominance",
-        &[RADIUS_CUTOFF],
+        &[RADIUS_CUTOFF, PLANET],
         "z",
-        "how far the cell rises above the lowest valid cell of the disk: max(0, max (z - z_q)); 0 = submissive",
-        "Xu 2022, Datumless topography (arXiv 2208.01600), planar form as jut; disk cutoff"
+        "how far the cell rises above the lowest valid cell of the disk: max(0, max (z - z_q)) (planar; planet=R km: height above the horizon plane of q on a sphere); 0 = submissive",
+        "Xu 2022, Beyond elevation / datumless topography (arXiv 2208.01600); planar, or spherical with planet=R km; disk cutoff"
     ),
     def!(
         Submission,
         "submission",
-        &[RADIUS_CUTOFF],
+        &[RADIUS_CUTOFF, PLANET],
         "z",
-        "how far the cell dips below the highest valid cell of the disk: max(0, max (z_q - z)); 0 = dominant",
-        "Xu 2022, Datumless topography (arXiv 2208.01600), planar form as rut; disk cutoff"
+        "how far the cell dips below the highest valid cell of the disk: max(0, max (z_q - z)) (planar; planet=R km: height of q above the horizon plane of the cell); 0 = dominant",
+        "Xu 2022, Beyond elevation / datumless topography (arXiv 2208.01600); planar, or spherical with planet=R km; disk cutoff"
     ),
     def!(
         Peakedness,
@@ -807,6 +823,23 @@ pub const METRICS: &[MetricDef] = &[
         "log10 ratio",
         "log10(median gradient of cells facing azimuth / median gradient of cells facing azimuth+180) in the square window; cells under 5% gradient left out",
         "Poulos, Pierce, Flores & Benner 2012, GRL 39 L06406, sec. 2 (medians, as published; hillslope_asymmetry uses means)"
+    ),
+    // descr4
+    def!(
+        PeakednessDw,
+        "peakedness_dw",
+        &[TOP],
+        "0..1",
+        "multi-scale peakedness: weighted similarity to the centroid of the top peaks of relief, mean slope, relative elevation and isolation at 5/20/50-cell windows, normalised over the WHOLE raster (two tiled global passes)",
+        "Deng & Wilson 2008, IJGIS 22(2); factors, scales and weights of the survey code (Argudo et al., HeightField::Peakness)"
+    ),
+    def!(
+        PeakPrototypicality,
+        "peak_prototypicality",
+        &[TOP],
+        "0..1",
+        "weighted mean over 5/20/50-cell windows of relief, mean slope, relative elevation and isolation, each min-max normalised over the WHOLE raster (one tiled global pass)",
+        "Deng & Wilson 2008, IJGIS 22(2); as the survey code's peak prototypicality (HeightField::Peakness)"
     ),
 ];
 
@@ -1278,6 +1311,8 @@ impl Resolved {
                 .unwrap_or(1),
             // last descriptors
             Dominance | Submission | Peakedness | Domination => self.radius_cells,
+            // descr4: whole-raster metrics (their own passes, see peak_dw)
+            PeakednessDw | PeakPrototypicality => super::peak_dw::HALO,
             _ => 1,
         }
     }
@@ -1358,6 +1393,16 @@ pub fn resolve(specs: &[MetricSpec], info: &RasterInfo) -> Result<Vec<Resolved>>
                 if !(t > 0.0 && t <= 90.0) {
                     return Err(Error::invalid(format!(
                         "{}:tolerance={t} is out of range: use 0 < tolerance <= 90 (degrees)",
+                        s.def().name
+                    )));
+                }
+            }
+            // descr4
+            if super::peak_dw::is_whole_raster(s.kind) {
+                let t = s.threshold.unwrap_or(super::peak_dw::DEFAULT_TOP);
+                if !(t > 0.0 && t <= 1.0) {
+                    return Err(Error::invalid(format!(
+                        "{}:top={t} is out of range: use 0 < top <= 1 (share of the peaks in the centroid)",
                         s.def().name
                     )));
                 }

@@ -84,6 +84,13 @@ pub fn run_whole(
 ) -> Result<(Vec<Grid<f32>>, f64)> {
     let info = src.info();
     let (w, h) = (info.width, info.height);
+    // descr4: whole-raster metrics run their global passes on one tile.
+    if specs
+        .iter()
+        .any(|s| super::peak_dw::is_whole_raster(s.kind))
+    {
+        return run_whole_global(src, specs, repeats);
+    }
     let step = MultiMetric::new(specs, info)?;
     let layout = TileLayout::new(w, h, w.max(h).max(1));
     let view = read_view::<f32>(src, &layout, 0, step.halo())?;
@@ -102,6 +109,62 @@ pub fn run_whole(
         runs += 1;
     }
     Ok((out, best))
+}
+
+/// [`run_whole`] for specs that include whole-raster metrics: the local ones
+/// in one [`MultiMetric`] run, each whole-raster one through its global
+/// passes on one tile, single-threaded; the times are summed.
+fn run_whole_global(
+    src: &dyn RasterSource,
+    specs: &[MetricSpec],
+    repeats: usize,
+) -> Result<(Vec<Grid<f32>>, f64)> {
+    let info = src.info();
+    let (w, h) = (info.width, info.height);
+    let local: Vec<MetricSpec> = specs
+        .iter()
+        .filter(|s| !super::peak_dw::is_whole_raster(s.kind))
+        .cloned()
+        .collect();
+    let (mut local_out, mut total) = if local.is_empty() {
+        (Vec::new(), 0.0)
+    } else {
+        run_whole(src, &local, repeats)?
+    };
+    local_out.reverse();
+    let mut out = Vec::with_capacity(specs.len());
+    for s in specs {
+        if !super::peak_dw::is_whole_raster(s.kind) {
+            out.push(
+                local_out
+                    .pop()
+                    .ok_or_else(|| Error::invalid("metric table: missing output"))?,
+            );
+            continue;
+        }
+        super::registry::resolve(std::slice::from_ref(s), info)?;
+        let cfg = crate::exec::EngineConfig {
+            threads: 1,
+            ..Default::default()
+        };
+        let layout = TileLayout::new(w, h, w.max(h).max(1));
+        let top = s.threshold.unwrap_or(super::peak_dw::DEFAULT_TOP);
+        let proto = s.kind == MetricKind::PeakPrototypicality;
+        let (mut best, mut runs, mut spent) = (f64::INFINITY, 0usize, 0.0f64);
+        let mut grid = None;
+        while runs < repeats.max(1) || (spent < 0.3 && runs < 50) {
+            let t = Instant::now();
+            let (p, q) = super::peak_dw::run_to_memory(src, top, layout, &cfg, proto, !proto)?;
+            let e = t.elapsed().as_secs_f64();
+            grid = if proto { p } else { q };
+            best = best.min(e);
+            spent += e;
+            runs += 1;
+        }
+        out.push(grid.ok_or_else(|| Error::invalid("peakedness_dw: no output"))?);
+        total += best;
+    }
+    Ok((out, total))
 }
 
 /// Refuse rasters whose in-memory table would exceed `max_cells` cells.
@@ -151,13 +214,24 @@ pub fn cost_table(
                 relative: f64::NAN,
                 skipped: None,
             };
-            match MultiMetric::new(std::slice::from_ref(&spec), src.info()) {
+            match super::registry::resolve(std::slice::from_ref(&spec), src.info()).and_then(|r| {
+                super::multi::check(std::slice::from_ref(&spec), src.info()).map(|_| r)
+            }) {
                 Err(e) => row.skipped = Some(e.to_string()),
-                Ok(step) => {
-                    row.radius_cells = step.metrics()[0].radius_cells;
-                    let (_, t) = run_whole(src, std::slice::from_ref(&spec), repeats)?;
-                    row.seconds = t;
-                    row.relative = t / slope_t;
+                Ok(r) => {
+                    row.radius_cells = r[0].radius_cells;
+                    match run_whole(src, std::slice::from_ref(&spec), repeats) {
+                        Ok((_, t)) => {
+                            row.seconds = t;
+                            row.relative = t / slope_t;
+                        }
+                        // descr4: a whole-raster metric can be undefined on a
+                        // raster (peakedness_dw without any peak): skipped, said why.
+                        Err(e) if super::peak_dw::is_whole_raster(d.kind) => {
+                            row.skipped = Some(e.to_string())
+                        }
+                        Err(e) => return Err(e),
+                    }
                 }
             }
             progress(&row);
@@ -296,7 +370,10 @@ pub fn correlation(
 /// raster at all (e.g. solar metrics on a raster without a usable latitude)
 /// are left out.
 pub fn correlation_specs(src: &dyn RasterSource, radius_m: f64) -> Vec<MetricSpec> {
-    let ok = |s: &MetricSpec| MultiMetric::new(std::slice::from_ref(s), src.info()).is_ok();
+    let ok = |s: &MetricSpec| {
+        super::multi::check(std::slice::from_ref(s), src.info()).is_ok()
+            && (s.kind != MetricKind::PeakednessDw || super::peak_dw::has_peaks(src))
+    };
     METRICS
         .iter()
         .filter(|d| !is_categorical(d.kind))

@@ -108,6 +108,10 @@ pub fn parse_value(name: &str, value: &str) -> std::result::Result<Option<f64>, 
     if value == "day" && name == "hour" {
         return Ok(None);
     }
+    // descr4: Xu's measures are planar unless a planet radius is given.
+    if matches!(value, "none" | "flat") && name == "planet" {
+        return Ok(None);
+    }
     let v: f64 = value
         .parse()
         .map_err(|_| format!("'{value}' is not a number"))?;
@@ -128,6 +132,7 @@ pub fn parse_value(name: &str, value: &str) -> std::result::Result<Option<f64>, 
         "tau" => (0.05, 1.0),
         "lat" => (-90.0, 90.0),
         "alpha_max" => (0.0, 360.0),
+        "planet" => (1.0, 1.0e6),
         _ => (f64::NEG_INFINITY, f64::INFINITY),
     };
     if !(v.is_finite() && v >= lo && v <= hi) {
