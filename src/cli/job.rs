@@ -31,6 +31,9 @@ pub struct RunArgs {
     /// No progress bars.
     #[arg(long, short)]
     pub quiet: bool,
+    /// Engine for every step (overrides the job file's `engine`): local or mpi.
+    #[arg(long, value_enum)]
+    pub engine: Option<crate::EngineArg>,
 }
 
 /// The CLI's commands, as a job sees them. A command is a path of
@@ -125,6 +128,9 @@ fn log_line(log: &mut Option<std::fs::File>, v: serde_json::Value) {
 }
 
 pub fn run(a: RunArgs) -> Result<()> {
+    if let Some(e) = a.engine {
+        e.select()?;
+    }
     let table = ClapTable(crate::Cli::command());
     let job = job::load(&a.job, &table, a.memory.as_deref(), a.threads)?;
     let argv_of = |s: &job::Planned| {
