@@ -128,9 +128,6 @@ fn log_line(log: &mut Option<std::fs::File>, v: serde_json::Value) {
 }
 
 pub fn run(a: RunArgs) -> Result<()> {
-    if let Some(e) = a.engine {
-        e.select()?;
-    }
     let table = ClapTable(crate::Cli::command());
     let job = job::load(&a.job, &table, a.memory.as_deref(), a.threads)?;
     let argv_of = |s: &job::Planned| {
@@ -169,6 +166,9 @@ pub fn run(a: RunArgs) -> Result<()> {
             );
         }
         return Ok(());
+    }
+    if let Some(e) = a.engine {
+        e.select()?;
     }
     std::fs::create_dir_all(&job.output_dir)
         .with_context(|| format!("creating the output folder {}", job.output_dir.display()))?;

@@ -222,7 +222,11 @@ pub fn local_tile_bytes(
     ins + outs
 }
 
-pub(super) fn check_inputs(name: &str, inputs: &[&dyn RasterSource], layout: &TileLayout) -> Result<()> {
+pub(super) fn check_inputs(
+    name: &str,
+    inputs: &[&dyn RasterSource],
+    layout: &TileLayout,
+) -> Result<()> {
     for src in inputs {
         let i = src.info();
         if (i.width, i.height) != (layout.width, layout.height) {
@@ -403,7 +407,8 @@ impl Engine for LocalEngine {
     ) -> Result<S::Solution> {
         #[cfg(feature = "mpi")]
         if super::mpi::active() {
-            return super::mpi::MpiEngine::new(self.clone()).run_global(step, inputs, layout, sinks);
+            return super::mpi::MpiEngine::new(self.clone())
+                .run_global(step, inputs, layout, sinks);
         }
         let name = step.name();
         check_inputs(&name, inputs, &layout)?;

@@ -158,9 +158,49 @@ struct Phase<'a> {
     phase: &'static str,
     tiles: usize,
     perimeter: u64,
+    /// Bytes sent (summaries: compressed).
     up: u64,
+    /// Bytes received by ranks other than the sender.
     down: u64,
+    /// Bytes before compression.
+    raw: u64,
     t0: Instant,
+}
+
+/// Compress a record list for the wire: raw length (`u64`), then zstd
+/// (level 3) of the JSON records, which are mostly decimal numbers.
+fn pack(records: &[u8]) -> Result<Vec<u8>> {
+    let z = zstd::bulk::compress(records, 3)
+        .map_err(|e| Error::invalid(format!("MPI engine: compressing summaries: {e}")))?;
+    let mut out = Vec::with_capacity(8 + z.len());
+    out.extend_from_slice(&(records.len() as u64).to_le_bytes());
+    out.extend_from_slice(&z);
+    Ok(out)
+}
+
+/// Undo [`pack`]; the declared size is checked against zstd's own frame
+/// header before anything that large is allocated.
+fn unpack(msg: &[u8]) -> Result<Vec<u8>> {
+    if msg.len() < 8 {
+        return Err(Error::invalid(
+            "a summary message is shorter than its header",
+        ));
+    }
+    let mut a = [0u8; 8];
+    a.copy_from_slice(&msg[..8]);
+    let n = u64::from_le_bytes(a);
+    let frame = zstd::zstd_safe::get_frame_content_size(&msg[8..])
+        .ok()
+        .flatten();
+    if frame != Some(n) {
+        return Err(Error::invalid(format!(
+            "a summary message declares {n} bytes but its zstd frame {frame:?}"
+        )));
+    }
+    let n = usize::try_from(n)
+        .map_err(|_| Error::invalid(format!("a summary message declares {n} bytes")))?;
+    zstd::bulk::decompress(&msg[8..], n)
+        .map_err(|e| Error::invalid(format!("decompressing summaries: {e}")))
 }
 
 impl MpiEngine {
@@ -186,7 +226,11 @@ impl MpiEngine {
 
     /// Rank 0's list of tiles to do (it owns the sinks that know which are
     /// finished), sent to every rank.
-    fn shared_todo(comm: &SimpleCommunicator, layout: &TileLayout, sinks: &[Box<dyn TileSink>]) -> Vec<TileId> {
+    fn shared_todo(
+        comm: &SimpleCommunicator,
+        layout: &TileLayout,
+        sinks: &[Box<dyn TileSink>],
+    ) -> Vec<TileId> {
         let root = comm.process_at_rank(0);
         let mut ids: Vec<u64> = if comm.rank() == 0 {
             todo(layout, sinks).into_iter().map(|i| i as u64).collect()
@@ -227,12 +271,15 @@ impl MpiEngine {
             if r != me {
                 // The length comes from a rank of the same job; the bytes
                 // are checked when decoded.
-                buf = vec![0u8; usize::try_from(len).unwrap_or_else(|_| {
-                    fail(Error::too_large(
-                        std::path::Path::new("<MPI>"),
-                        format!("rank {r} sends {len} bytes of summaries"),
-                    ))
-                })];
+                buf = vec![
+                    0u8;
+                    usize::try_from(len).unwrap_or_else(|_| {
+                        fail(Error::too_large(
+                            std::path::Path::new("<MPI>"),
+                            format!("rank {r} sends {len} bytes of summaries"),
+                        ))
+                    })
+                ];
             }
             for piece in buf.chunks_mut(CHUNK) {
                 root.broadcast_into(piece);
@@ -246,14 +293,15 @@ impl MpiEngine {
     /// `OROGEN_MPI_STATS` set, print one JSON line for the phase.
     fn report(comm: &SimpleCommunicator, p: Phase) {
         let n = comm.size() as usize;
-        let mine = [p.up, p.down];
-        let mut all = vec![0u64; 2 * n];
+        let mine = [p.up, p.down, p.raw];
+        let mut all = vec![0u64; 3 * n];
         comm.all_gather_into(&mine[..], &mut all[..]);
         if comm.rank() != 0 || std::env::var_os("OROGEN_MPI_STATS").is_none() {
             return;
         }
-        let up: u64 = all.iter().step_by(2).sum();
-        let down: u64 = all.iter().skip(1).step_by(2).sum();
+        let up: u64 = all.iter().step_by(3).sum();
+        let down: u64 = all.iter().skip(1).step_by(3).sum();
+        let raw: u64 = all.iter().skip(2).step_by(3).sum();
         let per = |b: u64| {
             if p.perimeter == 0 {
                 0.0
@@ -270,6 +318,8 @@ impl MpiEngine {
                 "tiles": p.tiles,
                 "perimeter_cells": p.perimeter,
                 "bytes_up": up,
+                "bytes_up_uncompressed": raw,
+                "bytes_up_uncompressed_per_perimeter_cell": per(raw),
                 "bytes_down": down,
                 "bytes_up_per_perimeter_cell": per(up),
                 "bytes_down_per_perimeter_cell": per(down),
@@ -402,6 +452,7 @@ impl Engine for MpiEngine {
                 perimeter: perimeter_cells(&layout),
                 up: moved,
                 down: 0,
+                raw: moved,
                 t0,
             },
         );
@@ -443,21 +494,37 @@ impl Engine for MpiEngine {
             })
         };
         let mut records = Vec::new();
-        let r = self.local.pipeline(&map_name, &mine, map_bytes, &map, |id, b| {
-            super::mpi_codec::push_record(&mut records, id, &b);
-            Ok(())
-        });
+        let r = self
+            .local
+            .pipeline(&map_name, &mine, map_bytes, &map, |id, b| {
+                super::mpi_codec::push_record(&mut records, id, &b);
+                Ok(())
+            });
         if let Err(e) = r {
             fail(e);
         }
-        let up = records.len() as u64;
-        let lists = Self::all_to_all(&comm, records);
+        let raw = records.len() as u64;
+        let packed = pack(&records).unwrap_or_else(|e| fail(e));
+        drop(records);
+        let up = packed.len() as u64;
+        let lists = Self::all_to_all(&comm, packed);
         let down: u64 = lists
             .iter()
             .enumerate()
             .filter(|(r, _)| *r != me)
             .map(|(_, l)| l.len() as u64)
             .sum();
+        let lists: Vec<Vec<u8>> = lists
+            .iter()
+            .enumerate()
+            .map(|(r, l)| {
+                unpack(l).unwrap_or_else(|e| {
+                    fail(Error::invalid(format!(
+                        "{name}: the summaries of rank {r}: {e}"
+                    )))
+                })
+            })
+            .collect();
         let mut summaries: Vec<Option<S::Summary>> = (0..count).map(|_| None).collect();
         for (r, list) in lists.iter().enumerate() {
             let recs = decode_records(list, count).unwrap_or_else(|e| fail(e));
@@ -483,7 +550,11 @@ impl Engine for MpiEngine {
         let summaries: Vec<S::Summary> = summaries
             .into_iter()
             .enumerate()
-            .map(|(id, s)| s.unwrap_or_else(|| fail(Error::invalid(format!("{name}: tile {id} has no summary")))))
+            .map(|(id, s)| {
+                s.unwrap_or_else(|| {
+                    fail(Error::invalid(format!("{name}: tile {id} has no summary")))
+                })
+            })
             .collect();
         Self::report(
             &comm,
@@ -494,6 +565,7 @@ impl Engine for MpiEngine {
                 perimeter,
                 up,
                 down,
+                raw,
                 t0,
             },
         );
@@ -527,8 +599,16 @@ impl Engine for MpiEngine {
             step.apply(&views, &slice, &mut out)?;
             convert_outputs(&name, &out, &layout, id, &meta)
         };
-        let moved =
-            self.distribute(&comm, &apply_name, &layout, &ids, &meta, bytes, sinks, &apply);
+        let moved = self.distribute(
+            &comm,
+            &apply_name,
+            &layout,
+            &ids,
+            &meta,
+            bytes,
+            sinks,
+            &apply,
+        );
         Self::report(
             &comm,
             Phase {
@@ -538,6 +618,7 @@ impl Engine for MpiEngine {
                 perimeter,
                 up: moved,
                 down: 0,
+                raw: moved,
                 t0: t1,
             },
         );

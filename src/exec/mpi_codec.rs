@@ -195,13 +195,19 @@ mod tests {
         vec![
             AnyGrid::F32(Grid::from_fn(3, 2, |x, y| x as f32 * 1.5 - y as f32)),
             AnyGrid::U8(Grid::from_fn(3, 2, |x, y| (x * 7 + y) as u8)),
-            AnyGrid::F64(Grid::from_fn(3, 2, |x, y| if x == y { f64::NAN } else { -2.25 })),
+            AnyGrid::F64(Grid::from_fn(
+                3,
+                2,
+                |x, y| if x == y { f64::NAN } else { -2.25 },
+            )),
             AnyGrid::I16(Grid::from_fn(3, 2, |x, y| x as i16 - 300 * y as i16)),
         ]
     }
 
     fn shapes(g: &[AnyGrid]) -> Vec<(DType, usize, usize)> {
-        g.iter().map(|g| (g.dtype(), g.width(), g.height())).collect()
+        g.iter()
+            .map(|g| (g.dtype(), g.width(), g.height()))
+            .collect()
     }
 
     #[test]
