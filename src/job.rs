@@ -6,6 +6,7 @@
 //! memory = "1GiB"          # optional: budget passed to every step
 //! threads = 0              # optional: 0 = all cores
 //! output_dir = "out"       # optional: outputs go here (relative to this file)
+//! engine = "local"         # optional: "mpi" under mpirun (orogen built with --features mpi)
 //!
 //! [inputs]
 //! dem = "../shared/data/srtm3_S33W071.tif"   # relative to this file
@@ -51,6 +52,9 @@ pub struct JobFile {
     pub threads: Option<usize>,
     /// Work-tile size passed to every step that takes `--tile`.
     pub tile: Option<usize>,
+    /// Engine passed to every step that takes `--engine`: "local" or "mpi"
+    /// (`mpirun -n 4 orogen run job.toml`).
+    pub engine: Option<String>,
     /// Folder for outputs, relative to the job file (default: the job file's folder).
     pub output_dir: Option<PathBuf>,
     /// JSON-lines log of step events, relative to `output_dir`.
@@ -328,6 +332,7 @@ pub fn plan(
             ("memory", memory.clone()),
             ("threads", threads.map(|t| t.to_string())),
             ("tile", file.tile.map(|t| t.to_string())),
+            ("engine", file.engine.clone()),
         ] {
             if let Some(v) = val {
                 if table.accepts(&command, opt) && !s.args.contains_key(opt) {

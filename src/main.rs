@@ -33,6 +33,28 @@ struct Run {
     /// No progress bar.
     #[arg(long, short, global = true)]
     quiet: bool,
+    /// Engine: `local` (this process's threads) or `mpi` (the ranks of
+    /// `mpirun -n N orogen ...`; needs a build with `--features mpi`).
+    #[arg(long, value_enum, global = true)]
+    engine: Option<EngineArg>,
+}
+
+/// `--engine` values (see `orogen::exec::EngineKind`).
+#[derive(Copy, Clone, ValueEnum)]
+pub(crate) enum EngineArg {
+    Local,
+    Mpi,
+}
+
+impl EngineArg {
+    /// Make this the engine of the process (MPI starts here).
+    pub(crate) fn select(self) -> Result<()> {
+        orogen::exec::select_engine(match self {
+            EngineArg::Local => orogen::exec::EngineKind::Local,
+            EngineArg::Mpi => orogen::exec::EngineKind::Mpi,
+        })?;
+        Ok(())
+    }
 }
 
 #[derive(Args, Clone)]
@@ -472,6 +494,9 @@ fn parse_bytes(s: &str) -> Result<u64> {
 fn engine(run: &Run) -> Result<EngineConfig> {
     use std::io::IsTerminal;
     QUIET.store(run.quiet, std::sync::atomic::Ordering::Relaxed);
+    if let Some(e) = run.engine {
+        e.select()?;
+    }
     Ok(EngineConfig {
         threads: run.threads,
         memory_budget: parse_bytes(&run.memory)?,
@@ -586,9 +611,10 @@ fn main() {
     }
     let cli = Cli::parse();
     if let Err(e) = run(cli) {
-        eprintln!("error: {e:#}");
-        std::process::exit(1);
+        // Under MPI this ends every rank (MPI_Abort), naming this one.
+        orogen::exec::abort_engine(&format!("{e:#}"));
     }
+    orogen::exec::finish_engine();
 }
 
 fn run(cli: Cli) -> Result<()> {

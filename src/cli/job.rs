@@ -31,6 +31,9 @@ pub struct RunArgs {
     /// No progress bars.
     #[arg(long, short)]
     pub quiet: bool,
+    /// Engine for every step (overrides the job file's `engine`): local or mpi.
+    #[arg(long, value_enum)]
+    pub engine: Option<crate::EngineArg>,
 }
 
 /// The CLI's commands, as a job sees them. A command is a path of
@@ -163,6 +166,9 @@ pub fn run(a: RunArgs) -> Result<()> {
             );
         }
         return Ok(());
+    }
+    if let Some(e) = a.engine {
+        e.select()?;
     }
     std::fs::create_dir_all(&job.output_dir)
         .with_context(|| format!("creating the output folder {}", job.output_dir.display()))?;

@@ -222,7 +222,11 @@ pub fn local_tile_bytes(
     ins + outs
 }
 
-fn check_inputs(name: &str, inputs: &[&dyn RasterSource], layout: &TileLayout) -> Result<()> {
+pub(super) fn check_inputs(
+    name: &str,
+    inputs: &[&dyn RasterSource],
+    layout: &TileLayout,
+) -> Result<()> {
     for src in inputs {
         let i = src.info();
         if (i.width, i.height) != (layout.width, layout.height) {
@@ -239,7 +243,7 @@ fn check_inputs(name: &str, inputs: &[&dyn RasterSource], layout: &TileLayout) -
     Ok(())
 }
 
-fn check_sinks(
+pub(super) fn check_sinks(
     name: &str,
     sinks: &[Box<dyn TileSink>],
     outputs: usize,
@@ -265,13 +269,13 @@ fn check_sinks(
 }
 
 /// Tiles not yet finished in every sink (all tiles when there are none).
-fn todo(layout: &TileLayout, sinks: &[Box<dyn TileSink>]) -> Vec<TileId> {
+pub(super) fn todo(layout: &TileLayout, sinks: &[Box<dyn TileSink>]) -> Vec<TileId> {
     (0..layout.count())
         .filter(|&id| sinks.is_empty() || !sinks.iter().all(|s| s.is_done(id)))
         .collect()
 }
 
-fn read_views<T: Cell>(
+pub(super) fn read_views<T: Cell>(
     inputs: &[&dyn RasterSource],
     layout: &TileLayout,
     id: TileId,
@@ -283,14 +287,14 @@ fn read_views<T: Cell>(
         .collect()
 }
 
-fn blank_outputs<T: IntoAny>(n: usize, layout: &TileLayout, id: TileId) -> Vec<Grid<T>> {
+pub(super) fn blank_outputs<T: IntoAny>(n: usize, layout: &TileLayout, id: TileId) -> Vec<Grid<T>> {
     let core = layout.window(id);
     (0..n)
         .map(|_| Grid::new(core.w, core.h, T::from_f64(f64::NAN)))
         .collect()
 }
 
-fn convert_outputs<T: IntoAny>(
+pub(super) fn convert_outputs<T: IntoAny>(
     name: &str,
     out: &[Grid<T>],
     layout: &TileLayout,
@@ -315,7 +319,7 @@ fn convert_outputs<T: IntoAny>(
         .collect()
 }
 
-fn write_outputs(
+pub(super) fn write_outputs(
     sinks: &mut [Box<dyn TileSink>],
     layout: &TileLayout,
     id: TileId,
@@ -330,7 +334,7 @@ fn write_outputs(
     Ok(())
 }
 
-fn finish_all(sinks: Vec<Box<dyn TileSink>>) -> Result<()> {
+pub(super) fn finish_all(sinks: Vec<Box<dyn TileSink>>) -> Result<()> {
     for s in sinks {
         s.finish()?;
     }
@@ -360,6 +364,11 @@ impl Engine for LocalEngine {
         layout: TileLayout,
         mut sinks: Vec<Box<dyn TileSink>>,
     ) -> Result<()> {
+        // `--engine mpi` (see `select_engine`): every run goes to the ranks.
+        #[cfg(feature = "mpi")]
+        if super::mpi::active() {
+            return super::mpi::MpiEngine::new(self.clone()).run_local(step, inputs, layout, sinks);
+        }
         let name = step.name();
         check_inputs(&name, inputs, &layout)?;
         check_sinks(&name, &sinks, step.outputs(), &layout)?;
@@ -396,6 +405,11 @@ impl Engine for LocalEngine {
         layout: TileLayout,
         mut sinks: Vec<Box<dyn TileSink>>,
     ) -> Result<S::Solution> {
+        #[cfg(feature = "mpi")]
+        if super::mpi::active() {
+            return super::mpi::MpiEngine::new(self.clone())
+                .run_global(step, inputs, layout, sinks);
+        }
         let name = step.name();
         check_inputs(&name, inputs, &layout)?;
         if !sinks.is_empty() {

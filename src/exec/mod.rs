@@ -152,8 +152,82 @@ pub trait Engine {
     ) -> Result<S::Solution>;
 }
 
+/// Which engine runs the steps of this process (`--engine`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum EngineKind {
+    /// In-process: tiles on a rayon pool ([`LocalEngine`]).
+    #[default]
+    Local,
+    /// MPI: tiles spread over the ranks of `mpirun` (needs `--features mpi`).
+    Mpi,
+}
+
+/// Make `kind` the engine of this process. Every [`LocalEngine`] run then
+/// goes to it, so callers and steps stay unchanged. `Mpi` initialises MPI
+/// once (call [`finish_engine`] before the process exits) and stays for the
+/// life of the process (`Local` afterwards changes nothing, so the job
+/// steps of `orogen run --engine mpi` all run on MPI); it is an error in a
+/// build without the `mpi` feature.
+pub fn select_engine(kind: EngineKind) -> Result<()> {
+    match kind {
+        EngineKind::Local => Ok(()),
+        #[cfg(feature = "mpi")]
+        EngineKind::Mpi => mpi::init(),
+        #[cfg(not(feature = "mpi"))]
+        EngineKind::Mpi => Err(crate::error::Error::invalid(
+            "--engine mpi: this orogen was built without MPI; rebuild with `cargo build --release --features mpi` (tools/install_mpi.sh installs Open MPI and libclang) and start it with mpirun",
+        )),
+    }
+}
+
+/// True when the MPI engine runs this process's steps.
+pub fn distributed() -> bool {
+    #[cfg(feature = "mpi")]
+    {
+        mpi::active()
+    }
+    #[cfg(not(feature = "mpi"))]
+    {
+        false
+    }
+}
+
+/// `(rank, ranks)` of this process: `(0, 1)` unless the MPI engine runs.
+pub fn rank() -> (usize, usize) {
+    #[cfg(feature = "mpi")]
+    {
+        mpi::rank_size()
+    }
+    #[cfg(not(feature = "mpi"))]
+    {
+        (0, 1)
+    }
+}
+
+/// End the engine of this process (finalises MPI if it was started); call
+/// once, last, on every exit path that did not fail.
+pub fn finish_engine() {
+    #[cfg(feature = "mpi")]
+    mpi::finalize();
+}
+
+/// End the job on every rank after `msg` (an error) on this one: MPI_Abort
+/// under the MPI engine, else a plain exit with status 1.
+pub fn abort_engine(msg: &str) -> ! {
+    #[cfg(feature = "mpi")]
+    if mpi::active() {
+        mpi::abort(msg)
+    }
+    eprintln!("error: {msg}");
+    std::process::exit(1)
+}
+
 mod copy;
 mod local;
+#[cfg(feature = "mpi")]
+pub mod mpi;
+pub mod mpi_codec;
 pub mod stats;
 
 pub use copy::{copy, ingest, run_local_to_memory, MemSink, MemSinkHandle};

@@ -1,0 +1,128 @@
+#!/bin/bash
+# The MPI engine gives the bytes of the in-process engine.
+#
+# Installs Open MPI (tools/install_mpi.sh), builds orogen with --features mpi,
+# then for a real DEM and for the generator (`orogen demo`, reduced size) runs
+#   fill, flow (D8), accumulate (D8), peaks --tiled (divide tree),
+#   metric (slope + tpi, one pass), erode (thermal)
+# in-process and under `mpirun -n 1|2|4` with `--engine mpi`, and `cmp`s
+# every output file. Also `orogen run job.toml --engine mpi` with 2 ranks.
+#
+# Usage: tools/mpi_check.sh [--release] [--ranks "1 2 4"] [--dem PATH] [--size N] [--tile N]
+# (defaults: a 367x359 real DEM and a 384x384 generated one in tiles of 128)
+# Env:   OROGEN_MPI_STATS=1 prints bytes moved per phase (JSON lines, rank 0).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+profile=debug
+ranks="1 2 4"
+dem=../shared/data/pysheds_dem.tif
+size=384
+tile=128
+while [ $# -gt 0 ]; do
+    case "$1" in
+    --release) profile=release ;;
+    --ranks) ranks="$2"; shift ;;
+    --dem) dem="$2"; shift ;;
+    --size) size="$2"; shift ;;
+    --tile) tile="$2"; shift ;;
+    *) echo "usage: $0 [--release] [--ranks \"1 2 4\"] [--dem PATH] [--size N] [--tile N]" >&2; exit 2 ;;
+    esac
+    shift
+done
+
+tools/install_mpi.sh
+if [ "$profile" = release ]; then
+    cargo build --release --features mpi --bin orogen
+else
+    cargo build --features mpi --bin orogen
+fi
+bin="$PWD/target/$profile/orogen"
+mpirun_="mpirun --allow-run-as-root --oversubscribe"
+work=$(mktemp -d -t orogen-mpi-check.XXXXXX)
+trap 'rm -rf "$work"' EXIT
+fails=0
+
+# pipeline DIR INPUT ENGINE_FLAGS PREFIX...: the steps on INPUT into DIR, each
+# run as `PREFIX... COMMAND ARGS ENGINE_FLAGS`.
+pipeline() {
+    local dir="$1" input="$2" eng="$3"
+    shift 3
+    mkdir -p "$dir"
+    "$@" fill "$input" -o "$dir/fill.tif" --tile "$tile" -q $eng
+    "$@" flow "$dir/fill.tif" -o "$dir/d8.tif" --tile "$tile" -q $eng
+    "$@" accumulate "$dir/d8.tif" -o "$dir/acc.tif" --tile "$tile" -q $eng
+    "$@" peaks "$input" --tiled --min-prominence 20 -o "$dir/peaks" --tile "$tile" -q $eng
+    "$@" metric "$input" --metric slope,tpi:radius=5c -o "$dir/metric" --tile "$tile" -q $eng
+    "$@" erode "$input" --model thermal --steps 20 --talus 30 -o "$dir/thermal.tif" --tile "$tile" -q $eng
+}
+
+compare() {
+    local a="$1" b="$2" label="$3"
+    local n=0
+    while IFS= read -r f; do
+        n=$((n + 1))
+        if ! cmp -s "$a/$f" "$b/$f"; then
+            echo "DIFFER: $label: $f"
+            fails=$((fails + 1))
+        fi
+    done < <(cd "$a" && find . -type f ! -name '.*' | sort)
+    local m
+    m=$(cd "$b" && find . -type f ! -name '.*' | wc -l)
+    if [ "$n" != "$m" ] || [ "$n" = 0 ]; then
+        echo "DIFFER: $label: $n files in-process, $m under MPI"
+        fails=$((fails + 1))
+    fi
+    echo "$label: $n files compared"
+}
+
+"$bin" demo --size "$size" --seed 7 -o "$work/demo" -q >/dev/null
+for name in real demo; do
+    if [ $name = real ]; then input="$dem"; else input="$work/demo/terrain.tif"; fi
+    t0=$(date +%s.%N)
+    pipeline "$work/$name-local" "$input" "" "$bin"
+    t1=$(date +%s.%N)
+    echo "$name: in-process $(echo "$t1 - $t0" | bc) s"
+    for n in $ranks; do
+        t0=$(date +%s.%N)
+        pipeline "$work/$name-mpi$n" "$input" "--engine mpi" $mpirun_ -n "$n" "$bin"
+        t1=$(date +%s.%N)
+        echo "$name: mpirun -n $n $(echo "$t1 - $t0" | bc) s"
+        compare "$work/$name-local" "$work/$name-mpi$n" "$name, $n ranks"
+    done
+done
+
+# A job file under mpirun (engine from the command line).
+mkdir -p "$work/job"
+cat >"$work/job/job.toml" <<EOF
+tile = $tile
+report = false
+[inputs]
+dem = "$(realpath "$dem")"
+[[step]]
+name = "filled"
+run = "fill"
+input = "dem"
+output = "filled.tif"
+[[step]]
+name = "slope"
+run = "metric"
+input = "filled"
+output = "metric"
+args = { metric = "slope" }
+EOF
+cp -r "$work/job" "$work/job-local"
+"$bin" run "$work/job-local/job.toml" -q >/dev/null 2>&1
+$mpirun_ -n 2 "$bin" run "$work/job/job.toml" --engine mpi -q >/dev/null 2>&1
+for f in filled.tif metric/slope.tif; do
+    if ! cmp -s "$work/job-local/$f" "$work/job/$f"; then
+        echo "DIFFER: job file, 2 ranks: $f"
+        fails=$((fails + 1))
+    fi
+done
+echo "job file, 2 ranks: compared"
+
+if [ "$fails" != 0 ]; then
+    echo "mpi_check: $fails difference(s)"
+    exit 1
+fi
+echo "mpi_check: all outputs identical to the in-process engine"
