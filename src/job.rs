@@ -466,6 +466,7 @@ impl Job {
         let text = serde_json::to_string_pretty(st)
             .map_err(|e| Error::invalid(format!("job state: {e}")))?;
         std::fs::write(&tmp, text).map_err(|e| Error::io(&tmp, e))?;
+        crate::store::crash::point("job.state", "tmp");
         std::fs::rename(&tmp, &p).map_err(|e| Error::io(&p, e))
     }
 
@@ -515,13 +516,35 @@ impl Job {
     }
 
     /// True if step `i` finished in an earlier run with the same fingerprint
-    /// and its output still exists.
+    /// and its output still exists and is intact: a tile-store output must
+    /// open as finished and every tile must match its checksum (a tile torn
+    /// by a crash or damaged on disk since makes the step run again, and the
+    /// store's writer then recomputes just that tile).
     pub fn is_done(&self, st: &State, i: usize) -> bool {
         let s = &self.steps[i];
         st.done
             .get(&s.name)
             .is_some_and(|r| r.fingerprint == self.fingerprint(i))
-            && s.output.as_ref().is_none_or(|o| o.exists())
+            && s.output.as_ref().is_none_or(|o| output_intact(o))
+    }
+}
+
+/// A step's output is there and, if it is a tile store (or a folder of
+/// them, as `metric --format tiles` writes), finished with every tile
+/// matching its checksum.
+fn output_intact(o: &Path) -> bool {
+    let store_ok =
+        |p: &Path| crate::store::TileStore::open(p).is_ok_and(|s| s.verify_all().is_ok());
+    if o.join(crate::store::MANIFEST).is_file() {
+        return store_ok(o);
+    }
+    match std::fs::read_dir(o) {
+        Ok(rd) => rd
+            .flatten()
+            .map(|e| e.path())
+            .filter(|p| p.join(crate::store::MANIFEST).is_file())
+            .all(|p| store_ok(&p)),
+        Err(_) => o.exists(),
     }
 }
 
