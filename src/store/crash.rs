@@ -9,6 +9,10 @@
 //!   no cleanup, like SIGKILL) at the N-th (1-based) point whose name matches
 //!   PATTERN: an exact name such as `store.tile.tmp`, or a prefix ending in
 //!   `*` (`store.*`, `*` for every point).
+//! - `OROGEN_CRASH_ACTION=pause` (with `OROGEN_CRASH_SIGNAL=PREFIX`) pauses
+//!   there instead: the process creates `PREFIX.paused` and waits until
+//!   `PREFIX.resume` exists, so a test can act on a half-written output (a
+//!   second writer, a reader, a truncated input) at a known moment.
 //! - `OROGEN_CRASH_LOG=FILE` appends the name of every point reached, one a
 //!   line (the harness counts them in an uninterrupted run to pick N).
 //!
@@ -26,6 +30,8 @@ struct Config {
     hits: AtomicU64,
     /// Log of points reached.
     log: Option<Mutex<std::fs::File>>,
+    /// Pause (signal file prefix) instead of aborting.
+    pause: Option<std::path::PathBuf>,
 }
 
 fn config() -> Option<&'static Config> {
@@ -43,10 +49,14 @@ fn config() -> Option<&'static Config> {
                 .ok()
                 .map(Mutex::new)
         });
+        let pause = (std::env::var("OROGEN_CRASH_ACTION").as_deref() == Ok("pause"))
+            .then(|| std::env::var_os("OROGEN_CRASH_SIGNAL").map(std::path::PathBuf::from))
+            .flatten();
         (at.is_some() || log.is_some()).then_some(Config {
             at,
             hits: AtomicU64::new(0),
             log,
+            pause,
         })
     })
     .as_ref()
@@ -74,8 +84,25 @@ pub fn point(kind: &str, stage: &str) {
     }
     if let Some((pattern, n)) = &cfg.at {
         if matches(pattern, &name) && cfg.hits.fetch_add(1, Ordering::SeqCst) + 1 == *n {
-            std::process::abort();
+            match &cfg.pause {
+                Some(prefix) => pause(prefix),
+                None => std::process::abort(),
+            }
         }
+    }
+}
+
+/// Create `PREFIX.paused`, then wait (polling) until `PREFIX.resume` exists.
+fn pause(prefix: &std::path::Path) {
+    let with = |ext: &str| {
+        let mut p = prefix.as_os_str().to_owned();
+        p.push(ext);
+        std::path::PathBuf::from(p)
+    };
+    let _ = std::fs::write(with(".paused"), std::process::id().to_string());
+    let resume = with(".resume");
+    while !resume.exists() {
+        std::thread::sleep(std::time::Duration::from_millis(10));
     }
 }
 

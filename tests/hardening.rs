@@ -1,0 +1,426 @@
+//! Hardening (issue 12), end to end with the real binary: two writers of one
+//! tile store, readers of a store being written, crash points inside the
+//! store's creation and lock, a torn tile in a finished job output, and I/O
+//! errors that need no root (missing output folder, truncated input, input
+//! truncated while a command runs). The writer is paused or killed at named
+//! points through `OROGEN_CRASH_AT` (see `src/store/crash.rs`).
+
+use orogen::raster::{DType, GeoRef};
+use orogen::store::{Provenance, StoreOptions, StoreWriter, TileStore};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+const BIN: &str = env!("CARGO_BIN_EXE_orogen");
+
+fn dem() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/whitebox_DEM.tif")
+}
+
+fn run(args: &[&str], env: &[(&str, &str)]) -> Output {
+    let mut c = Command::new(BIN);
+    c.args(args);
+    for (k, v) in env {
+        c.env(k, v);
+    }
+    c.output().unwrap()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Every file under `dir` (relative name, bytes), sorted.
+fn files(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut v: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .map(|e| {
+            (
+                e.file_name().to_string_lossy().into_owned(),
+                std::fs::read(e.path()).unwrap(),
+            )
+        })
+        .collect();
+    v.sort();
+    v
+}
+
+fn wait_for(p: &Path, what: &str) {
+    let t0 = Instant::now();
+    while !p.exists() {
+        assert!(t0.elapsed() < Duration::from_secs(120), "{what}: timed out");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
+/// `orogen slope DEM -o OUT` into 32-cell store tiles (8 x 6 = 48 tiles).
+fn slope_args<'a>(input: &'a str, out: &'a str) -> Vec<&'a str> {
+    vec![
+        "slope",
+        input,
+        "-o",
+        out,
+        "--store-tile",
+        "32",
+        "--threads",
+        "1",
+        "-q",
+    ]
+}
+
+/// Start a slope into `out` that pauses after its `n`-th tile is renamed
+/// into place; returns the child and the signal prefix.
+fn paused_slope(input: &str, out: &str, n: usize, sig: &Path) -> std::process::Child {
+    let child = Command::new(BIN)
+        .args(slope_args(input, out))
+        .env("OROGEN_CRASH_AT", format!("store.tile.renamed:{n}"))
+        .env("OROGEN_CRASH_ACTION", "pause")
+        .env("OROGEN_CRASH_SIGNAL", sig)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut paused = sig.as_os_str().to_owned();
+    paused.push(".paused");
+    wait_for(
+        Path::new(&paused),
+        "the first writer reaching its pause point",
+    );
+    child
+}
+
+fn resume(sig: &Path) {
+    let mut r = sig.as_os_str().to_owned();
+    r.push(".resume");
+    std::fs::write(r, "").unwrap();
+}
+
+#[test]
+fn a_second_process_is_refused_and_readers_see_only_finished_tiles() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = dem();
+    let dem_s = d.to_str().unwrap();
+    let refd = tmp.path().join("ref.tiles");
+    let o = run(&slope_args(dem_s, refd.to_str().unwrap()), &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let want = files(&refd);
+    assert_eq!(want.len(), 48 + 1, "48 tiles and the manifest");
+
+    let out = tmp.path().join("a.tiles");
+    let out_s = out.to_str().unwrap();
+    let sig = tmp.path().join("sig");
+    let mut first = paused_slope(dem_s, out_s, 3, &sig);
+
+    // A second writer of the same store: refused, naming the lock and pid.
+    let o = run(&slope_args(dem_s, out_s), &[]);
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(
+        e.contains(".lock")
+            && e.contains("locked by another writer")
+            && e.contains(&format!("pid {}", first.id())),
+        "{e}"
+    );
+    // Even with --overwrite it may not touch the store.
+    let mut ow = slope_args(dem_s, out_s);
+    ow.push("--overwrite");
+    let o = run(&ow, &[]);
+    assert!(!o.status.success() && stderr(&o).contains("locked by another writer"));
+
+    // Readers: the store is refused as unfinished (CLI and library) ...
+    let o = run(&["info", out_s], &[]);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("unfinished tile store"),
+        "{}",
+        stderr(&o)
+    );
+    let e = TileStore::open(&out).unwrap_err();
+    assert!(matches!(e, orogen::Error::Store { .. }), "{e}");
+    let x = tmp.path().join("x.tif");
+    let o = run(&["export", out_s, "-o", x.to_str().unwrap(), "-q"], &[]);
+    assert!(!o.status.success() && !x.exists());
+    // ... and the tiles already in place are finished ones: reference bytes.
+    let now = files(&out);
+    let tiles: Vec<_> = now
+        .iter()
+        .filter(|(n, _)| n.starts_with("t_") && n.ends_with(".bin"))
+        .collect();
+    assert_eq!(
+        tiles.len(),
+        3,
+        "{:?}",
+        now.iter().map(|f| &f.0).collect::<Vec<_>>()
+    );
+    for (n, b) in tiles {
+        assert_eq!(
+            Some(b),
+            want.iter().find(|w| &w.0 == n).map(|w| &w.1),
+            "{n}"
+        );
+    }
+
+    // The first writer goes on undisturbed and finishes the reference bytes.
+    resume(&sig);
+    let st = first.wait().unwrap();
+    assert!(st.success());
+    assert_eq!(files(&out), want);
+    assert!(TileStore::open(&out).unwrap().verify_all().is_ok());
+}
+
+#[test]
+fn a_writer_killed_at_any_store_crash_point_resumes_to_the_same_bytes() {
+    // One kill at each kind of point of a store's life, including the lock
+    // (regression: a writer killed between creating the lock and writing its
+    // pid left an empty lock that refused every later writer) and the first
+    // manifest (regression: killed before its rename, the folder held only
+    // `.lock` and `manifest.json.tmp` and was refused as "not a tile store").
+    let tmp = tempfile::tempdir().unwrap();
+    let d = dem();
+    let dem_s = d.to_str().unwrap();
+    let refd = tmp.path().join("ref.tiles");
+    assert!(run(&slope_args(dem_s, refd.to_str().unwrap()), &[])
+        .status
+        .success());
+    let want = files(&refd);
+    for point in [
+        "store.lock.taken:1",
+        "store.manifest.tmp:1",
+        "store.manifest.renamed:1",
+        "store.tile.tmp:5",
+        "store.tile.renamed:5",
+        "store.journal.appended:5",
+        "store.final-manifest.tmp:1",
+        "store.final-manifest.renamed:1",
+    ] {
+        let out = tmp
+            .path()
+            .join(format!("{}.tiles", point.replace([':', '.'], "_")));
+        let out_s = out.to_str().unwrap();
+        let o = run(&slope_args(dem_s, out_s), &[("OROGEN_CRASH_AT", point)]);
+        assert!(
+            !o.status.success(),
+            "{point}: the crash point was not reached"
+        );
+        let lock = out.join(".lock");
+        if lock.exists() {
+            let pid = std::fs::read_to_string(&lock).unwrap();
+            assert!(
+                pid.trim().parse::<u32>().is_ok(),
+                "{point}: lock holds {pid:?}"
+            );
+        }
+        if !point.starts_with("store.final-manifest.renamed") {
+            assert!(
+                TileStore::open(&out).is_err(),
+                "{point}: opened as finished"
+            );
+        }
+        let o = run(&slope_args(dem_s, out_s), &[]);
+        assert!(o.status.success(), "{point}: rerun failed: {}", stderr(&o));
+        assert_eq!(files(&out), want, "{point}");
+    }
+}
+
+#[test]
+fn leftovers_of_an_interrupted_store_creation_are_cleared() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("c.tiles");
+    std::fs::create_dir(&dir).unwrap();
+    std::fs::write(dir.join("manifest.json.tmp"), "{\"format\": \"orogen-ti").unwrap();
+    std::fs::write(dir.join(".lock.999999999"), "").unwrap();
+    let opts = StoreOptions {
+        tile: 4,
+        ..StoreOptions::default()
+    };
+    let w = StoreWriter::create(
+        &dir,
+        10,
+        10,
+        DType::U8,
+        &GeoRef::pixel(),
+        opts,
+        Provenance::default(),
+    )
+    .unwrap();
+    assert_eq!(w.done_count(), 0);
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, [".lock", "journal", "manifest.json"]);
+    drop(w);
+    // A folder with anything else in it is still not taken.
+    std::fs::write(dir.join("mine.txt"), "x").unwrap();
+    std::fs::remove_file(dir.join("manifest.json")).unwrap();
+    let e = StoreWriter::create(
+        &dir,
+        10,
+        10,
+        DType::U8,
+        &GeoRef::pixel(),
+        opts,
+        Provenance::default(),
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("not a tile store"), "{e}");
+}
+
+#[test]
+fn a_torn_tile_in_a_finished_job_output_is_recomputed() {
+    let tmp = tempfile::tempdir().unwrap();
+    let job = tmp.path().join("job.toml");
+    std::fs::write(
+        &job,
+        format!(
+            "report = false\noutput_dir = \"out\"\n[inputs]\ndem = \"{}\"\n\
+             [[step]]\nname = \"store\"\nrun = \"ingest\"\ninput = \"dem\"\noutput = \"dem.tiles\"\nargs = {{ store_tile = 32, zstd = true }}\n\
+             [[step]]\nname = \"s\"\nrun = \"slope\"\ninput = \"store\"\noutput = \"s.tif\"\n",
+            dem().display()
+        ),
+    )
+    .unwrap();
+    let j = job.to_str().unwrap();
+    let o = run(&["run", j, "-q"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let store = tmp.path().join("out/dem.tiles");
+    let want = files(&store);
+    let want_tif = std::fs::read(tmp.path().join("out/s.tif")).unwrap();
+    // Nothing damaged: both steps are skipped.
+    let o = run(&["run", j, "-q"], &[]);
+    assert_eq!(stderr(&o).matches("done in an earlier run").count(), 2);
+    // Flip one bit of one tile of the finished store.
+    let t = store.join("t_2_3.bin");
+    let mut b = std::fs::read(&t).unwrap();
+    let mid = b.len() / 2;
+    b[mid] ^= 0x10;
+    std::fs::write(&t, &b).unwrap();
+    let o = run(&["run", j, "-q"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(
+        e.contains("orogen ingest"),
+        "the damaged step did not run: {e}"
+    );
+    assert_eq!(files(&store), want);
+    assert_eq!(
+        std::fs::read(tmp.path().join("out/s.tif")).unwrap(),
+        want_tif
+    );
+}
+
+#[test]
+fn output_in_a_missing_folder_is_one_clear_error() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = dem();
+    for out in ["nope/s.tif", "nope/s.tiles"] {
+        let p = tmp.path().join(out);
+        let o = run(
+            &[
+                "slope",
+                d.to_str().unwrap(),
+                "-o",
+                p.to_str().unwrap(),
+                "-q",
+            ],
+            &[],
+        );
+        assert!(!o.status.success(), "{out}");
+        let e = stderr(&o);
+        assert!(e.contains("nope"), "{out}: {e}");
+        assert!(!e.contains("panicked"), "{e}");
+        if out.ends_with(".tif") {
+            assert!(!tmp.path().join("nope").exists(), "{out}: created a folder");
+        }
+    }
+    // A regular file where the folder should be.
+    std::fs::write(tmp.path().join("file"), "x").unwrap();
+    let p = tmp.path().join("file/s.tif");
+    let o = run(
+        &[
+            "slope",
+            d.to_str().unwrap(),
+            "-o",
+            p.to_str().unwrap(),
+            "-q",
+        ],
+        &[],
+    );
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("file"), "{}", stderr(&o));
+}
+
+#[test]
+fn a_truncated_input_is_one_clear_error_and_no_output() {
+    let tmp = tempfile::tempdir().unwrap();
+    let bytes = std::fs::read(dem()).unwrap();
+    let input = tmp.path().join("cut.tif");
+    let out = tmp.path().join("s.tif");
+    // (The file ends with a few bytes no tag points at: cuts inside them
+    // leave a valid file, so the last cut is inside the IFD.)
+    for keep in [0, 7, 300, bytes.len() / 2, 178_300] {
+        std::fs::write(&input, &bytes[..keep]).unwrap();
+        let o = run(
+            &[
+                "slope",
+                input.to_str().unwrap(),
+                "-o",
+                out.to_str().unwrap(),
+                "-q",
+            ],
+            &[],
+        );
+        assert!(!o.status.success(), "cut at {keep}");
+        let e = stderr(&o);
+        assert!(
+            e.contains("cut.tif") && !e.contains("panicked"),
+            "cut at {keep}: {e}"
+        );
+        assert!(!out.exists(), "cut at {keep}: output written");
+        let left: Vec<_> = std::fs::read_dir(tmp.path()).unwrap().flatten().collect();
+        assert_eq!(left.len(), 1, "cut at {keep}: temporaries left");
+    }
+}
+
+#[test]
+fn an_input_truncated_mid_run_fails_cleanly_and_a_rerun_completes() {
+    let tmp = tempfile::tempdir().unwrap();
+    let bytes = std::fs::read(dem()).unwrap();
+    let input = tmp.path().join("in.tif");
+    std::fs::write(&input, &bytes).unwrap();
+    let in_s = input.to_str().unwrap();
+    let refd = tmp.path().join("ref.tiles");
+    assert!(run(&slope_args(in_s, refd.to_str().unwrap()), &[])
+        .status
+        .success());
+    let want = files(&refd);
+
+    let out = tmp.path().join("s.tiles");
+    let out_s = out.to_str().unwrap();
+    let sig = tmp.path().join("sig");
+    let child = paused_slope(in_s, out_s, 2, &sig);
+    // Truncate the input under the running command.
+    std::fs::OpenOptions::new()
+        .write(true)
+        .open(&input)
+        .unwrap()
+        .set_len(2000)
+        .unwrap();
+    resume(&sig);
+    let o = child.wait_with_output().unwrap();
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(e.contains("in.tif") && !e.contains("panicked"), "{e}");
+    assert!(
+        TileStore::open(&out).is_err(),
+        "a partial store opened as finished"
+    );
+    // Fix the input and rerun: completes, the reference bytes.
+    std::fs::write(&input, &bytes).unwrap();
+    let o = run(&slope_args(in_s, out_s), &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(files(&out), want);
+}
