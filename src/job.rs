@@ -41,6 +41,9 @@ use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 
+/// Largest job file (and job state file) read, in bytes.
+pub const MAX_JOB_BYTES: u64 = 16 << 20;
+
 /// A job file as written.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -156,6 +159,18 @@ pub fn load(
     memory: Option<&str>,
     threads: Option<usize>,
 ) -> Result<Job> {
+    let len = std::fs::metadata(path)
+        .map_err(|e| Error::io(path, e))?
+        .len();
+    if len > MAX_JOB_BYTES {
+        return Err(Error::too_large(
+            path,
+            format!(
+                "a job file of {len} bytes (the limit is {} MiB); a job lists steps, not data",
+                MAX_JOB_BYTES >> 20
+            ),
+        ));
+    }
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
     let file: JobFile = toml::from_str(&text).map_err(|e| bad(path, e.to_string().trim_end()))?;
     plan(path, file, table, memory, threads)
@@ -451,9 +466,14 @@ impl Job {
         self.output_dir.join(".orogen-job.json")
     }
 
-    /// The saved state (empty when missing or unreadable: everything reruns).
+    /// The saved state (empty when missing, unreadable or larger than any
+    /// state this runner writes: everything reruns).
     pub fn load_state(&self) -> State {
-        std::fs::read_to_string(self.state_path())
+        let p = self.state_path();
+        if std::fs::metadata(&p).map_or(true, |m| m.len() > MAX_JOB_BYTES) {
+            return State::default();
+        }
+        std::fs::read_to_string(p)
             .ok()
             .and_then(|t| serde_json::from_str(&t).ok())
             .unwrap_or_default()

@@ -424,3 +424,36 @@ fn an_input_truncated_mid_run_fails_cleanly_and_a_rerun_completes() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(files(&out), want);
 }
+
+#[test]
+fn oversized_job_and_lock_files_are_refused_without_reading_them_whole() {
+    let tmp = tempfile::tempdir().unwrap();
+    // A 17 MiB "job file": refused by size, naming the file.
+    let job = tmp.path().join("big.toml");
+    let mut text = String::from("# padding\n");
+    text.push_str(&"#".repeat(17 << 20));
+    std::fs::write(&job, text).unwrap();
+    let o = run(&["run", job.to_str().unwrap(), "-q"], &[]);
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(e.contains("big.toml") && e.contains("job file of"), "{e}");
+    // A 4 MiB foreign `.lock`: read only its head, refused with the fix.
+    let dir = tmp.path().join("l.tiles");
+    std::fs::create_dir(&dir).unwrap();
+    std::fs::write(dir.join(".lock"), "9".repeat(4 << 20)).unwrap();
+    let opts = StoreOptions {
+        tile: 4,
+        ..StoreOptions::default()
+    };
+    let e = StoreWriter::create(
+        &dir,
+        10,
+        10,
+        DType::U8,
+        &GeoRef::pixel(),
+        opts,
+        Provenance::default(),
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("unreadable pid"), "{e}");
+}

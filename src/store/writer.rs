@@ -88,7 +88,13 @@ impl Lock {
                     return Ok(Lock { path, held: true });
                 }
                 Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
-                    let text = std::fs::read_to_string(&path).unwrap_or_default();
+                    // A pid and a newline: read no more than that (a
+                    // hostile or foreign `.lock` may be any size).
+                    let mut head = [0u8; 32];
+                    let n = File::open(&path)
+                        .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
+                        .unwrap_or(0);
+                    let text = String::from_utf8_lossy(&head[..n]);
                     let pid = text.trim().parse::<u32>().ok();
                     let proc_dir = Path::new("/proc");
                     match pid {
