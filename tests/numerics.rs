@@ -18,6 +18,9 @@
 //!   Closed forms where the input allows: on a plane the slope equals
 //!   atan(|∇z|) (Horn's kernel is exact on planes).
 
+// Cell loops index the input, the validity mask and an output together.
+#![allow(clippy::needless_range_loop)]
+
 use orogen::io::geotiff::{write_geotiff, WriteOptions};
 use orogen::raster::{read_window, AnyGrid, Crs, GeoRef, Grid, Window};
 use std::path::{Path, PathBuf};
