@@ -457,3 +457,82 @@ fn oversized_job_and_lock_files_are_refused_without_reading_them_whole() {
     .unwrap_err();
     assert!(e.to_string().contains("unreadable pid"), "{e}");
 }
+
+/// Split a `store_tiles` fuzz input into a store folder (as the target does).
+fn unpack_store_seed(bytes: &[u8], dir: &Path) {
+    const SEP: &[u8] = b"\n--TILE--\n";
+    let mut parts = Vec::new();
+    let mut rest = bytes;
+    while let Some(i) = rest.windows(SEP.len()).position(|w| w == SEP) {
+        parts.push(&rest[..i]);
+        rest = &rest[i + SEP.len()..];
+    }
+    parts.push(rest);
+    std::fs::create_dir_all(dir).unwrap();
+    let m = dir.join(orogen::store::MANIFEST);
+    std::fs::write(&m, parts[0]).unwrap();
+    let layout = orogen::store::Manifest::read(&m).unwrap().layout();
+    assert_eq!(parts.len() - 1, layout.count());
+    for (id, t) in parts[1..].iter().enumerate() {
+        let (tx, ty) = layout.coords(id);
+        std::fs::write(orogen::store::tile_file(dir, tx, ty), t).unwrap();
+    }
+}
+
+#[test]
+fn the_seeds_of_the_new_fuzz_targets_are_valid_inputs() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/corpus");
+    // store_tiles: multi-tile stores of a 40 x 21 grid z = ((7x + 13y) mod 23)
+    // * 10 + 100 with nodata at (4, 4), raw and zstd; every cell checked.
+    let tmp = tempfile::tempdir().unwrap();
+    for seed in ["raw_3x2.bin", "z_3x2.bin"] {
+        let dir = tmp.path().join(format!("{seed}.tiles"));
+        unpack_store_seed(
+            &std::fs::read(root.join("store_tiles").join(seed)).unwrap(),
+            &dir,
+        );
+        let st = TileStore::open(&dir).unwrap();
+        st.verify_all().unwrap();
+        let g =
+            orogen::raster::read_window::<f64>(&st, orogen::raster::Window::full(40, 21)).unwrap();
+        for y in 0..21 {
+            for x in 0..40 {
+                let v = g.get(x, y);
+                if (x, y) == (4, 4) {
+                    assert!(v.is_nan(), "{seed}");
+                } else {
+                    assert_eq!(
+                        v,
+                        (((x * 7 + y * 13) % 23) * 10 + 100) as f64,
+                        "{seed} ({x},{y})"
+                    );
+                }
+            }
+        }
+    }
+    let dir = tmp.path().join("s.tiles");
+    unpack_store_seed(
+        &std::fs::read(root.join("store_tiles/s_2x1.bin")).unwrap(),
+        &dir,
+    );
+    TileStore::open(&dir).unwrap().verify_all().unwrap();
+    // divide_tree: trees from `orogen peaks` load and survive a JSON round
+    // trip; synthetic trees (prefix `S`) load.
+    for e in std::fs::read_dir(root.join("divide_tree"))
+        .unwrap()
+        .flatten()
+    {
+        let bytes = std::fs::read(e.path()).unwrap();
+        let p = tmp.path().join("t.json");
+        if let Some(rest) = bytes.strip_prefix(b"S") {
+            std::fs::write(&p, rest).unwrap();
+            let t = orogen::synth::orometric::tree_synth::SynthTree::load(&p).unwrap();
+            assert!(!t.peaks.is_empty());
+        } else {
+            std::fs::write(&p, &bytes).unwrap();
+            let t = orogen::oro::DivideTree::load_json(&p).unwrap();
+            assert!(!t.peaks.is_empty());
+            assert_eq!(orogen::oro::DivideTree::from_json(&t.to_json()).unwrap(), t);
+        }
+    }
+}
