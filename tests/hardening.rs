@@ -536,3 +536,126 @@ fn the_seeds_of_the_new_fuzz_targets_are_valid_inputs() {
         }
     }
 }
+
+/// SplitMix64 (Steele, Lea & Flood 2014): the mutation stream.
+fn splitmix(s: &mut u64) -> u64 {
+    *s = s.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    let mut z = *s;
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// One random mutation of `b`: flip a bit, set a byte to a digit or a JSON
+/// delimiter, truncate, duplicate or delete a span.
+fn mutate(b: &mut Vec<u8>, s: &mut u64) {
+    if b.is_empty() {
+        b.push(b'{');
+        return;
+    }
+    let n = b.len();
+    let i = (splitmix(s) % n as u64) as usize;
+    match splitmix(s) % 6 {
+        0 => b[i] ^= 1 << (splitmix(s) % 8),
+        1 => b[i] = b"0123456789-.e"[(splitmix(s) % 13) as usize],
+        2 => b[i] = b"{}[],:\"\n"[(splitmix(s) % 8) as usize],
+        3 => b.truncate(i),
+        4 => {
+            let j = (i + 1 + (splitmix(s) % 64) as usize).min(n);
+            let span = b[i..j].to_vec();
+            b.splice(i..i, span);
+        }
+        _ => {
+            let j = (i + 1 + (splitmix(s) % 16) as usize).min(n);
+            b.drain(i..j);
+        }
+    }
+}
+
+#[test]
+fn mutated_divide_trees_and_multi_tile_stores_never_panic() {
+    // A deterministic mutation smoke run of what the divide_tree and
+    // store_tiles fuzz targets do (the optimised fuzz build did not finish
+    // this session; see docs/RELIABILITY.md): typed errors only, and a tree
+    // that loads survives a JSON round trip unchanged.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/corpus");
+    let tmp = tempfile::tempdir().unwrap();
+    let mut s = 12u64;
+    let mut loaded = 0;
+    for e in std::fs::read_dir(root.join("divide_tree"))
+        .unwrap()
+        .flatten()
+    {
+        let seed = std::fs::read(e.path()).unwrap();
+        for _ in 0..400 {
+            let mut b = seed.clone();
+            for _ in 0..1 + splitmix(&mut s) % 4 {
+                mutate(&mut b, &mut s);
+            }
+            let p = tmp.path().join("t.json");
+            if let Some(rest) = b.strip_prefix(b"S") {
+                std::fs::write(&p, rest).unwrap();
+                if let Ok(t) = orogen::synth::orometric::tree_synth::SynthTree::load(&p) {
+                    assert_eq!(t.prominences().len(), t.peaks.len());
+                    let _ = t.to_geojson();
+                    loaded += 1;
+                }
+            } else {
+                std::fs::write(&p, &b).unwrap();
+                if let Ok(t) = orogen::oro::DivideTree::load_json(&p) {
+                    let _ = t.pruned(10.0);
+                    assert_eq!(orogen::oro::DivideTree::from_json(&t.to_json()).unwrap(), t);
+                    loaded += 1;
+                }
+            }
+        }
+    }
+    assert!(
+        loaded > 0,
+        "no mutant loaded: the mutations are too destructive to test much"
+    );
+    let mut opened = 0;
+    for e in std::fs::read_dir(root.join("store_tiles"))
+        .unwrap()
+        .flatten()
+    {
+        let seed = std::fs::read(e.path()).unwrap();
+        for k in 0..400 {
+            let mut b = seed.clone();
+            for _ in 0..1 + splitmix(&mut s) % 3 {
+                mutate(&mut b, &mut s);
+            }
+            let dir = tmp.path().join(format!("m{k}.tiles"));
+            let _ = std::fs::remove_dir_all(&dir);
+            // As the target: manifest, then tiles in the manifest's order.
+            const SEP: &[u8] = b"\n--TILE--\n";
+            let mut parts = Vec::new();
+            let mut rest = &b[..];
+            while let Some(i) = rest.windows(SEP.len()).position(|w| w == SEP) {
+                parts.push(&rest[..i]);
+                rest = &rest[i + SEP.len()..];
+            }
+            parts.push(rest);
+            std::fs::create_dir_all(&dir).unwrap();
+            let m = dir.join(orogen::store::MANIFEST);
+            std::fs::write(&m, parts[0]).unwrap();
+            if let Ok(man) = orogen::store::Manifest::read(&m) {
+                let layout = man.layout();
+                for (id, t) in parts[1..].iter().enumerate().take(layout.count().min(64)) {
+                    let (tx, ty) = layout.coords(id);
+                    std::fs::write(orogen::store::tile_file(&dir, tx, ty), t).unwrap();
+                }
+            }
+            if let Ok(st) = TileStore::open(&dir) {
+                let i = orogen::raster::RasterSource::info(&st).clone();
+                let ok = st.verify_all().is_ok();
+                let full = orogen::raster::Window::full(i.width.min(256), i.height.min(256));
+                let r = orogen::raster::read_window_native(&st, full);
+                // A store whose tiles all verify reads without error.
+                assert!(!ok || r.is_ok(), "verified store failed to read: {r:?}");
+                opened += 1;
+            }
+        }
+    }
+    assert!(opened > 0);
+}
