@@ -6,8 +6,9 @@ use std::path::{Path, PathBuf};
 /// The library's error type.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
-    /// An operating-system I/O error on a named file.
-    #[error("{}: {err}", path.display())]
+    /// An operating-system I/O error on a named file (with what to do for
+    /// a full disk or a read-only folder).
+    #[error("{}: {err}{}", path.display(), io_hint(err))]
     Io {
         path: PathBuf,
         // Not a `source`: the message already includes it, and error chains
@@ -38,6 +39,23 @@ pub enum Error {
         // the CLI's error chain).
         inner: Box<Error>,
     },
+}
+
+/// The fix for the I/O errors a user can fix (issue 12: "one clear error
+/// naming the file and the fix"); empty for the others.
+fn io_hint(e: &std::io::Error) -> &'static str {
+    match e.kind() {
+        std::io::ErrorKind::StorageFull | std::io::ErrorKind::QuotaExceeded => {
+            "; free disk space (or choose another output folder) and rerun: outputs are only renamed into place when complete, and tile stores keep their finished tiles"
+        }
+        std::io::ErrorKind::ReadOnlyFilesystem => {
+            "; the folder is read-only: choose a writable output folder (or remount it read-write) and rerun"
+        }
+        std::io::ErrorKind::PermissionDenied => {
+            "; check the permissions of the file and its folder"
+        }
+        _ => "",
+    }
 }
 
 /// Result alias used throughout the library.

@@ -42,6 +42,9 @@ use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 
+/// Largest job file (and job state file) read, in bytes.
+pub const MAX_JOB_BYTES: u64 = 16 << 20;
+
 /// A job file as written.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -160,6 +163,18 @@ pub fn load(
     memory: Option<&str>,
     threads: Option<usize>,
 ) -> Result<Job> {
+    let len = std::fs::metadata(path)
+        .map_err(|e| Error::io(path, e))?
+        .len();
+    if len > MAX_JOB_BYTES {
+        return Err(Error::too_large(
+            path,
+            format!(
+                "a job file of {len} bytes (the limit is {} MiB); a job lists steps, not data",
+                MAX_JOB_BYTES >> 20
+            ),
+        ));
+    }
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
     let file: JobFile = toml::from_str(&text).map_err(|e| bad(path, e.to_string().trim_end()))?;
     plan(path, file, table, memory, threads)
@@ -456,9 +471,14 @@ impl Job {
         self.output_dir.join(".orogen-job.json")
     }
 
-    /// The saved state (empty when missing or unreadable: everything reruns).
+    /// The saved state (empty when missing, unreadable or larger than any
+    /// state this runner writes: everything reruns).
     pub fn load_state(&self) -> State {
-        std::fs::read_to_string(self.state_path())
+        let p = self.state_path();
+        if std::fs::metadata(&p).map_or(true, |m| m.len() > MAX_JOB_BYTES) {
+            return State::default();
+        }
+        std::fs::read_to_string(p)
             .ok()
             .and_then(|t| serde_json::from_str(&t).ok())
             .unwrap_or_default()
@@ -471,6 +491,7 @@ impl Job {
         let text = serde_json::to_string_pretty(st)
             .map_err(|e| Error::invalid(format!("job state: {e}")))?;
         std::fs::write(&tmp, text).map_err(|e| Error::io(&tmp, e))?;
+        crate::store::crash::point("job.state", "tmp");
         std::fs::rename(&tmp, &p).map_err(|e| Error::io(&p, e))
     }
 
@@ -520,13 +541,35 @@ impl Job {
     }
 
     /// True if step `i` finished in an earlier run with the same fingerprint
-    /// and its output still exists.
+    /// and its output still exists and is intact: a tile-store output must
+    /// open as finished and every tile must match its checksum (a tile torn
+    /// by a crash or damaged on disk since makes the step run again, and the
+    /// store's writer then recomputes just that tile).
     pub fn is_done(&self, st: &State, i: usize) -> bool {
         let s = &self.steps[i];
         st.done
             .get(&s.name)
             .is_some_and(|r| r.fingerprint == self.fingerprint(i))
-            && s.output.as_ref().is_none_or(|o| o.exists())
+            && s.output.as_ref().is_none_or(|o| output_intact(o))
+    }
+}
+
+/// A step's output is there and, if it is a tile store (or a folder of
+/// them, as `metric --format tiles` writes), finished with every tile
+/// matching its checksum.
+fn output_intact(o: &Path) -> bool {
+    let store_ok =
+        |p: &Path| crate::store::TileStore::open(p).is_ok_and(|s| s.verify_all().is_ok());
+    if o.join(crate::store::MANIFEST).is_file() {
+        return store_ok(o);
+    }
+    match std::fs::read_dir(o) {
+        Ok(rd) => rd
+            .flatten()
+            .map(|e| e.path())
+            .filter(|p| p.join(crate::store::MANIFEST).is_file())
+            .all(|p| store_ok(&p)),
+        Err(_) => o.exists(),
     }
 }
 

@@ -193,10 +193,12 @@ pub fn check_steps(steps: u64) -> Result<()> {
     }
 }
 
-/// True for a cell with data (nodata is NaN in the models' state).
+/// True for a cell with data (nodata is NaN in the models' state; ±inf is
+/// nodata too, as in the hydrology and terrain steps: an infinite cell would
+/// otherwise spread infinities to its neighbours; found by tests/numerics.rs).
 #[inline]
 pub(crate) fn valid(v: f64) -> bool {
-    !v.is_nan()
+    v.is_finite()
 }
 
 pub mod constrained;

@@ -221,7 +221,11 @@ pub fn run<M: LocalModel>(
                 let core = layout.window(id);
                 let dem = read_window::<f64>(src, core)?;
                 let mut v = vec![0.0; core.len() * nf];
-                v[..core.len()].copy_from_slice(dem.data());
+                // Cells the f32 output cannot hold (±inf, beyond ±f32::MAX)
+                // are nodata, as in the other steps (tests/numerics.rs).
+                for (o, &z) in v[..core.len()].iter_mut().zip(dem.data()) {
+                    *o = if (z as f32).is_finite() { z } else { f64::NAN };
+                }
                 if let Some(dir) = disk_dir(0) {
                     write_tile(&dir, id, &v)?;
                     return Ok((id, Vec::new()));

@@ -44,12 +44,14 @@ pub fn walk_3x3<O: Copy>(
         let mid = &data[r0 + gw..r0 + gw + orow.len() + 2];
         let dn = &data[r0 + 2 * gw..r0 + 2 * gw + orow.len() + 2];
         // Branch-free pass (vectorisable when `f` is): every cell is computed,
-        // cells whose window holds a NaN get `nodata`.
+        // cells whose window holds a NaN or ±inf get `nodata` (±inf is
+        // nodata, as in the hydrology steps; found by tests/numerics.rs).
         let mut any_bad = false;
         for (x, o) in orow.iter_mut().enumerate() {
             let win = window(up, mid, dn, x);
-            // A NaN anywhere makes the sum NaN.
-            let bad = win.iter().sum::<f64>().is_nan();
+            // A NaN or ±inf anywhere makes the sum non-finite (f32 values
+            // cannot overflow an f64 sum of nine).
+            let bad = !win.iter().sum::<f64>().is_finite();
             let v = f(&win, ew, ns);
             *o = if bad { nodata } else { v };
             any_bad |= bad;
@@ -57,7 +59,7 @@ pub fn walk_3x3<O: Copy>(
         if any_bad && edge == EdgeMode::Compute {
             for (x, o) in orow.iter_mut().enumerate() {
                 let win = window(up, mid, dn, x);
-                if win.iter().sum::<f64>().is_nan() {
+                if !win.iter().sum::<f64>().is_finite() {
                     *o = slow_cell(view, &win, x, y, edge, nodata, &f, ew, ns);
                 }
             }
@@ -97,12 +99,12 @@ fn slow_cell<O: Copy>(
     ns: f64,
 ) -> O {
     let centre = win[4];
-    if centre.is_nan() || edge == EdgeMode::Nodata {
+    if !centre.is_finite() || edge == EdgeMode::Nodata {
         return nodata;
     }
     let mut filled = *win;
     for v in filled.iter_mut() {
-        if v.is_nan() {
+        if !v.is_finite() {
             *v = centre;
         }
     }

@@ -4,6 +4,7 @@
 //! atomically and resumably ([`StoreWriter`]) and read through short-lived
 //! memory maps ([`TileStore`]). See DESIGN.md, "Tile store".
 
+pub mod crash;
 mod manifest;
 mod reader;
 mod tile;

@@ -21,8 +21,10 @@ pub fn encode(raw: &[u8], compression: Compression, path: &Path) -> Result<Vec<u
 }
 
 /// Write `bytes` to `path` atomically: a temporary sibling is written and
-/// fsynced (when `sync`), then renamed over `path`.
-pub fn write_atomic(path: &Path, bytes: &[u8], sync: bool) -> Result<()> {
+/// fsynced (when `sync`), then renamed over `path`. `kind` names the file's
+/// role for the crash harness ([`super::crash::point`]: `KIND.tmp` before
+/// the rename, `KIND.renamed` after it).
+pub fn write_atomic(path: &Path, bytes: &[u8], sync: bool, kind: &str) -> Result<()> {
     let mut tmp = path.as_os_str().to_owned();
     tmp.push(".tmp");
     let tmp = PathBuf::from(tmp);
@@ -38,7 +40,10 @@ pub fn write_atomic(path: &Path, bytes: &[u8], sync: bool) -> Result<()> {
             f.sync_all().at(&tmp)?;
         }
     }
-    std::fs::rename(&tmp, path).at(path)
+    super::crash::point(kind, "tmp");
+    std::fs::rename(&tmp, path).at(path)?;
+    super::crash::point(kind, "renamed");
+    Ok(())
 }
 
 /// fsync a directory so renames in it are durable.

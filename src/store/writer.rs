@@ -51,9 +51,12 @@ impl Default for StoreOptions {
     }
 }
 
-/// An exclusive writer lock: a file created with `O_EXCL` holding the pid
-/// of its owner. A lock whose owner no longer runs (Linux: no `/proc/PID`)
-/// is stale and taken over, so a killed job can be resumed.
+/// An exclusive writer lock: a file holding the pid of its owner, which
+/// appears under its name with that content already in it (written to
+/// `.lock.PID`, then hard-linked to `.lock`, which fails if a lock exists),
+/// so a writer killed at any moment never leaves an empty, unreadable lock.
+/// A lock whose owner no longer runs (Linux: no `/proc/PID`) is stale and
+/// taken over, so a killed job can be resumed.
 #[derive(Debug)]
 struct Lock {
     path: PathBuf,
@@ -62,16 +65,36 @@ struct Lock {
 
 impl Lock {
     fn acquire(path: PathBuf) -> Result<Lock> {
+        let me = std::process::id();
+        let mut own = path.as_os_str().to_owned();
+        own.push(format!(".{me}"));
+        let own = PathBuf::from(own);
+        remove_stale_lock_temps(&path);
+        {
+            let mut f = File::create(&own).at(&own)?;
+            f.write_all(format!("{me}\n").as_bytes()).at(&own)?;
+            f.sync_all().at(&own)?;
+        }
+        let result = Self::link(&own, path);
+        let _ = std::fs::remove_file(&own);
+        result
+    }
+
+    fn link(own: &Path, path: PathBuf) -> Result<Lock> {
         for _ in 0..2 {
-            match OpenOptions::new().write(true).create_new(true).open(&path) {
-                Ok(mut f) => {
-                    f.write_all(format!("{}\n", std::process::id()).as_bytes())
-                        .at(&path)?;
-                    f.sync_all().at(&path)?;
+            match std::fs::hard_link(own, &path) {
+                Ok(()) => {
+                    super::crash::point("store.lock", "taken");
                     return Ok(Lock { path, held: true });
                 }
                 Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
-                    let text = std::fs::read_to_string(&path).unwrap_or_default();
+                    // A pid and a newline: read no more than that (a
+                    // hostile or foreign `.lock` may be any size).
+                    let mut head = [0u8; 32];
+                    let n = File::open(&path)
+                        .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
+                        .unwrap_or(0);
+                    let text = String::from_utf8_lossy(&head[..n]);
                     let pid = text.trim().parse::<u32>().ok();
                     let proc_dir = Path::new("/proc");
                     match pid {
@@ -118,6 +141,27 @@ impl Lock {
             }
         }
         Ok(())
+    }
+}
+
+/// Remove `.lock.PID` temporaries of writers that no longer run (killed
+/// between writing their pid and linking it as the lock).
+fn remove_stale_lock_temps(lock: &Path) {
+    let (Some(dir), Some(name)) = (lock.parent(), lock.file_name()) else {
+        return;
+    };
+    let prefix = format!("{}.", name.to_string_lossy());
+    let Ok(rd) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for e in rd.flatten() {
+        let n = e.file_name().to_string_lossy().into_owned();
+        let Some(pid) = n.strip_prefix(&prefix).and_then(|p| p.parse::<u32>().ok()) else {
+            continue;
+        };
+        if pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists() {
+            let _ = std::fs::remove_file(e.path());
+        }
     }
 }
 
@@ -235,17 +279,23 @@ impl StoreWriter {
         } else if std::fs::read_dir(&dir)
             .at(&dir)?
             .flatten()
-            .any(|e| e.file_name() != LOCK)
+            .any(|e| !is_bookkeeping(&e.file_name()))
         {
             return Err(Error::store(
                 &dir,
                 "the directory exists, is not empty and is not a tile store; choose another name or use --overwrite",
             ));
         }
+        if !mpath.exists() && !opts.overwrite {
+            // A creation killed before its first manifest was renamed into
+            // place leaves only bookkeeping files (lock, manifest temporary):
+            // the store simply starts over.
+            clear_store_files(&dir)?;
+        }
         // Record the verified tiles in the (unfinished) manifest, then start
         // an empty journal: a crash in between leaves the old journal, whose
         // entries are verified again on the next resume.
-        write_atomic(&mpath, &manifest.to_bytes()?, opts.sync)?;
+        write_atomic(&mpath, &manifest.to_bytes()?, opts.sync, "store.manifest")?;
         if opts.sync {
             sync_dir(&dir)?;
         }
@@ -380,6 +430,19 @@ fn read_journal(path: &Path) -> Result<Vec<(usize, u32, u64)>> {
     Ok(out)
 }
 
+/// Files a store's writer leaves before its first manifest exists: the lock
+/// (and a `.lock.PID` temporary), the manifest's temporary and the journal (a directory holding only these
+/// is a store whose creation was interrupted, not someone else's folder).
+fn is_bookkeeping(name: &std::ffi::OsStr) -> bool {
+    let tmp = format!("{MANIFEST}.tmp");
+    let lock_tmp = name
+        .to_str()
+        .and_then(|n| n.strip_prefix(LOCK))
+        .and_then(|r| r.strip_prefix('.'))
+        .is_some_and(|pid| pid.parse::<u32>().is_ok());
+    name == LOCK || name == JOURNAL || name == tmp.as_str() || lock_tmp
+}
+
 /// Remove the files of a store (manifest, journal, tiles, temporaries) from
 /// `dir`, leaving anything else and the lock alone.
 fn clear_store_files(dir: &Path) -> Result<()> {
@@ -449,7 +512,7 @@ impl TileSink for StoreWriter {
         let (tx, ty) = self.layout.coords(id);
         let path = tile_file(&self.dir, tx, ty);
         let enc = encode(raw, self.opts.compression, &path)?;
-        write_atomic(&path, &enc, self.opts.sync)?;
+        write_atomic(&path, &enc, self.opts.sync, "store.tile")?;
         let jpath = self.dir.join(JOURNAL);
         self.journal
             .write_all(format!("{id} {crc:08x} {}\n", enc.len()).as_bytes())
@@ -457,6 +520,7 @@ impl TileSink for StoreWriter {
         if self.opts.sync {
             self.journal.sync_data().at(&jpath)?;
         }
+        super::crash::point("store.journal", "appended");
         self.manifest.tiles[id] = TileEntry {
             state: TileState::Done,
             crc32: crc,
@@ -480,12 +544,18 @@ impl TileSink for StoreWriter {
         }
         self.manifest.complete = true;
         let mpath = self.dir.join(MANIFEST);
-        write_atomic(&mpath, &self.manifest.to_bytes()?, self.opts.sync)?;
+        write_atomic(
+            &mpath,
+            &self.manifest.to_bytes()?,
+            self.opts.sync,
+            "store.final-manifest",
+        )?;
         let jpath = self.dir.join(JOURNAL);
         std::fs::remove_file(&jpath).at(&jpath)?;
         if self.opts.sync {
             sync_dir(&self.dir)?;
         }
+        super::crash::point("store.finish", "journal-removed");
         self.lock.release()
     }
 }

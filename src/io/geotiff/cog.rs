@@ -463,7 +463,10 @@ impl CogWriter {
                 .into_inner()
                 .map_err(|e| Error::io(&tmp, e.into_error()))?;
             f.sync_all().at(&tmp)?;
-            std::fs::rename(&tmp, &self.path).at(&self.path)
+            crate::store::crash::point("cog", "tmp");
+            std::fs::rename(&tmp, &self.path).at(&self.path)?;
+            crate::store::crash::point("cog", "renamed");
+            Ok(())
         })();
         if result.is_err() {
             let _ = std::fs::remove_file(&tmp);

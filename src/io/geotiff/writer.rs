@@ -687,7 +687,9 @@ impl GeoTiffWriter {
         f.write_all(&cnts).at(&tmp)?;
         f.sync_all().at(&tmp)?;
         drop(f);
+        crate::store::crash::point("tiff", "tmp");
         std::fs::rename(&tmp, &self.path).at(&self.path)?;
+        crate::store::crash::point("tiff", "renamed");
         self.finished = true;
         Ok(())
     }
