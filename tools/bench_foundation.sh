@@ -33,7 +33,11 @@ t_slope=$(cat "$tmp/last")
 run "orogen slope store -> tif (uncompressed)" "$OROGEN" slope "$tmp/p.tiles" -o "$tmp/s2.tif" --compress none --threads "$THREADS" -q
 run "gdaldem slope -s 111120" gdaldem slope -q -s 111120 "$DEM" "$tmp/gs.tif"
 t_gslope=$(cat "$tmp/last")
+run "orogen aspect tif -> tif (uncompressed)" "$OROGEN" aspect "$DEM" -o "$tmp/a.tif" --compress none --threads "$THREADS" -q
+t_aspect=$(cat "$tmp/last")
+run "gdaldem aspect -s 111120" gdaldem aspect -q -s 111120 "$DEM" "$tmp/ga.tif"
+t_gaspect=$(cat "$tmp/last")
 run "orogen hillshade tif -> tif" "$OROGEN" hillshade "$DEM" -o "$tmp/h.tif" --compress none --threads "$THREADS" -q
 run "gdaldem hillshade -s 111120" gdaldem hillshade -q -s 111120 "$DEM" "$tmp/gh.tif"
-awk -v a="$t_gt" -v b="$t_ingest" -v c="$t_gslope" -v d="$t_slope" 'BEGIN {
-  printf "ingest: gdal_translate/orogen = %.2fx ; slope: gdaldem/orogen = %.2fx\n", a/b, c/d }'
+awk -v a="$t_gt" -v b="$t_ingest" -v c="$t_gslope" -v d="$t_slope" -v e="$t_gaspect" -v f="$t_aspect" 'BEGIN {
+  printf "ingest: gdal_translate/orogen = %.2fx ; slope: gdaldem/orogen = %.2fx ; aspect: gdaldem/orogen = %.2fx\n", a/b, c/d, e/f }'

@@ -62,6 +62,68 @@ pub fn prominences(h: &[f64], edges: &[(usize, usize)], hs: &[f64]) -> Vec<f64> 
     p
 }
 
+/// The saddle height that gives the owner (height `ho`) the target `t`.
+fn target_height(kind: Target, ho: f64, t: f64) -> f64 {
+    match kind {
+        Target::Prominence => ho - t,
+        Target::Dominance => ho * (1.0 - t),
+    }
+}
+
+/// The owner's current prominence or dominance with its saddle at `hsad`.
+fn current_value(kind: Target, ho: f64, hsad: f64) -> f64 {
+    match kind {
+        Target::Prominence => ho - hsad,
+        Target::Dominance => {
+            if ho > 0.0 {
+                (ho - hsad) / ho
+            } else {
+                0.0
+            }
+        }
+    }
+}
+
+/// Match saddles `se` (sorted by current value) to targets `st` (ascending)
+/// in blocks of [`BLOCK`] by linear assignment; cost = 10⁴·(bound
+/// violation)² + (change)². Writes the clamped heights into `new_hs`.
+#[allow(clippy::too_many_arguments)]
+fn solve_blocks(
+    se: &[usize],
+    st: &[f64],
+    value: &dyn Fn(usize, f64) -> f64,
+    hmax: &[f64],
+    floor: f64,
+    hs: &[f64],
+    new_hs: &mut [f64],
+    cost: &mut Vec<f64>,
+) -> Result<()> {
+    for (blk_e, blk_t) in se.chunks(BLOCK).zip(st.chunks(BLOCK)) {
+        let m = blk_e.len();
+        cost.clear();
+        for &e in blk_e {
+            for &t in blk_t {
+                let v = value(e, t);
+                let c = v.clamp(floor, hmax[e].max(floor));
+                let d = v - hs[e];
+                cost.push(1e4 * (v - c) * (v - c) + d * d);
+            }
+        }
+        if cost.iter().any(|c| !c.is_finite()) {
+            return Err(Error::invalid(
+                "saddle assignment: a cost is not finite (NaN or infinite elevation)",
+            ));
+        }
+        let (rows, cols) = lsap::solve(m, m, cost, false)
+            .map_err(|e| Error::invalid(format!("saddle assignment failed: {e:?}")))?;
+        for (r, c) in rows.into_iter().zip(cols) {
+            let e = blk_e[r];
+            new_hs[e] = value(e, blk_t[c]).clamp(floor, hmax[e].max(floor));
+        }
+    }
+    Ok(())
+}
+
 /// Which target a pass matches.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Target {
@@ -87,50 +149,16 @@ pub fn assign_pass(
         ));
     }
     let own = owners(h, edges, hs);
-    let value = |e: usize, t: f64| match kind {
-        Target::Prominence => h[own[e]] - t,
-        Target::Dominance => h[own[e]] * (1.0 - t),
-    };
+    let value = |e: usize, t: f64| target_height(kind, h[own[e]], t);
     // Current value of the target quantity per saddle, to sort by rank.
-    let current = |e: usize| match kind {
-        Target::Prominence => h[own[e]] - hs[e],
-        Target::Dominance => {
-            if h[own[e]] > 0.0 {
-                (h[own[e]] - hs[e]) / h[own[e]]
-            } else {
-                0.0
-            }
-        }
-    };
+    let current = |e: usize| current_value(kind, h[own[e]], hs[e]);
     let mut se: Vec<usize> = (0..n).collect();
     se.sort_by(|&a, &b| current(a).total_cmp(&current(b)).then(a.cmp(&b)));
     let mut st: Vec<f64> = targets.to_vec();
     st.sort_by(|a, b| a.total_cmp(b));
     let mut new_hs = hs.to_vec();
     let mut cost = Vec::with_capacity(BLOCK * BLOCK);
-    for (blk_e, blk_t) in se.chunks(BLOCK).zip(st.chunks(BLOCK)) {
-        let m = blk_e.len();
-        cost.clear();
-        for &e in blk_e {
-            for &t in blk_t {
-                let v = value(e, t);
-                let c = v.clamp(floor, hmax[e].max(floor));
-                let d = v - hs[e];
-                cost.push(1e4 * (v - c) * (v - c) + d * d);
-            }
-        }
-        if cost.iter().any(|c| !c.is_finite()) {
-            return Err(Error::invalid(
-                "saddle assignment: a cost is not finite (NaN or infinite elevation)",
-            ));
-        }
-        let (rows, cols) = lsap::solve(m, m, &cost, false)
-            .map_err(|e| Error::invalid(format!("saddle assignment failed: {e:?}")))?;
-        for (r, c) in rows.into_iter().zip(cols) {
-            let e = blk_e[r];
-            new_hs[e] = value(e, blk_t[c]).clamp(floor, hmax[e].max(floor));
-        }
-    }
+    solve_blocks(&se, &st, &value, hmax, floor, hs, &mut new_hs, &mut cost)?;
     hs.copy_from_slice(&new_hs);
     Ok(())
 }
@@ -198,20 +226,8 @@ pub fn assign_pass_grouped(
         ));
     }
     let own = owners(h, edges, hs);
-    let value = |e: usize, t: f64| match kind {
-        Target::Prominence => h[own[e]] - t,
-        Target::Dominance => h[own[e]] * (1.0 - t),
-    };
-    let current = |e: usize| match kind {
-        Target::Prominence => h[own[e]] - hs[e],
-        Target::Dominance => {
-            if h[own[e]] > 0.0 {
-                (h[own[e]] - hs[e]) / h[own[e]]
-            } else {
-                0.0
-            }
-        }
-    };
+    let value = |e: usize, t: f64| target_height(kind, h[own[e]], t);
+    let current = |e: usize| current_value(kind, h[own[e]], hs[e]);
     let mut new_hs = hs.to_vec();
     let mut cost = Vec::with_capacity(BLOCK * BLOCK);
     for (g, gt) in groups.iter().enumerate() {
@@ -228,29 +244,7 @@ pub fn assign_pass_grouped(
         };
         // Stratified samples are ascending already.
         let st = hist.stratified(se.len());
-        for (blk_e, blk_t) in se.chunks(BLOCK).zip(st.chunks(BLOCK)) {
-            let m = blk_e.len();
-            cost.clear();
-            for &e in blk_e {
-                for &t in blk_t {
-                    let v = value(e, t);
-                    let c = v.clamp(floor, hmax[e].max(floor));
-                    let d = v - hs[e];
-                    cost.push(1e4 * (v - c) * (v - c) + d * d);
-                }
-            }
-            if cost.iter().any(|c| !c.is_finite()) {
-                return Err(Error::invalid(
-                    "saddle assignment: a cost is not finite (NaN or infinite elevation)",
-                ));
-            }
-            let (rows, cols) = lsap::solve(m, m, &cost, false)
-                .map_err(|e| Error::invalid(format!("saddle assignment failed: {e:?}")))?;
-            for (r, c) in rows.into_iter().zip(cols) {
-                let e = blk_e[r];
-                new_hs[e] = value(e, blk_t[c]).clamp(floor, hmax[e].max(floor));
-            }
-        }
+        solve_blocks(&se, &st, &value, hmax, floor, hs, &mut new_hs, &mut cost)?;
     }
     hs.copy_from_slice(&new_hs);
     Ok(())
