@@ -58,6 +58,9 @@ fn bench(c: &mut Criterion) {
         // descr3: exact sliding medians, O(r log n) per cell
         "asymmetry_index:radius=5c",
         "asymmetry_index:radius=50c",
+        // descr4: Xu's forms on a sphere (plumb-line heights)
+        "jut:radius=10c:planet=6371,rut:radius=10c:planet=6371",
+        "dominance:radius=10c:planet=6371,submission:radius=10c:planet=6371",
     ] {
         let specs_v = parse_specs(specs).unwrap();
         let step = MultiMetric::new(&specs_v, src.info()).unwrap();
@@ -67,6 +70,22 @@ fn bench(c: &mut Criterion) {
         let mut out: Vec<Grid<f32>> = specs_v.iter().map(|_| Grid::new(n, n, 0f32)).collect();
         g.bench_function(specs, |b| b.iter(|| step.run(&views, &mut out).unwrap()));
     }
+    g.finish();
+
+    // Deng & Wilson multi-scale peakedness: whole-raster statistics, so it runs
+    // as two global passes over a 3x3-tile raster (engine on one thread).
+    let mut g = c.benchmark_group("peakedness_dw_1536x1536");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements((9 * n * n) as u64));
+    let cfg = orogen::exec::EngineConfig {
+        threads: 1,
+        ..Default::default()
+    };
+    g.bench_function("peakedness_dw+peak_prototypicality", |b| {
+        b.iter(|| {
+            orogen::metrics::peak_dw::run_to_memory(&src, 0.2, layout, &cfg, true, true).unwrap()
+        })
+    });
     g.finish();
 }
 
