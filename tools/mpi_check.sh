@@ -54,6 +54,13 @@ pipeline() {
     "$@" peaks "$input" --tiled --min-prominence 20 -o "$dir/peaks" --tile "$tile" -q $eng
     "$@" metric "$input" --metric slope,tpi:radius=5c -o "$dir/metric" --tile "$tile" -q $eng
     "$@" erode "$input" --model thermal --steps 20 --talus 30 -o "$dir/thermal.tif" --tile "$tile" -q $eng
+    # Tile-store outputs (only rank 0 creates and locks them) and the steps that
+    # write internal stores.
+    "$@" ingest "$input" -o "$dir/ingested.tiles" --store-tile "$tile" -q $eng
+    "$@" fill "$input" -o "$dir/fill.tiles" --store-tile "$tile" -q $eng
+    "$@" fill-epsilon "$input" -o "$dir/eps.tif" --tile "$tile" -q $eng
+    "$@" accumulate "$dir/fill.tif" --method dinf -o "$dir/dinf.tif" --tile "$tile" -q $eng
+    "$@" breach "$input" --method least-cost -o "$dir/lcb.tif" --tile "$tile" -q $eng
 }
 
 compare() {

@@ -170,18 +170,21 @@ pub fn run(a: RunArgs) -> Result<()> {
     if let Some(e) = a.engine {
         e.select()?;
     }
+    // Under MPI every rank runs the job; rank 0 alone keeps its books (state,
+    // log, report), as it alone writes the outputs.
+    let lead = orogen::exec::rank().0 == 0;
     std::fs::create_dir_all(&job.output_dir)
         .with_context(|| format!("creating the output folder {}", job.output_dir.display()))?;
     let log_path = a.log.clone().or(job.log.clone());
     let mut log = match &log_path {
-        Some(p) => Some(
+        Some(p) if lead => Some(
             std::fs::OpenOptions::new()
                 .create(true)
                 .append(true)
                 .open(p)
                 .with_context(|| format!("opening the log {}", p.display()))?,
         ),
-        None => None,
+        _ => None,
     };
     let mut state = job.load_state();
     let n = job.steps.len();
@@ -243,7 +246,9 @@ pub fn run(a: RunArgs) -> Result<()> {
                         peak_rss_bytes: peak,
                     },
                 );
-                job.save_state(&state)?;
+                if lead {
+                    job.save_state(&state)?;
+                }
                 log_line(
                     &mut log,
                     serde_json::json!({"event": "done", "step": s.name, "seconds": seconds, "peak_rss_bytes": peak}),
@@ -266,7 +271,7 @@ pub fn run(a: RunArgs) -> Result<()> {
             }
         }
     }
-    if job.report && !a.no_report {
+    if lead && job.report && !a.no_report {
         let path = job.output_dir.join("report.html");
         let title = format!("orogen job {}", a.job.display());
         match report::write_report(&title, &outcomes, &path) {

@@ -205,6 +205,14 @@ pub fn rank() -> (usize, usize) {
     }
 }
 
+/// Wait until every rank gets here (no-op unless the MPI engine runs): used
+/// after work that bypasses the engine's own barriers, such as an ingest,
+/// so no rank reads an output before rank 0 has finished writing it.
+pub fn barrier() {
+    #[cfg(feature = "mpi")]
+    mpi::barrier();
+}
+
 /// End the engine of this process (finalises MPI if it was started); call
 /// once, last, on every exit path that did not fail.
 pub fn finish_engine() {

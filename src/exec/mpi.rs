@@ -117,6 +117,13 @@ fn world() -> SimpleCommunicator {
     SimpleCommunicator::world()
 }
 
+/// Barrier over all ranks (no-op if MPI is not running).
+pub fn barrier() {
+    if active() {
+        world().barrier();
+    }
+}
+
 /// `(rank, ranks)` of this process; `(0, 1)` if MPI is not running.
 pub fn rank_size() -> (usize, usize) {
     if !active() {

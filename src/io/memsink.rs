@@ -62,3 +62,56 @@ impl TileSink for WholeFileSink {
         (s.finisher)(grid, &s.georef)
     }
 }
+
+/// The sink of an output on an MPI rank other than 0: rank 0 writes every
+/// tile (in tile-id order, as the local engine does), the other ranks only
+/// compute, so their sink neither creates nor locks the output (a tile
+/// store's writer lock would refuse every rank but one). It reports the
+/// output's layout so the engine's layout check is the same on every rank;
+/// the list of tiles to do comes from rank 0's sinks.
+#[derive(Debug)]
+pub struct RemoteRankSink {
+    dtype: DType,
+    nodata: Option<f64>,
+    layout: Option<crate::raster::TileLayout>,
+}
+
+impl RemoteRankSink {
+    /// A sink for an output of `dtype`/`nodata`, laid out as `layout` if
+    /// the real output has a fixed layout (a tile store).
+    pub fn new(
+        dtype: DType,
+        nodata: Option<f64>,
+        layout: Option<crate::raster::TileLayout>,
+    ) -> Self {
+        RemoteRankSink {
+            dtype,
+            nodata,
+            layout,
+        }
+    }
+
+    /// True when this process is an MPI rank other than 0 (the outputs are
+    /// rank 0's to write).
+    pub fn applies() -> bool {
+        crate::exec::distributed() && crate::exec::rank().0 != 0
+    }
+}
+
+impl TileSink for RemoteRankSink {
+    fn dtype(&self) -> DType {
+        self.dtype
+    }
+    fn nodata(&self) -> Option<f64> {
+        self.nodata
+    }
+    fn layout(&self) -> Option<crate::raster::TileLayout> {
+        self.layout
+    }
+    fn write(&mut self, _id: TileId, _core: Window, _data: AnyGrid) -> Result<()> {
+        Ok(())
+    }
+    fn finish(self: Box<Self>) -> Result<()> {
+        Ok(())
+    }
+}

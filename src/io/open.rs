@@ -158,6 +158,19 @@ pub fn create_sink(
             )));
         }
     }
+    if super::memsink::RemoteRankSink::applies() {
+        let layout = (ext == "tiles")
+            .then(|| crate::raster::TileLayout::new(width, height, oo.store.tile.max(1)));
+        // The nodata the real sink would report (a store records NaN as none),
+        // since tiles are converted to the sinks' types before they travel.
+        let nodata = match ext.as_str() {
+            "tiles" => georef.nodata.filter(|v| !v.is_nan()),
+            _ => georef.nodata,
+        };
+        return Ok(Box::new(super::memsink::RemoteRankSink::new(
+            dtype, nodata, layout,
+        )));
+    }
     Ok(match ext.as_str() {
         "tif" | "tiff" => match oo.cog {
             Some(r) => Box::new(crate::io::geotiff::CogWriter::create(
