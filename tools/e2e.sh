@@ -34,3 +34,7 @@ bash tools/cog_validate.sh
 
 echo "== web tiles in the viewer (headless Chromium) and read back by independent readers"
 bash tools/viewer_e2e.sh
+
+echo "== MPI engine (--features mpi): mpirun -n 1|2|4 against the in-process engine"
+# Last: it rebuilds target/release/orogen with the mpi feature.
+bash tools/mpi_check.sh --release --ranks "1 2 4"
