@@ -428,7 +428,7 @@ enum Cmd {
     Viewshed(cli::viewshed::ViewshedArgs),
     /// Erosion: hydraulic (virtual pipes), thermal (talus), hillslope diffusion (tiled with
     /// halo exchange, bit-identical to an untiled run for any tile size) or stream power
-    /// with uplift (Braun & Willett 2013; constrained and coarse-to-fine; in memory).
+    /// with uplift (Braun & Willett 2013; constrained and coarse-to-fine; in memory, or tiled out of core with the same bytes).
     #[command(
         after_help = "Examples:\n  orogen erode dem.tif --model hydraulic --steps 300 -o eroded.tif --preview previews/\n  orogen erode dem.tif --model thermal --steps 200 --talus 33 -o slumped.tif\n  orogen erode dem.tif --model diffusion --steps 100 --diffusivity 0.01 --dt 1000 -o smooth.tif\n  orogen erode dem.tiles --model hydraulic --steps 300 --params configs/erosion-hydraulic.toml --set rain=0.02 -o eroded.tiles\n  orogen erode dem.tif --model stream-power --steps 200 --dt 1000 --k 1e-5 --m 0.4 --n 1 --uplift 1e-3 -o sp.tif\n  orogen erode dem.tif --model stream-power --uplift-map u.tif --diffusivity 0.01 --depressions basin-graph -o sp.tif\n  orogen erode dem.tif --model stream-power --fixed-points peaks.csv --radius 300 --levels 100,50,30 -o sp.tif\nParameters: --params FILE (a table per model), then --set KEY=VALUE, then the named flags;\nstream power takes flags only (--k --m --n --uplift ...). Units: metres, seconds (hydraulic),\nyears (diffusion, stream power); see docs/notes/erosion.md and docs/notes/stream_power.md."
     )]
