@@ -72,36 +72,27 @@ pub fn ingest(
         serde_json::Value::Object(Default::default()),
         vec![info.path.display().to_string()],
     );
-    if crate::io::memsink::RemoteRankSink::applies() {
-        // Under MPI only rank 0 creates (and locks) the store; the others compute.
-        let layout = TileLayout::new(info.width, info.height, opts.tile.max(1));
-        let nodata = info.georef.nodata.filter(|v| !v.is_nan());
-        let sink = crate::io::memsink::RemoteRankSink::new(info.dtype, nodata, Some(layout));
-        copy(
-            src,
-            Box::new(sink),
-            layout,
-            &LocalEngine::new(config.clone()),
-        )?;
-        super::barrier();
-        return Ok(());
-    }
-    let writer = StoreWriter::create(
-        out_path,
-        info.width,
-        info.height,
-        info.dtype,
-        &info.georef,
-        opts,
-        provenance,
-    )?;
-    let layout = writer.layout();
-    copy(
-        src,
-        Box::new(writer),
-        layout,
-        &LocalEngine::new(config.clone()),
-    )?;
+    let (sink, layout): (Box<dyn TileSink>, TileLayout) =
+        if crate::io::memsink::RemoteRankSink::applies() {
+            // Under MPI only rank 0 creates (and locks) the store; the others compute.
+            let layout = TileLayout::new(info.width, info.height, opts.tile.max(1));
+            let nodata = info.georef.nodata.filter(|v| !v.is_nan());
+            let sink = crate::io::memsink::RemoteRankSink::new(info.dtype, nodata, Some(layout));
+            (Box::new(sink), layout)
+        } else {
+            let writer = StoreWriter::create(
+                out_path,
+                info.width,
+                info.height,
+                info.dtype,
+                &info.georef,
+                opts,
+                provenance,
+            )?;
+            let layout = writer.layout();
+            (Box::new(writer), layout)
+        };
+    copy(src, sink, layout, &LocalEngine::new(config.clone()))?;
     super::barrier();
     Ok(())
 }

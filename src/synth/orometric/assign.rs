@@ -176,14 +176,29 @@ pub fn assign_saddles(
     dominance: &[f64],
     iterations: usize,
 ) -> Result<()> {
+    schedule(hs, iterations, |hs, kind| {
+        let targets = match kind {
+            Target::Prominence => prominence,
+            Target::Dominance => dominance,
+        };
+        assign_pass(h, edges, hmax, floor, hs, targets, kind)
+    })
+}
+
+/// The alternation both assignments use: `iterations` prominence/dominance
+/// pairs, then prominence last, repeated (a pass can change owners; the next
+/// one re-targets the saddles whose owner changed).
+fn schedule(
+    hs: &mut [f64],
+    iterations: usize,
+    mut pass: impl FnMut(&mut [f64], Target) -> Result<()>,
+) -> Result<()> {
     for _ in 0..iterations {
-        assign_pass(h, edges, hmax, floor, hs, prominence, Target::Prominence)?;
-        assign_pass(h, edges, hmax, floor, hs, dominance, Target::Dominance)?;
+        pass(hs, Target::Prominence)?;
+        pass(hs, Target::Dominance)?;
     }
-    // Prominence last, repeated: a pass can change owners, the next one
-    // re-targets the saddles whose owner changed.
     for _ in 0..3 {
-        assign_pass(h, edges, hmax, floor, hs, prominence, Target::Prominence)?;
+        pass(hs, Target::Prominence)?;
     }
     Ok(())
 }
@@ -277,12 +292,5 @@ pub fn assign_saddles_grouped(
             kind,
         )
     };
-    for _ in 0..iterations {
-        pass(hs, Target::Prominence)?;
-        pass(hs, Target::Dominance)?;
-    }
-    for _ in 0..3 {
-        pass(hs, Target::Prominence)?;
-    }
-    Ok(())
+    schedule(hs, iterations, pass)
 }
