@@ -130,7 +130,9 @@ pub fn run_local_to_paths<S: LocalStep>(
     LocalEngine::new(cfg.clone()).run_local(step, inputs, layout, sinks)
 }
 
-/// Run a global step (map, reduce, apply) on `inputs` and write its outputs.
+/// Run a global step (map, reduce, apply) on `inputs` and write its outputs
+/// (the solution is not kept: under MPI only rank 0 reduces, see
+/// [`Engine::run_global_apply`]).
 pub fn run_global_to_paths<S: GlobalStep>(
     step: &S,
     inputs: &[&dyn RasterSource],
@@ -139,7 +141,7 @@ pub fn run_global_to_paths<S: GlobalStep>(
     oo: &OutputOptions,
     tile: Option<usize>,
     cfg: &EngineConfig,
-) -> Result<S::Solution> {
+) -> Result<()> {
     let first = check_inputs(inputs)?;
     if outputs.len() != step.outputs() {
         return Err(Error::invalid(format!(
@@ -151,7 +153,7 @@ pub fn run_global_to_paths<S: GlobalStep>(
     }
     let layout = choose_layout(first, outputs, oo, tile);
     let sinks = make_sinks(step.name(), step.params(), inputs, outputs, out_types, oo)?;
-    LocalEngine::new(cfg.clone()).run_global(step, inputs, layout, sinks)
+    LocalEngine::new(cfg.clone()).run_global_apply(step, inputs, layout, sinks)
 }
 
 /// [`run_local_to_paths`] for a one-output step on one input.
@@ -176,7 +178,7 @@ pub fn run_global_to<S: GlobalStep>(
     oo: &OutputOptions,
     tile: Option<usize>,
     cfg: &EngineConfig,
-) -> Result<S::Solution> {
+) -> Result<()> {
     run_global_to_paths(step, inputs, &[out.to_path_buf()], &[ty], oo, tile, cfg)
 }
 
@@ -534,7 +536,7 @@ pub fn accumulate_multi(
             &[(DType::U8, Some(crate::hydro::NODATA_DIR as f64))],
             &tmp_oo,
         )?;
-        engine.run_global(&d8_step, &[dem], layout, sinks)?;
+        engine.run_global_apply(&d8_step, &[dem], layout, sinks)?;
         let d8 = io::open_raster(&tmp, &io::OpenOptions::default())?;
         let mut acc_inputs: Vec<&dyn RasterSource> = vec![dem, d8.as_ref()];
         if let Some(w) = weights {

@@ -475,4 +475,20 @@ impl Engine for LocalEngine {
         finish_all(sinks)?;
         Ok(solution)
     }
+
+    fn run_global_apply<S: GlobalStep>(
+        &self,
+        step: &S,
+        inputs: &[&dyn RasterSource],
+        layout: TileLayout,
+        sinks: Vec<Box<dyn TileSink>>,
+    ) -> Result<()> {
+        // Under MPI: rank 0 reduces and sends each rank its slices.
+        #[cfg(feature = "mpi")]
+        if super::mpi::active() {
+            return super::mpi::MpiEngine::new(self.clone())
+                .run_global_apply(step, inputs, layout, sinks);
+        }
+        self.run_global(step, inputs, layout, sinks).map(|_| ())
+    }
 }

@@ -98,6 +98,23 @@ pub trait TileSink: Send {
     }
     /// Write one finished tile whose core is `core`.
     fn write(&mut self, id: TileId, core: Window, data: AnyGrid) -> Result<()>;
+    /// If other processes may write this sink's tiles themselves (a tile
+    /// store on a filesystem they share), what they need to do so; `None`
+    /// (the default) means every tile must come to this sink's `write`.
+    /// Used by the MPI engine: rank 0 owns the sink (and its lock) and
+    /// delegates the tile files of the other ranks' tiles to them.
+    fn delegate(&self) -> Option<crate::store::DelegatedTiles> {
+        None
+    }
+    /// Record tile `id`, written by another process through
+    /// [`TileSink::delegate`] as `entry` (checksum and size): from then on
+    /// the tile counts as finished, exactly as after `write`. Called in the
+    /// same order and from the same thread as `write`.
+    fn record_delegated(&mut self, id: TileId, _entry: crate::store::TileEntry) -> Result<()> {
+        Err(crate::error::Error::invalid(format!(
+            "tile {id}: this output cannot record tiles written by another process"
+        )))
+    }
     /// Finish the output (flush, write directories/manifest, rename into place).
     fn finish(self: Box<Self>) -> Result<()>;
 }
@@ -150,6 +167,22 @@ pub trait Engine {
         layout: TileLayout,
         sinks: Vec<Box<dyn TileSink>>,
     ) -> Result<S::Solution>;
+
+    /// Run a global step whose caller needs only the written outputs, not
+    /// the solution: map, reduce, apply and write, like [`Engine::run_global`].
+    /// The default runs `run_global` and drops the solution; a distributed
+    /// engine may instead reduce on one process and send each other process
+    /// only the slices of its tiles (Barnes 2016, 2017), since no process
+    /// but the reducing one needs the whole solution.
+    fn run_global_apply<S: GlobalStep>(
+        &self,
+        step: &S,
+        inputs: &[&dyn RasterSource],
+        layout: TileLayout,
+        sinks: Vec<Box<dyn TileSink>>,
+    ) -> Result<()> {
+        self.run_global(step, inputs, layout, sinks).map(|_| ())
+    }
 }
 
 /// Which engine runs the steps of this process (`--engine`).

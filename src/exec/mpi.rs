@@ -40,10 +40,14 @@ use super::local::{
     blank_outputs, check_inputs, check_sinks, convert_outputs, finish_all, read_views, todo,
     write_outputs,
 };
-use super::mpi_codec::{decode_records, decode_tile, encode_tile, owners, perimeter_cells};
+use super::mpi_codec::{
+    decode_records, decode_tile_written, encode_tile_written, owner_table, owners, perimeter_cells,
+    push_record, route_records,
+};
 use super::{Engine, GlobalStep, LocalEngine, LocalStep, TileSink};
 use crate::error::{Error, Result};
 use crate::raster::{AnyGrid, DType, RasterSource, TileId, TileLayout};
+use crate::store::{DelegatedTiles, TileEntry, TileState};
 use mpi::environment::Universe;
 use mpi::topology::SimpleCommunicator;
 use mpi::traits::*;
@@ -63,6 +67,8 @@ static ACTIVE: AtomicBool = AtomicBool::new(false);
 
 /// Message tag of tile messages (rank -> rank 0).
 const TAG_TILE: i32 = 11;
+/// Message tag of byte strings sent point to point ([`send_bytes`]).
+const TAG_BYTES: i32 = 12;
 /// Largest piece of one broadcast (MPI counts are 32-bit).
 const CHUNK: usize = 1 << 30;
 
@@ -85,6 +91,9 @@ pub fn init() -> Result<()> {
         return Err(Error::invalid(
             "--engine mpi: the MPI library supports only single-threaded processes (MPI_THREAD_SINGLE); orogen needs MPI_THREAD_FUNNELED (Open MPI and MPICH provide it)",
         ));
+    }
+    if universe.world().rank() == 0 {
+        last_words::install();
     }
     *st = Some(State {
         universe,
@@ -150,6 +159,156 @@ pub fn abort(msg: &str) -> ! {
 
 fn fail(e: Error) -> ! {
     abort(&e.to_string())
+}
+
+/// Send `bytes` to rank `to`: its length (`u64`), then pieces of at most
+/// [`CHUNK`] bytes (MPI counts are 32-bit).
+fn send_bytes(comm: &SimpleCommunicator, to: usize, bytes: &[u8]) {
+    let p = comm.process_at_rank(to as i32);
+    p.send_with_tag(&(bytes.len() as u64), TAG_BYTES);
+    for piece in bytes.chunks(CHUNK) {
+        p.send_with_tag(piece, TAG_BYTES);
+    }
+}
+
+/// Receive what [`send_bytes`] sent from rank `from`. Memory grows with the
+/// pieces actually received, never by the announced length alone.
+fn recv_bytes(comm: &SimpleCommunicator, from: usize) -> Result<Vec<u8>> {
+    let p = comm.process_at_rank(from as i32);
+    let (len, _) = p.receive_with_tag::<u64>(TAG_BYTES);
+    let mut out = Vec::new();
+    while (out.len() as u64) < len {
+        let (piece, _) = p.receive_vec_with_tag::<u8>(TAG_BYTES);
+        if piece.is_empty() || out.len() as u64 + piece.len() as u64 > len {
+            return Err(Error::invalid(format!(
+                "MPI engine: rank {from} announced {len} bytes and sent a piece of {} after {}",
+                piece.len(),
+                out.len()
+            )));
+        }
+        out.extend_from_slice(&piece);
+    }
+    Ok(out)
+}
+
+/// Send rank 0's `bytes` to every rank (length, then pieces of at most
+/// [`CHUNK`] bytes); other ranks pass anything and get rank 0's bytes.
+fn broadcast_bytes(comm: &SimpleCommunicator, mut bytes: Vec<u8>) -> Vec<u8> {
+    let root = comm.process_at_rank(0);
+    let mut len = bytes.len() as u64;
+    root.broadcast_into(&mut len);
+    if comm.rank() != 0 {
+        // A length from rank 0 of the same job (small: a few sink descriptions).
+        let n = usize::try_from(len)
+            .unwrap_or_else(|_| fail(Error::invalid(format!("rank 0 broadcasts {len} bytes"))));
+        bytes = vec![0u8; n];
+    }
+    for piece in bytes.chunks_mut(CHUNK) {
+        root.broadcast_into(piece);
+    }
+    bytes
+}
+
+/// What rank 0 is waiting for, printed to stderr if the process is ended
+/// by SIGTERM, which is how `mpirun` (and Slurm) end the surviving ranks
+/// after one rank died: with `mpirun`'s own "process rank R exited on
+/// signal 9", it names the dead rank's unfinished tiles. The message lives
+/// in a fixed static buffer of atomics and the handler only copies it and
+/// calls `write(2)` and `_exit(2)`, both async-signal-safe (POSIX.1-2017,
+/// "Signal Concepts", 2.4.3).
+mod last_words {
+    use std::sync::atomic::{AtomicU8, AtomicUsize, Ordering};
+
+    const CAP: usize = 2048;
+    static BUF: [AtomicU8; CAP] = [const { AtomicU8::new(0) }; CAP];
+    static LEN: AtomicUsize = AtomicUsize::new(0);
+
+    /// Replace the message (truncated to the buffer).
+    pub(super) fn set(msg: &str) {
+        LEN.store(0, Ordering::Release);
+        let b = msg.as_bytes();
+        let n = b.len().min(CAP);
+        for (slot, &byte) in BUF.iter().zip(&b[..n]) {
+            slot.store(byte, Ordering::Relaxed);
+        }
+        LEN.store(n, Ordering::Release);
+    }
+
+    /// No message (the handler then just exits).
+    pub(super) fn clear() {
+        LEN.store(0, Ordering::Release);
+    }
+
+    extern "C" fn on_term(sig: libc::c_int) {
+        let n = LEN.load(Ordering::Acquire).min(CAP);
+        let mut local = [0u8; CAP];
+        for (dst, src) in local.iter_mut().zip(BUF.iter()).take(n) {
+            *dst = src.load(Ordering::Relaxed);
+        }
+        // SAFETY: `local` is a live stack buffer of at least `n` bytes;
+        // write(2) and _exit(2) are async-signal-safe.
+        unsafe {
+            if n > 0 {
+                libc::write(2, local.as_ptr().cast(), n);
+            }
+            libc::_exit(128 + sig);
+        }
+    }
+
+    /// Install the SIGTERM handler (rank 0, once).
+    pub(super) fn install() {
+        let handler: extern "C" fn(libc::c_int) = on_term;
+        // SAFETY: the handler only touches atomics and calls
+        // async-signal-safe functions.
+        unsafe {
+            libc::signal(libc::SIGTERM, handler as libc::sighandler_t);
+        }
+    }
+}
+
+/// While rank 0 writes its own tiles, its last words are refreshed only
+/// every this many tiles (each tile from another rank refreshes them).
+const NOTE_EVERY: usize = 16;
+
+/// Rank 0's last words while it waits for tiles: `pending[k..]` are the
+/// tiles still to come, `owner[j]` the rank of `pending[j]`, `left[r]` how
+/// many of them rank `r` owns; names the first few per rank (a bounded
+/// look-ahead, so this costs O(ranks) per tile, not O(tiles)).
+fn note_pending(
+    step: &str,
+    pending: &[TileId],
+    owner: &[usize],
+    k: usize,
+    left: &[usize],
+) -> String {
+    let ranks = left.len();
+    let mut first: Vec<Vec<String>> = vec![Vec::new(); ranks];
+    for (j, &id) in pending.iter().enumerate().skip(k).take(64 * ranks) {
+        if let Some(f) = first.get_mut(owner[j]).filter(|f| f.len() < 6) {
+            f.push(id.to_string());
+        }
+    }
+    let mut lines = String::new();
+    for r in 1..ranks {
+        let n = left[r];
+        if n > 0 {
+            lines.push_str(&format!(
+                "\n  rank {r}: {n} tile(s) not received: {}{}",
+                first[r].join(", "),
+                if n > first[r].len() { ", ..." } else { "" }
+            ));
+        }
+    }
+    let msg = format!(
+        "error: MPI rank 0 ended (SIGTERM) during {step}; {}{lines}\nerror: a rank died or the job was cancelled (mpirun names the rank); rerun the same command to resume from the finished tiles of tile-store outputs\n",
+        if lines.is_empty() {
+            "every other rank had delivered its tiles"
+        } else {
+            "still missing from the other ranks:"
+        }
+    );
+    last_words::set(&msg);
+    msg
 }
 
 /// The MPI engine: an [`Engine`] over the ranks of `MPI_COMM_WORLD`, each
@@ -337,7 +496,11 @@ impl MpiEngine {
 
     /// Compute the tiles `ids` spread over the ranks and write them on rank
     /// 0 in increasing id order. `compute` gives a tile's outputs in the
-    /// sinks' native types. Errors end the job (MPI_Abort).
+    /// sinks' native types. Outputs whose sink on rank 0 can delegate its
+    /// writes (a tile store: [`TileSink::delegate`]) are written by the rank
+    /// that computed the tile, which sends rank 0 only the tile's checksum
+    /// and size to record; the others travel to rank 0. Returns the bytes
+    /// sent to rank 0. Errors end the job (MPI_Abort).
     #[allow(clippy::too_many_arguments)]
     fn distribute(
         &self,
@@ -351,11 +514,22 @@ impl MpiEngine {
         compute: &(dyn Fn(TileId) -> Result<Vec<AnyGrid>> + Sync),
     ) -> u64 {
         let me = comm.rank() as usize;
-        let owner = owners(ids, comm.size() as usize);
+        let ranks = comm.size() as usize;
+        let owner = owners(ids, ranks);
         let mut owner_of = vec![0usize; layout.count()];
         for (k, &id) in ids.iter().enumerate() {
             owner_of[id] = owner[k];
         }
+        let delegated = Self::shared_delegation(comm, &sinks, meta, layout);
+        let shapes_of = |id: TileId| -> Vec<(DType, usize, usize)> {
+            let core = layout.window(id);
+            meta.iter()
+                .zip(&delegated)
+                .filter(|(_, d)| d.is_none())
+                .map(|(m, _)| (m.0, core.w, core.h))
+                .collect()
+        };
+        let n_written = delegated.iter().filter(|d| d.is_some()).count();
         let mut moved = 0u64;
         if me == 0 {
             let c0 = |id: TileId| -> Result<Option<Vec<AnyGrid>>> {
@@ -365,23 +539,58 @@ impl MpiEngine {
                     Ok(None)
                 }
             };
+            let mut left = vec![0usize; ranks];
+            for &o in &owner {
+                left[o] += 1;
+            }
+            let mut k = 0usize;
             let r = self.local.pipeline(name, ids, bytes, &c0, |id, got| {
-                let grids = match got {
-                    Some(g) => g,
+                if k % NOTE_EVERY == 0 || owner[k] != 0 {
+                    note_pending(name, ids, &owner, k, &left);
+                }
+                left[owner[k]] -= 1;
+                k += 1;
+                match got {
+                    Some(grids) => write_outputs(&mut sinks, layout, id, grids),
                     None => {
                         let from = owner_of[id];
                         let (msg, _) = comm
                             .process_at_rank(from as i32)
                             .receive_vec_with_tag::<u8>(TAG_TILE);
                         moved += msg.len() as u64;
+                        let (cells, written) =
+                            decode_tile_written(&msg, id, &shapes_of(id), n_written)?;
                         let core = layout.window(id);
-                        let shapes: Vec<(DType, usize, usize)> =
-                            meta.iter().map(|m| (m.0, core.w, core.h)).collect();
-                        decode_tile(&msg, id, &shapes)?
+                        let mut cells = cells.into_iter();
+                        let mut written = written.into_iter();
+                        for (s, d) in sinks.iter_mut().zip(&delegated) {
+                            let done = s.is_done(id);
+                            if d.is_some() {
+                                let Some((crc32, bytes)) = written.next() else {
+                                    break;
+                                };
+                                if !done {
+                                    s.record_delegated(
+                                        id,
+                                        TileEntry {
+                                            state: TileState::Done,
+                                            crc32,
+                                            bytes,
+                                        },
+                                    )?;
+                                }
+                            } else {
+                                let Some(g) = cells.next() else { break };
+                                if !done {
+                                    s.write(id, core, g)?;
+                                }
+                            }
+                        }
+                        Ok(())
                     }
-                };
-                write_outputs(&mut sinks, layout, id, grids)
+                }
             });
+            last_words::clear();
             if let Err(e) = r.and_then(|_| finish_all(sinks)) {
                 fail(e);
             }
@@ -393,18 +602,37 @@ impl MpiEngine {
                 .filter(|(_, &o)| o == me)
                 .map(|(&id, _)| id)
                 .collect();
-            let r = self.local.pipeline(name, &mine, bytes, compute, |id, grids| {
-                let msg = encode_tile(id, &grids);
-                if msg.len() > i32::MAX as usize {
-                    return Err(Error::invalid(format!(
+            // Compute, then write the delegated outputs here (on the
+            // workers, in parallel): what travels is the rest plus receipts.
+            let work = |id: TileId| -> Result<(Vec<AnyGrid>, Vec<(u32, u64)>)> {
+                let grids = compute(id)?;
+                let mut cells = Vec::new();
+                let mut written = Vec::new();
+                for (g, d) in grids.into_iter().zip(&delegated) {
+                    match d {
+                        Some(d) => {
+                            let e = d.write_tile(id, &g)?;
+                            written.push((e.crc32, e.bytes));
+                        }
+                        None => cells.push(g),
+                    }
+                }
+                Ok((cells, written))
+            };
+            let r = self
+                .local
+                .pipeline(name, &mine, bytes, &work, |id, (cells, written)| {
+                    let msg = encode_tile_written(id, &cells, &written);
+                    if msg.len() > i32::MAX as usize {
+                        return Err(Error::invalid(format!(
                         "tile {id} is {} bytes, over MPI's 2 GiB message limit; use smaller tiles (--tile)",
                         msg.len()
                     )));
-                }
-                moved += msg.len() as u64;
-                comm.process_at_rank(0).send_with_tag(&msg[..], TAG_TILE);
-                Ok(())
-            });
+                    }
+                    moved += msg.len() as u64;
+                    comm.process_at_rank(0).send_with_tag(&msg[..], TAG_TILE);
+                    Ok(())
+                });
             if let Err(e) = r {
                 fail(e);
             }
@@ -412,6 +640,170 @@ impl MpiEngine {
         // Nobody goes on (and reads the output) before rank 0 finished it.
         comm.barrier();
         moved
+    }
+
+    /// Rank 0 decides, per output, whether the ranks write their tiles
+    /// themselves (its sink can delegate, and `OROGEN_MPI_DELEGATE` is not
+    /// `0`) and sends every rank the delegation (JSON), so all ranks agree.
+    fn shared_delegation(
+        comm: &SimpleCommunicator,
+        sinks: &[Box<dyn TileSink>],
+        meta: &[(DType, Option<f64>)],
+        layout: &TileLayout,
+    ) -> Vec<Option<DelegatedTiles>> {
+        let mine: Vec<Option<DelegatedTiles>> = if comm.rank() == 0 {
+            let on = std::env::var("OROGEN_MPI_DELEGATE").as_deref() != Ok("0");
+            sinks
+                .iter()
+                .map(|s| if on { s.delegate() } else { None })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let bytes = if comm.rank() == 0 {
+            serde_json::to_vec(&mine).unwrap_or_else(|e| {
+                fail(Error::invalid(format!(
+                    "MPI engine: a tile-store delegation does not serialise: {e}"
+                )))
+            })
+        } else {
+            Vec::new()
+        };
+        let bytes = broadcast_bytes(comm, bytes);
+        let got: Vec<Option<DelegatedTiles>> = serde_json::from_slice(&bytes)
+            .unwrap_or_else(|e| fail(Error::invalid(format!("MPI engine: rank 0's tile-store delegation does not parse (ranks of different orogen builds?): {e}"))));
+        if got.len() != meta.len() {
+            fail(Error::invalid(format!(
+                "MPI engine: rank 0 delegates {} outputs, this rank has {}",
+                got.len(),
+                meta.len()
+            )));
+        }
+        for (d, m) in got.iter().zip(meta) {
+            if let Some(d) = d {
+                if d.dtype != m.0 || d.layout().ok() != Some(*layout) {
+                    fail(Error::invalid(format!(
+                        "MPI engine: rank 0's store {} is {} in tiles of {}, this rank computes {} in tiles of {}",
+                        d.dir.display(),
+                        d.dtype,
+                        d.tile,
+                        m.0,
+                        layout.tile
+                    )));
+                }
+            }
+        }
+        got
+    }
+
+    /// On rank 0 (unless quiet), say how many tiles a resumed output had
+    /// finished already.
+    fn note_resume(
+        &self,
+        comm: &SimpleCommunicator,
+        name: &str,
+        ids: &[TileId],
+        layout: &TileLayout,
+    ) {
+        if comm.rank() == 0 && ids.len() < layout.count() && self.local.config().progress {
+            eprintln!(
+                "{name}: resuming: {} of {} tiles already finished (skipped), {} to do",
+                layout.count() - ids.len(),
+                layout.count(),
+                ids.len()
+            );
+        }
+    }
+
+    /// Map phase of a global step: this rank maps its share of all tiles
+    /// (round robin); returns the owner of every tile and this rank's
+    /// summaries as a record list of JSON. Errors end the job.
+    fn map_mine<S: GlobalStep>(
+        &self,
+        comm: &SimpleCommunicator,
+        step: &S,
+        inputs: &[&dyn RasterSource],
+        layout: &TileLayout,
+    ) -> (Vec<usize>, Vec<u8>) {
+        let name = step.name();
+        let me = comm.rank() as usize;
+        let halo = step.halo();
+        let all: Vec<TileId> = (0..layout.count()).collect();
+        let owner = owners(&all, comm.size() as usize);
+        let mine: Vec<TileId> = all.iter().copied().filter(|&id| owner[id] == me).collect();
+        let map_bytes =
+            super::local_tile_bytes(layout, halo, inputs, std::mem::size_of::<S::In>(), 0, &[]);
+        let map_name = format!("{name} (map)");
+        let map = |id: TileId| -> Result<Vec<u8>> {
+            let views = read_views::<S::In>(inputs, layout, id, halo)?;
+            let s = step.map(&views)?;
+            serde_json::to_vec(&s).map_err(|e| {
+                Error::invalid(format!("{name}: a tile summary does not serialise: {e}"))
+            })
+        };
+        let mut records = Vec::new();
+        let r = self
+            .local
+            .pipeline(&map_name, &mine, map_bytes, &map, |id, b| {
+                push_record(&mut records, id, &b);
+                Ok(())
+            });
+        if let Err(e) = r {
+            fail(e);
+        }
+        (owner, records)
+    }
+
+    /// Apply phase of a global step: like a local step, with each tile's
+    /// slice from `slice_of` (owned or borrowed). Errors end the job.
+    fn apply_phase<S: GlobalStep, B: std::borrow::Borrow<S::Slice>>(
+        &self,
+        comm: &SimpleCommunicator,
+        step: &S,
+        inputs: &[&dyn RasterSource],
+        layout: &TileLayout,
+        sinks: Vec<Box<dyn TileSink>>,
+        slice_of: &(dyn Fn(TileId) -> Result<B> + Sync),
+    ) {
+        let name = step.name();
+        let t1 = Instant::now();
+        let halo = step.halo();
+        let meta: Vec<(DType, Option<f64>)> =
+            sinks.iter().map(|s| (s.dtype(), s.nodata())).collect();
+        let sizes: Vec<usize> = meta.iter().map(|m| m.0.size()).collect();
+        let bytes = super::local_tile_bytes(
+            layout,
+            halo,
+            inputs,
+            std::mem::size_of::<S::In>(),
+            std::mem::size_of::<S::Out>(),
+            &sizes,
+        );
+        let ids = Self::shared_todo(comm, layout, &sinks);
+        self.note_resume(comm, &name, &ids, layout);
+        let n_out = step.outputs();
+        let apply_name = format!("{name} (apply)");
+        let apply = |id: TileId| -> Result<Vec<AnyGrid>> {
+            let views = read_views::<S::In>(inputs, layout, id, halo)?;
+            let slice = slice_of(id)?;
+            let mut out = blank_outputs::<S::Out>(n_out, layout, id);
+            step.apply(&views, slice.borrow(), &mut out)?;
+            convert_outputs(&name, &out, layout, id, &meta)
+        };
+        let moved = self.distribute(comm, &apply_name, layout, &ids, &meta, bytes, sinks, &apply);
+        Self::report(
+            comm,
+            Phase {
+                step: &name,
+                phase: "global: apply, tiles (or receipts) to rank 0",
+                tiles: ids.len(),
+                perimeter: perimeter_cells(layout),
+                up: moved,
+                down: 0,
+                raw: moved,
+                t0: t1,
+            },
+        );
     }
 }
 
@@ -442,6 +834,7 @@ impl Engine for MpiEngine {
             &sizes,
         ) + step.scratch_bytes(layout.tile);
         let ids = Self::shared_todo(&comm, &layout, &sinks);
+        self.note_resume(&comm, &name, &ids, &layout);
         let n_out = step.outputs();
         let compute = |id: TileId| -> Result<Vec<AnyGrid>> {
             let views = read_views::<S::In>(inputs, &layout, id, halo)?;
@@ -481,35 +874,11 @@ impl Engine for MpiEngine {
         }
         let comm = world();
         let me = comm.rank() as usize;
-        let halo = step.halo();
-        let in_size = std::mem::size_of::<S::In>();
         let count = layout.count();
-        let perimeter = perimeter_cells(&layout);
 
-        // Map: every rank its share of all tiles; summaries as records.
+        // Map, then every rank's summaries to every rank.
         let t0 = Instant::now();
-        let all: Vec<TileId> = (0..count).collect();
-        let owner = owners(&all, comm.size() as usize);
-        let mine: Vec<TileId> = all.iter().copied().filter(|&id| owner[id] == me).collect();
-        let map_bytes = super::local_tile_bytes(&layout, halo, inputs, in_size, 0, &[]);
-        let map_name = format!("{name} (map)");
-        let map = |id: TileId| -> Result<Vec<u8>> {
-            let views = read_views::<S::In>(inputs, &layout, id, halo)?;
-            let s = step.map(&views)?;
-            serde_json::to_vec(&s).map_err(|e| {
-                Error::invalid(format!("{name}: a tile summary does not serialise: {e}"))
-            })
-        };
-        let mut records = Vec::new();
-        let r = self
-            .local
-            .pipeline(&map_name, &mine, map_bytes, &map, |id, b| {
-                super::mpi_codec::push_record(&mut records, id, &b);
-                Ok(())
-            });
-        if let Err(e) = r {
-            fail(e);
-        }
+        let (owner, records) = self.map_mine(&comm, step, inputs, &layout);
         let raw = records.len() as u64;
         let packed = pack(&records).unwrap_or_else(|e| fail(e));
         drop(records);
@@ -521,55 +890,15 @@ impl Engine for MpiEngine {
             .filter(|(r, _)| *r != me)
             .map(|(_, l)| l.len() as u64)
             .sum();
-        let lists: Vec<Vec<u8>> = lists
-            .iter()
-            .enumerate()
-            .map(|(r, l)| {
-                unpack(l).unwrap_or_else(|e| {
-                    fail(Error::invalid(format!(
-                        "{name}: the summaries of rank {r}: {e}"
-                    )))
-                })
-            })
-            .collect();
-        let mut summaries: Vec<Option<S::Summary>> = (0..count).map(|_| None).collect();
-        for (r, list) in lists.iter().enumerate() {
-            let recs = decode_records(list, count).unwrap_or_else(|e| fail(e));
-            for (id, b) in recs {
-                if owner[id] != r || summaries[id].is_some() {
-                    fail(Error::invalid(format!(
-                        "{name}: rank {r} sent a summary of tile {id}, which it does not own or was sent twice"
-                    )));
-                }
-                let s: S::Summary = serde_json::from_slice(b).unwrap_or_else(|e| {
-                    fail(Error::tile(
-                        &map_name,
-                        id,
-                        Error::invalid(format!(
-                            "its summary does not survive a serde_json round trip (NaN or infinity in an f64 field?): {e}"
-                        )),
-                    ))
-                });
-                summaries[id] = Some(s);
-            }
-        }
+        let summaries = decode_summaries::<S>(&name, &lists, &owner, count);
         drop(lists);
-        let summaries: Vec<S::Summary> = summaries
-            .into_iter()
-            .enumerate()
-            .map(|(id, s)| {
-                s.unwrap_or_else(|| {
-                    fail(Error::invalid(format!("{name}: tile {id} has no summary")))
-                })
-            })
-            .collect();
         Self::report(
             &comm,
             Phase {
                 step: &name,
                 phase: "global: map + summaries to every rank",
                 tiles: count,
-                perimeter,
+                perimeter: perimeter_cells(&layout),
                 up,
                 down,
                 raw,
@@ -581,54 +910,208 @@ impl Engine for MpiEngine {
         if sinks.is_empty() {
             return Ok(solution);
         }
-
-        // Apply: like a local step, with each tile's slice of the solution.
-        let t1 = Instant::now();
-        let meta: Vec<(DType, Option<f64>)> =
-            sinks.iter().map(|s| (s.dtype(), s.nodata())).collect();
-        let sizes: Vec<usize> = meta.iter().map(|m| m.0.size()).collect();
-        let bytes = super::local_tile_bytes(
-            &layout,
-            halo,
-            inputs,
-            in_size,
-            std::mem::size_of::<S::Out>(),
-            &sizes,
-        );
-        let ids = Self::shared_todo(&comm, &layout, &sinks);
-        let n_out = step.outputs();
-        let apply_name = format!("{name} (apply)");
         let solution_ref = &solution;
-        let apply = |id: TileId| -> Result<Vec<AnyGrid>> {
-            let views = read_views::<S::In>(inputs, &layout, id, halo)?;
-            let slice = step.slice(solution_ref, id);
-            let mut out = blank_outputs::<S::Out>(n_out, &layout, id);
-            step.apply(&views, &slice, &mut out)?;
-            convert_outputs(&name, &out, &layout, id, &meta)
+        self.apply_phase(&comm, step, inputs, &layout, sinks, &|id| {
+            Ok(step.slice(solution_ref, id))
+        });
+        Ok(solution)
+    }
+
+    /// Barnes's scheme (2016, 2017): the summaries go to rank 0 only, rank 0
+    /// reduces and sends each rank only the slices of the tiles it applies;
+    /// no other rank ever holds the solution or all summaries.
+    fn run_global_apply<S: GlobalStep>(
+        &self,
+        step: &S,
+        inputs: &[&dyn RasterSource],
+        layout: TileLayout,
+        sinks: Vec<Box<dyn TileSink>>,
+    ) -> Result<()> {
+        let name = step.name();
+        self.check_thread(&name)?;
+        check_inputs(&name, inputs, &layout)?;
+        if !sinks.is_empty() {
+            check_sinks(&name, &sinks, step.outputs(), &layout)?;
+        }
+        let comm = world();
+        let me = comm.rank() as usize;
+        let ranks = comm.size() as usize;
+        let count = layout.count();
+        let perimeter = perimeter_cells(&layout);
+
+        // Map, then the summaries to rank 0 (rank 0's own are packed too,
+        // so the figure counts every tile's summary whatever the rank count).
+        let t0 = Instant::now();
+        let (owner, records) = self.map_mine(&comm, step, inputs, &layout);
+        let raw = records.len() as u64;
+        let packed = pack(&records).unwrap_or_else(|e| fail(e));
+        drop(records);
+        let up = packed.len() as u64;
+        let summaries = if me == 0 {
+            let mut lists = Vec::with_capacity(ranks);
+            lists.push(packed);
+            for r in 1..ranks {
+                last_words::set(&format!(
+                    "error: MPI rank 0 ended (SIGTERM) while receiving the summaries of rank {r} ({name}, map phase; ranks {r}..{} had not delivered theirs)\nerror: a rank died or the job was cancelled (mpirun names the rank); rerun the same command to resume from the finished tiles of tile-store outputs\n",
+                    ranks - 1
+                ));
+                lists.push(recv_bytes(&comm, r).unwrap_or_else(|e| fail(e)));
+            }
+            last_words::clear();
+            Some(decode_summaries::<S>(&name, &lists, &owner, count))
+        } else {
+            send_bytes(&comm, 0, &packed);
+            drop(packed);
+            None
         };
-        let moved = self.distribute(
-            &comm,
-            &apply_name,
-            &layout,
-            &ids,
-            &meta,
-            bytes,
-            sinks,
-            &apply,
-        );
         Self::report(
             &comm,
             Phase {
                 step: &name,
-                phase: "global: apply, tiles to rank 0",
+                phase: "global: map + summaries to rank 0",
+                tiles: count,
+                perimeter,
+                up,
+                down: 0,
+                raw,
+                t0,
+            },
+        );
+        if sinks.is_empty() {
+            // Nothing to apply: the reduce is run for its errors only.
+            if let Some(s) = summaries {
+                if let Err(e) = step.reduce(&layout, s) {
+                    fail(e);
+                }
+            }
+            comm.barrier();
+            return Ok(());
+        }
+
+        // Reduce on rank 0; slices of the tiles to do, routed to their ranks.
+        let t1 = Instant::now();
+        let ids = Self::shared_todo(&comm, &layout, &sinks);
+        let table = owner_table(&ids, ranks, count).unwrap_or_else(|e| fail(e));
+        let (raw_down, mine) = if let Some(summaries) = summaries {
+            let solution = step.reduce(&layout, summaries).unwrap_or_else(|e| fail(e));
+            let mut raw_down = 0u64;
+            let records: Vec<(TileId, Vec<u8>)> = ids
+                .iter()
+                .map(|&id| {
+                    let b = serde_json::to_vec(&step.slice(&solution, id)).unwrap_or_else(|e| {
+                        fail(Error::invalid(format!(
+                            "{name}: the slice of tile {id} does not serialise: {e}"
+                        )))
+                    });
+                    raw_down += b.len() as u64;
+                    (id, b)
+                })
+                .collect();
+            drop(solution);
+            let lists = route_records(&records, &table, ranks).unwrap_or_else(|e| fail(e));
+            drop(records);
+            let mut mine = Vec::new();
+            for (r, list) in lists.into_iter().enumerate() {
+                let p = pack(&list).unwrap_or_else(|e| fail(e));
+                if r == 0 {
+                    mine = p;
+                } else {
+                    send_bytes(&comm, r, &p);
+                }
+            }
+            (raw_down, mine)
+        } else {
+            (0, recv_bytes(&comm, 0).unwrap_or_else(|e| fail(e)))
+        };
+        let down = mine.len() as u64;
+        let mine = unpack(&mine).unwrap_or_else(|e| {
+            fail(Error::invalid(format!(
+                "{name}: the slices sent by rank 0: {e}"
+            )))
+        });
+        let mut slices: Vec<Option<S::Slice>> = (0..count).map(|_| None).collect();
+        for (id, b) in decode_records(&mine, count).unwrap_or_else(|e| fail(e)) {
+            if table[id] != Some(me) || slices[id].is_some() {
+                fail(Error::invalid(format!(
+                    "{name}: rank 0 sent this rank the slice of tile {id}, which it does not apply or got twice"
+                )));
+            }
+            let s: S::Slice = serde_json::from_slice(b).unwrap_or_else(|e| {
+                fail(Error::tile(
+                    &name,
+                    id,
+                    Error::invalid(format!(
+                        "its slice does not survive a serde_json round trip (NaN or infinity in an f64 field?): {e}"
+                    )),
+                ))
+            });
+            slices[id] = Some(s);
+        }
+        drop(mine);
+        Self::report(
+            &comm,
+            Phase {
+                step: &name,
+                phase: "global: reduce on rank 0 + slices to each rank",
                 tiles: ids.len(),
                 perimeter,
-                up: moved,
-                down: 0,
-                raw: moved,
+                up: 0,
+                down,
+                raw: raw_down,
                 t0: t1,
             },
         );
-        Ok(solution)
+        let slices = &slices;
+        self.apply_phase(&comm, step, inputs, &layout, sinks, &|id| {
+            slices[id].as_ref().ok_or_else(|| {
+                Error::invalid(format!("rank 0 sent no slice of tile {id} to this rank"))
+            })
+        });
+        Ok(())
     }
+}
+
+/// Every tile's summary from the packed record lists by rank (`lists[r]`
+/// from rank `r`), checking each tile comes from its owner exactly once.
+/// Errors end the job.
+fn decode_summaries<S: GlobalStep>(
+    name: &str,
+    lists: &[Vec<u8>],
+    owner: &[usize],
+    count: usize,
+) -> Vec<S::Summary> {
+    let map_name = format!("{name} (map)");
+    let mut summaries: Vec<Option<S::Summary>> = (0..count).map(|_| None).collect();
+    for (r, packed) in lists.iter().enumerate() {
+        let list = unpack(packed).unwrap_or_else(|e| {
+            fail(Error::invalid(format!(
+                "{name}: the summaries of rank {r}: {e}"
+            )))
+        });
+        let recs = decode_records(&list, count).unwrap_or_else(|e| fail(e));
+        for (id, b) in recs {
+            if owner[id] != r || summaries[id].is_some() {
+                fail(Error::invalid(format!(
+                    "{name}: rank {r} sent a summary of tile {id}, which it does not own or was sent twice"
+                )));
+            }
+            let s: S::Summary = serde_json::from_slice(b).unwrap_or_else(|e| {
+                fail(Error::tile(
+                    &map_name,
+                    id,
+                    Error::invalid(format!(
+                        "its summary does not survive a serde_json round trip (NaN or infinity in an f64 field?): {e}"
+                    )),
+                ))
+            });
+            summaries[id] = Some(s);
+        }
+    }
+    summaries
+        .into_iter()
+        .enumerate()
+        .map(|(id, s)| {
+            s.unwrap_or_else(|| fail(Error::invalid(format!("{name}: tile {id} has no summary"))))
+        })
+        .collect()
 }

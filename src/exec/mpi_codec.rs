@@ -96,6 +96,70 @@ pub fn decode_tile(
         at: 0,
         what: "tile message",
     };
+    let out = decode_cells(&mut r, expect, shapes)?;
+    if !r.done() {
+        return Err(Error::invalid(format!(
+            "MPI engine: tile {expect} message has {} bytes after its outputs",
+            msg.len() - r.at
+        )));
+    }
+    Ok(out)
+}
+
+/// Encode tile `id`'s message when some outputs were written by the sender
+/// itself (delegated tile-store writes): the tile message of the outputs
+/// whose cells travel (`cells`), then `n: u32` and per written output its
+/// `crc32: u32, bytes: u64` (what the store's writer records).
+pub fn encode_tile_written(id: TileId, cells: &[AnyGrid], written: &[(u32, u64)]) -> Vec<u8> {
+    let mut out = encode_tile(id, cells);
+    out.extend_from_slice(&(written.len() as u32).to_le_bytes());
+    for &(crc, bytes) in written {
+        out.extend_from_slice(&crc.to_le_bytes());
+        out.extend_from_slice(&bytes.to_le_bytes());
+    }
+    out
+}
+
+/// Decode [`encode_tile_written`]: the outputs whose cells travel (shapes as
+/// in [`decode_tile`]) and the `n_written` receipts `(crc32, bytes)`.
+pub fn decode_tile_written(
+    msg: &[u8],
+    expect: TileId,
+    shapes: &[(DType, usize, usize)],
+    n_written: usize,
+) -> Result<(Vec<AnyGrid>, Vec<(u32, u64)>)> {
+    let mut r = Reader {
+        b: msg,
+        at: 0,
+        what: "tile message",
+    };
+    let cells = decode_cells(&mut r, expect, shapes)?;
+    let n = r.u32()? as usize;
+    if n != n_written {
+        return Err(Error::invalid(format!(
+            "MPI engine: tile {expect} reports {n} outputs written by its rank, expected {n_written}"
+        )));
+    }
+    let mut written = Vec::with_capacity(n);
+    for _ in 0..n {
+        let crc = r.u32()?;
+        written.push((crc, r.u64()?));
+    }
+    if !r.done() {
+        return Err(Error::invalid(format!(
+            "MPI engine: tile {expect} message has {} bytes after its outputs",
+            msg.len() - r.at
+        )));
+    }
+    Ok((cells, written))
+}
+
+/// The outputs of a tile message, leaving the reader after them.
+fn decode_cells(
+    r: &mut Reader,
+    expect: TileId,
+    shapes: &[(DType, usize, usize)],
+) -> Result<Vec<AnyGrid>> {
     let id = r.u64()?;
     if id != expect as u64 {
         return Err(Error::invalid(format!(
@@ -123,13 +187,55 @@ pub fn decode_tile(
         let bytes = r.take(len.unwrap_or(usize::MAX))?;
         out.push(AnyGrid::from_le_bytes(dt, w, h, bytes)?);
     }
-    if !r.done() {
-        return Err(Error::invalid(format!(
-            "MPI engine: tile {id} message has {} bytes after its outputs",
-            msg.len() - r.at
-        )));
-    }
     Ok(out)
+}
+
+/// Owner rank of every tile of `count` tiles for the tiles to do `ids`
+/// (`None` for tiles not to do): the routing table by which rank 0 sends
+/// each rank the slices of exactly its tiles.
+pub fn owner_table(ids: &[TileId], ranks: usize, count: usize) -> Result<Vec<Option<usize>>> {
+    let mut table = vec![None; count];
+    for (&id, o) in ids.iter().zip(owners(ids, ranks)) {
+        match table.get_mut(id) {
+            Some(slot @ None) => *slot = Some(o),
+            Some(Some(_)) => {
+                return Err(Error::invalid(format!(
+                    "MPI engine: tile {id} is listed twice among the tiles to do"
+                )))
+            }
+            None => {
+                return Err(Error::invalid(format!(
+                    "MPI engine: tile {id} is listed to do, the layout has {count} tiles"
+                )))
+            }
+        }
+    }
+    Ok(table)
+}
+
+/// Split per-tile records (`(id, bytes)` in increasing id order) into one
+/// record list per rank by `table` (see [`owner_table`]); a record of a
+/// tile that is not to do is an error.
+pub fn route_records(
+    records: &[(TileId, Vec<u8>)],
+    table: &[Option<usize>],
+    ranks: usize,
+) -> Result<Vec<Vec<u8>>> {
+    let mut lists = vec![Vec::new(); ranks.max(1)];
+    for (id, b) in records {
+        let owner = table
+            .get(*id)
+            .copied()
+            .flatten()
+            .filter(|&o| o < lists.len());
+        let Some(o) = owner else {
+            return Err(Error::invalid(format!(
+                "MPI engine: a slice of tile {id}, which no rank is to do"
+            )));
+        };
+        push_record(&mut lists[o], *id, b);
+    }
+    Ok(lists)
 }
 
 /// Append one record (`id`, `bytes`) to a record list.
@@ -264,6 +370,75 @@ mod tests {
         bad.extend_from_slice(&u64::MAX.to_le_bytes());
         assert!(decode_records(&bad, 10).is_err(), "absurd length");
         assert!(decode_records(&[], 10).unwrap().is_empty());
+    }
+
+    #[test]
+    fn tile_messages_with_receipts_round_trip_and_reject_damage() {
+        let g = grids();
+        let cells = &g[1..3];
+        let written = [(0xdead_beef_u32, 12_345u64), (7, 0)];
+        let msg = encode_tile_written(4, cells, &written);
+        assert_eq!(msg.len(), encode_tile(4, cells).len() + 4 + 2 * 12);
+        let (back, rec) = decode_tile_written(&msg, 4, &shapes(cells), 2).unwrap();
+        assert_eq!(rec, written.to_vec());
+        for (a, b) in cells.iter().zip(&back) {
+            assert_eq!(a.as_le_bytes(), b.as_le_bytes());
+        }
+        // Only receipts (every output delegated), or none.
+        let only = encode_tile_written(9, &[], &written[..1]);
+        assert_eq!(
+            decode_tile_written(&only, 9, &[], 1).unwrap(),
+            (Vec::new(), vec![written[0]])
+        );
+        let none = encode_tile_written(9, cells, &[]);
+        assert_eq!(
+            decode_tile_written(&none, 9, &shapes(cells), 0).unwrap().1,
+            vec![]
+        );
+        // Wrong receipt count, cut anywhere, trailing bytes, wrong tile.
+        assert!(decode_tile_written(&msg, 4, &shapes(cells), 1).is_err());
+        for cut in [0, 11, msg.len() - 12, msg.len() - 1] {
+            assert!(decode_tile_written(&msg[..cut], 4, &shapes(cells), 2).is_err());
+        }
+        let mut longer = msg.clone();
+        longer.push(1);
+        assert!(decode_tile_written(&longer, 4, &shapes(cells), 2).is_err());
+        assert!(decode_tile_written(&msg, 5, &shapes(cells), 2).is_err());
+    }
+
+    #[test]
+    fn slices_are_routed_to_the_owner_of_their_tile_only() {
+        // 10 tiles, 3..=8 to do on 2 ranks: 3,5,7 -> rank 0; 4,6,8 -> rank 1.
+        let ids: Vec<TileId> = (3..=8).collect();
+        let table = owner_table(&ids, 2, 10).unwrap();
+        let want: Vec<Option<usize>> = (0..10)
+            .map(|t| (3..=8).contains(&t).then_some((t - 3) % 2))
+            .collect();
+        assert_eq!(table, want);
+        let records: Vec<(TileId, Vec<u8>)> =
+            ids.iter().map(|&id| (id, vec![id as u8; id])).collect();
+        let lists = route_records(&records, &table, 2).unwrap();
+        assert_eq!(lists.len(), 2);
+        for (r, list) in lists.iter().enumerate() {
+            let got = decode_records(list, 10).unwrap();
+            let got_ids: Vec<TileId> = got.iter().map(|(id, _)| *id).collect();
+            let want_ids: Vec<TileId> = ids.iter().copied().filter(|t| (t - 3) % 2 == r).collect();
+            assert_eq!(got_ids, want_ids, "rank {r}");
+            for (id, b) in got {
+                assert_eq!(b, &vec![id as u8; id][..]);
+            }
+        }
+        // A slice for a tile no rank does, a duplicate or out-of-range id.
+        assert!(route_records(&[(0, vec![1])], &table, 2).is_err());
+        assert!(owner_table(&[1, 1], 2, 10).is_err());
+        assert!(owner_table(&[10], 2, 10).is_err());
+        // More ranks than tiles: the extra ranks get empty lists.
+        let t4 = owner_table(&[2, 5], 4, 6).unwrap();
+        let l4 = route_records(&[(2, vec![9]), (5, vec![8])], &t4, 4).unwrap();
+        assert_eq!(
+            l4.iter().map(|l| l.is_empty()).collect::<Vec<_>>(),
+            vec![false, false, true, true]
+        );
     }
 
     #[test]

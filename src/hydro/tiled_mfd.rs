@@ -568,7 +568,7 @@ pub fn run_multi_accumulation<E: Engine>(
         step.inflow = Arc::new(next);
     }
     step.final_pass = true;
-    engine.run_global(&step, inputs, layout, sinks)?;
+    engine.run_global_apply(&step, inputs, layout, sinks)?;
     Ok(MultiRun { rounds })
 }
 

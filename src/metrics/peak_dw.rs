@@ -592,7 +592,7 @@ pub fn run(
     let stats = engine.run_global(&stats_step, &[src], layout, proto.into_iter().collect())?;
     if let Some(sink) = similarity {
         let sim = PeakSimilarity::new(stats.clone(), &path)?;
-        engine.run_global(&sim, &[src], layout, vec![sink])?;
+        engine.run_global_apply(&sim, &[src], layout, vec![sink])?;
     }
     Ok(stats)
 }

@@ -5,11 +5,13 @@
 //! memory maps ([`TileStore`]). See DESIGN.md, "Tile store".
 
 pub mod crash;
+mod delegated;
 mod manifest;
 mod reader;
 mod tile;
 mod writer;
 
+pub use delegated::DelegatedTiles;
 pub use manifest::{
     Compression, Manifest, Provenance, TileEntry, TileState, FORMAT, MAX_DIM, MAX_TILE, MAX_TILES,
     VERSION,

@@ -462,6 +462,23 @@ fn clear_store_files(dir: &Path) -> Result<()> {
     Ok(())
 }
 
+impl StoreWriter {
+    /// Journal tile `id` as finished (`entry`), then mark it in the manifest:
+    /// a tile is finished only once this line is durable.
+    fn journal_done(&mut self, id: TileId, entry: TileEntry) -> Result<()> {
+        let jpath = self.dir.join(JOURNAL);
+        self.journal
+            .write_all(format!("{id} {:08x} {}\n", entry.crc32, entry.bytes).as_bytes())
+            .at(&jpath)?;
+        if self.opts.sync {
+            self.journal.sync_data().at(&jpath)?;
+        }
+        super::crash::point("store.journal", "appended");
+        self.manifest.tiles[id] = entry;
+        Ok(())
+    }
+}
+
 impl TileSink for StoreWriter {
     fn dtype(&self) -> DType {
         self.manifest.dtype
@@ -513,20 +530,55 @@ impl TileSink for StoreWriter {
         let path = tile_file(&self.dir, tx, ty);
         let enc = encode(raw, self.opts.compression, &path)?;
         write_atomic(&path, &enc, self.opts.sync, "store.tile")?;
-        let jpath = self.dir.join(JOURNAL);
-        self.journal
-            .write_all(format!("{id} {crc:08x} {}\n", enc.len()).as_bytes())
-            .at(&jpath)?;
-        if self.opts.sync {
-            self.journal.sync_data().at(&jpath)?;
+        self.journal_done(
+            id,
+            TileEntry {
+                state: TileState::Done,
+                crc32: crc,
+                bytes: enc.len() as u64,
+            },
+        )
+    }
+
+    fn delegate(&self) -> Option<super::DelegatedTiles> {
+        Some(super::DelegatedTiles {
+            dir: self.dir.clone(),
+            width: self.layout.width,
+            height: self.layout.height,
+            tile: self.layout.tile,
+            dtype: self.manifest.dtype,
+            compression: self.opts.compression,
+            sync: self.opts.sync,
+        })
+    }
+
+    fn record_delegated(&mut self, id: TileId, entry: TileEntry) -> Result<()> {
+        if id >= self.layout.count() || entry.state != TileState::Done {
+            return Err(Error::store(
+                &self.dir,
+                format!("tile {id}: a delegated write reported {entry:?}, which is not a finished tile of this store"),
+            ));
         }
-        super::crash::point("store.journal", "appended");
-        self.manifest.tiles[id] = TileEntry {
-            state: TileState::Done,
-            crc32: crc,
-            bytes: enc.len() as u64,
-        };
-        Ok(())
+        // A size check (no read-back, which would cost this process the I/O
+        // the delegation saves): catches ranks that do not share this
+        // filesystem. The CRC is verified on resume, as for every tile.
+        let (tx, ty) = self.layout.coords(id);
+        let path = tile_file(&self.dir, tx, ty);
+        let len = std::fs::metadata(&path).map(|m| m.len()).ok();
+        if len != Some(entry.bytes) {
+            return Err(Error::store(
+                &path,
+                format!(
+                    "tile {id} was reported written ({} bytes) by another process but the file here {}; do all ranks see the same filesystem at this path?",
+                    entry.bytes,
+                    match len {
+                        Some(n) => format!("has {n} bytes"),
+                        None => "is missing".to_string(),
+                    }
+                ),
+            ));
+        }
+        self.journal_done(id, entry)
     }
 
     fn finish(mut self: Box<Self>) -> Result<()> {
