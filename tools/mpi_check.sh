@@ -58,6 +58,8 @@ pipeline() {
     # write internal stores.
     "$@" ingest "$input" -o "$dir/ingested.tiles" --store-tile "$tile" -q $eng
     "$@" fill "$input" -o "$dir/fill.tiles" --store-tile "$tile" -q $eng
+    # Global step to a store: under MPI each rank writes its own tiles.
+    "$@" accumulate "$dir/d8.tif" -o "$dir/acc.tiles" --store-tile "$tile" -q $eng
     "$@" fill-epsilon "$input" -o "$dir/eps.tif" --tile "$tile" -q $eng
     "$@" accumulate "$dir/fill.tif" --method dinf -o "$dir/dinf.tif" --tile "$tile" -q $eng
     "$@" breach "$input" --method least-cost -o "$dir/lcb.tif" --tile "$tile" -q $eng
@@ -127,6 +129,15 @@ for f in filled.tif metric/slope.tif; do
     fi
 done
 echo "job file, 2 ranks: compared"
+
+# Kill rank 1 mid-job (fill to a tile store), then resume to identical
+# bytes (tools/mpi_kill.sh, about 1 min).
+kill_flags=""
+if [ "$profile" = release ]; then kill_flags="--release"; fi
+if ! tools/mpi_kill.sh $kill_flags; then
+    echo "DIFFER: kill a rank (tools/mpi_kill.sh)"
+    fails=$((fails + 1))
+fi
 
 if [ "$fails" != 0 ]; then
     echo "mpi_check: $fails difference(s)"

@@ -696,8 +696,9 @@ impl MpiEngine {
         got
     }
 
-    /// On rank 0 (unless quiet), say how many tiles a resumed output had
-    /// finished already.
+    /// On rank 0, say how many tiles a resumed output had finished already
+    /// (one line on stderr, even when quiet: under MPI a resume follows a
+    /// failed job, and the line shows the rerun did not start over).
     fn note_resume(
         &self,
         comm: &SimpleCommunicator,
@@ -705,7 +706,7 @@ impl MpiEngine {
         ids: &[TileId],
         layout: &TileLayout,
     ) {
-        if comm.rank() == 0 && ids.len() < layout.count() && self.local.config().progress {
+        if comm.rank() == 0 && ids.len() < layout.count() {
             eprintln!(
                 "{name}: resuming: {} of {} tiles already finished (skipped), {} to do",
                 layout.count() - ids.len(),

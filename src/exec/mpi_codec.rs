@@ -412,7 +412,7 @@ mod tests {
         let ids: Vec<TileId> = (3..=8).collect();
         let table = owner_table(&ids, 2, 10).unwrap();
         let want: Vec<Option<usize>> = (0..10)
-            .map(|t| (3..=8).contains(&t).then_some((t - 3) % 2))
+            .map(|t| (3..=8).contains(&t).then(|| (t - 3) % 2))
             .collect();
         assert_eq!(table, want);
         let records: Vec<(TileId, Vec<u8>)> =
