@@ -565,7 +565,13 @@ pub fn accumulate_multi(
         )?;
         Ok(run.rounds)
     })();
-    let cleanup = std::fs::remove_dir_all(&tmp);
+    // Under MPI only rank 0 created the store (and every rank is past the
+    // engine's closing barrier): several ranks removing it would race.
+    let cleanup = if crate::exec::rank().0 == 0 {
+        std::fs::remove_dir_all(&tmp)
+    } else {
+        Ok(())
+    };
     let rounds = result?;
     if let Err(e) = cleanup {
         if e.kind() != std::io::ErrorKind::NotFound {

@@ -58,8 +58,9 @@ pipeline() {
     # write internal stores.
     "$@" ingest "$input" -o "$dir/ingested.tiles" --store-tile "$tile" -q $eng
     "$@" fill "$input" -o "$dir/fill.tiles" --store-tile "$tile" -q $eng
-    # Global step to a store: under MPI each rank writes its own tiles.
-    "$@" accumulate "$dir/d8.tif" -o "$dir/acc.tiles" --store-tile "$tile" -q $eng
+    # Another global step to a store (under MPI each rank writes its own
+    # tiles); its input is the shared one, as the store records input paths.
+    "$@" flow "$input" -o "$dir/flow.tiles" --store-tile "$tile" -q $eng
     "$@" fill-epsilon "$input" -o "$dir/eps.tif" --tile "$tile" -q $eng
     "$@" accumulate "$dir/fill.tif" --method dinf -o "$dir/dinf.tif" --tile "$tile" -q $eng
     "$@" breach "$input" --method least-cost -o "$dir/lcb.tif" --tile "$tile" -q $eng

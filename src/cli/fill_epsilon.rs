@@ -54,7 +54,8 @@ pub fn run(a: FillEpsilonArgs) -> Result<()> {
         )?;
         Ok(())
     })();
-    if tmp.exists() {
+    // Under MPI only rank 0 created the store; the others removing it too would race.
+    if orogen::exec::rank().0 == 0 && tmp.exists() {
         std::fs::remove_dir_all(&tmp)
             .with_context(|| format!("removing the temporary store {}", tmp.display()))?;
     }

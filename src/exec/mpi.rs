@@ -42,7 +42,7 @@ use super::local::{
 };
 use super::mpi_codec::{
     decode_records, decode_tile_written, encode_tile_written, owner_table, owners, perimeter_cells,
-    push_record, route_records,
+    push_record, route_records, TileParts,
 };
 use super::{Engine, GlobalStep, LocalEngine, LocalStep, TileSink};
 use crate::error::{Error, Result};
@@ -604,7 +604,7 @@ impl MpiEngine {
                 .collect();
             // Compute, then write the delegated outputs here (on the
             // workers, in parallel): what travels is the rest plus receipts.
-            let work = |id: TileId| -> Result<(Vec<AnyGrid>, Vec<(u32, u64)>)> {
+            let work = |id: TileId| -> Result<TileParts> {
                 let grids = compute(id)?;
                 let mut cells = Vec::new();
                 let mut written = Vec::new();

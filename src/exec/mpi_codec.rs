@@ -106,11 +106,19 @@ pub fn decode_tile(
     Ok(out)
 }
 
+/// What a rank reports of an output it wrote itself: `(crc32, bytes)` of
+/// the tile file, as a tile store's journal records them.
+pub type Receipt = (u32, u64);
+
+/// A decoded tile message: the outputs whose cells travelled, and the
+/// receipts of those the sender wrote itself.
+pub type TileParts = (Vec<AnyGrid>, Vec<Receipt>);
+
 /// Encode tile `id`'s message when some outputs were written by the sender
 /// itself (delegated tile-store writes): the tile message of the outputs
 /// whose cells travel (`cells`), then `n: u32` and per written output its
 /// `crc32: u32, bytes: u64` (what the store's writer records).
-pub fn encode_tile_written(id: TileId, cells: &[AnyGrid], written: &[(u32, u64)]) -> Vec<u8> {
+pub fn encode_tile_written(id: TileId, cells: &[AnyGrid], written: &[Receipt]) -> Vec<u8> {
     let mut out = encode_tile(id, cells);
     out.extend_from_slice(&(written.len() as u32).to_le_bytes());
     for &(crc, bytes) in written {
@@ -127,7 +135,7 @@ pub fn decode_tile_written(
     expect: TileId,
     shapes: &[(DType, usize, usize)],
     n_written: usize,
-) -> Result<(Vec<AnyGrid>, Vec<(u32, u64)>)> {
+) -> Result<TileParts> {
     let mut r = Reader {
         b: msg,
         at: 0,
