@@ -274,13 +274,7 @@ const NOTE_EVERY: usize = 16;
 /// tiles still to come, `owner[j]` the rank of `pending[j]`, `left[r]` how
 /// many of them rank `r` owns; names the first few per rank (a bounded
 /// look-ahead, so this costs O(ranks) per tile, not O(tiles)).
-fn note_pending(
-    step: &str,
-    pending: &[TileId],
-    owner: &[usize],
-    k: usize,
-    left: &[usize],
-) -> String {
+fn note_pending(step: &str, pending: &[TileId], owner: &[usize], k: usize, left: &[usize]) {
     let ranks = left.len();
     let mut first: Vec<Vec<String>> = vec![Vec::new(); ranks];
     for (j, &id) in pending.iter().enumerate().skip(k).take(64 * ranks) {
@@ -308,7 +302,6 @@ fn note_pending(
         }
     );
     last_words::set(&msg);
-    msg
 }
 
 /// The MPI engine: an [`Engine`] over the ranks of `MPI_COMM_WORLD`, each
