@@ -376,13 +376,13 @@ pub fn run_ranked<M: LocalModel, X: HaloTransport>(
     let mut final_bytes = 0u64;
     if me == 0 {
         let mut buf = Vec::new();
-        for id in 0..count {
+        for (id, &from) in owner.iter().enumerate() {
             let core = layout.window(id);
-            let patch = if owner[id] == 0 {
+            let patch = if from == 0 {
                 finished(id).map_err(|e| x.fail(e))?
             } else {
                 buf.resize(core.len() * keep.len(), 0.0);
-                x.recv_from(owner[id], &mut buf).map_err(|e| x.fail(e))?;
+                x.recv_from(from, &mut buf).map_err(|e| x.fail(e))?;
                 let mut patch = Patch::new(core.x, core.y, core.w, core.h, 0);
                 patch.fields = vec![Vec::new(); nf];
                 for (&f, c) in keep.iter().zip(buf.chunks_exact(core.len())) {
@@ -848,6 +848,7 @@ mod tests {
     }
 
     /// Run on `ranks` simulated ranks; rank 0's emitted tiles as grids.
+    #[allow(clippy::too_many_arguments)]
     fn ranked<M: LocalModel>(
         model: &M,
         src: &MemRaster,

@@ -34,7 +34,7 @@ pub fn partition(layout: &TileLayout, ranks: usize) -> Vec<usize> {
     let mut owner = Vec::with_capacity(n);
     for rank in 0..r {
         let len = q + usize::from(rank < extra);
-        owner.extend(std::iter::repeat(rank).take(len));
+        owner.extend(std::iter::repeat_n(rank, len));
     }
     owner
 }
@@ -558,8 +558,8 @@ mod tests {
                             .collect::<Vec<_>>()
                     );
                     let inbox: Vec<&Vec<f64>> = (0..ranks).map(|p| &outbox[p][r]).collect();
-                    for p in 0..ranks {
-                        assert_eq!(inbox[p].len(), pl.recv_len[p], "{ranks} ranks, {p}->{r}");
+                    for (p, msg) in inbox.iter().enumerate() {
+                        assert_eq!(msg.len(), pl.recv_len[p], "{ranks} ranks, {p}->{r}");
                     }
                     // Distinct remote cells this rank's patches need.
                     let mut want_remote = std::collections::BTreeSet::new();
