@@ -3,6 +3,11 @@
 //! from a TOML file (`--params`, one table per model), `--set KEY=VALUE` and a
 //! few named flags, in that order of precedence (later wins); unknown keys are
 //! rejected with the list of valid ones.
+//!
+//! Under `--engine mpi` the hydraulic, thermal and diffusion models run
+//! distributed (each rank its tiles, ghost zones exchanged point to point,
+//! rank 0 writes; `erosion::tiled::run_ranked`); stream power does not: every
+//! rank runs the whole solve (same bytes, no speed-up) and rank 0 writes.
 
 use crate::{engine, open, output_options, wrote, In, Out, Run};
 use anyhow::{bail, Context, Result};
@@ -23,7 +28,8 @@ pub enum ModelArg {
     Thermal,
     /// Linear hillslope diffusion, explicit and CFL-stable.
     Diffusion,
-    /// Stream power with uplift, implicit (Braun & Willett 2013); in memory.
+    /// Stream power with uplift, implicit (Braun & Willett 2013); in memory. Under
+    /// --engine mpi every rank runs the whole solve (not distributed).
     StreamPower,
 }
 

@@ -17,9 +17,21 @@
 //! States live in memory ([`Backend::Memory`], two copies of the whole state)
 //! or in a scratch directory of one raw file per tile ([`Backend::Disk`]),
 //! where memory is O(threads × patch) and the raster may exceed memory.
+//!
+//! The tile loop does not know where the neighbours live: [`run_ranked`]
+//! takes a [`HaloTransport`]. [`Single`] (one process, what [`run`] uses)
+//! has every tile local; under the MPI engine (`--engine mpi`,
+//! `exec::mpi_halo::MpiHalo`) the tiles are split between the ranks in
+//! contiguous ranges, each rank keeps only its tiles' states, and before
+//! every round the ghost-zone cells of other ranks' tiles arrive point to
+//! point from their owners (`exec::mpi_halo`); the finished tiles go to
+//! rank 0, which writes them. Same bits for any number of ranks.
 
 use super::{LocalModel, Patch};
 use crate::error::{Error, Result};
+use crate::exec::mpi_halo::{
+    extract, partition, paste, patch_window, HaloPlan, HaloTransport, Single,
+};
 use crate::exec::{to_sink_type, EngineConfig, TileSink};
 use crate::raster::{read_window, Grid, RasterSource, TileId, TileLayout, Window};
 use rayon::prelude::*;
@@ -122,19 +134,6 @@ fn write_tile(dir: &Path, id: TileId, data: &[f64]) -> Result<()> {
     std::fs::write(&path, bytes).map_err(|e| Error::io(&path, e))
 }
 
-/// Copy the core `core` (inside `p`) of every field into one flat vector.
-fn extract(p: &Patch, core: Window) -> Vec<f64> {
-    let (ox, oy) = ((core.x - p.x0) as usize, (core.y - p.y0) as usize);
-    let mut out = Vec::with_capacity(core.len() * p.fields.len());
-    for f in &p.fields {
-        for y in 0..core.h {
-            let s = (oy + y) * p.w + ox;
-            out.extend_from_slice(&f[s..s + core.w]);
-        }
-    }
-    out
-}
-
 /// Run `model` on `src` over `layout` with a halo exchange every `exchange`
 /// substeps, and hand each finished tile (after [`LocalModel::finish`]) to
 /// `emit` in increasing tile id order, as a patch holding exactly the core.
@@ -145,6 +144,40 @@ pub fn run<M: LocalModel>(
     exchange: usize,
     backend: &Backend,
     cfg: &EngineConfig,
+    emit: impl FnMut(TileId, Window, &Patch) -> Result<()>,
+) -> Result<RunStats> {
+    run_ranked(
+        model,
+        src,
+        layout,
+        exchange,
+        backend,
+        cfg,
+        &mut Single,
+        None,
+        emit,
+    )
+}
+
+/// [`run`] spread over the ranks of `x` (every rank calls it with the same
+/// arguments): the tiles are split by [`partition`], each rank keeps only
+/// its tiles' states, and before every round the ghost-zone cells owned by
+/// other ranks arrive through `x` ([`HaloPlan`]); tiles of the same rank
+/// are read in memory. Finished tiles go to rank 0, which alone calls
+/// `emit`, in increasing tile id order; remote tiles carry only the fields
+/// in `keep` (all if `None`; the others are empty). The result is the same
+/// bits for any number of ranks and threads. With [`Single`] this is
+/// [`run`], with no copy or message added.
+#[allow(clippy::too_many_arguments)]
+pub fn run_ranked<M: LocalModel, X: HaloTransport>(
+    model: &M,
+    src: &dyn RasterSource,
+    layout: TileLayout,
+    exchange: usize,
+    backend: &Backend,
+    cfg: &EngineConfig,
+    x: &mut X,
+    keep: Option<&[usize]>,
     mut emit: impl FnMut(TileId, Window, &Patch) -> Result<()>,
 ) -> Result<RunStats> {
     let info = src.info();
@@ -164,10 +197,21 @@ pub fn run<M: LocalModel>(
         )));
     }
     let nf = model.field_names().len();
+    let keep: Vec<usize> = match keep {
+        Some(k) => {
+            if let Some(f) = k.iter().find(|&&f| f >= nf) {
+                return Err(Error::invalid(format!(
+                    "erosion: {} has {nf} fields, field {f} requested",
+                    model.name()
+                )));
+            }
+            k.to_vec()
+        }
+        None => (0..nf).collect(),
+    };
     let total = model.substeps();
     let k = (exchange as u64).min(total.max(1));
     let ghost = (k as usize).saturating_mul(model.radius());
-    let full = Window::full(info.width, info.height);
     // Patch memory per tile in flight (fields + the models' scratch, at most
     // 9 arrays), checked before anything is allocated.
     let side = |n: usize| (layout.tile.saturating_add(2 * ghost)).min(n) as u64;
@@ -186,19 +230,27 @@ pub fn run<M: LocalModel>(
         .num_threads(cfg.threads)
         .build()
         .map_err(|e| Error::invalid(format!("erosion: cannot start worker threads: {e}")))?;
-    let ids: Vec<TileId> = (0..layout.count()).collect();
+    let (me, ranks) = x.rank();
+    let count = layout.count();
+    let plan = HaloPlan::new(&layout, ghost, partition(&layout, ranks), (me, ranks), nf)?;
+    let mine = &plan.mine;
+    let owner = &plan.owner;
     let disk_dir = |parity: u64| -> Option<PathBuf> {
         match backend {
             Backend::Memory => None,
             Backend::Disk(d) => Some(d.join(format!("r{parity}"))),
         }
     };
-    let store = |parity: u64, results: Vec<(TileId, Vec<f64>)>| -> Result<States> {
+    let store = |parity: u64, results: Vec<(TileId, Vec<f64>)>| -> States {
         match disk_dir(parity) {
-            None => Ok(States::Memory(
-                results.into_iter().map(|(_, v)| v).collect(),
-            )),
-            Some(dir) => Ok(States::Disk(dir)),
+            None => {
+                let mut v = vec![Vec::new(); count];
+                for (id, d) in results {
+                    v[id] = d;
+                }
+                States::Memory(v)
+            }
+            Some(dir) => States::Disk(dir),
         }
     };
     for p in 0..2 {
@@ -207,90 +259,239 @@ pub fn run<M: LocalModel>(
         }
     }
     let rounds = total.div_ceil(k);
-    let pb = if cfg.progress {
+    let pb = if cfg.progress && me == 0 {
         let pb = indicatif::ProgressBar::new(rounds);
         pb.set_message(model.name());
         pb
     } else {
         indicatif::ProgressBar::hidden()
     };
+    // From here on an error on one rank must end every rank (the others
+    // would wait for its messages): `x.fail`.
     // Round 0: the initial state (terrain from the source, other fields 0).
-    let init = pool.install(|| {
-        ids.par_iter()
-            .map(|&id| -> Result<(TileId, Vec<f64>)> {
-                let core = layout.window(id);
-                let dem = read_window::<f64>(src, core)?;
-                let mut v = vec![0.0; core.len() * nf];
-                // Cells the f32 output cannot hold (±inf, beyond ±f32::MAX)
-                // are nodata, as in the other steps (tests/numerics.rs).
-                for (o, &z) in v[..core.len()].iter_mut().zip(dem.data()) {
-                    *o = if (z as f32).is_finite() { z } else { f64::NAN };
-                }
-                if let Some(dir) = disk_dir(0) {
-                    write_tile(&dir, id, &v)?;
-                    return Ok((id, Vec::new()));
-                }
-                Ok((id, v))
-            })
-            .collect::<Result<Vec<_>>>()
-    })?;
-    let mut cur = store(0, init)?;
-    for round in 0..rounds {
-        let s0 = round * k;
-        let s1 = (s0 + k).min(total);
-        let next_parity = (round + 1) % 2;
-        let prev = &cur;
-        let results = pool.install(|| {
-            ids.par_iter()
+    let init = pool
+        .install(|| {
+            mine.par_iter()
                 .map(|&id| -> Result<(TileId, Vec<f64>)> {
                     let core = layout.window(id);
-                    let pw = core.expand(ghost).intersect(&full).unwrap_or(core);
-                    let mut patch = Patch::new(pw.x, pw.y, pw.w, pw.h, nf);
-                    for tid in layout.tiles_in(&pw) {
-                        let tw = layout.window(tid);
-                        let Some(iw) = tw.intersect(&pw) else {
-                            continue;
-                        };
-                        let data = prev.get(tid, tw.len() * nf)?;
-                        for (f, field) in patch.fields.iter_mut().enumerate() {
-                            let base = f * tw.len();
-                            for y in iw.y..iw.y_end() {
-                                let s = base + (y - tw.y) as usize * tw.w + (iw.x - tw.x) as usize;
-                                let d = (y - pw.y) as usize * pw.w + (iw.x - pw.x) as usize;
-                                field[d..d + iw.w].copy_from_slice(&data[s..s + iw.w]);
-                            }
-                        }
+                    let dem = read_window::<f64>(src, core)?;
+                    let mut v = vec![0.0; core.len() * nf];
+                    // Cells the f32 output cannot hold (±inf, beyond ±f32::MAX)
+                    // are nodata, as in the other steps (tests/numerics.rs).
+                    for (o, &z) in v[..core.len()].iter_mut().zip(dem.data()) {
+                        *o = if (z as f32).is_finite() { z } else { f64::NAN };
                     }
-                    for n in s0..s1 {
-                        model.substep(&mut patch, n);
-                    }
-                    let v = extract(&patch, core);
-                    if let Some(dir) = disk_dir(next_parity) {
+                    if let Some(dir) = disk_dir(0) {
                         write_tile(&dir, id, &v)?;
                         return Ok((id, Vec::new()));
                     }
                     Ok((id, v))
                 })
                 .collect::<Result<Vec<_>>>()
-        })?;
-        cur = store(next_parity, results)?;
+        })
+        .map_err(|e| x.fail(e))?;
+    let mut cur = store(0, init);
+    // Halo messages, reused every round: strips out to each rank, in from each.
+    let mut outbox: Vec<Vec<f64>> = plan
+        .sends
+        .iter()
+        .map(|s| Vec::with_capacity(s.iter().map(|s| s.win.len() * nf).sum()))
+        .collect();
+    let mut inbox: Vec<Vec<f64>> = plan.recv_len.iter().map(|&n| vec![0.0; n]).collect();
+    let mut exchange_time = std::time::Duration::ZERO;
+    for round in 0..rounds {
+        let s0 = round * k;
+        let s1 = (s0 + k).min(total);
+        let next_parity = (round + 1) % 2;
+        if ranks > 1 {
+            let t = std::time::Instant::now();
+            for (out, strips) in outbox.iter_mut().zip(&plan.sends) {
+                out.clear();
+                // Strips are grouped by tile: read each tile once.
+                for group in strips.chunk_by(|a, b| a.tile == b.tile) {
+                    let tile = group[0].tile;
+                    let tw = layout.window(tile);
+                    let data = cur.get(tile, tw.len() * nf).map_err(|e| x.fail(e))?;
+                    for s in group {
+                        extract(tw, &data, nf, s.win, out);
+                    }
+                }
+            }
+            x.exchange(&outbox, &mut inbox).map_err(|e| x.fail(e))?;
+            exchange_time += t.elapsed();
+        }
+        let prev = &cur;
+        let inbox = &inbox;
+        let results = pool
+            .install(|| {
+                mine.par_iter()
+                    .map(|&id| -> Result<(TileId, Vec<f64>)> {
+                        let core = layout.window(id);
+                        let pw = patch_window(&layout, id, ghost);
+                        let mut patch = Patch::new(pw.x, pw.y, pw.w, pw.h, nf);
+                        for tid in layout.tiles_in(&pw) {
+                            let tw = layout.window(tid);
+                            let Some(iw) = tw.intersect(&pw) else {
+                                continue;
+                            };
+                            if owner[tid] == me {
+                                let data = prev.get(tid, tw.len() * nf)?;
+                                paste(pw, &mut patch.fields, tw, &data, iw);
+                            } else {
+                                for g in &plan.ghosts[tid] {
+                                    let n = g.win.len() * nf;
+                                    let data = &inbox[g.from][g.offset..g.offset + n];
+                                    paste(pw, &mut patch.fields, g.win, data, iw);
+                                }
+                            }
+                        }
+                        for n in s0..s1 {
+                            model.substep(&mut patch, n);
+                        }
+                        let v = core_of(&patch, core);
+                        if let Some(dir) = disk_dir(next_parity) {
+                            write_tile(&dir, id, &v)?;
+                            return Ok((id, Vec::new()));
+                        }
+                        Ok((id, v))
+                    })
+                    .collect::<Result<Vec<_>>>()
+            })
+            .map_err(|e| x.fail(e))?;
+        cur = store(next_parity, results);
         pb.inc(1);
     }
     pb.finish_and_clear();
-    // Finish and emit in tile id order.
-    for &id in &ids {
+    // Finish; rank 0 emits in tile id order, receiving the other ranks'
+    // tiles (each sends its own in increasing order).
+    let t_final = std::time::Instant::now();
+    let finished = |id: TileId| -> Result<Patch> {
         let core = layout.window(id);
         let data = cur.get(id, core.len() * nf)?;
         let mut patch = Patch::new(core.x, core.y, core.w, core.h, 0);
         patch.fields = data.chunks_exact(core.len()).map(|c| c.to_vec()).collect();
         model.finish(&mut patch);
-        emit(id, core, &patch)?;
+        Ok(patch)
+    };
+    let mut final_bytes = 0u64;
+    if me == 0 {
+        let mut buf = Vec::new();
+        for (id, &from) in owner.iter().enumerate() {
+            let core = layout.window(id);
+            let patch = if from == 0 {
+                finished(id).map_err(|e| x.fail(e))?
+            } else {
+                buf.resize(core.len() * keep.len(), 0.0);
+                x.recv_from(from, &mut buf).map_err(|e| x.fail(e))?;
+                let mut patch = Patch::new(core.x, core.y, core.w, core.h, 0);
+                patch.fields = vec![Vec::new(); nf];
+                for (&f, c) in keep.iter().zip(buf.chunks_exact(core.len())) {
+                    patch.fields[f] = c.to_vec();
+                }
+                patch
+            };
+            emit(id, core, &patch).map_err(|e| x.fail(e))?;
+        }
+    } else {
+        let mut buf = Vec::new();
+        for &id in mine {
+            let patch = finished(id).map_err(|e| x.fail(e))?;
+            buf.clear();
+            for &f in &keep {
+                buf.extend_from_slice(&patch.fields[f]);
+            }
+            final_bytes += buf.len() as u64 * 8;
+            x.send_to_root(&buf).map_err(|e| x.fail(e))?;
+        }
+    }
+    if x.distributed() {
+        let ghost_cells: u64 = mine
+            .iter()
+            .map(|&id| (patch_window(&layout, id, ghost).len() - layout.window(id).len()) as u64)
+            .sum();
+        let received: u64 = plan.recv_len.iter().map(|&n| n as u64).sum();
+        let mine_stats = [
+            received * 8,
+            received / nf.max(1) as u64,
+            ghost_cells,
+            final_bytes,
+            exchange_time.as_nanos() as u64,
+            t_final.elapsed().as_nanos() as u64,
+        ];
+        let s = x.sum(&mine_stats).map_err(|e| x.fail(e))?;
+        if me == 0 && std::env::var_os("OROGEN_MPI_STATS").is_some() {
+            print_stats(model.name(), &layout, ranks, rounds, ghost, nf, &s);
+        }
     }
     Ok(RunStats {
         rounds,
         substeps: total,
         ghost,
     })
+}
+
+/// One JSON line per phase on stderr (rank 0, `OROGEN_MPI_STATS`), like
+/// the MPI engine's. `s` = sums over the ranks of [bytes received per round,
+/// remote ghost cells per round, ghost cells per round, bytes of finished
+/// tiles to rank 0, ns exchanging, ns of the final gather].
+fn print_stats(
+    name: &str,
+    layout: &TileLayout,
+    ranks: usize,
+    rounds: u64,
+    ghost: usize,
+    nf: usize,
+    s: &[u64],
+) {
+    let [bytes, remote, ghost_cells, final_bytes, ns_x, ns_f] = s[..] else {
+        return;
+    };
+    let div = |a: u64, b: u64| if b == 0 { 0.0 } else { a as f64 / b as f64 };
+    let perimeter = crate::exec::mpi_codec::perimeter_cells(layout);
+    eprintln!(
+        "{}",
+        serde_json::json!({
+            "mpi_stats": format!("erode {name}"),
+            "phase": "erosion: halo exchange, point to point",
+            "ranks": ranks,
+            "tiles": layout.count(),
+            "rounds": rounds,
+            "ghost_depth": ghost,
+            "fields": nf,
+            "bytes_per_round": bytes,
+            "bytes_total": bytes.saturating_mul(rounds),
+            "remote_ghost_cells_per_round": remote,
+            "ghost_cells_per_round": ghost_cells,
+            "bytes_per_remote_ghost_cell": div(bytes, remote),
+            "bytes_per_ghost_cell": div(bytes, ghost_cells),
+            "perimeter_cells": perimeter,
+            "bytes_per_perimeter_cell_per_round": div(bytes, perimeter),
+            "seconds_summed_over_ranks": ns_x as f64 * 1e-9,
+        })
+    );
+    eprintln!(
+        "{}",
+        serde_json::json!({
+            "mpi_stats": format!("erode {name}"),
+            "phase": "erosion: finished tiles to rank 0",
+            "ranks": ranks,
+            "tiles": layout.count(),
+            "bytes_up": final_bytes,
+            "cells": layout.width as u64 * layout.height as u64,
+            "bytes_up_per_perimeter_cell": div(final_bytes, perimeter),
+            "seconds_summed_over_ranks": ns_f as f64 * 1e-9,
+        })
+    );
+}
+
+/// Copy the core `core` (inside `p`) of every field into one flat vector.
+fn core_of(p: &Patch, core: Window) -> Vec<f64> {
+    let pw = Window::new(p.x0, p.y0, p.w, p.h);
+    let mut out = Vec::with_capacity(core.len() * p.fields.len());
+    for f in &p.fields {
+        extract(pw, f, 1, core, &mut out);
+    }
+    out
 }
 
 /// [`run`], writing field `f` of every tile to the sink paired with it.
@@ -302,6 +503,33 @@ pub fn run_to_sinks<M: LocalModel>(
     exchange: usize,
     backend: &Backend,
     cfg: &EngineConfig,
+    sinks: Vec<(usize, Box<dyn TileSink>)>,
+) -> Result<RunStats> {
+    run_to_sinks_ranked(
+        model,
+        src,
+        layout,
+        exchange,
+        backend,
+        cfg,
+        &mut Single,
+        sinks,
+    )
+}
+
+/// [`run_to_sinks`] over the ranks of `x` ([`run_ranked`]): only rank 0
+/// writes (the other ranks' sinks are dropped unwritten); only the sinks'
+/// fields travel to rank 0; every rank returns once the outputs are
+/// finished.
+#[allow(clippy::too_many_arguments)]
+pub fn run_to_sinks_ranked<M: LocalModel, X: HaloTransport>(
+    model: &M,
+    src: &dyn RasterSource,
+    layout: TileLayout,
+    exchange: usize,
+    backend: &Backend,
+    cfg: &EngineConfig,
+    x: &mut X,
     mut sinks: Vec<(usize, Box<dyn TileSink>)>,
 ) -> Result<RunStats> {
     let nf = model.field_names().len();
@@ -320,17 +548,37 @@ pub fn run_to_sinks<M: LocalModel>(
             }
         }
     }
-    let stats = run(model, src, layout, exchange, backend, cfg, |id, core, p| {
-        for (f, sink) in sinks.iter_mut() {
-            let g = Grid::from_vec(core.w, core.h, p.fields[*f].clone())?;
-            let any = to_sink_type(&g, sink.as_ref());
-            sink.write(id, core, any)?;
+    let mut keep: Vec<usize> = sinks.iter().map(|(f, _)| *f).collect();
+    keep.sort_unstable();
+    keep.dedup();
+    let stats = run_ranked(
+        model,
+        src,
+        layout,
+        exchange,
+        backend,
+        cfg,
+        x,
+        Some(&keep),
+        |id, core, p| {
+            for (f, sink) in sinks.iter_mut() {
+                let g = Grid::from_vec(core.w, core.h, p.fields[*f].clone())?;
+                let any = to_sink_type(&g, sink.as_ref());
+                sink.write(id, core, any)?;
+            }
+            Ok(())
+        },
+    )?;
+    let (me, _) = x.rank();
+    if me == 0 {
+        for (_, s) in sinks {
+            s.finish().map_err(|e| x.fail(e))?;
         }
-        Ok(())
-    })?;
-    for (_, s) in sinks {
-        s.finish()?;
+    } else {
+        drop(sinks);
     }
+    // Nobody goes on (and reads an output) before rank 0 finished it.
+    x.barrier();
     Ok(stats)
 }
 
@@ -402,24 +650,39 @@ pub fn erode_to_paths<M: LocalModel>(
         sinks.push((*f, sink));
     }
     let nf = model.field_names().len();
+    // Under MPI each rank holds the states of its own tiles only.
+    let (me, ranks) = crate::exec::rank();
+    let owner = partition(&layout, ranks);
+    let my_cells: u64 = (0..layout.count())
+        .filter(|&id| owner[id] == me)
+        .map(|id| layout.window(id).len() as u64)
+        .sum();
     let in_memory = scratch.is_none()
-        && state_bytes(info.width, info.height, nf).saturating_mul(2) <= cfg.memory_budget / 2;
+        && my_cells.saturating_mul(nf as u64 * 8).saturating_mul(2) <= cfg.memory_budget / 2;
     if in_memory {
-        let stats = run_to_sinks(model, src, layout, exchange, &Backend::Memory, cfg, sinks)?;
+        let stats = dispatch(model, src, layout, exchange, &Backend::Memory, cfg, sinks)?;
         return Ok((stats, layout));
     }
+    // One scratch folder per rank (ranks may share a filesystem).
+    let rank_tag = if ranks > 1 {
+        format!("-rank{me}")
+    } else {
+        String::new()
+    };
     let dir = match scratch {
-        Some(d) => d.join("orogen-erosion-scratch"),
+        Some(d) => d.join(format!("orogen-erosion-scratch{rank_tag}")),
         None => {
             let name = first
                 .1
                 .file_name()
                 .map(|n| n.to_string_lossy().into_owned())
                 .unwrap_or_else(|| "erosion".into());
-            first.1.with_file_name(format!(".{name}.erosion-scratch"))
+            first
+                .1
+                .with_file_name(format!(".{name}.erosion-scratch{rank_tag}"))
         }
     };
-    let result = run_to_sinks(
+    let result = dispatch(
         model,
         src,
         layout,
@@ -436,4 +699,320 @@ pub fn erode_to_paths<M: LocalModel>(
         }
     }
     Ok((stats, layout))
+}
+
+/// [`run_to_sinks_ranked`] over the ranks of the MPI engine when it runs
+/// this process (`--engine mpi`), else in this process alone.
+fn dispatch<M: LocalModel>(
+    model: &M,
+    src: &dyn RasterSource,
+    layout: TileLayout,
+    exchange: usize,
+    backend: &Backend,
+    cfg: &EngineConfig,
+    sinks: Vec<(usize, Box<dyn TileSink>)>,
+) -> Result<RunStats> {
+    #[cfg(feature = "mpi")]
+    if crate::exec::distributed() {
+        let mut x = crate::exec::mpi_halo::MpiHalo::new()?;
+        return run_to_sinks_ranked(model, src, layout, exchange, backend, cfg, &mut x, sinks);
+    }
+    run_to_sinks(model, src, layout, exchange, backend, cfg, sinks)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::erosion::{
+        CellSize, Diffusion, DiffusionParams, Hydraulic, HydraulicParams, Thermal, ThermalParams,
+    };
+    use crate::raster::{GeoRef, MemRaster};
+    use std::sync::mpsc::{channel, Receiver, Sender};
+    use std::sync::{Arc, Barrier};
+
+    /// Ranks simulated by threads: one FIFO channel per ordered pair of
+    /// ranks (the driver's messages between two ranks are received in the
+    /// order they are sent, as MPI guarantees for one source and tag).
+    struct Chan {
+        me: usize,
+        n: usize,
+        tx: Vec<Sender<Vec<f64>>>,
+        rx: Vec<Receiver<Vec<f64>>>,
+        barrier: Arc<Barrier>,
+    }
+
+    fn chans(n: usize) -> Vec<Chan> {
+        let mut tx: Vec<Vec<Option<Sender<Vec<f64>>>>> = (0..n).map(|_| vec![None; n]).collect();
+        let mut rx: Vec<Vec<Option<Receiver<Vec<f64>>>>> =
+            (0..n).map(|_| (0..n).map(|_| None).collect()).collect();
+        for (p, txp) in tx.iter_mut().enumerate() {
+            for (q, t) in txp.iter_mut().enumerate() {
+                let (s, r) = channel();
+                *t = Some(s);
+                rx[q][p] = Some(r);
+            }
+        }
+        let barrier = Arc::new(Barrier::new(n));
+        tx.into_iter()
+            .zip(rx)
+            .enumerate()
+            .map(|(me, (t, r))| Chan {
+                me,
+                n,
+                tx: t.into_iter().map(|s| s.unwrap()).collect(),
+                rx: r.into_iter().map(|s| s.unwrap()).collect(),
+                barrier: barrier.clone(),
+            })
+            .collect()
+    }
+
+    impl Chan {
+        fn recv(&self, from: usize, buf: &mut [f64]) -> Result<()> {
+            let v = self.rx[from]
+                .recv()
+                .map_err(|_| Error::invalid(format!("rank {from} hung up")))?;
+            if v.len() != buf.len() {
+                return Err(Error::invalid(format!(
+                    "rank {} got {} values from {from}, expected {}",
+                    self.me,
+                    v.len(),
+                    buf.len()
+                )));
+            }
+            buf.copy_from_slice(&v);
+            Ok(())
+        }
+    }
+
+    impl HaloTransport for Chan {
+        fn rank(&self) -> (usize, usize) {
+            (self.me, self.n)
+        }
+        fn distributed(&self) -> bool {
+            false
+        }
+        fn exchange(&mut self, out: &[Vec<f64>], inbox: &mut [Vec<f64>]) -> Result<()> {
+            for (q, v) in out.iter().enumerate() {
+                if !v.is_empty() {
+                    self.tx[q]
+                        .send(v.clone())
+                        .map_err(|_| Error::invalid("peer gone"))?;
+                }
+            }
+            for (p, buf) in inbox.iter_mut().enumerate() {
+                if !buf.is_empty() {
+                    self.recv(p, buf)?;
+                }
+            }
+            Ok(())
+        }
+        fn send_to_root(&mut self, data: &[f64]) -> Result<()> {
+            self.tx[0]
+                .send(data.to_vec())
+                .map_err(|_| Error::invalid("rank 0 gone"))
+        }
+        fn recv_from(&mut self, from: usize, buf: &mut [f64]) -> Result<()> {
+            self.recv(from, buf)
+        }
+        fn sum(&mut self, v: &[u64]) -> Result<Vec<u64>> {
+            Ok(v.to_vec())
+        }
+        fn barrier(&mut self) {
+            self.barrier.wait();
+        }
+        fn fail(&self, e: Error) -> Error {
+            e
+        }
+    }
+
+    fn terrain(w: usize, h: usize) -> Grid<f64> {
+        Grid::from_fn(w, h, |x, y| {
+            if x == 4 && y == 6 {
+                return f64::NAN;
+            }
+            let (fx, fy) = (x as f64, y as f64);
+            let cone = 25.0 - (fx - 0.6 * w as f64).hypot(fy - 0.4 * h as f64) * 1.5;
+            100.0
+                + 8.0 * (fx * 0.37).sin() * (fy * 0.23).cos()
+                + cone.max(0.0)
+                + 3.0 * (fx * 1.7 + fy).sin()
+        })
+    }
+
+    fn cfg(threads: usize) -> EngineConfig {
+        EngineConfig {
+            threads,
+            memory_budget: 1 << 30,
+            progress: false,
+        }
+    }
+
+    /// Run on `ranks` simulated ranks; rank 0's emitted tiles as grids.
+    #[allow(clippy::too_many_arguments)]
+    fn ranked<M: LocalModel>(
+        model: &M,
+        src: &MemRaster,
+        tile: usize,
+        k: usize,
+        ranks: usize,
+        threads: usize,
+        keep: Option<&[usize]>,
+        backend: impl Fn(usize) -> Backend + Sync,
+    ) -> Vec<Grid<f64>> {
+        let info = src.info();
+        let (w, h) = (info.width, info.height);
+        let layout = TileLayout::new(w, h, tile);
+        let nf = model.field_names().len();
+        std::thread::scope(|s| {
+            let handles: Vec<_> = chans(ranks)
+                .into_iter()
+                .map(|mut c| {
+                    let backend = &backend;
+                    s.spawn(move || {
+                        let me = c.me;
+                        let mut grids: Vec<Grid<f64>> =
+                            (0..nf).map(|_| Grid::new(w, h, -1.0)).collect();
+                        let mut emitted = Vec::new();
+                        run_ranked(
+                            model,
+                            src,
+                            layout,
+                            k,
+                            &backend(me),
+                            &cfg(threads),
+                            &mut c,
+                            keep,
+                            |id, core, p| {
+                                emitted.push(id);
+                                for (g, f) in grids.iter_mut().zip(&p.fields) {
+                                    if !f.is_empty() {
+                                        g.paste(
+                                            &Grid::from_vec(core.w, core.h, f.clone())?,
+                                            core.x,
+                                            core.y,
+                                        );
+                                    }
+                                }
+                                Ok(())
+                            },
+                        )
+                        .unwrap();
+                        if me == 0 {
+                            assert_eq!(emitted, (0..layout.count()).collect::<Vec<_>>());
+                        } else {
+                            assert!(emitted.is_empty());
+                        }
+                        grids
+                    })
+                })
+                .collect();
+            let mut all: Vec<Vec<Grid<f64>>> =
+                handles.into_iter().map(|h| h.join().unwrap()).collect();
+            all.swap_remove(0)
+        })
+    }
+
+    fn same_bits(a: &Grid<f64>, b: &Grid<f64>, what: &str) {
+        for (i, (x, y)) in a.data().iter().zip(b.data()).enumerate() {
+            assert_eq!(x.to_bits(), y.to_bits(), "{what}: cell {i}: {x} vs {y}");
+        }
+    }
+
+    fn check<M: LocalModel>(model: &M, dem: &Grid<f64>) {
+        let reference = run_untiled(model, dem);
+        let changed = reference[0]
+            .data()
+            .iter()
+            .zip(dem.data())
+            .filter(|(a, b)| a.is_finite() && (*a - *b).abs() > 1e-6)
+            .count();
+        assert!(
+            changed > 50,
+            "{}: only {changed} cells changed",
+            model.name()
+        );
+        let src = MemRaster::from_grid(dem.clone(), GeoRef::pixel());
+        for (tile, k) in [(7usize, 1usize), (11, 3), (8, 8)] {
+            for ranks in 1..=4 {
+                let threads = 1 + ranks % 2;
+                let got = ranked(model, &src, tile, k, ranks, threads, None, |_| {
+                    Backend::Memory
+                });
+                for (f, (a, b)) in got.iter().zip(&reference).enumerate() {
+                    let what = format!(
+                        "{} tile {tile} k {k} ranks {ranks}: field {f}",
+                        model.name()
+                    );
+                    same_bits(a, b, &what);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn ranks_equal_the_whole_grid_run() {
+        let dem = terrain(37, 29);
+        let p = HydraulicParams {
+            rain: 0.05,
+            rain_probability: 0.3,
+            dt: 0.2,
+            capacity: 0.05,
+            settle: false,
+            seed: 9,
+            ..Default::default()
+        };
+        check(
+            &Hydraulic::new(p, 14, CellSize { dx: 2.0, dy: 3.0 }).unwrap(),
+            &dem,
+        );
+        let p = ThermalParams {
+            talus: 25.0,
+            rate: 0.4,
+            cell: None,
+        };
+        check(
+            &Thermal::new(p, 13, CellSize { dx: 1.0, dy: 1.5 }).unwrap(),
+            &dem,
+        );
+        let p = DiffusionParams {
+            diffusivity: 0.7,
+            dt: 1.0,
+            cell: None,
+        };
+        check(
+            &Diffusion::new(p, 5, CellSize { dx: 1.0, dy: 1.2 }).unwrap(),
+            &dem,
+        );
+    }
+
+    /// Only the kept fields travel to rank 0; states on disk per rank.
+    #[test]
+    fn kept_fields_and_disk_states() {
+        let dem = terrain(23, 31);
+        let p = HydraulicParams {
+            rain: 0.05,
+            rain_probability: 0.5,
+            dt: 0.2,
+            capacity: 0.05,
+            settle: false,
+            seed: 3,
+            ..Default::default()
+        };
+        let model = Hydraulic::new(p, 9, CellSize::square(2.0)).unwrap();
+        let reference = run_untiled(&model, &dem);
+        let src = MemRaster::from_grid(dem, GeoRef::pixel());
+        let tmp = std::env::temp_dir().join(format!("orogen-halo-test-{}", std::process::id()));
+        let keep = [0usize, 2];
+        let got = ranked(&model, &src, 6, 2, 3, 2, Some(&keep), |r| {
+            Backend::Disk(tmp.join(format!("rank{r}")))
+        });
+        let _ = std::fs::remove_dir_all(&tmp);
+        for f in keep {
+            same_bits(&got[f], &reference[f], &format!("disk, field {f}"));
+        }
+        // Fields not kept: tiles of other ranks never arrive (rank 0's own
+        // tiles do); the last tile belongs to rank 2.
+        let f = 1;
+        assert_eq!(got[f].get(22, 30), -1.0);
+    }
 }
