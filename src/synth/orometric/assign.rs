@@ -28,7 +28,17 @@ pub const BLOCK: usize = 128;
 /// the lower peak index counts as higher; equal saddles in index order.
 pub fn owners(h: &[f64], edges: &[(usize, usize)], hs: &[f64]) -> Vec<usize> {
     let mut order: Vec<usize> = (0..edges.len()).collect();
-    order.sort_by(|&a, &b| hs[b].total_cmp(&hs[a]).then(a.cmp(&b)));
+    order.sort_by(|&a, &b| sweep_cmp(hs, a, b));
+    owners_in_order(h, edges, &order)
+}
+
+/// Order of the descending sweep: higher saddles first, ties by index.
+fn sweep_cmp(hs: &[f64], a: usize, b: usize) -> std::cmp::Ordering {
+    hs[b].total_cmp(&hs[a]).then(a.cmp(&b))
+}
+
+/// [`owners`] with the saddles already in sweep order.
+fn owners_in_order(h: &[f64], edges: &[(usize, usize)], order: &[usize]) -> Vec<usize> {
     let mut parent: Vec<usize> = (0..h.len()).collect();
     let mut top: Vec<usize> = (0..h.len()).collect();
     fn find(p: &mut [usize], mut x: usize) -> usize {
@@ -40,7 +50,7 @@ pub fn owners(h: &[f64], edges: &[(usize, usize)], hs: &[f64]) -> Vec<usize> {
     }
     let higher = |a: usize, b: usize| h[a] > h[b] || (h[a] == h[b] && a < b);
     let mut own = vec![0usize; edges.len()];
-    for e in order {
+    for &e in order {
         let (a, b) = edges[e];
         let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
         let (ta, tb) = (top[ra], top[rb]);
@@ -350,16 +360,18 @@ struct Eval {
 }
 
 /// Evaluate `hs`: owners, per-group bin counts and the objective.
+/// `order`: the saddles in sweep order for `hs`.
 fn evaluate(
     h: &[f64],
     edges: &[(usize, usize)],
     hs: &[f64],
+    order: &[usize],
     group_of_peak: &[usize],
     st: &mut [GroupState],
     thresholds: &[f64],
 ) -> Eval {
     use crate::oro::stats::bin_of;
-    let own = owners(h, edges, hs);
+    let own = owners_in_order(h, edges, order);
     for g in st.iter_mut() {
         g.cp.iter_mut().for_each(|c| *c = 0);
         g.cd.iter_mut().for_each(|c| *c = 0);
@@ -473,7 +485,13 @@ pub fn refine_histograms(
             cd: vec![0; t.dominance.p.len()],
         })
         .collect();
-    let mut cur = evaluate(h, edges, hs, group_of_peak, &mut st, thresholds);
+    // Sweep order of the kept heights, updated per move by moving only the
+    // changed saddles (O(m) instead of a sort).
+    let mut order: Vec<usize> = (0..m).collect();
+    order.sort_by(|&a, &b| sweep_cmp(hs, a, b));
+    let mut order2 = order.clone();
+    let mut moved = vec![false; m];
+    let mut cur = evaluate(h, edges, hs, &order, group_of_peak, &mut st, thresholds);
     // Counts of trials; swapped with `st` when a trial is kept.
     let mut st2: Vec<GroupState> = st
         .iter()
@@ -619,7 +637,23 @@ pub fn refine_histograms(
         for &(e, v) in &changed {
             trial[e] = v;
         }
-        let next = evaluate(h, edges, &trial, group_of_peak, &mut st2, thresholds);
+        changed.iter().for_each(|c| moved[c.0] = true);
+        order2.clear();
+        order2.extend(order.iter().copied().filter(|&e| !moved[e]));
+        changed.iter().for_each(|c| moved[c.0] = false);
+        for &(e, _) in &changed {
+            let at = order2.partition_point(|&x| sweep_cmp(&trial, x, e).is_lt());
+            order2.insert(at, e);
+        }
+        let next = evaluate(
+            h,
+            edges,
+            &trial,
+            &order2,
+            group_of_peak,
+            &mut st2,
+            thresholds,
+        );
         let keep = next.violations < cur.violations
             || (next.violations == cur.violations && next.score <= cur.score);
         if keep {
@@ -628,6 +662,7 @@ pub fn refine_histograms(
             }
             cur = next;
             std::mem::swap(&mut st, &mut st2);
+            std::mem::swap(&mut order, &mut order2);
             if (cur.violations, cur.score) < best {
                 best = (cur.violations, cur.score);
                 best_hs.copy_from_slice(hs);
