@@ -348,55 +348,6 @@ fn profile_edits_and_round_trip() {
     assert!(SynthProfile::load(&p).is_err());
 }
 
-/// Profile of a real DEM, synthesis on a domain of the same size, and the
-/// histogram errors (total variation) of the synthesised terrain's orometry.
-fn real_errors(name: &str, min_prom: f64) -> Option<std::collections::BTreeMap<String, f64>> {
-    let (g, geo) = load(name)?;
-    let prof = SynthProfile::from_dem(&g, &geo, min_prom, name, name).unwrap();
-    let (w, h) = (g.width(), g.height());
-    let (sx, sy) = geo.cell_size_m(h as i64 / 2);
-    let cell = (sx * sy).sqrt();
-    let t = synthesize_tree(&prof, &TreeOptions::new(w, h, cell, 3)).unwrap();
-    let ter = OroTerrain::new(&t, &TerrainOptions::default()).unwrap();
-    let dem = ter.render();
-    let s = PeakSamples::of_dem(&dem, ter.georef(), prof.min_prominence).unwrap();
-    let e = prof.errors(&s);
-    println!(
-        "{name}: {} synthesised peaks, {} measured; errors {e:?}",
-        t.peaks.len(),
-        s.elevation.len()
-    );
-    Some(e)
-}
-
-#[test]
-fn distributions_match_the_alps_profile() {
-    let Some(e) = real_errors("terraindescriptors_alps_montblanc.tif", 30.0) else {
-        return;
-    };
-    // Isolation meets the paper's 8 %; prominence and dominance do not meet
-    // its 3 % on this tile (measured 8 % and 6 % with seed 3, see the notes).
-    assert!(e["isolation_km"] <= 0.08, "{e:?}");
-    assert!(e["prominence"] <= 0.10, "{e:?}");
-    assert!(e["dominance"] <= 0.08, "{e:?}");
-    assert!(e["elevation"] <= 0.06, "{e:?}");
-    assert!(e["peak_density"] <= 0.15, "{e:?}");
-}
-
-#[test]
-fn distributions_match_the_low_relief_profile() {
-    let Some(e) = real_errors("pysheds_dem.tif", 5.0) else {
-        return;
-    };
-    // Isolation and prominence meet the paper's 8 % and 3 %; dominance is
-    // measured at 4.5 % (seed 3).
-    assert!(e["isolation_km"] <= 0.08, "{e:?}");
-    assert!(e["prominence"] <= 0.03, "{e:?}");
-    assert!(e["dominance"] <= 0.06, "{e:?}");
-    assert!(e["elevation"] <= 0.06, "{e:?}");
-    assert!(e["peak_density"] <= 0.05, "{e:?}");
-}
-
 #[test]
 fn cli_profile_divide_tree_from_tree() {
     let exe = env!("CARGO_BIN_EXE_orogen");
@@ -483,4 +434,202 @@ fn cli_profile_divide_tree_from_tree() {
         String::from_utf8_lossy(&st.stderr)
     );
     SynthProfile::load(&dir.path().join("again.json")).unwrap();
+}
+
+/// Isolation of the tree's own peaks: distance to the nearest strictly
+/// higher peak (brute force; the highest: none).
+fn tree_isolation_km(t: &SynthTree) -> Vec<f64> {
+    let mut out = Vec::new();
+    for p in &t.peaks {
+        let d = t
+            .peaks
+            .iter()
+            .filter(|q| q.elevation > p.elevation)
+            .map(|q| (q.x - p.x).hypot(q.y - p.y))
+            .fold(f64::INFINITY, f64::min);
+        if d.is_finite() {
+            out.push(d / 1000.0);
+        }
+    }
+    out
+}
+
+/// Tree and rendered-terrain errors of one profile and seed: [isolation,
+/// prominence, dominance] total-variation distances to the profile. The
+/// tree's isolation is its nearest-higher-peak distance (no stretch, so it is
+/// only printed); the terrain is the default model (TIN), measured by
+/// `oro::peaks` through `PeakSamples::of_dem`. `render` false: tree only.
+fn split_errors(
+    g: &Grid<f32>,
+    geo: &GeoRef,
+    prof: &SynthProfile,
+    seed: u64,
+    refine: bool,
+    render: bool,
+) -> ([f64; 3], Option<[f64; 3]>) {
+    let (w, h) = (g.width(), g.height());
+    let (sx, sy) = geo.cell_size_m(h as i64 / 2);
+    let cell = (sx * sy).sqrt();
+    let mut o = TreeOptions::new(w, h, cell, seed);
+    o.refine = refine;
+    if let Ok(v) = std::env::var("ORO_STRETCH") {
+        o.isolation_stretch = v.parse().unwrap();
+    }
+    let t = synthesize_tree(prof, &o).unwrap();
+    let pr = t.prominences();
+    // Every non-root peak keeps the threshold.
+    let n_below = pr
+        .iter()
+        .filter(|&&p| p < prof.min_prominence * (1.0 - 1e-9))
+        .count();
+    assert_eq!(n_below, 0, "seed {seed}: peaks below the threshold");
+    let dom: Vec<f64> = pr
+        .iter()
+        .zip(&t.peaks)
+        .map(|(p, q)| p / q.elevation)
+        .collect();
+    let tree = [
+        prof.isolation_km.error_against(&tree_isolation_km(&t)),
+        prof.prominence.error_against(&pr),
+        prof.dominance.error_against(&dom),
+    ];
+    if !render {
+        return (tree, None);
+    }
+    let ter = build_terrain(&t, &TerrainOptions::default()).unwrap();
+    let dem = read_window::<f32>(&*ter, Window::full(w, h)).unwrap();
+    let s = PeakSamples::of_dem(&dem, &ter.info().georef, prof.min_prominence).unwrap();
+    let e = prof.errors(&s);
+    if std::env::var("ORO_DIAG").is_ok() {
+        println!(
+            "  seed {seed}: {} tree peaks, {} terrain peaks, density error {:.3}, elevation {:.3}",
+            t.peaks.len(),
+            s.elevation.len(),
+            e["peak_density"],
+            e["elevation"]
+        );
+    }
+    (
+        tree,
+        Some([e["isolation_km"], e["prominence"], e["dominance"]]),
+    )
+}
+
+/// The profile of a shared real DEM (None: the data are absent).
+fn real_profile(name: &str, thr: f64) -> Option<(Grid<f32>, GeoRef, SynthProfile)> {
+    let (g, geo) = load(name)?;
+    let prof = SynthProfile::from_dem(&g, &geo, thr, name, name).unwrap();
+    Some((g, geo, prof))
+}
+
+const ALPS: (&str, f64) = ("terraindescriptors_alps_montblanc.tif", 30.0);
+const DALLAS: (&str, f64) = ("pysheds_dem.tif", 5.0);
+/// Seeds of the distribution tests (all of those measured, none left out).
+const SEEDS: [u64; 6] = [1, 2, 3, 4, 5, 6];
+
+/// Terrain errors over [`SEEDS`]: (worst, mean) per [isolation,
+/// prominence, dominance].
+fn terrain_errors(name: &str, thr: f64) -> Option<([f64; 3], [f64; 3])> {
+    let (g, geo, prof) = real_profile(name, thr)?;
+    let (mut worst, mut mean) = ([0.0f64; 3], [0.0f64; 3]);
+    for seed in SEEDS {
+        let (tree, ter) = split_errors(&g, &geo, &prof, seed, true, true);
+        let ter = ter.unwrap();
+        println!("{name} seed {seed}: tree {tree:.3?} terrain {ter:.3?}");
+        for k in 0..3 {
+            worst[k] = worst[k].max(ter[k]);
+            mean[k] += ter[k] / SEEDS.len() as f64;
+        }
+    }
+    println!("{name}: worst {worst:.3?} mean {mean:.3?}");
+    Some((worst, mean))
+}
+
+#[test]
+fn distributions_match_the_alps_profile() {
+    let Some((worst, mean)) = terrain_errors(ALPS.0, ALPS.1) else {
+        return;
+    };
+    // The paper's 8 % isolation on every seed (measured ≤ 5.3 %).
+    assert!(worst[0] <= 0.075, "isolation {worst:?}");
+    // Prominence: the paper's 3 % on average (measured 3.0 % mean, 2.4–3.5 %
+    // per seed); dominance 2.7–4.5 %, 3.6 % mean (the render adds 1–3
+    // points to the tree's 0.4–2.4 %, see docs/notes/oro_dist.md).
+    assert!(
+        mean[1] <= 0.035 && worst[1] <= 0.042,
+        "prominence {mean:?} {worst:?}"
+    );
+    assert!(
+        mean[2] <= 0.042 && worst[2] <= 0.05,
+        "dominance {mean:?} {worst:?}"
+    );
+}
+
+#[test]
+fn distributions_match_the_low_relief_profile() {
+    let Some((worst, mean)) = terrain_errors(DALLAS.0, DALLAS.1) else {
+        return;
+    };
+    // Isolation and prominence within the paper's 8 % and 3 % on every seed
+    // (measured 3.5–7.2 % and 0–1.8 %); dominance 3.8–6.2 %, 4.9 % mean
+    // (the tree's own topology, see docs/notes/oro_dist.md).
+    assert!(worst[0] <= 0.08, "isolation {worst:?}");
+    assert!(
+        worst[1] <= 0.025 && mean[1] <= 0.015,
+        "prominence {mean:?} {worst:?}"
+    );
+    assert!(
+        worst[2] <= 0.07 && mean[2] <= 0.055,
+        "dominance {mean:?} {worst:?}"
+    );
+}
+
+/// The local search on the saddle heights never leaves the tree's
+/// prominence + dominance distance worse than the assignment alone, and
+/// brings the Alps tree near the paper's figures before rendering
+/// (measured prominence 1.6–3.2 %, dominance 0.4–2.4 %, seeds 1–3).
+#[test]
+fn saddle_refinement_lowers_the_tree_errors() {
+    for (name, thr) in [ALPS, DALLAS] {
+        let Some((g, geo, prof)) = real_profile(name, thr) else {
+            return;
+        };
+        for seed in [1, 2, 3] {
+            let (a, _) = split_errors(&g, &geo, &prof, seed, false, false);
+            let (b, _) = split_errors(&g, &geo, &prof, seed, true, false);
+            println!("{name} seed {seed}: assignment {a:.3?} refined {b:.3?}");
+            assert!(b[1] + b[2] <= a[1] + a[2] + 1e-12, "{a:?} {b:?}");
+            if name == ALPS.0 {
+                assert!(b[1] <= 0.04 && b[2] <= 0.03, "{b:?}");
+            }
+        }
+    }
+}
+
+/// Measurement harness (not a check): tree and terrain errors per seed.
+/// `ORO_SEEDS=n`, `ORO_ONLY=substring`, `ORO_STRETCH=x` (isolation stretch).
+#[test]
+#[ignore]
+fn measure_distribution_errors() {
+    let seeds: u64 = std::env::var("ORO_SEEDS").map_or(5, |v| v.parse().unwrap());
+    let only = std::env::var("ORO_ONLY").unwrap_or_default();
+    for (name, thr) in [ALPS, DALLAS] {
+        if !name.contains(&only) {
+            continue;
+        }
+        let Some((g, geo, prof)) = real_profile(name, thr) else {
+            return;
+        };
+        for seed in 1..=seeds {
+            for refine in [false, true] {
+                let t0 = std::time::Instant::now();
+                let (a, b) = split_errors(&g, &geo, &prof, seed, refine, true);
+                println!(
+                    "{name} seed {seed} refine {refine}: tree {a:.3?} | terrain {:.3?} ({:.1} s)",
+                    b.unwrap(),
+                    t0.elapsed().as_secs_f64()
+                );
+            }
+        }
+    }
 }
