@@ -69,7 +69,7 @@ pub struct TreeArgs {
     pub fixed_peaks: Option<PathBuf>,
     /// Isolation proposals at this multiple of the target distance (the
     /// terrain's higher ground is nearer than the higher summit).
-    #[arg(long, default_value_t = 1.2)]
+    #[arg(long, default_value_t = orogen::synth::orometric::tree_synth::DEFAULT_ISOLATION_STRETCH)]
     pub isolation_stretch: f64,
     // Multi-pass placement and authoring (Argudo et al. 2019 §5, §7).
     /// Placement passes by prominence bins: the most prominent bin first,
