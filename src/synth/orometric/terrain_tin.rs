@@ -47,8 +47,9 @@
 //! whatever the super-tile size: no seams, and tiles == whole render bit for
 //! bit. Triangles are kept in a canonical order (by vertex positions) so
 //! even the choice between two triangles sharing an edge is global.
-//! Super-tiles are built on demand and cached with an LRU bound on their
-//! count.
+//! Super-tiles are built on demand (one builder each, other threads wait)
+//! and cached, least recently used dropped beyond 128 MB, so memory does
+//! not grow with the raster: the skeleton is the floor.
 //!
 //! **Raster**: barycentric interpolation in the TIN ([`super::tin::Tin`]);
 //! cells within 0.71 cell of a river segment read at most the river's
