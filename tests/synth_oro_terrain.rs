@@ -46,11 +46,13 @@ fn tin_opts(noise: f64) -> TerrainOptions {
     }
 }
 
-/// `oro::peaks` on the render against the tree: (peaks expected, recovered).
-fn check_preserved(noise: f64) -> (usize, usize) {
+/// `oro::peaks` on the render against the tree: (peaks expected, peaks
+/// recovered, key saddles expected (the highest peak has none), key saddles
+/// recovered).
+fn check_preserved(noise: f64) -> (usize, usize, usize, usize) {
     let tree = toy_tree(320, 280, 80, 5);
     let ter = TinTerrain::new(&tree, &tin_opts(noise)).unwrap();
-    let dem = ter.render();
+    let dem = ter.render().unwrap();
     let thr = tree.min_prominence;
     let found = orogen::oro::peaks(
         &dem,
@@ -82,12 +84,19 @@ fn check_preserved(noise: f64) -> (usize, usize) {
             .fold(0.0, f64::max);
         sbound[o] = g * tree.cell;
     }
-    let (mut want, mut ok) = (0, 0);
+    let mut key_of = vec![usize::MAX; h.len()];
+    for (e, &o) in own.iter().enumerate() {
+        key_of[o] = e;
+    }
+    let (mut want, mut ok, mut sad_want, mut sad_ok) = (0, 0, 0, 0);
     for (i, p) in tree.peaks.iter().enumerate() {
         if prom[i] < thr + 2.0 * noise + 1.0 {
             continue;
         }
         want += 1;
+        if key_of[i] != usize::MAX {
+            sad_want += 1;
+        }
         let (c, r) = ((p.x / tree.cell) as i64, (p.y / tree.cell) as i64);
         let hit = found
             .peaks
@@ -102,38 +111,57 @@ fn check_preserved(noise: f64) -> (usize, usize) {
             } else {
                 println!("peak {i}: prominence {} vs {}", q.prominence, prom[i]);
             }
+            // Its key saddle: within a cell of the tree's, at its elevation
+            // within the raster bound and the noise.
+            if let (Some(k), true) = (q.key_saddle, key_of[i] != usize::MAX) {
+                let (fs, ts) = (&found.saddles[k], &tree.saddles[key_of[i]]);
+                let (sc, sr) = ((ts.x / tree.cell) as i64, (ts.y / tree.cell) as i64);
+                let dc = (fs.col as i64 - sc).abs().max((fs.row as i64 - sr).abs());
+                let dz = (fs.elevation as f64 - ts.elevation).abs();
+                if dc <= 1 && dz <= 2.0 * noise + sbound[i] + 0.01 {
+                    sad_ok += 1;
+                } else {
+                    println!(
+                        "peak {i}: key saddle at ({}, {}) {} m vs ({sc}, {sr}) {} m",
+                        fs.col, fs.row, fs.elevation, ts.elevation
+                    );
+                }
+            }
         } else {
             println!("peak {i} at ({c}, {r}) not recovered");
         }
     }
     println!(
-        "{} found above the threshold, {} samples, {} triangles",
+        "{} found above the threshold, {:?}",
         found.peaks.len(),
-        ter.n_samples(),
-        ter.tin().n_triangles()
+        ter.supertile_stats()
     );
-    (want, ok)
+    (want, ok, sad_want, sad_ok)
 }
 
 #[test]
 fn tin_terrain_keeps_the_tree_without_noise() {
-    let (want, ok) = check_preserved(0.0);
-    println!("recovered {ok} of {want}");
+    let (want, ok, sw, sad) = check_preserved(0.0);
+    println!("recovered {ok} of {want} peaks, {sad} of {sw} key saddles");
     assert!(want >= 50);
-    // Measured: 62 of 64 (seed 5; tents: 61 of 64). The two misses are found
-    // at their cells and elevations but with a lower prominence (12 and 27 m
-    // instead of 34 and 35 m): a pass higher than the tree's saddle, likely
-    // where a river runs within half a cell of a ridge and the crest band
-    // bridges it (see the notes).
-    assert!(ok as f64 >= 0.95 * want as f64, "recovered {ok} of {want}");
+    // Measured: 64 of 64 peaks and 63 of 63 key saddles (seed 5; 62 of 64
+    // before the river nodes moved to the incentres and the repair became
+    // local; tents: 61 of 64).
+    assert_eq!(ok, want, "recovered {ok} of {want}");
+    assert_eq!(sw, want - 1);
+    assert_eq!(sad, sw, "key saddles: {sad} of {sw}");
 }
 
 #[test]
 fn tin_terrain_keeps_the_tree_with_noise() {
-    let (want, ok) = check_preserved(8.0);
-    println!("recovered {ok} of {want}");
+    let (want, ok, sw, sad) = check_preserved(8.0);
+    println!("recovered {ok} of {want} peaks, {sad} of {sw} key saddles");
     assert!(want >= 40);
     assert!(ok as f64 >= 0.9 * want as f64, "recovered {ok} of {want}");
+    assert!(
+        sad as f64 >= 0.9 * want as f64,
+        "key saddles: {sad} of {want}"
+    );
 }
 
 #[test]
@@ -206,7 +234,7 @@ fn rivers_descend_to_the_border_and_drain_the_domain() {
 fn few_cells_are_raised_by_fill_and_windows_equal_the_render() {
     let tree = toy_tree(203, 171, 40, 11);
     let ter = TinTerrain::new(&tree, &tin_opts(0.0)).unwrap();
-    let all = ter.render();
+    let all = ter.render().unwrap();
     let filled = orogen::hydro::fill(&all).unwrap();
     let raised = all
         .data()
@@ -236,16 +264,27 @@ fn few_cells_are_raised_by_fill_and_windows_equal_the_render() {
         }
     }
     // Same tree → same terrain, built again; a one-thread render agrees.
-    let again = TinTerrain::new(&tree, &tin_opts(0.0)).unwrap().render();
+    let again = TinTerrain::new(&tree, &tin_opts(0.0))
+        .unwrap()
+        .render()
+        .unwrap();
     assert_eq!(again.data(), all.data());
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(1)
         .build()
         .unwrap();
-    let one = pool.install(|| TinTerrain::new(&tree, &tin_opts(0.0)).unwrap().render());
+    let one = pool.install(|| {
+        TinTerrain::new(&tree, &tin_opts(0.0))
+            .unwrap()
+            .render()
+            .unwrap()
+    });
     assert_eq!(one.data(), all.data());
     // Noise stays within its amplitude of the noiseless surface.
-    let noisy = TinTerrain::new(&tree, &tin_opts(6.0)).unwrap().render();
+    let noisy = TinTerrain::new(&tree, &tin_opts(6.0))
+        .unwrap()
+        .render()
+        .unwrap();
     let worst = noisy
         .data()
         .iter()
@@ -253,6 +292,39 @@ fn few_cells_are_raised_by_fill_and_windows_equal_the_render() {
         .map(|(a, b)| (a - b).abs())
         .fold(0.0f32, f32::max);
     assert!(worst <= 6.0 * 1.01, "noise moved a cell by {worst} m");
+}
+
+/// The terrain does not depend on the super-tile grid: one super-tile
+/// covering the whole raster (the global TIN: its margin reaches past the
+/// domain, so every triangle is the global one) equals renders cut into
+/// super-tiles of 24 and 40 cells (smaller than the margin of 16 λ = 64
+/// cells), bit for bit, with and without noise; so there is no seam at a
+/// super-tile border.
+#[test]
+fn supertiles_equal_the_global_tin() {
+    let tree = toy_tree(203, 171, 40, 11);
+    for noise in [0.0, 6.0] {
+        let whole = TinTerrain::with_supertile(&tree, &tin_opts(noise), 1 << 12).unwrap();
+        let g = whole.render().unwrap();
+        assert_eq!(whole.supertile_stats().built, 1);
+        for side in [24usize, 40] {
+            let cut = TinTerrain::with_supertile(&tree, &tin_opts(noise), side).unwrap();
+            let h = cut.render().unwrap();
+            let st = cut.supertile_stats();
+            println!("side {side}: {st:?}");
+            assert_eq!(st.side, side);
+            assert_eq!(st.built, 203usize.div_ceil(side) * 171usize.div_ceil(side));
+            let diff = g
+                .data()
+                .iter()
+                .zip(h.data())
+                .filter(|(a, b)| a.to_bits() != b.to_bits())
+                .count();
+            assert_eq!(diff, 0, "side {side}, noise {noise}: {diff} cells differ");
+            // Same number of samples in the cores as in the whole raster.
+            assert_eq!(st.samples, whole.supertile_stats().samples);
+        }
+    }
 }
 
 #[test]
@@ -319,7 +391,7 @@ fn real_errors(name: &str, min_prom: f64) -> Option<std::collections::BTreeMap<S
     let cell = (sx * sy).sqrt();
     let t = synthesize_tree(&prof, &TreeOptions::new(w, h, cell, 3)).unwrap();
     let ter = TinTerrain::new(&t, &TerrainOptions::default()).unwrap();
-    let dem = ter.render();
+    let dem = ter.render().unwrap();
     let s = PeakSamples::of_dem(&dem, ter.georef(), prof.min_prominence).unwrap();
     let e = prof.errors(&s);
     println!(
@@ -372,7 +444,8 @@ fn cli_terrain_models_and_erosion() {
             "tin",
             TinTerrain::new(&t, &TerrainOptions::default())
                 .unwrap()
-                .render(),
+                .render()
+                .unwrap(),
         ),
         (
             "tents",
@@ -416,7 +489,8 @@ fn cli_terrain_models_and_erosion() {
     let got: Grid<f32> = read_window::<f32>(&*src, Window::full(150, 130)).unwrap();
     let before = TinTerrain::new(&t, &TerrainOptions::default())
         .unwrap()
-        .render();
+        .render()
+        .unwrap();
     let mut changed = 0;
     for (a, b) in got.data().iter().zip(before.data()) {
         if (a - b).abs() > 0.01 {

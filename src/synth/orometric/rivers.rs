@@ -22,8 +22,8 @@
 //!    "Stream gradient as a function of order, magnitude, and discharge",
 //!    Water Resour. Res. 10(5)) capped by the bound; a final downstream pass
 //!    makes every river non-increasing to its outlet.
-//! 5. Rivers are polylines triangle centre → middle of the shared edge →
-//!    downstream triangle centre (they stay inside the two triangles, so
+//! 5. Rivers are polylines triangle incentre → middle of the shared edge →
+//!    downstream incentre (they stay inside the two triangles, so
 //!    they never cross a ridge), refined to λ.
 
 use super::tree_synth::SynthTree;
@@ -286,10 +286,20 @@ impl RiverNetwork {
             slot[f.fix().index()] = faces.len();
             let vs = f.vertices().map(|v| v.fix().index());
             let ps = vs.map(|v| uniq[v]);
-            let c = [
-                (ps[0][0] + ps[1][0] + ps[2][0]) / 3.0,
-                (ps[0][1] + ps[1][1] + ps[2][1]) / 3.0,
-            ];
+            // Incentre: the point farthest from the three sides (at least
+            // as far as the centroid from each), so a river keeps away
+            // from the ridges it runs between.
+            let side = |i: usize, j: usize| (ps[i][0] - ps[j][0]).hypot(ps[i][1] - ps[j][1]);
+            let (la, lb, lc) = (side(1, 2), side(2, 0), side(0, 1));
+            let per = la + lb + lc;
+            let c = if per > 0.0 {
+                [
+                    (la * ps[0][0] + lb * ps[1][0] + lc * ps[2][0]) / per,
+                    (la * ps[0][1] + lb * ps[1][1] + lc * ps[2][1]) / per,
+                ]
+            } else {
+                [ps[0][0], ps[0][1]]
+            };
             let area = 0.5
                 * ((ps[1][0] - ps[0][0]) * (ps[2][1] - ps[0][1])
                     - (ps[2][0] - ps[0][0]) * (ps[1][1] - ps[0][1]))

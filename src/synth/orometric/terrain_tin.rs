@@ -1,46 +1,75 @@
 //! The paper's terrain model (Argudo et al. 2019, §6): river network dual
 //! of the divide tree ([`super::rivers`]), Poisson-disk samples whose
-//! elevation interpolates between the nearest ridge and river points with a
-//! valley width growing as A^0.4, a constrained Delaunay TIN keeping the
-//! ridge and river segments, rasterised at any resolution, window by window.
+//! elevation interpolates between the ridges and rivers with a valley width
+//! growing as A^0.4, a constrained Delaunay TIN keeping the ridge and river
+//! segments, rasterised at any resolution, window by window, in memory
+//! bounded by the tree (not by the raster).
 //!
-//! Samples: Poisson-disk dart throwing on a background grid of side r/√2
-//! (one point per grid cell at most; the grid as in Bridson 2007, "Fast
-//! Poisson disk sampling in arbitrary dimensions", SIGGRAPH sketches),
-//! r = λ, kept 0.4 λ away from ridge and river vertices. A sample's flank
-//! elevation z_l is the barycentric value of the skeleton TIN (ridge, river
-//! and border vertices, ridge and river segments kept): it descends from
-//! the ridges to the rivers and has no interior extremum, so it adds no
-//! peak and no pit (a first version interpolated between the *nearest*
-//! ridge and river points and made plateaus, hence spurious peaks, in the
-//! large triangles between sparse ridges). Near a river of drainage area A
-//! the flank eases to the river's elevation z_r over the valley half-width
-//! w = w₁ · (A / 1 km²)^0.4 (the A^0.4 law of the issue, after the
-//! hydraulic-geometry exponents of Leopold & Maddock 1953):
+//! **Skeleton (global, O(tree))**: ridges, rivers (refined to λ, so no
+//! constrained segment is longer than [`MAX_SEG`] λ), the border frame, a
+//! skeleton TIN of them and the line index of the crest/channel bands.
+//!
+//! **Samples (a pure function of position)**: one background grid of side
+//! r/√2 over the domain (r = λ); each cell draws up to 4 candidates from a
+//! hash of (seed, cell, try) and keeps the first one at least r from the
+//! samples already accepted and 0.4 λ from ridge and river vertices. Cells
+//! are visited in 9 phases by (x mod 3, y mod 3) (the phase-group parallel
+//! dart throwing of Wei 2008, "Parallel Poisson disk sampling", SIGGRAPH):
+//! cells of one phase are too far apart to conflict, so a cell depends only
+//! on cells within 2 × 8 = 16 cells, and any region is sampled exactly from
+//! the region grown by 17 cells. A sample's flank elevation z_l is the
+//! barycentric value of the skeleton TIN (it descends from the ridges to
+//! the rivers and has no interior extremum). Near a river of drainage area
+//! A the flank eases to the river's elevation z_r over the valley
+//! half-width w = w₁ · (A / 1 km²)^0.4 (the A^0.4 law of the issue, after
+//! the hydraulic-geometry exponents of Leopold & Maddock 1953):
 //! z = z_r + (z_l − z_r) · s(d_r / w), s the smoothstep 3u² − 2u³ clamped
-//! at 1 (our profile; the paper's curve is not reproduced). Then no sample
-//! may be a local maximum or minimum of the final TIN (such a sample is set
-//! to the middle of its neighbours' range) and no sample next to a peak may
-//! reach it, so the only maxima are the tree's peaks.
+//! at 1 (our profile; the paper's curve is not reproduced).
 //!
-//! Raster: barycentric interpolation in the TIN ([`super::tin::Tin`]);
+//! **Final TIN, per super-tile**: the model is the constrained Delaunay
+//! triangulation of all skeleton vertices and samples, followed by
+//! [`REPAIR_ROUNDS`] Jacobi rounds of repair (a sample that is a local
+//! extremum goes to the middle of its neighbours' range; a river source
+//! that is a maximum is lowered, not below its downstream node; a sample
+//! next to a peak stays below it), so the only maxima are the tree's peaks.
+//! It is never built whole: the raster is cut into square super-tiles (a
+//! grid of its own, independent of the engine's tiles) and each one
+//! triangulates the vertices within a margin around it. Exactness is
+//! *certified*, not assumed: a local triangle whose circumdisk (clipped to
+//! the domain) lies at least one constrained-segment length inside the
+//! local rectangle is a triangle of the global triangulation (every vertex
+//! and constraint that could see into the disk is local; Delaunay
+//! triangulations in general position are unique), a vertex whose incident
+//! triangles are all certified has its global neighbours, and a repaired
+//! value is exact if the vertices within [`REPAIR_ROUNDS`] hops were. A
+//! super-tile whose covering triangles are not all exact is rebuilt with a
+//! doubled margin. So every cell equals the cell of a single global TIN,
+//! whatever the super-tile size: no seams, and tiles == whole render bit for
+//! bit. Triangles are kept in a canonical order (by vertex positions) so
+//! even the choice between two triangles sharing an edge is global.
+//! Super-tiles are built on demand (one builder each, other threads wait)
+//! and cached, least recently used dropped beyond 128 MB, so memory does
+//! not grow with the raster: the skeleton is the floor.
+//!
+//! **Raster**: barycentric interpolation in the TIN ([`super::tin::Tin`]);
 //! cells within 0.71 cell of a river segment read at most the river's
 //! elevation (a 4-connected channel no 8-path can hop over) and cells
-//! within 0.55 cell of a ridge at least the ridge's (an 8-connected crest); multifractal
-//! noise below the prominence threshold fades in over 4 cells away from
-//! both. Every cell is a pure function of its position.
+//! within 0.55 cell of a ridge at least the ridge's (an 8-connected
+//! crest); multifractal noise below the prominence threshold fades in over
+//! 4 cells away from both. Every cell is a pure function of its position.
 
-use super::rivers::{cdt, dedup, RiverNetwork, RiverOptions, MAX_VERTICES};
+use super::rivers::{cdt, dedup, RiverNetwork, RiverOptions};
 use super::terrain::TerrainOptions;
 use super::tin::Tin;
 use super::tree_synth::SynthTree;
 use crate::error::{Error, Result};
-use crate::oro::stats::SplitMix64;
 use crate::raster::{AnyGrid, Crs, DType, GeoRef, Grid, RasterInfo, RasterSource, Window};
 use crate::synth::Fbm;
 use rayon::prelude::*;
 use spade::Triangulation;
-
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex, OnceLock};
 /// Points in a uniform bucket grid, for nearest-point queries.
 struct PointGrid {
     g: f64,
@@ -141,47 +170,25 @@ impl PointGrid {
         }
         false
     }
-}
 
-/// Poisson-disk samples of radius `r` over [0, wm) x [0, hm), away from the
-/// points of `avoid` by `r_avoid`. Deterministic for a seed.
-fn poisson(wm: f64, hm: f64, r: f64, seed: u64, avoid: &PointGrid, r_avoid: f64) -> Vec<[f64; 2]> {
-    let gs = r / std::f64::consts::SQRT_2;
-    let gw = ((wm / gs).ceil() as usize).max(1);
-    let gh = ((hm / gs).ceil() as usize).max(1);
-    let mut grid = vec![u32::MAX; gw * gh];
-    let mut out: Vec<[f64; 2]> = Vec::new();
-    let mut rng = SplitMix64(seed ^ 0x706f_6973_736f_6e00);
-    for gy in 0..gh {
-        for gx in 0..gw {
-            for _ in 0..4 {
-                let x = (gx as f64 + rng.unit()) * gs;
-                let y = (gy as f64 + rng.unit()) * gs;
-                if x >= wm || y >= hm {
-                    continue;
-                }
-                let mut ok = true;
-                'n: for yy in gy.saturating_sub(2)..(gy + 3).min(gh) {
-                    for xx in gx.saturating_sub(2)..(gx + 3).min(gw) {
-                        let j = grid[yy * gw + xx];
-                        if j != u32::MAX {
-                            let q = out[j as usize];
-                            if (q[0] - x).hypot(q[1] - y) < r {
-                                ok = false;
-                                break 'n;
-                            }
-                        }
+    /// Indices of the points in [x0, x1) x [y0, y1), ascending.
+    fn in_rect(&self, x0: f64, y0: f64, x1: f64, y1: f64) -> Vec<u32> {
+        let b = |v: f64, n: usize| ((v / self.g).floor().max(0.0) as usize).min(n - 1);
+        let mut out = Vec::new();
+        for by in b(y0, self.ny)..=b(y1, self.ny) {
+            for bx in b(x0, self.nx)..=b(x1, self.nx) {
+                let k = by * self.nx + bx;
+                for &i in &self.ids[self.start[k] as usize..self.start[k + 1] as usize] {
+                    let p = self.pts[i as usize];
+                    if p[0] >= x0 && p[0] < x1 && p[1] >= y0 && p[1] < y1 {
+                        out.push(i);
                     }
-                }
-                if ok && !avoid.any_within(x, y, r_avoid) {
-                    grid[gy * gw + gx] = out.len() as u32;
-                    out.push([x, y]);
-                    break;
                 }
             }
         }
+        out.sort_unstable();
+        out
     }
-    out
 }
 
 /// A ridge or river segment for the crest / channel bands and the noise fade.
@@ -221,12 +228,96 @@ const CHANNEL_BAND: f64 = 0.71;
 /// Bucket side of the raster indices, cells.
 const BUCKET_CELLS: f64 = 8.0;
 
+/// Longest constrained segment (ridge, river, frame), in λ: ridge pieces are
+/// at most λ long with ±0.25 λ of jitter at each end (√(1 + 0.5²) ≈ 1.118),
+/// river pieces and frame steps at most λ.
+pub const MAX_SEG: f64 = 1.2;
+
+/// Jacobi rounds of the TIN repair (each reads only the previous round, so
+/// a value depends on the vertices within this many edges).
+pub const REPAIR_ROUNDS: usize = 6;
+
+/// Default super-tile side, in λ (rounded up to whole buckets of cells).
+pub const SUPERTILE_LAMBDA: f64 = 64.0;
+
+/// First margin around a super-tile, in λ (doubled until certified).
+pub const MARGIN_LAMBDA: f64 = 16.0;
+
+/// Bytes of super-tiles kept in the cache (least recently used dropped).
+const CACHE_BYTES: usize = 128 << 20;
+
+/// Background cells around a region sampled with it: 8 earlier phases, each
+/// reaching 2 cells, plus one.
+const SAMPLE_PAD: i64 = 17;
+
+/// SplitMix64 finaliser (Steele, Lea & Flood 2014, "Fast splittable
+/// pseudorandom number generators", OOPSLA): a hash of a 64-bit word.
+#[inline]
+fn mix(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+#[inline]
+fn unit(h: u64) -> f64 {
+    (h >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+}
+
+/// The final TIN of one super-tile: the global triangles touching it.
+struct Super {
+    tin: Tin,
+    n_samples: usize,
+    bytes: usize,
+}
+
+type Slot = Arc<OnceLock<std::result::Result<Arc<Super>, String>>>;
+
+/// LRU cache of super-tiles: (key, last use, slot).
+struct Cache {
+    tick: u64,
+    slots: Vec<(u64, u64, Slot)>,
+}
+
+/// Counters of the super-tiles built so far.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SuperTileStats {
+    /// Side of a super-tile, cells.
+    pub side: usize,
+    /// Super-tiles built (a super-tile evicted and needed again counts twice).
+    pub built: usize,
+    /// Builds that needed a larger margin to be certified exact.
+    pub retried: usize,
+    /// Poisson-disk samples inside the built super-tiles.
+    pub samples: usize,
+}
+
 /// The paper's terrain model of a divide tree: a [`RasterSource`] (f32).
 pub struct TinTerrain {
     info: RasterInfo,
     cell: f64,
-    tin: Tin,
+    wm: f64,
+    hm: f64,
+    lambda: f64,
+    thr: f64,
+    seed: u64,
+    floor: f64,
+    valley_width: f64,
     rivers: RiverNetwork,
+    /// Skeleton vertices (ridges, rivers, frame; deduplicated), x y z.
+    sk: Vec<[f64; 3]>,
+    /// 0 peak, 1 other ridge vertex, 2 river or frame vertex.
+    sk_kind: Vec<u8>,
+    /// Elevation of the downstream node of a river source (NaN otherwise).
+    sk_down: Vec<f64>,
+    sk_edges: Vec<[u32; 2]>,
+    sk_adj_start: Vec<u32>,
+    sk_adj: Vec<u32>,
+    sk_grid: PointGrid,
+    avoid: PointGrid,
+    skeleton: Tin,
+    river_grid: PointGrid,
     lines: Vec<Line>,
     lb: f64,
     lnx: usize,
@@ -235,13 +326,30 @@ pub struct TinTerrain {
     lids: Vec<u32>,
     band: f64,
     noise: Option<(Fbm, f64)>,
-    n_samples: usize,
+    side: usize,
+    nsx: usize,
+    cache: Mutex<Cache>,
+    built: AtomicUsize,
+    retried: AtomicUsize,
+    samples: AtomicUsize,
     dropped: usize,
 }
 
 impl TinTerrain {
-    /// Build rivers, samples and the TIN of `tree`.
+    /// Build the skeleton (rivers, ridges, indices) of `tree`; the final
+    /// TIN is built per super-tile on demand (default side 64 λ).
     pub fn new(tree: &SynthTree, opts: &TerrainOptions) -> Result<TinTerrain> {
+        TinTerrain::with_supertile(tree, opts, 0)
+    }
+
+    /// As [`TinTerrain::new`] with super-tiles of `side_cells` cells
+    /// (rounded up to a multiple of 8; 0: the default 64 λ). The terrain
+    /// does not depend on it (see the module doc).
+    pub fn with_supertile(
+        tree: &SynthTree,
+        opts: &TerrainOptions,
+        side_cells: usize,
+    ) -> Result<TinTerrain> {
         tree.validate()?;
         if !(opts.spacing_m.is_finite() && opts.spacing_m > 0.0) {
             return Err(Error::invalid("terrain: the spacing λ must be positive"));
@@ -259,11 +367,15 @@ impl TinTerrain {
         let cell = tree.cell;
         let (wm, hm) = (tree.width as f64 * cell, tree.height as f64 * cell);
         let lambda = opts.spacing_m.max(cell);
-        let n_est = wm * hm / (lambda * lambda) * 0.9;
-        if n_est > MAX_VERTICES {
+        let lb = BUCKET_CELLS * cell;
+        let (lnx, lny) = (
+            ((wm / lb).ceil() as usize).max(1),
+            ((hm / lb).ceil() as usize).max(1),
+        );
+        if lnx.saturating_mul(lny) > 1 << 28 {
             return Err(Error::invalid(format!(
-                "terrain: about {:.0} M samples at spacing λ = {lambda} m is too many; give a larger --spacing or --terrain tents",
-                n_est / 1e6
+                "terrain: {} x {} cells is too large (at most 2^28 blocks of 8 x 8 cells); render it in parts",
+                tree.width, tree.height
             )));
         }
         let thr = tree.min_prominence;
@@ -288,7 +400,7 @@ impl TinTerrain {
                 "terrain: a noise amplitude of {amp} m could make peaks of prominence ≥ the threshold {thr} m; keep it below half the threshold"
             )));
         }
-        let mut rivers = RiverNetwork::new(
+        let rivers = RiverNetwork::new(
             tree,
             &RiverOptions {
                 spacing_m: lambda,
@@ -298,190 +410,120 @@ impl TinTerrain {
                 river_slope: opts.river_slope,
             },
         )?;
-        let ridges = rivers.ridges.clone();
-        let ridges = &ridges;
+        let ridges = &rivers.ridges;
         let np = tree.peaks.len();
+        let nn = rivers.nodes.len();
 
-        // Samples and their elevations.
-        let river_grid = PointGrid::new(
-            rivers.nodes.iter().map(|n| [n.x, n.y]).collect(),
-            lambda,
-            wm,
-            hm,
-        );
-        let mut occupied: Vec<[f64; 2]> = ridges.pts.iter().map(|p| [p[0], p[1]]).collect();
-        occupied.extend_from_slice(&river_grid.pts);
-        let occ = PointGrid::new(occupied, lambda, wm, hm);
-        let samples = poisson(wm, hm, lambda, tree.seed, &occ, 0.4 * lambda);
-        drop(occ);
-        // Skeleton TIN of ridges, rivers and frame: its barycentric value is
-        // the flank between them (no interior extremum by construction).
+        // Skeleton: ridges (peaks first), river nodes, frame; deduplicated.
         let n_ridge = ridges.pts.len();
         let mut all: Vec<[f64; 3]> = ridges.pts.clone();
         all.extend(rivers.nodes.iter().map(|n| [n.x, n.y, n.z]));
-        all.extend_from_slice(&rivers.frame);
         let s0 = all.len();
-        let mut edges: Vec<[u32; 2]> = ridges.segs.clone();
-        for (i, n) in rivers.nodes.iter().enumerate() {
-            if let Some(d) = n.down {
-                edges.push([(n_ridge + i) as u32, n_ridge as u32 + d]);
+        all.extend_from_slice(&rivers.frame);
+        let (sk, map) = dedup(&all);
+        drop(all);
+        let mut first = vec![u32::MAX; sk.len()];
+        for (i, &m) in map.iter().enumerate() {
+            if first[m as usize] == u32::MAX {
+                first[m as usize] = i as u32;
             }
         }
-        let skeleton = {
-            let (uniq, map) = dedup(&all);
-            let e: Vec<[u32; 2]> = edges
-                .iter()
-                .map(|e| [map[e[0] as usize], map[e[1] as usize]])
-                .collect();
-            let (t, _) = cdt(&uniq, &e)?;
-            let tris: Vec<[u32; 3]> = t
-                .inner_faces()
-                .map(|f| f.vertices().map(|v| v.fix().index() as u32))
-                .collect();
-            drop(t);
-            Tin::new(
-                uniq.iter().map(|p| [p[0], p[1]]).collect(),
-                uniq.iter().map(|p| p[2]).collect(),
-                tris,
-                [0.0, 0.0, wm, hm],
-                BUCKET_CELLS * cell,
-            )?
-        };
-        // Valley floors: within w = w₁ (A / 1 km²)^0.4 of a river the flank
-        // eases down to the river's elevation.
-        let far = 50.0 * lambda;
-        let sample_z: Vec<f64> = samples
-            .par_iter()
-            .map(|s| {
-                let zl = skeleton.value(s[0], s[1]);
-                let zl = if zl.is_finite() { zl } else { floor };
-                let Some((i, dr)) = river_grid.nearest(s[0], s[1], far) else {
-                    return zl;
-                };
-                let n = &rivers.nodes[i];
-                let w = opts.valley_width * (n.area_m2.max(0.0) / 1e6).powf(0.4);
-                let u = if w > 0.0 { (dr / w).min(1.0) } else { 1.0 };
-                let f = u * u * (3.0 - 2.0 * u);
-                if zl > n.z {
-                    n.z + (zl - n.z) * f
-                } else {
-                    zl
-                }
-            })
-            .collect();
-        drop(skeleton);
-
-        // Final TIN: ridges (peaks first), rivers, frame, samples.
-        all.extend(samples.iter().zip(&sample_z).map(|(s, &z)| [s[0], s[1], z]));
-        let (uniq, map) = dedup(&all);
-        // Kind of each unique vertex: 0 peak, 1 other ridge, 2 river/frame, 3 sample.
-        let mut kind = vec![3u8; uniq.len()];
-        for (i, &m) in map.iter().enumerate().rev() {
-            kind[m as usize] = if i < np {
-                0
-            } else if i < n_ridge {
-                1
-            } else if i < s0 {
-                2
-            } else {
-                3
-            };
-        }
-        let edges: Vec<[u32; 2]> = edges
-            .iter()
-            .map(|e| [map[e[0] as usize], map[e[1] as usize]])
-            .collect();
-        let (t, dropped) = cdt(&uniq, &edges)?;
-        let nv = uniq.len();
-        // Vertex adjacency (CSR) for the sample fixes.
-        let mut nb_start = vec![0u32; nv + 1];
-        let mut nb: Vec<u32> = Vec::with_capacity(6 * nv);
-        for v in t.vertices() {
-            for e in v.out_edges() {
-                nb.push(e.to().fix().index() as u32);
-            }
-            nb_start[v.fix().index() + 1] = nb.len() as u32;
-        }
-        let tris: Vec<[u32; 3]> = t
-            .inner_faces()
-            .map(|f| f.vertices().map(|v| v.fix().index() as u32))
-            .collect();
-        drop(t);
-        let mut z: Vec<f64> = uniq.iter().map(|p| p[2]).collect();
-        let nbs = |v: usize| &nb[nb_start[v] as usize..nb_start[v + 1] as usize];
-        let nn = rivers.nodes.len();
         let mut has_up = vec![false; nn];
         for n in &rivers.nodes {
             if let Some(d) = n.down {
                 has_up[d as usize] = true;
             }
         }
-        let range = |z: &[f64], v: usize| {
-            let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-            for &u in nbs(v) {
-                lo = lo.min(z[u as usize]);
-                hi = hi.max(z[u as usize]);
-            }
-            (lo, hi)
-        };
-        for round in 0..8 {
-            if round < 7 {
-                // No sample is an extremum of the TIN.
-                for v in 0..nv {
-                    if kind[v] != 3 {
-                        continue;
-                    }
-                    let (lo, hi) = range(&z, v);
-                    if hi > lo && (z[v] >= hi || z[v] <= lo) {
-                        z[v] = 0.5 * (lo + hi);
-                    }
-                }
-                // No river source is a maximum: lower it (a river may only
-                // go down: its bound holds) and keep its river non-increasing.
-                for i in 0..nn {
-                    if has_up[i] || rivers.nodes[i].down.is_none() {
-                        continue;
-                    }
-                    let v = map[n_ridge + i] as usize;
-                    let (lo, hi) = range(&z, v);
-                    if hi > lo && z[v] >= hi {
-                        z[v] = 0.5 * (lo + hi);
-                        let mut j = i;
-                        while let Some(d) = rivers.nodes[j].down {
-                            let (a, b) = (
-                                map[n_ridge + j] as usize,
-                                map[n_ridge + d as usize] as usize,
-                            );
-                            if z[b] <= z[a] {
-                                break;
-                            }
-                            z[b] = z[a];
-                            j = d as usize;
-                        }
-                    }
-                }
-            }
-            // No sample next to a peak reaches it.
-            for v in 0..nv {
-                if kind[v] != 0 {
-                    continue;
-                }
-                let zp = z[v];
-                for &u in nbs(v) {
-                    let u = u as usize;
-                    if kind[u] == 3 && z[u] >= zp {
-                        z[u] = zp - 0.5 * thr.max(1.0);
-                    }
+        let mut sk_kind = vec![2u8; sk.len()];
+        let mut sk_down = vec![f64::NAN; sk.len()];
+        for (v, &f) in first.iter().enumerate() {
+            let f = f as usize;
+            sk_kind[v] = if f < np {
+                0
+            } else if f < n_ridge {
+                1
+            } else {
+                2
+            };
+            if (n_ridge..s0).contains(&f) {
+                let i = f - n_ridge;
+                if let (false, Some(d)) = (has_up[i], rivers.nodes[i].down) {
+                    sk_down[v] = rivers.nodes[d as usize].z;
                 }
             }
         }
-        for (i, n) in rivers.nodes.iter_mut().enumerate() {
-            n.z = z[map[n_ridge + i] as usize];
+        drop(first);
+        let mut sk_edges: Vec<[u32; 2]> = ridges
+            .segs
+            .iter()
+            .map(|s| [map[s[0] as usize], map[s[1] as usize]])
+            .collect();
+        for (i, n) in rivers.nodes.iter().enumerate() {
+            if let Some(d) = n.down {
+                sk_edges.push([map[n_ridge + i], map[n_ridge + d as usize]]);
+            }
         }
+        sk_edges.retain(|e| e[0] != e[1]);
+        drop(map);
+        let mut sk_adj_start = vec![0u32; sk.len() + 1];
+        for e in &sk_edges {
+            sk_adj_start[e[0] as usize + 1] += 1;
+            sk_adj_start[e[1] as usize + 1] += 1;
+        }
+        for i in 1..sk_adj_start.len() {
+            sk_adj_start[i] += sk_adj_start[i - 1];
+        }
+        let mut fill = sk_adj_start.clone();
+        let mut sk_adj = vec![0u32; 2 * sk_edges.len()];
+        for (k, e) in sk_edges.iter().enumerate() {
+            for &v in e {
+                sk_adj[fill[v as usize] as usize] = k as u32;
+                fill[v as usize] += 1;
+            }
+        }
+        drop(fill);
 
-        let xy: Vec<[f64; 2]> = uniq.iter().map(|p| [p[0], p[1]]).collect();
-        let lb = BUCKET_CELLS * cell;
-        let tin = Tin::new(xy, z, tris, [0.0, 0.0, wm, hm], lb)?;
+        // Skeleton TIN of ridges, rivers and frame: its barycentric value is
+        // the flank between them (no interior extremum by construction).
+        let (skeleton, dropped) = {
+            let (t, dropped) = cdt(&sk, &sk_edges)?;
+            let tris: Vec<[u32; 3]> = t
+                .inner_faces()
+                .map(|f| f.vertices().map(|v| v.fix().index() as u32))
+                .collect();
+            drop(t);
+            let tin = Tin::new(
+                sk.iter().map(|p| [p[0], p[1]]).collect(),
+                sk.iter().map(|p| p[2]).collect(),
+                tris,
+                [0.0, 0.0, wm, hm],
+                4.0 * lambda,
+            )?;
+            (tin, dropped)
+        };
+        let sk_grid = PointGrid::new(
+            sk.iter().map(|p| [p[0], p[1]]).collect(),
+            2.0 * lambda,
+            wm,
+            hm,
+        );
+        let avoid = PointGrid::new(
+            ridges
+                .pts
+                .iter()
+                .map(|p| [p[0], p[1]])
+                .chain(rivers.nodes.iter().map(|n| [n.x, n.y]))
+                .collect(),
+            2.0 * lambda,
+            wm,
+            hm,
+        );
+        let river_grid = PointGrid::new(
+            rivers.nodes.iter().map(|n| [n.x, n.y]).collect(),
+            4.0 * lambda,
+            wm,
+            hm,
+        );
 
         // Ridge and river lines, bucketed with the fade reach.
         let mut lines: Vec<Line> = ridges
@@ -505,8 +547,6 @@ impl TinTerrain {
         }
         let band = 0.55 * cell;
         let reach = CHANNEL_BAND.max(0.55) * cell + 4.0 * cell;
-        let lnx = ((wm / lb).ceil() as usize).max(1);
-        let lny = ((hm / lb).ceil() as usize).max(1);
         let bi = |v: f64, n: usize| ((v / lb).floor().max(0.0) as usize).min(n - 1);
         let span = |l: &Line| {
             (
@@ -547,6 +587,7 @@ impl TinTerrain {
                 }
             }
         }
+        drop(fill);
         let noise = (amp > 0.0).then(|| {
             (
                 Fbm {
@@ -562,6 +603,14 @@ impl TinTerrain {
                 amp,
             )
         });
+        let b = BUCKET_CELLS as usize;
+        let side = if side_cells > 0 {
+            side_cells
+        } else {
+            (SUPERTILE_LAMBDA * lambda / cell).ceil() as usize
+        };
+        let side = side.div_ceil(b).max(1) * b;
+        let nsx = tree.width.div_ceil(side);
         let georef = GeoRef::north_up(0.0, hm, cell, Crs::default());
         let dropped = dropped + rivers.dropped_ridges;
         Ok(TinTerrain {
@@ -574,8 +623,24 @@ impl TinTerrain {
                 path: "<orometric-tin>".into(),
             },
             cell,
-            tin,
+            wm,
+            hm,
+            lambda,
+            thr,
+            seed: tree.seed,
+            floor,
+            valley_width: opts.valley_width,
             rivers,
+            sk,
+            sk_kind,
+            sk_down,
+            sk_edges,
+            sk_adj_start,
+            sk_adj,
+            sk_grid,
+            avoid,
+            skeleton,
+            river_grid,
             lines,
             lb,
             lnx,
@@ -584,7 +649,15 @@ impl TinTerrain {
             lids,
             band,
             noise,
-            n_samples: samples.len(),
+            side,
+            nsx,
+            cache: Mutex::new(Cache {
+                tick: 0,
+                slots: Vec::new(),
+            }),
+            built: AtomicUsize::new(0),
+            retried: AtomicUsize::new(0),
+            samples: AtomicUsize::new(0),
             dropped,
         })
     }
@@ -594,14 +667,20 @@ impl TinTerrain {
         &self.rivers
     }
 
-    /// The TIN (vertices, elevations, triangles).
-    pub fn tin(&self) -> &Tin {
-        &self.tin
+    /// Counters of the super-tiles built so far.
+    pub fn supertile_stats(&self) -> SuperTileStats {
+        SuperTileStats {
+            side: self.side,
+            built: self.built.load(Ordering::Relaxed),
+            retried: self.retried.load(Ordering::Relaxed),
+            samples: self.samples.load(Ordering::Relaxed),
+        }
     }
 
-    /// Number of Poisson-disk samples.
-    pub fn n_samples(&self) -> usize {
-        self.n_samples
+    /// Number of skeleton vertices (ridges, rivers, frame): the part of the
+    /// model held for the whole raster.
+    pub fn skeleton_vertices(&self) -> usize {
+        self.sk.len()
     }
 
     /// Ridge or river segments the triangulations could not keep (crossings).
@@ -609,12 +688,440 @@ impl TinTerrain {
         self.dropped
     }
 
-    /// Elevation of the cell centre (col + ½, row + ½).
+    /// Poisson-disk samples in [x0, x1) x [y0, y1) (metres), exactly those
+    /// of the whole domain there (see the module doc).
+    fn samples_in(&self, r: [f64; 4]) -> Vec<[f64; 2]> {
+        let lam = self.lambda;
+        let gs = lam / std::f64::consts::SQRT_2;
+        let gw = ((self.wm / gs).ceil() as i64).max(1);
+        let gh = ((self.hm / gs).ceil() as i64).max(1);
+        let gx0 = ((r[0] / gs).floor() as i64 - SAMPLE_PAD).max(0);
+        let gy0 = ((r[1] / gs).floor() as i64 - SAMPLE_PAD).max(0);
+        let gx1 = ((r[2] / gs).ceil() as i64 + SAMPLE_PAD).min(gw);
+        let gy1 = ((r[3] / gs).ceil() as i64 + SAMPLE_PAD).min(gh);
+        if gx1 <= gx0 || gy1 <= gy0 {
+            return Vec::new();
+        }
+        let (lw, lh) = ((gx1 - gx0) as usize, (gy1 - gy0) as usize);
+        let mut slot = vec![u32::MAX; lw * lh];
+        let mut acc: Vec<[f64; 2]> = Vec::new();
+        let h0 = mix(self.seed ^ 0x706f_6973_736f_6e00);
+        // Away from ridge and river segments too (no sliver triangle along
+        // a constraint, whose circumdisk would be huge).
+        let seg_avoid = (0.25 * lam).min(4.0 * self.cell);
+        for phase in 0..9i64 {
+            let (px, py) = (phase % 3, phase / 3);
+            let mut gy = gy0 + (py - gy0).rem_euclid(3);
+            while gy < gy1 {
+                let mut gx = gx0 + (px - gx0).rem_euclid(3);
+                while gx < gx1 {
+                    let (lx, ly) = ((gx - gx0) as usize, (gy - gy0) as usize);
+                    let hc = mix(mix(h0 ^ gx as u64) ^ gy as u64);
+                    for t in 0..4u64 {
+                        let h = mix(hc ^ t);
+                        let x = (gx as f64 + unit(h)) * gs;
+                        let y = (gy as f64 + unit(mix(h))) * gs;
+                        if x <= 0.0 || y <= 0.0 || x >= self.wm || y >= self.hm {
+                            continue;
+                        }
+                        let mut ok = true;
+                        'n: for yy in ly.saturating_sub(2)..(ly + 3).min(lh) {
+                            for xx in lx.saturating_sub(2)..(lx + 3).min(lw) {
+                                let j = slot[yy * lw + xx];
+                                if j != u32::MAX {
+                                    let q = acc[j as usize];
+                                    if (q[0] - x).hypot(q[1] - y) < lam {
+                                        ok = false;
+                                        break 'n;
+                                    }
+                                }
+                            }
+                        }
+                        if ok
+                            && !self.avoid.any_within(x, y, 0.4 * lam)
+                            && !self.near_line(x, y, seg_avoid)
+                        {
+                            slot[ly * lw + lx] = acc.len() as u32;
+                            acc.push([x, y]);
+                            break;
+                        }
+                    }
+                    gx += 3;
+                }
+                gy += 3;
+            }
+        }
+        acc.retain(|p| p[0] >= r[0] && p[0] < r[2] && p[1] >= r[1] && p[1] < r[3]);
+        acc.sort_by(|a, b| a[1].total_cmp(&b[1]).then(a[0].total_cmp(&b[0])));
+        acc
+    }
+
+    /// Whether a ridge or river segment passes within `d` (≤ 4.7 cells) of (x, y).
+    fn near_line(&self, x: f64, y: f64, d: f64) -> bool {
+        let bx = ((x / self.lb) as usize).min(self.lnx - 1);
+        let by = ((y / self.lb) as usize).min(self.lny - 1);
+        let b = by * self.lnx + bx;
+        self.lids[self.lstart[b] as usize..self.lstart[b + 1] as usize]
+            .iter()
+            .any(|&i| self.lines[i as usize].probe(x, y).0 < d)
+    }
+
+    /// Elevation of a sample: the skeleton flank, eased to the nearest
+    /// river within its valley half-width.
+    fn sample_z(&self, s: [f64; 2]) -> f64 {
+        let zl = self.skeleton.value(s[0], s[1]);
+        let zl = if zl.is_finite() { zl } else { self.floor };
+        let Some((i, dr)) = self.river_grid.nearest(s[0], s[1], 50.0 * self.lambda) else {
+            return zl;
+        };
+        let n = &self.rivers.nodes[i];
+        let w = self.valley_width * (n.area_m2.max(0.0) / 1e6).powf(0.4);
+        let u = if w > 0.0 { (dr / w).min(1.0) } else { 1.0 };
+        let f = u * u * (3.0 - 2.0 * u);
+        if zl > n.z {
+            n.z + (zl - n.z) * f
+        } else {
+            zl
+        }
+    }
+
+    /// The super-tile (sx, sy), from the cache or built.
+    fn supertile(&self, sx: usize, sy: usize) -> Result<Arc<Super>> {
+        let key = (sy * self.nsx + sx) as u64;
+        let slot = {
+            let mut c = self.cache.lock().unwrap_or_else(|e| e.into_inner());
+            c.tick += 1;
+            let tick = c.tick;
+            if let Some(s) = c.slots.iter_mut().find(|s| s.0 == key) {
+                s.1 = tick;
+                s.2.clone()
+            } else {
+                let s: Slot = Arc::new(OnceLock::new());
+                c.slots.push((key, tick, s.clone()));
+                // Evict the least recently used while over the byte bound
+                // (a super-tile in use elsewhere lives on through its Arc).
+                let min_keep = 8 + 4 * rayon::current_num_threads();
+                loop {
+                    let bytes: usize = c
+                        .slots
+                        .iter()
+                        .filter_map(|s| match s.2.get() {
+                            Some(Ok(t)) => Some(t.bytes),
+                            _ => None,
+                        })
+                        .sum();
+                    if bytes <= CACHE_BYTES || c.slots.len() <= min_keep {
+                        break;
+                    }
+                    let Some(old) = c
+                        .slots
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, s)| s.0 != key)
+                        .min_by_key(|(_, s)| s.1)
+                        .map(|(i, _)| i)
+                    else {
+                        break;
+                    };
+                    c.slots.swap_remove(old);
+                }
+                s
+            }
+        };
+        match slot.get_or_init(|| {
+            self.build_supertile(sx, sy)
+                .map(Arc::new)
+                .map_err(|e| e.to_string())
+        }) {
+            Ok(t) => Ok(t.clone()),
+            Err(m) => Err(Error::invalid(m.clone())),
+        }
+    }
+
+    fn build_supertile(&self, sx: usize, sy: usize) -> Result<Super> {
+        let mut margin = MARGIN_LAMBDA * self.lambda;
+        for attempt in 0..6 {
+            if attempt == 5 {
+                // Last resort: the whole domain (always certified).
+                margin = self.wm + self.hm;
+            }
+            if let Some(s) = self.try_supertile(sx, sy, margin)? {
+                self.built.fetch_add(1, Ordering::Relaxed);
+                if attempt > 0 {
+                    self.retried.fetch_add(1, Ordering::Relaxed);
+                }
+                self.samples.fetch_add(s.n_samples, Ordering::Relaxed);
+                return Ok(s);
+            }
+            margin *= 2.0;
+        }
+        Err(Error::invalid(format!(
+            "terrain: super-tile ({sx}, {sy}) could not be certified exact with a margin of {margin} m (a bug: please report it with the tree)"
+        )))
+    }
+
+    /// The final TIN of super-tile (sx, sy) from the vertices within
+    /// `margin` of it, or None if its triangles cannot be certified global.
+    fn try_supertile(&self, sx: usize, sy: usize, margin: f64) -> Result<Option<Super>> {
+        let c = self.cell;
+        let (c0, r0) = (sx * self.side, sy * self.side);
+        let (c1, r1) = (
+            (c0 + self.side).min(self.info.width),
+            (r0 + self.side).min(self.info.height),
+        );
+        let core = [c0 as f64 * c, r0 as f64 * c, c1 as f64 * c, r1 as f64 * c];
+        let rr = [
+            core[0] - margin,
+            core[1] - margin,
+            core[2] + margin,
+            core[3] + margin,
+        ];
+        // Skeleton vertices and the constraints between them.
+        let ids = self.sk_grid.in_rect(rr[0], rr[1], rr[2], rr[3]);
+        let mut local: HashMap<u32, u32> = HashMap::with_capacity(ids.len());
+        let mut pts: Vec<[f64; 3]> = Vec::with_capacity(2 * ids.len());
+        let mut kind: Vec<u8> = Vec::with_capacity(2 * ids.len());
+        let mut down: Vec<f64> = Vec::with_capacity(2 * ids.len());
+        for (k, &g) in ids.iter().enumerate() {
+            local.insert(g, k as u32);
+            pts.push(self.sk[g as usize]);
+            kind.push(self.sk_kind[g as usize]);
+            down.push(self.sk_down[g as usize]);
+        }
+        let mut eids: Vec<u32> = Vec::new();
+        for &g in &ids {
+            let g = g as usize;
+            for &e in &self.sk_adj[self.sk_adj_start[g] as usize..self.sk_adj_start[g + 1] as usize]
+            {
+                let [a, b] = self.sk_edges[e as usize];
+                if local.contains_key(&a) && local.contains_key(&b) {
+                    eids.push(e);
+                }
+            }
+        }
+        eids.sort_unstable();
+        eids.dedup();
+        let edges: Vec<[u32; 2]> = eids
+            .iter()
+            .map(|&e| {
+                let [a, b] = self.sk_edges[e as usize];
+                [local[&a], local[&b]]
+            })
+            .collect();
+        drop(local);
+        let samples = self.samples_in(rr);
+        let n_samples = samples
+            .iter()
+            .filter(|p| p[0] >= core[0] && p[0] < core[2] && p[1] >= core[1] && p[1] < core[3])
+            .count();
+        for s in &samples {
+            pts.push([s[0], s[1], self.sample_z(*s)]);
+            kind.push(3);
+            down.push(f64::NAN);
+        }
+        drop(samples);
+        let (t, _) = cdt(&pts, &edges)?;
+        let nv = pts.len();
+
+        // Certificate of each face: its circumdisk, clipped to the domain,
+        // lies at least one constrained-segment length inside `rr` on every
+        // side where `rr` does not reach past the domain.
+        let lmax = MAX_SEG * self.lambda;
+        let (wm, hm) = (self.wm, self.hm);
+        let whole = rr[0] <= 0.0 && rr[1] <= 0.0 && rr[2] >= wm && rr[3] >= hm;
+        let certified = |p: [[f64; 3]; 3]| -> bool {
+            if whole {
+                return true;
+            }
+            let (ax, ay) = (p[0][0], p[0][1]);
+            let (bx, by) = (p[1][0] - ax, p[1][1] - ay);
+            let (cx, cy) = (p[2][0] - ax, p[2][1] - ay);
+            let d = 2.0 * (bx * cy - by * cx);
+            if d == 0.0 {
+                return false;
+            }
+            let (b2, c2) = (bx * bx + by * by, cx * cx + cy * cy);
+            let ux = (cy * b2 - by * c2) / d;
+            let uy = (bx * c2 - cx * b2) / d;
+            let rad = ux.hypot(uy) * (1.0 + 1e-9) + 1e-9 * (wm + hm);
+            let (ox, oy) = (ax + ux, ay + uy);
+            if !(ox.is_finite() && oy.is_finite() && rad.is_finite()) {
+                return false;
+            }
+            // The disk misses the part of the domain outside rr shrunk by
+            // lmax (a strip per side that does not reach past the domain).
+            let clear = |x0: f64, y0: f64, x1: f64, y1: f64| {
+                let dx = (x0 - ox).max(ox - x1).max(0.0);
+                let dy = (y0 - oy).max(oy - y1).max(0.0);
+                dx.hypot(dy) > rad
+            };
+            (rr[0] <= 0.0 || clear(0.0, 0.0, rr[0] + lmax, hm))
+                && (rr[1] <= 0.0 || clear(0.0, 0.0, wm, rr[1] + lmax))
+                && (rr[2] >= wm || clear(rr[2] - lmax, 0.0, wm, hm))
+                && (rr[3] >= hm || clear(0.0, rr[3] - lmax, wm, hm))
+        };
+        let mut face_ok = vec![false; t.num_all_faces()];
+        for f in t.inner_faces() {
+            let v = f.vertices().map(|v| pts[v.fix().index()]);
+            face_ok[f.fix().index()] = certified(v);
+        }
+        let on_side = |p: [f64; 3], q: [f64; 3]| {
+            (p[0] == 0.0 && q[0] == 0.0)
+                || (p[0] == wm && q[0] == wm)
+                || (p[1] == 0.0 && q[1] == 0.0)
+                || (p[1] == hm && q[1] == hm)
+        };
+        // Vertex adjacency (CSR) and whether a vertex has its global
+        // neighbours (every incident face certified, or the domain border).
+        let mut nb_start = vec![0u32; nv + 1];
+        let mut nb: Vec<u32> = Vec::with_capacity(6 * nv);
+        let mut vok = vec![true; nv];
+        for v in t.vertices() {
+            let i = v.fix().index();
+            for e in v.out_edges() {
+                let to = e.to().fix().index();
+                nb.push(to as u32);
+                match e.face().as_inner() {
+                    Some(f) => {
+                        if !face_ok[f.fix().index()] {
+                            vok[i] = false;
+                        }
+                    }
+                    None => {
+                        if !on_side(pts[i], pts[to]) {
+                            vok[i] = false;
+                        }
+                    }
+                }
+            }
+            nb_start[i + 1] = nb.len() as u32;
+        }
+        for i in 0..nv {
+            nb_start[i + 1] = nb_start[i + 1].max(nb_start[i]);
+        }
+        let faces: Vec<([u32; 3], bool)> = t
+            .inner_faces()
+            .map(|f| {
+                (
+                    f.vertices().map(|v| v.fix().index() as u32),
+                    face_ok[f.fix().index()],
+                )
+            })
+            .collect();
+        drop(t);
+        drop(face_ok);
+
+        // Repair, Jacobi rounds; `exact` follows which values are global.
+        let nbs = |v: usize| &nb[nb_start[v] as usize..nb_start[v + 1] as usize];
+        let mut z: Vec<f64> = pts.iter().map(|p| p[2]).collect();
+        let mutable: Vec<bool> = (0..nv).map(|v| kind[v] == 3 || !down[v].is_nan()).collect();
+        let mut exact = vec![true; nv];
+        let drop_below = 0.5 * self.thr.max(1.0);
+        for _ in 0..REPAIR_ROUNDS {
+            let mut nz = z.clone();
+            let mut nex = exact.clone();
+            for v in 0..nv {
+                if !mutable[v] {
+                    continue;
+                }
+                nex[v] = exact[v] && vok[v] && nbs(v).iter().all(|&u| exact[u as usize]);
+                let (mut lo, mut hi, mut peak) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY);
+                for &u in nbs(v) {
+                    let zu = z[u as usize];
+                    lo = lo.min(zu);
+                    hi = hi.max(zu);
+                    if kind[u as usize] == 0 {
+                        peak = peak.min(zu);
+                    }
+                }
+                if kind[v] == 3 {
+                    if hi > lo && (z[v] >= hi || z[v] <= lo) {
+                        nz[v] = 0.5 * (lo + hi);
+                    }
+                    if nz[v] >= peak {
+                        nz[v] = peak - drop_below;
+                    }
+                } else if hi > lo && z[v] >= hi {
+                    // A river source that is a maximum: lowered, its river
+                    // kept non-increasing.
+                    nz[v] = (0.5 * (lo + hi)).max(down[v]);
+                }
+            }
+            z = nz;
+            exact = nex;
+        }
+
+        // The triangles touching the core: all must be global and exact.
+        let mut keep: Vec<[u32; 3]> = Vec::new();
+        for (f, ok) in faces {
+            let p = f.map(|v| pts[v as usize]);
+            let bx0 = p[0][0].min(p[1][0]).min(p[2][0]);
+            let by0 = p[0][1].min(p[1][1]).min(p[2][1]);
+            let bx1 = p[0][0].max(p[1][0]).max(p[2][0]);
+            let by1 = p[0][1].max(p[1][1]).max(p[2][1]);
+            if bx1 < core[0] || bx0 > core[2] || by1 < core[1] || by0 > core[3] {
+                continue;
+            }
+            if !(ok && f.iter().all(|&v| exact[v as usize])) {
+                return Ok(None);
+            }
+            // Canonical rotation: the lexicographically smallest vertex first.
+            let lo = (0..3)
+                .min_by(|&a, &b| {
+                    p[a][0]
+                        .total_cmp(&p[b][0])
+                        .then(p[a][1].total_cmp(&p[b][1]))
+                })
+                .unwrap_or(0);
+            keep.push([f[lo], f[(lo + 1) % 3], f[(lo + 2) % 3]]);
+        }
+        let key = |t: &[u32; 3]| t.map(|v| [pts[v as usize][0], pts[v as usize][1]]);
+        keep.sort_by(|a, b| {
+            let (ka, kb) = (key(a), key(b));
+            let mut o = std::cmp::Ordering::Equal;
+            for i in 0..3 {
+                o = o
+                    .then(ka[i][0].total_cmp(&kb[i][0]))
+                    .then(ka[i][1].total_cmp(&kb[i][1]));
+            }
+            o
+        });
+        // Keep only the vertices used.
+        let mut remap = vec![u32::MAX; nv];
+        let mut xy: Vec<[f64; 2]> = Vec::new();
+        let mut zz: Vec<f64> = Vec::new();
+        for t in keep.iter_mut() {
+            for v in t.iter_mut() {
+                let o = *v as usize;
+                if remap[o] == u32::MAX {
+                    remap[o] = xy.len() as u32;
+                    xy.push([pts[o][0], pts[o][1]]);
+                    zz.push(z[o]);
+                }
+                *v = remap[o];
+            }
+        }
+        let tin = Tin::new(
+            xy,
+            zz,
+            keep,
+            [core[0], core[1], core[2] - core[0], core[3] - core[1]],
+            BUCKET_CELLS * c,
+        )?;
+        let bytes = tin.heap_bytes() + std::mem::size_of::<Super>();
+        Ok(Some(Super {
+            tin,
+            n_samples,
+            bytes,
+        }))
+    }
+
+    /// Elevation of the cell centre (col + ½, row + ½) in super-tile `st`.
     #[inline]
-    fn cell_value(&self, col: usize, row: usize) -> f64 {
+    fn cell_value(&self, st: &Super, col: usize, row: usize) -> f64 {
         let c = self.cell;
         let (x, y) = ((col as f64 + 0.5) * c, (row as f64 + 0.5) * c);
-        let mut v = self.tin.value(x, y);
+        let mut v = st.tin.value(x, y);
         let bx = ((x / self.lb) as usize).min(self.lnx - 1);
         let by = ((y / self.lb) as usize).min(self.lny - 1);
         let b = by * self.lnx + bx;
@@ -642,26 +1149,57 @@ impl TinTerrain {
         v
     }
 
-    /// The window (x0, y0, w, h) in cells, row-major.
-    pub fn fill_window(&self, x0: usize, y0: usize, w: usize, h: usize) -> Vec<f32> {
-        let mut out = Vec::with_capacity(w * h);
-        for r in y0..y0 + h {
-            for c in x0..x0 + w {
-                out.push(self.cell_value(c, r) as f32);
+    /// The window (x0, y0, w, h) in cells (inside the raster), row-major.
+    pub fn fill_window(&self, x0: usize, y0: usize, w: usize, h: usize) -> Result<Vec<f32>> {
+        let mut out = vec![0f32; w * h];
+        if w == 0 || h == 0 {
+            return Ok(out);
+        }
+        if x0 + w > self.info.width || y0 + h > self.info.height {
+            return Err(Error::invalid("terrain: window outside the raster"));
+        }
+        let s = self.side;
+        for sy in y0 / s..=(y0 + h - 1) / s {
+            for sx in x0 / s..=(x0 + w - 1) / s {
+                let st = self.supertile(sx, sy)?;
+                let (ca, cb) = ((sx * s).max(x0), ((sx + 1) * s).min(x0 + w));
+                let (ra, rb) = ((sy * s).max(y0), ((sy + 1) * s).min(y0 + h));
+                for r in ra..rb {
+                    let o = (r - y0) * w;
+                    for col in ca..cb {
+                        out[o + col - x0] = self.cell_value(&st, col, r) as f32;
+                    }
+                }
             }
         }
-        out
+        Ok(out)
     }
 
-    /// The whole terrain in memory (rows computed in parallel).
-    pub fn render(&self) -> Grid<f32> {
-        let (w, h) = (self.info.width, self.info.height);
-        let rows: Vec<Vec<f32>> = (0..h)
-            .into_par_iter()
-            .map(|r| self.fill_window(0, r, w, 1))
+    /// The whole terrain in memory (super-tiles computed in parallel).
+    pub fn render(&self) -> Result<Grid<f32>> {
+        let (w, h, s) = (self.info.width, self.info.height, self.side);
+        let tiles: Vec<(usize, usize)> = (0..h.div_ceil(s))
+            .flat_map(|sy| (0..w.div_ceil(s)).map(move |sx| (sx, sy)))
             .collect();
-        let data: Vec<f32> = rows.into_iter().flatten().collect();
-        Grid::from_vec(w, h, data).unwrap_or_else(|_| Grid::new(w, h, 0.0))
+        let parts: Vec<Result<(usize, usize, Vec<f32>)>> = tiles
+            .par_iter()
+            .map(|&(sx, sy)| {
+                let (x0, y0) = (sx * s, sy * s);
+                let (tw, th) = (s.min(w - x0), s.min(h - y0));
+                Ok((x0, y0, self.fill_window(x0, y0, tw, th)?))
+            })
+            .collect();
+        let mut g = Grid::new(w, h, 0f32);
+        for p in parts {
+            let (x0, y0, data) = p?;
+            let tw = s.min(w - x0);
+            for (k, row) in data.chunks(tw).enumerate() {
+                for (j, &v) in row.iter().enumerate() {
+                    g.set(x0 + j, y0 + k, v);
+                }
+            }
+        }
+        Ok(g)
     }
 
     /// Georeference (local metric CRS, origin top-left at (0, H·cell)).
@@ -676,7 +1214,7 @@ impl RasterSource for TinTerrain {
     }
     fn read_native(&self, win: Window) -> Result<AnyGrid> {
         let (x0, y0) = (win.x.max(0) as usize, win.y.max(0) as usize);
-        let data = self.fill_window(x0, y0, win.w, win.h);
+        let data = self.fill_window(x0, y0, win.w, win.h)?;
         Ok(AnyGrid::F32(Grid::from_vec(win.w, win.h, data)?))
     }
 }

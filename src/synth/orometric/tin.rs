@@ -120,6 +120,14 @@ impl Tin {
         })
     }
 
+    /// Bytes held on the heap (vertices, triangles, bucket index).
+    pub fn heap_bytes(&self) -> usize {
+        self.xy.len() * 16
+            + self.z.len() * 8
+            + self.tris.len() * 12
+            + (self.start.len() + self.ids.len()) * 4
+    }
+
     /// Number of triangles.
     pub fn n_triangles(&self) -> usize {
         self.tris.len()
