@@ -366,10 +366,15 @@ fn bad_terrain_options_are_refused() {
     assert!(TinTerrain::new(&big, &tin_opts(0.0)).is_err());
 }
 
+/// A real DEM: the copy in `tests/data/oro/` (so `cargo test` needs nothing
+/// outside the repository), else `../shared/data/`.
 fn shared(name: &str) -> Option<PathBuf> {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data")
-        .join(name);
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let local = root.join("tests/data/oro").join(name);
+    if local.exists() {
+        return Some(local);
+    }
+    let p = root.join("../shared/data").join(name);
     if p.exists() {
         Some(p)
     } else {
