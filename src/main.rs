@@ -830,7 +830,8 @@ fn run(cli: Cli) -> Result<()> {
         Cmd::Ridges(a) => cli::oro::run_ridges(a)?,
         Cmd::Fill { input, out, run } => {
             let src = open(&input)?;
-            let ty = (DType::F32, Some(orogen::hydro::FILL_NODATA));
+            let nd = orogen::hydro::out_nodata::elevation_nodata(src.as_ref())?;
+            let ty = (DType::F32, Some(nd));
             global1(
                 &orogen::hydro::tiled::TiledFill,
                 &[src.as_ref()],

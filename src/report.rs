@@ -584,9 +584,7 @@ h3{{font-size:14px;word-break:break-all;max-width:512px}}.key{{font-size:12px}}<
 
 /// Write an HTML page atomically (temporary name, then rename).
 pub fn write_html(path: &Path, html: &str) -> Result<()> {
-    let tmp = path.with_extension("html.tmp");
-    std::fs::write(&tmp, html).map_err(|e| Error::io(&tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))
+    crate::io::atomic::write_file_atomic(path, html.as_bytes())
 }
 
 /// An `<img>` tag holding PNG `bytes` inline (base64 data URI).

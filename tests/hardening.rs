@@ -437,25 +437,68 @@ fn oversized_job_and_lock_files_are_refused_without_reading_them_whole() {
     assert!(!o.status.success());
     let e = stderr(&o);
     assert!(e.contains("big.toml") && e.contains("job file of"), "{e}");
-    // A 4 MiB foreign `.lock`: read only its head, refused with the fix.
+    // A 4 MiB `.lock` held (flock) by someone: only its head is read for
+    // the message; refused.
     let dir = tmp.path().join("l.tiles");
     std::fs::create_dir(&dir).unwrap();
     std::fs::write(dir.join(".lock"), "9".repeat(4 << 20)).unwrap();
+    let holder = std::fs::File::open(dir.join(".lock")).unwrap();
+    holder.try_lock().unwrap();
     let opts = StoreOptions {
         tile: 4,
         ..StoreOptions::default()
     };
-    let e = StoreWriter::create(
-        &dir,
-        10,
-        10,
-        DType::U8,
-        &GeoRef::pixel(),
-        opts,
-        Provenance::default(),
-    )
-    .unwrap_err();
+    let create = || {
+        StoreWriter::create(
+            &dir,
+            10,
+            10,
+            DType::U8,
+            &GeoRef::pixel(),
+            opts,
+            Provenance::default(),
+        )
+    };
+    let e = create().unwrap_err();
     assert!(e.to_string().contains("unreadable pid"), "{e}");
+    // Released: the same file is taken over and now holds our pid only.
+    drop(holder);
+    let w = create().unwrap();
+    assert_eq!(
+        std::fs::read_to_string(dir.join(".lock")).unwrap(),
+        format!("{}\n", std::process::id())
+    );
+    drop(w);
+    assert!(!dir.join(".lock").exists());
+}
+
+#[test]
+fn a_stale_lock_naming_a_live_unrelated_pid_does_not_block() {
+    // Regression (session 5): the lock used to be trusted while its pid ran,
+    // so a pid reused by an unrelated process blocked the store for ever.
+    // Now only a held advisory lock blocks. Our parent (the test harness or
+    // shell) certainly runs; its pid in an unheld lock file must not block.
+    let tmp = tempfile::tempdir().unwrap();
+    let d = dem();
+    let dem_s = d.to_str().unwrap();
+    let refd = tmp.path().join("ref.tiles");
+    let o = run(&slope_args(dem_s, refd.to_str().unwrap()), &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = tmp.path().join("s.tiles");
+    let out_s = out.to_str().unwrap();
+    // Interrupt a writer after its first tile, then plant a live pid.
+    let o = run(
+        &slope_args(dem_s, out_s),
+        &[("OROGEN_CRASH_AT", "store.tile.renamed:1")],
+    );
+    assert!(!o.status.success());
+    let parent = std::os::unix::process::parent_id();
+    assert!(std::path::Path::new(&format!("/proc/{parent}")).exists());
+    std::fs::write(out.join(".lock"), format!("{parent}\n")).unwrap();
+    let o = run(&slope_args(dem_s, out_s), &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(files(&out), files(&refd));
+    assert!(!out.join(".lock").exists());
 }
 
 /// Split a `store_tiles` fuzz input into a store folder (as the target does).
@@ -658,4 +701,85 @@ fn mutated_divide_trees_and_multi_tile_stores_never_panic() {
         }
     }
     assert!(opened > 0);
+}
+
+/// Regular files under `dir` (name, bytes), hidden temporaries excluded,
+/// and the names of the hidden ones.
+fn visible_and_hidden(dir: &Path) -> (Vec<(String, Vec<u8>)>, Vec<String>) {
+    let all = files(dir);
+    let hidden = all
+        .iter()
+        .filter(|(n, _)| n.starts_with('.'))
+        .map(|(n, _)| n.clone())
+        .collect();
+    let visible = all
+        .into_iter()
+        .filter(|(n, _)| !n.starts_with('.'))
+        .collect();
+    (visible, hidden)
+}
+
+#[test]
+fn peaks_outputs_are_written_atomically() {
+    // Regression (session 5): `orogen peaks` wrote its five files in place,
+    // and peaks.csv/peaks.geojson twice (first without the DEM's metrics):
+    // a kill left complete-looking files that were short or lacked columns.
+    // Now every file goes through a temporary and a rename, once.
+    let tmp = tempfile::tempdir().unwrap();
+    let d = dem();
+    let dem_s = d.to_str().unwrap();
+    let args = |out: &str| -> Vec<String> {
+        ["peaks", dem_s, "-o", out, "--min-prominence", "5", "-q"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect()
+    };
+    let runv = |a: &[String], env: &[(&str, &str)]| {
+        let a: Vec<&str> = a.iter().map(String::as_str).collect();
+        run(&a, env)
+    };
+    let refd = tmp.path().join("ref");
+    let log = tmp.path().join("points.log");
+    let o = runv(
+        &args(refd.to_str().unwrap()),
+        &[("OROGEN_CRASH_LOG", log.to_str().unwrap())],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (want, hidden) = visible_and_hidden(&refd);
+    assert!(hidden.is_empty(), "{hidden:?}");
+    assert_eq!(want.len(), 5, "five peaks files");
+    let points = std::fs::read_to_string(&log).unwrap();
+    let n_tmp = points.lines().filter(|l| *l == "file.tmp").count();
+    assert_eq!(n_tmp, 5, "each file written once: {points}");
+
+    for n in 1..=5 {
+        for stage in ["tmp", "renamed"] {
+            let out = tmp.path().join(format!("p_{stage}_{n}"));
+            let out_s = out.to_str().unwrap().to_string();
+            let at = format!("file.{stage}:{n}");
+            let o = runv(&args(&out_s), &[("OROGEN_CRASH_AT", &at)]);
+            assert!(!o.status.success(), "{at}: the abort did not happen");
+            let (vis, hid) = visible_and_hidden(&out);
+            // Killed with the n-th file complete under its temporary name:
+            // n-1 files (tmp) or n files (renamed) in place, each complete.
+            let expect_vis = if stage == "tmp" { n - 1 } else { n };
+            assert_eq!(
+                vis.len(),
+                expect_vis,
+                "{at}: {:?}",
+                vis.iter().map(|f| &f.0).collect::<Vec<_>>()
+            );
+            for f in &vis {
+                assert!(want.contains(f), "{at}: {} differs from the reference", f.0);
+            }
+            assert_eq!(hid.len(), usize::from(stage == "tmp"), "{at}: {hid:?}");
+            // The rerun completes, removes the dead writer's temporary and
+            // gives the reference bytes.
+            let o = runv(&args(&out_s), &[]);
+            assert!(o.status.success(), "{at}: {}", stderr(&o));
+            let (vis, hid) = visible_and_hidden(&out);
+            assert!(hid.is_empty(), "{at}: left {hid:?}");
+            assert_eq!(vis, want, "{at}");
+        }
+    }
 }

@@ -394,6 +394,56 @@ fn huge_and_negative_elevations() {
 }
 
 #[test]
+fn bathymetry_holding_the_old_fill_nodata_stays_data() {
+    // Regression (session 5): fill and breach wrote nodata -9999, so a DEM
+    // without nodata holding -9999 as a real depth lost those cells. The
+    // output nodata is now chosen below the data (-99999 here).
+    let tmp = tempfile::tempdir().unwrap();
+    let (mut z, mut mask) = terrain(-9000.0, 3.0, -2.0, 10.0);
+    poke(
+        &mut z,
+        &mut mask,
+        &[(5, 5, -9999.0), (20, 12, -9999.0), (33, 25, -10_994.0)],
+    );
+    let d = tmp.path().join("b");
+    std::fs::create_dir(&d).unwrap();
+    let p = d.join("in.tif");
+    write_f32(&p, &z, None);
+    check_all(&d, &p, &z, None, None);
+    let inp = p.to_str().unwrap();
+    let nodata_of = |p: &Path| {
+        orogen::io::open_raster(p, &orogen::io::OpenOptions::default())
+            .unwrap()
+            .info()
+            .georef
+            .nodata
+    };
+    assert_eq!(nodata_of(&d.join("fill.tif")), Some(-99_999.0));
+    let outs: [(&str, Vec<&str>); 4] = [
+        ("fe.tif", vec!["fill-epsilon"]),
+        ("br.tif", vec!["breach"]),
+        ("brl.tif", vec!["breach", "--method", "least-cost"]),
+        ("fill.tiles", vec!["fill"]),
+    ];
+    for (name, cmd) in outs {
+        let o = d.join(name);
+        let mut args = cmd.clone();
+        args.extend([inp, "-o", o.to_str().unwrap(), "-q"]);
+        let (ok, e) = run(&args);
+        assert!(ok, "{args:?}: {e}");
+        let g = read(&o);
+        for k in 0..W * H {
+            assert!(
+                g.data()[k].is_finite(),
+                "{args:?}: real cell {k} ({}) became nodata",
+                z.data()[k]
+            );
+        }
+        assert_eq!(nodata_of(&o), Some(-99_999.0), "{args:?}");
+    }
+}
+
+#[test]
 fn f64_beyond_the_f32_range() {
     let tmp = tempfile::tempdir().unwrap();
     let (mut z, mut mask) = terrain(2000.0, -1.0, 2.0, 1.0);

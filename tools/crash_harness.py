@@ -2,7 +2,7 @@
 """Crash-anywhere harness (issue 12).
 
 Runs a real job (ingest -> fill -> flow -> accumulation -> peaks ->
-descriptors -> slope GeoTIFF -> COG export; tile stores, GeoTIFFs, COGs) on a small real DEM, kills
+orostats CSV -> descriptors -> slope GeoTIFF -> COG export; tile stores, GeoTIFFs, COGs) on a small real DEM, kills
 it at seeded random moments, checks what the kill left on disk, reruns the
 job to completion and checks that the final outputs are byte-identical to an
 uninterrupted reference run.
@@ -20,8 +20,8 @@ store or not; the rerun must detect it by its checksum and recompute it.
 After every kill (before the rerun) no output may look complete and be
 wrong: a .tif is absent or byte-identical to the reference; a tile store
 whose manifest says complete holds exactly the reference's bytes; a store
-not marked complete is refused by `orogen info`; the peaks/ files are absent
-or identical to the reference. After the rerun: exit 0, the same set of files
+not marked complete is refused by `orogen info`; the peaks/ files and the
+top-level CSV/JSON outputs are absent or identical to the reference. After the rerun: exit 0, the same set of files
 as the reference (no leftover temporaries, journals or locks) and the same
 bytes.
 
@@ -85,6 +85,13 @@ run = "peaks"
 input = "store"
 output = "peaks"
 args = {{ min_prominence = 5 }}
+
+[[step]]
+name = "orostats"
+run = "orostats"
+input = "store"
+output = "orostats.csv"
+args = {{ radius = "1km", min_prominence = 5 }}
 
 [[step]]
 name = "metrics"
@@ -176,6 +183,9 @@ def check_after_kill(out, ref, binary):
         if rel.endswith(".tif") and os.sep not in rel:
             if ref.get(rel) != h:
                 bad.append(f"{rel}: present but differs from the reference")
+        elif os.sep not in rel and rel.endswith((".csv", ".json", ".geojson")):
+            if ref.get(rel) != h:
+                bad.append(f"{rel}: present but differs from the reference (torn write?)")
         elif top == "peaks":
             if ref.get(rel) != h:
                 bad.append(f"{rel}: present but differs from the reference (torn write?)")

@@ -35,6 +35,13 @@ bash tools/cog_validate.sh
 echo "== web tiles in the viewer (headless Chromium) and read back by independent readers"
 bash tools/viewer_e2e.sh
 
+echo "== fuzz smoke: every cargo-fuzz target from its committed seeds (fails on any finding)"
+# Installs cargo-fuzz if missing, builds fuzz/ unoptimised without a
+# sanitizer, runs each target SECONDS_PER_TARGET (15) s; times in RELIABILITY.md.
+fuzz_t0=$(date +%s)
+bash tools/fuzz_smoke.sh
+echo "fuzz smoke: $(( $(date +%s) - fuzz_t0 )) s"
+
 echo "== MPI engine (--features mpi): mpirun -n 1|2|4 against the in-process engine"
 # Last: it rebuilds target/release/orogen with the mpi feature.
 bash tools/mpi_check.sh --release --ranks "1 2 4"

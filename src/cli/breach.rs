@@ -8,7 +8,7 @@ use clap::{Args, ValueEnum};
 use orogen::exec::LocalStep;
 use orogen::hydro::tiled::TiledFill;
 use orogen::hydro::tiled_breach::TiledLeastCostBreach;
-use orogen::hydro::{BreachMethod, BreachOptions, FILL_NODATA};
+use orogen::hydro::{BreachMethod, BreachOptions};
 use orogen::io::{self, OpenOptions};
 use orogen::ops;
 use orogen::raster::{read_window, DType, MemRaster, RasterSource, Window};
@@ -102,11 +102,12 @@ pub fn run(a: BreachArgs) -> Result<()> {
             );
         }
         let dem = read_window::<f32>(src.as_ref(), Window::full(info.width, info.height))?;
+        let nd = orogen::hydro::out_nodata::elevation_nodata(src.as_ref())?;
         let out = orogen::hydro::breach(&dem, &opts)?;
-        let out = out.map(|v| if v.is_nan() { FILL_NODATA as f32 } else { v });
+        let out = out.map(|v| if v.is_nan() { nd as f32 } else { v });
         let mem = MemRaster::new(
             orogen::raster::AnyGrid::F32(out),
-            info.georef.clone().with_nodata(Some(FILL_NODATA)),
+            info.georef.clone().with_nodata(Some(nd)),
             info.path.clone(),
         );
         ops::convert(&mem, &a.out.output, &oo, a.run.tile, &cfg)?;
@@ -140,7 +141,10 @@ fn chain(
     cfg: &orogen::exec::EngineConfig,
     tmp: &Path,
 ) -> Result<()> {
-    let ty = (DType::F32, Some(FILL_NODATA));
+    let ty = (
+        DType::F32,
+        Some(orogen::hydro::out_nodata::elevation_nodata(src)?),
+    );
     let tile = ops::choose_tile(src, a.run.tile);
     let mut tmp_oo = oo.clone();
     tmp_oo.store.tile = tile;

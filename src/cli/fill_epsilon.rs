@@ -31,7 +31,10 @@ pub fn run(a: FillEpsilonArgs) -> Result<()> {
     too.store.overwrite = true;
     too.store.sync = false;
     too.store.tile = orogen::ops::choose_tile(src.as_ref(), a.run.tile);
-    let ty = (DType::F32, Some(orogen::hydro::FILL_NODATA));
+    let ty = (
+        DType::F32,
+        Some(orogen::hydro::out_nodata::elevation_nodata(src.as_ref())?),
+    );
     let result = (|| -> Result<()> {
         orogen::ops::run_global_to(
             &orogen::hydro::tiled::TiledFill,

@@ -1,7 +1,7 @@
 //! `orogen basins`, `orogen streams` and `orogen hydro-index`: basins and
 //! watersheds, stream networks and their statistics, hydrological indices.
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use clap::Args;
 use orogen::exec::EngineConfig;
 use orogen::hydro::basins::{self, Seeds, TiledDownstream};
@@ -307,7 +307,7 @@ pub fn run_streams(a: StreamsArgs) -> Result<()> {
     }
     if let Some(p) = &a.stats {
         let s = serde_json::to_string_pretty(&net.stats_json())?;
-        std::fs::write(p, s).with_context(|| format!("{}: cannot write", p.display()))?;
+        orogen::io::atomic::write_file_atomic(p, s.as_bytes())?;
         crate::wrote(p);
     }
     if let Some(p) = &a.raster {

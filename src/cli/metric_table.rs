@@ -93,7 +93,7 @@ pub fn run(a: MetricTableArgs) -> Result<()> {
         .with_context(|| format!("{}: cannot create the output folder", a.output.display()))?;
     let write = |name: &str, text: &str| -> Result<()> {
         let p = a.output.join(name);
-        std::fs::write(&p, text).with_context(|| format!("{}: cannot write", p.display()))?;
+        orogen::io::atomic::write_file_atomic(&p, text.as_bytes())?;
         if !a.quiet {
             eprintln!("wrote {}", p.display());
         }

@@ -327,7 +327,7 @@ pub fn run_classify(a: ClassifyArgs) -> Result<()> {
 }
 
 fn write(p: &Path, s: &str) -> Result<()> {
-    std::fs::write(p, s).with_context(|| format!("{}: cannot write", p.display()))
+    Ok(orogen::io::atomic::write_file_atomic(p, s.as_bytes())?)
 }
 
 #[derive(Args)]

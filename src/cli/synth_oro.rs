@@ -517,7 +517,7 @@ pub fn run_divide_tree(a: DivideTreeArgs) -> Result<()> {
     tree.save(&a.output)?;
     wrote(&a.output);
     if let Some(g) = &a.geojson {
-        std::fs::write(g, tree.to_geojson()).with_context(|| format!("{}", g.display()))?;
+        orogen::io::atomic::write_file_atomic(g, tree.to_geojson().as_bytes())?;
         wrote(g);
     }
     Ok(())

@@ -5,7 +5,7 @@
 use super::synth_noise::parse_size;
 use super::synth_tectonic::{parse_xy, preview};
 use crate::{engine, output_options, wrote, Out, Run};
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use clap::Args;
 use orogen::io::render::RenderKind;
 use orogen::raster::{Crs, GeoRef};
@@ -132,7 +132,7 @@ pub fn run(a: RiversArgs) -> Result<()> {
     let net = RiverNetwork::build(w, h, a.cell, &p)?;
     if let Some(path) = &a.network {
         let text = serde_json::to_string(&network_geojson(&net, &georef))?;
-        std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))?;
+        orogen::io::atomic::write_file_atomic(path, text.as_bytes())?;
         wrote(path);
     }
     let src = RiverTerrain::new(net, w, h, a.cell, a.radius, a.sea_depth, Some(georef))?;

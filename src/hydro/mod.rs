@@ -41,6 +41,7 @@ pub mod fill_zhou;
 pub mod flow;
 pub mod indices;
 pub mod mfd;
+pub mod out_nodata;
 pub mod rho8;
 pub mod streams;
 pub mod tiled;

@@ -3,6 +3,7 @@
 //! them by path.
 
 pub mod ascii;
+pub mod atomic;
 pub mod geotiff;
 pub mod hgt;
 pub mod memsink;

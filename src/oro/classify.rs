@@ -290,7 +290,7 @@ impl Model {
     pub fn save(&self, path: &Path) -> Result<()> {
         let text = serde_json::to_string(self)
             .map_err(|e| Error::invalid(format!("model does not serialise: {e}")))?;
-        std::fs::write(path, text).map_err(|e| Error::io(path, e))
+        crate::io::atomic::write_file_atomic(path, text.as_bytes())
     }
 
     /// Load a model saved by [`Model::save`].

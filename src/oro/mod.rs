@@ -74,12 +74,21 @@ pub struct PeakList {
 impl PeakList {
     /// Write `peaks.csv`, `peaks.geojson`, `saddles.geojson`,
     /// `divide_tree.geojson` and `divide_tree.json` into `dir` (created if
-    /// missing); returns the paths written.
+    /// missing); returns the paths written. Each file is written atomically
+    /// (temporary, then rename), so none is ever seen half-written.
     pub fn write_all(&self, dir: &Path) -> Result<Vec<PathBuf>> {
+        let m = metrics::peak_metrics_tree_only(&self.tree, &self.georef);
+        self.write_files(dir, &m)
+    }
+
+    /// [`PeakList::write_all`] with the per-peak metrics `m`: every file
+    /// is written once, so a kill between two writes never leaves a peaks
+    /// file that is complete but lacks the DEM's metrics.
+    fn write_files(&self, dir: &Path, m: &[metrics::PeakMetrics]) -> Result<Vec<PathBuf>> {
         std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
         let p = |n: &str| dir.join(n);
-        write_peaks_csv(&p("peaks.csv"), &self.tree, &self.georef)?;
-        write_peaks_geojson(&p("peaks.geojson"), &self.tree, &self.georef)?;
+        write::write_peaks_csv_with(&p("peaks.csv"), &self.tree, &self.georef, m)?;
+        write::write_peaks_geojson_with(&p("peaks.geojson"), &self.tree, &self.georef, m)?;
         write_saddles_geojson(&p("saddles.geojson"), &self.tree, &self.georef)?;
         write_divide_tree_geojson(&p("divide_tree.geojson"), &self.tree, &self.georef)?;
         self.tree.save_json(&p("divide_tree.json"))?;

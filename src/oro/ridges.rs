@@ -464,7 +464,7 @@ impl RidgeNetwork {
         let v = json!({"type": "FeatureCollection", "features": feats});
         let bytes = serde_json::to_vec(&v)
             .map_err(|e| Error::invalid(format!("ridges do not serialise: {e}")))?;
-        std::fs::write(path, bytes).map_err(|e| Error::io(path, e))
+        crate::io::atomic::write_file_atomic(path, &bytes)
     }
 }
 

@@ -651,7 +651,7 @@ impl OroProfile {
     pub fn save(&self, path: &Path) -> Result<()> {
         let text = serde_json::to_string_pretty(self)
             .map_err(|e| Error::invalid(format!("profile does not serialise: {e}")))?;
-        std::fs::write(path, text).map_err(|e| Error::io(path, e))
+        crate::io::atomic::write_file_atomic(path, text.as_bytes())
     }
 
     /// Load and check a profile written by [`OroProfile::save`].
@@ -737,7 +737,7 @@ pub fn write_features_csv(path: &Path, disks: &[DiskFeatures]) -> Result<()> {
         }
         s.push('\n');
     }
-    std::fs::write(path, s).map_err(|e| Error::io(path, e))
+    crate::io::atomic::write_file_atomic(path, s.as_bytes())
 }
 
 /// Labels and sources may not hold commas, quotes or newlines in this
@@ -759,5 +759,5 @@ pub fn write_features_json(path: &Path, disks: &[DiskFeatures]) -> Result<()> {
     let v = serde_json::json!({"names": feature_names(), "disks": disks});
     let text = serde_json::to_string(&v)
         .map_err(|e| Error::invalid(format!("features do not serialise: {e}")))?;
-    std::fs::write(path, text).map_err(|e| Error::io(path, e))
+    crate::io::atomic::write_file_atomic(path, text.as_bytes())
 }

@@ -542,7 +542,7 @@ impl DivideTree {
 
     /// Write the tree as JSON to `path`.
     pub fn save_json(&self, path: &Path) -> Result<()> {
-        std::fs::write(path, self.to_json()).map_err(|e| Error::io(path, e))
+        crate::io::atomic::write_file_atomic(path, self.to_json().as_bytes())
     }
 
     /// Read a tree saved by [`DivideTree::save_json`].

@@ -8,7 +8,6 @@ use super::PeakList;
 use crate::error::{Error, Result};
 use crate::raster::{GeoRef, Grid};
 use serde_json::{json, Value};
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 fn centre(g: &GeoRef, col: u32, row: u32) -> (f64, f64) {
@@ -103,18 +102,14 @@ impl PeakList {
     /// so that peaks.csv and peaks.geojson also carry line parents,
     /// normalised elevation and relevance.
     pub fn write_all_with_dem(&self, dir: &Path, dem: &Grid<f32>) -> Result<Vec<PathBuf>> {
-        let files = self.write_all(dir)?;
         let m = peak_metrics(&self.tree, dem, &self.georef)?;
-        write_peaks_csv_with(&files[0], &self.tree, &self.georef, &m)?;
-        write_peaks_geojson_with(&files[1], &self.tree, &self.georef, &m)?;
-        Ok(files)
+        self.write_files(dir, &m)
     }
 }
 
+/// Every output of this module is written atomically (temporary, then rename).
 fn write(path: &Path, bytes: &[u8]) -> Result<()> {
-    let mut f = std::fs::File::create(path).map_err(|e| Error::io(path, e))?;
-    f.write_all(bytes).map_err(|e| Error::io(path, e))?;
-    f.flush().map_err(|e| Error::io(path, e))
+    crate::io::atomic::write_file_atomic(path, bytes)
 }
 
 fn collection(features: Vec<Value>) -> Vec<u8> {

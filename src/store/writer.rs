@@ -51,16 +51,24 @@ impl Default for StoreOptions {
     }
 }
 
-/// An exclusive writer lock: a file holding the pid of its owner, which
-/// appears under its name with that content already in it (written to
-/// `.lock.PID`, then hard-linked to `.lock`, which fails if a lock exists),
-/// so a writer killed at any moment never leaves an empty, unreadable lock.
-/// A lock whose owner no longer runs (Linux: no `/proc/PID`) is stale and
-/// taken over, so a killed job can be resumed.
+/// An exclusive writer lock: an OS advisory lock (`flock(2)` through
+/// [`File::try_lock`]) on the file `.lock`, held for the writer's lifetime
+/// and released by the kernel when the process ends however it ends, so a
+/// killed writer never blocks the next one and a reused pid never looks
+/// like a live writer. The file also holds the owner's pid, only for the
+/// message a refused writer prints. It appears with that content already in
+/// it (written to `.lock.PID`, then hard-linked to `.lock`); a writer taking
+/// over an unlocked lock file overwrites the pid in place before truncating,
+/// so the file is never seen empty.
+///
+/// Protocol (the usual one for lock files that are removed on release):
+/// open `.lock`, `try_lock`, then check that the path still names the inode
+/// we locked; if the previous owner removed it meanwhile, start over.
 #[derive(Debug)]
 struct Lock {
     path: PathBuf,
-    held: bool,
+    /// The open, locked `.lock`; `None` once released.
+    file: Option<File>,
 }
 
 impl Lock {
@@ -75,70 +83,96 @@ impl Lock {
             f.write_all(format!("{me}\n").as_bytes()).at(&own)?;
             f.sync_all().at(&own)?;
         }
-        let result = Self::link(&own, path);
+        let result = Self::take(&own, path);
         let _ = std::fs::remove_file(&own);
         result
     }
 
-    fn link(own: &Path, path: PathBuf) -> Result<Lock> {
-        for _ in 0..2 {
+    fn take(own: &Path, path: PathBuf) -> Result<Lock> {
+        use std::os::unix::fs::MetadataExt;
+        let me = format!("{}\n", std::process::id());
+        // A few rounds: each lost one means another writer released or
+        // replaced the lock file between our open and our lock.
+        for _ in 0..8 {
             match std::fs::hard_link(own, &path) {
-                Ok(()) => {
-                    super::crash::point("store.lock", "taken");
-                    return Ok(Lock { path, held: true });
-                }
-                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
-                    // A pid and a newline: read no more than that (a
-                    // hostile or foreign `.lock` may be any size).
-                    let mut head = [0u8; 32];
-                    let n = File::open(&path)
-                        .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
-                        .unwrap_or(0);
-                    let text = String::from_utf8_lossy(&head[..n]);
-                    let pid = text.trim().parse::<u32>().ok();
-                    let proc_dir = Path::new("/proc");
-                    match pid {
-                        Some(p) if proc_dir.is_dir() && !proc_dir.join(p.to_string()).exists() => {
-                            // Stale lock of a dead process: take it over.
-                            match std::fs::remove_file(&path) {
-                                Ok(()) => continue,
-                                Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
-                                Err(e) => return Err(Error::io(&path, e)),
-                            }
-                        }
-                        Some(p) => {
-                            return Err(Error::store(
-                                &path,
-                                format!(
-                                    "the store is locked by another writer (pid {p}); wait for it to finish, or delete this lock file if that process is not an orogen writer"
-                                ),
-                            ))
-                        }
-                        None => {
-                            return Err(Error::store(
-                                &path,
-                                "the store is locked by another writer (unreadable pid); delete this lock file if no orogen is writing the store",
-                            ))
-                        }
-                    }
-                }
+                Ok(()) => {}
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
                 Err(e) => return Err(Error::io(&path, e)),
             }
+            let mut f = match OpenOptions::new().read(true).write(true).open(&path) {
+                Ok(f) => f,
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
+                Err(e) => return Err(Error::io(&path, e)),
+            };
+            match f.try_lock() {
+                Ok(()) => {}
+                Err(std::fs::TryLockError::WouldBlock) => return Err(Self::busy(&path, &mut f)),
+                Err(std::fs::TryLockError::Error(e)) => {
+                    return Err(Error::store(
+                        &path,
+                        format!("cannot lock the store ({e}); the file system must support advisory locks (flock): write the store on a local disk"),
+                    ))
+                }
+            }
+            let ours = f.metadata().at(&path)?;
+            match std::fs::metadata(&path) {
+                Ok(m) if m.dev() == ours.dev() && m.ino() == ours.ino() => {}
+                Ok(_) => continue,
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
+                Err(e) => return Err(Error::io(&path, e)),
+            }
+            // Ours now. A lock file left by a dead writer (or a foreign one)
+            // gets our pid: written over the head first, then cut to length.
+            let mut head = [0u8; 32];
+            let n = std::io::Read::read(&mut f, &mut head).at(&path)?;
+            if &head[..n] != me.as_bytes() || ours.len() != me.len() as u64 {
+                use std::os::unix::fs::FileExt;
+                f.write_all_at(me.as_bytes(), 0).at(&path)?;
+                f.set_len(me.len() as u64).at(&path)?;
+                f.sync_all().at(&path)?;
+            }
+            super::crash::point("store.lock", "taken");
+            return Ok(Lock {
+                path,
+                file: Some(f),
+            });
         }
         Err(Error::store(
             &path,
-            "could not take over a stale lock; delete this lock file and retry",
+            "could not take the lock (other writers kept replacing it); retry",
         ))
     }
 
+    /// The error for a lock held by another process, naming its pid.
+    fn busy(path: &Path, f: &mut File) -> Error {
+        // A pid and a newline: read no more than that (a hostile or
+        // foreign `.lock` may be any size).
+        let mut head = [0u8; 32];
+        let n = std::io::Read::read(f, &mut head).unwrap_or(0);
+        let text = String::from_utf8_lossy(&head[..n]);
+        match text.trim().parse::<u32>() {
+            Ok(p) => Error::store(
+                path,
+                format!("the store is locked by another writer (pid {p}); wait for it to finish, or use another output"),
+            ),
+            Err(_) => Error::store(
+                path,
+                "the store is locked by another writer (unreadable pid); wait for it to finish, or use another output",
+            ),
+        }
+    }
+
+    /// Remove the lock file, then unlock (closing the file): a writer
+    /// waiting on the old inode then sees the path gone and starts over.
     fn release(&mut self) -> Result<()> {
-        if self.held {
-            self.held = false;
-            match std::fs::remove_file(&self.path) {
-                Ok(()) => {}
-                Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-                Err(e) => return Err(Error::io(&self.path, e)),
-            }
+        if let Some(f) = self.file.take() {
+            let removed = match std::fs::remove_file(&self.path) {
+                Ok(()) => Ok(()),
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+                Err(e) => Err(Error::io(&self.path, e)),
+            };
+            drop(f);
+            removed?;
         }
         Ok(())
     }

@@ -475,7 +475,7 @@ impl SynthProfile {
     pub fn save(&self, path: &Path) -> Result<()> {
         let text = serde_json::to_string_pretty(self)
             .map_err(|e| Error::invalid(format!("profile does not serialise: {e}")))?;
-        std::fs::write(path, text).map_err(|e| Error::io(path, e))
+        crate::io::atomic::write_file_atomic(path, text.as_bytes())
     }
 
     /// Load and validate a profile (size-checked before reading).

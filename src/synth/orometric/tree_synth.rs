@@ -1230,7 +1230,7 @@ impl SynthTree {
 
     /// Save as JSON.
     pub fn save(&self, path: &Path) -> Result<()> {
-        std::fs::write(path, self.to_json()).map_err(|e| Error::io(path, e))
+        crate::io::atomic::write_file_atomic(path, self.to_json().as_bytes())
     }
 
     /// Load and validate (size-checked before reading).

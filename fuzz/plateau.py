@@ -1,0 +1,138 @@
+#!/usr/bin/env python3
+"""Run one cargo-fuzz target until its coverage plateaus (issue 12).
+
+Starts the (already built) target binary on a working corpus seeded from
+fuzz/corpus/<target>/, timestamps every libFuzzer status line, and stops the
+run when coverage stopped growing: no new `cov` in the last third of the run
+(after at least --min seconds), or --quiet seconds without new `cov`, or at
+--max seconds. Writes the timestamped log and prints one summary line (JSON):
+executions, time, final cov/ft, time of the last new cov, exec/s, corpus
+size, and whether it ended on a plateau. A crash/timeout/OOM ends the run
+with the reproducer in fuzz/artifacts/<target>/ and a non-zero exit.
+
+  fuzz/plateau.py geotiff --min 180 --max 1200 [--bin PATH] [--work DIR]
+
+The binary defaults to the optimised uninstrumented-by-ASan build
+(`cargo fuzz build -s none`): fuzz/target/x86_64-unknown-linux-gnu/release/.
+"""
+import argparse
+import json
+import os
+import queue
+import re
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+STATUS = re.compile(
+    r"^#(\d+)\s+(\w+)\s+cov: (\d+) ft: (\d+)(?: corp: (\d+)/(\S+))?.*?(?:exec/s: (\d+))?(?: rss: (\d+)Mb)?"
+)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("target")
+    ap.add_argument("--min", type=float, default=180)
+    ap.add_argument("--max", type=float, default=1200)
+    ap.add_argument("--quiet", type=float, default=600)
+    ap.add_argument("--bin")
+    ap.add_argument("--work", default="/tmp/orogen-fuzz-plateau")
+    ap.add_argument("--timeout", type=int, default=10)
+    ap.add_argument("extra", nargs="*", help="extra libFuzzer flags")
+    a = ap.parse_args()
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    binary = a.bin or os.path.join(
+        root, "fuzz/target/x86_64-unknown-linux-gnu/release", a.target
+    )
+    corpus = os.path.join(a.work, "corpus", a.target)
+    os.makedirs(corpus, exist_ok=True)
+    seeds = os.path.join(root, "fuzz/corpus", a.target)
+    art = os.path.join(root, "fuzz/artifacts", a.target) + "/"
+    os.makedirs(art, exist_ok=True)
+    log_path = os.path.join(a.work, f"{a.target}.log")
+    cmd = [
+        binary,
+        corpus,
+        seeds,
+        f"-artifact_prefix={art}",
+        f"-timeout={a.timeout}",
+        "-rss_limit_mb=2048",
+        "-malloc_limit_mb=1024",
+        "-print_final_stats=1",
+        f"-max_total_time={int(a.max)}",
+    ] + a.extra
+    t0 = time.time()
+    p = subprocess.Popen(
+        cmd, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True, errors="replace"
+    )
+    lines = queue.Queue()
+
+    def reader():
+        for line in p.stderr:
+            lines.put((time.time() - t0, line))
+        lines.put(None)
+
+    threading.Thread(target=reader, daemon=True).start()
+    last_cov, t_last_cov, cov, ft, execs, eps, corp = -1, 0.0, 0, 0, 0, 0, ""
+    plateau, stopped, done = False, False, False
+    with open(log_path, "w") as log:
+        log.write(" ".join(cmd) + "\n")
+        while not done:
+            try:
+                item = lines.get(timeout=1.0)
+            except queue.Empty:
+                item = ()
+            if item is None:
+                done = True
+            elif item:
+                t, line = item
+                log.write(f"[{t:8.1f}] {line}")
+                m = STATUS.match(line)
+                if m:
+                    execs, cov, ft = int(m.group(1)), int(m.group(3)), int(m.group(4))
+                    if m.group(5):
+                        corp = f"{m.group(5)}/{m.group(6)}"
+                    if m.group(7):
+                        eps = int(m.group(7))
+                    if cov > last_cov:
+                        last_cov, t_last_cov = cov, t
+            t = time.time() - t0
+            if not stopped and t >= a.min and (
+                t_last_cov <= t * 2 / 3 or t - t_last_cov >= a.quiet
+            ):
+                plateau, stopped = True, True
+                log.write(f"[{t:8.1f}] plateau: no new cov since {t_last_cov:.1f} s; stopping\n")
+                p.send_signal(signal.SIGINT)  # libFuzzer prints final stats
+        rc = p.wait()
+    t_end = time.time() - t0
+    stats = {}
+    for line in open(log_path):
+        m = re.search(r"stat::(\w+):\s+(\d+)", line)
+        if m:
+            stats[m.group(1)] = int(m.group(2))
+    finding = any(
+        s in open(log_path).read()
+        for s in ("ERROR: libFuzzer", "panicked", "==ERROR", "SUMMARY: libFuzzer")
+    )
+    out = {
+        "target": a.target,
+        "seconds": round(t_end),
+        "executions": stats.get("number_of_executed_units", execs),
+        "exec_per_s": round(stats.get("number_of_executed_units", execs) / max(t_end, 1e-9)),
+        "cov": cov,
+        "ft": ft,
+        "last_new_cov_s": round(t_last_cov),
+        "corpus": corp,
+        "peak_rss_mb": stats.get("peak_rss_mb"),
+        "plateau": plateau or (t_last_cov <= t_end * 2 / 3),
+        "finding": finding,
+        "rc": rc,
+    }
+    print(json.dumps(out), flush=True)
+    sys.exit(1 if finding else 0)
+
+
+if __name__ == "__main__":
+    main()

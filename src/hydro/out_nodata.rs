@@ -1,0 +1,139 @@
+//! The nodata value of an elevation output (filled or breached DEM) that
+//! cannot collide with a real elevation.
+//!
+//! Hydrological steps write f32 DEMs with nodata [`super::FILL_NODATA`]
+//! (−9999, gdal's and ESRI's habit). Bathymetry reaches −10 994 m (Challenger
+//! Deep), so a DEM without nodata may hold −9999 as a real value; written
+//! as is, that cell would read back as nodata. Floats could use NaN, but a
+//! tile store's JSON manifest cannot hold NaN or ±inf, so the value stays
+//! finite: −9999 when every valid input cell is above −9999 + margin (the
+//! common case: outputs unchanged), else the first of a few customary
+//! values below the data (−99 999, −999 999, −f32::MAX); NaN only when the
+//! data reach −f32::MAX itself (then a store's manifest records no nodata,
+//! which for f32 tiles means the same: NaN cells are nodata).
+//!
+//! The steps that write these outputs only raise cells (fill) or lower them
+//! towards a real lower cell (breach: paths descend to an outlet), so a
+//! value below the input minimum, with a margin for epsilon gradients,
+//! stays below every output value.
+
+use super::FILL_NODATA;
+use crate::error::Result;
+use crate::raster::{read_window, DType, RasterSource, Window};
+
+/// Output nodata values tried in order: the first one more than
+/// [`MARGIN`] below every valid input elevation is used.
+pub const CANDIDATES: [f64; 4] = [FILL_NODATA, -99_999.0, -999_999.0, -(f32::MAX as f64)];
+
+/// Distance (m) a candidate must keep below the lowest valid cell: room for
+/// the small gradients fill-epsilon and breaching add.
+pub const MARGIN: f64 = 1.0;
+
+/// Cells read per window of the scan (4 Mi cells: 16 MiB as f32).
+const SCAN_CELLS: usize = 1 << 22;
+
+/// The nodata for an f32 elevation output computed from `src`: see the
+/// module documentation. Reads `src` once (in block-aligned windows of at
+/// most [`SCAN_CELLS`] cells) unless its type cannot go below −9999.
+pub fn elevation_nodata(src: &dyn RasterSource) -> Result<f64> {
+    let info = src.info();
+    if matches!(info.dtype, DType::U8 | DType::U16 | DType::U32 | DType::I8) {
+        return Ok(FILL_NODATA);
+    }
+    Ok(below(lowest_valid(src)?).unwrap_or(f64::NAN))
+}
+
+/// The first of [`CANDIDATES`] more than [`MARGIN`] below `min` (the
+/// lowest valid elevation; `None` when there is none).
+pub fn below(min: Option<f32>) -> Option<f64> {
+    let Some(m) = min else {
+        return Some(FILL_NODATA);
+    };
+    CANDIDATES
+        .iter()
+        .copied()
+        .find(|&c| c < m as f64 - MARGIN || (c == -(f32::MAX as f64) && c < m as f64))
+}
+
+/// The lowest valid (finite as f32, not the declared nodata) cell of `src`.
+fn lowest_valid(src: &dyn RasterSource) -> Result<Option<f32>> {
+    let info = src.info();
+    let (w, h) = (info.width, info.height);
+    if w == 0 || h == 0 {
+        return Ok(None);
+    }
+    // Whole rows for striped files (a strip is decoded once), tiles of a
+    // multiple of the block otherwise.
+    let (bw, bh) = (info.block.0.max(1), info.block.1.max(1));
+    let (ww, wh) = if bw >= w {
+        let rows = (SCAN_CELLS / w).max(1);
+        (w, (rows / bh).max(1) * bh)
+    } else {
+        let side = ((SCAN_CELLS as f64).sqrt() as usize).max(1);
+        ((side / bw).max(1) * bw, (side / bh).max(1) * bh)
+    };
+    let mut lo = f32::INFINITY;
+    let mut y = 0;
+    while y < h {
+        let hh = wh.min(h - y);
+        let mut x = 0;
+        while x < w {
+            let cw = ww.min(w - x);
+            // read_window turns the declared nodata into NaN.
+            let g = read_window::<f32>(src, Window::new(x as i64, y as i64, cw, hh))?;
+            for &v in g.data() {
+                if v.is_finite() && v < lo {
+                    lo = v;
+                }
+            }
+            x += cw;
+        }
+        y += hh;
+    }
+    Ok(lo.is_finite().then_some(lo))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::raster::{GeoRef, Grid, MemRaster};
+
+    #[test]
+    fn candidates_below_the_data() {
+        assert_eq!(below(None), Some(-9999.0));
+        assert_eq!(below(Some(0.0)), Some(-9999.0));
+        assert_eq!(below(Some(-9997.5)), Some(-9999.0));
+        assert_eq!(below(Some(-9998.5)), Some(-99_999.0));
+        assert_eq!(below(Some(-9999.0)), Some(-99_999.0));
+        assert_eq!(below(Some(-10_994.0)), Some(-99_999.0));
+        assert_eq!(below(Some(-500_000.0)), Some(-999_999.0));
+        assert_eq!(below(Some(-1e30)), Some(-(f32::MAX as f64)));
+        assert_eq!(below(Some(-f32::MAX)), None);
+    }
+
+    fn mem(g: Grid<f32>, nodata: Option<f64>) -> MemRaster {
+        MemRaster::from_grid(g, GeoRef::pixel().with_nodata(nodata))
+    }
+
+    #[test]
+    fn scans_every_cell_and_skips_nodata_and_non_finite() {
+        // 3000 x 1500: several scan windows; the minimum sits in the last.
+        let mut g = Grid::from_fn(3000, 1500, |x, y| (x + y) as f32);
+        g.set(2999, 1499, -10_500.0);
+        assert_eq!(elevation_nodata(&mem(g.clone(), None)).unwrap(), -99_999.0);
+        // The same cell as declared nodata is not data.
+        g.set(2999, 1499, -20_000.0);
+        assert_eq!(
+            elevation_nodata(&mem(g.clone(), Some(-20_000.0))).unwrap(),
+            -9999.0
+        );
+        g.set(0, 0, f32::NEG_INFINITY);
+        g.set(1, 0, f32::NAN);
+        assert_eq!(
+            elevation_nodata(&mem(g.clone(), Some(-20_000.0))).unwrap(),
+            -9999.0
+        );
+        g.set(5, 5, -f32::MAX);
+        assert!(elevation_nodata(&mem(g, None)).unwrap().is_nan());
+    }
+}
