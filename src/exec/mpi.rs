@@ -1024,23 +1024,13 @@ impl Engine for MpiEngine {
             )))
         });
         let mut slices: Vec<Option<S::Slice>> = (0..count).map(|_| None).collect();
-        for (id, b) in decode_records(&mine, count).unwrap_or_else(|e| fail(e)) {
-            if table[id] != Some(me) || slices[id].is_some() {
-                fail(Error::invalid(format!(
-                    "{name}: rank 0 sent this rank the slice of tile {id}, which it does not apply or got twice"
-                )));
-            }
-            let s: S::Slice = serde_json::from_slice(b).unwrap_or_else(|e| {
-                fail(Error::tile(
-                    &name,
-                    id,
-                    Error::invalid(format!(
-                        "its slice does not survive a serde_json round trip (NaN or infinity in an f64 field?): {e}"
-                    )),
-                ))
-            });
-            slices[id] = Some(s);
-        }
+        decode_into(&mut slices, &mine, &name, "slice", |id| {
+            (table[id] != Some(me)).then(|| {
+                format!(
+                    "{name}: rank 0 sent this rank the slice of tile {id}, which it does not apply"
+                )
+            })
+        });
         drop(mine);
         Self::report(
             &comm,
@@ -1065,6 +1055,39 @@ impl Engine for MpiEngine {
     }
 }
 
+/// Decode the records of `list` (tile id + serde_json) into `slots`,
+/// ending the job when `refused(id)` gives a reason, a tile comes twice or a
+/// record does not decode. `what` names the record ("summary", "slice") in
+/// the error, attached to tile `id` of step `step`.
+fn decode_into<T: serde::de::DeserializeOwned>(
+    slots: &mut [Option<T>],
+    list: &[u8],
+    step: &str,
+    what: &str,
+    refused: impl Fn(TileId) -> Option<String>,
+) {
+    for (id, b) in decode_records(list, slots.len()).unwrap_or_else(|e| fail(e)) {
+        let why = refused(id).or_else(|| {
+            slots[id]
+                .is_some()
+                .then(|| format!("{step}: the {what} of tile {id} came twice"))
+        });
+        if let Some(why) = why {
+            fail(Error::invalid(why));
+        }
+        let v: T = serde_json::from_slice(b).unwrap_or_else(|e| {
+            fail(Error::tile(
+                step,
+                id,
+                Error::invalid(format!(
+                    "its {what} does not survive a serde_json round trip (NaN or infinity in an f64 field?): {e}"
+                )),
+            ))
+        });
+        slots[id] = Some(v);
+    }
+}
+
 /// Every tile's summary from the packed record lists by rank (`lists[r]`
 /// from rank `r`), checking each tile comes from its owner exactly once.
 /// Errors end the job.
@@ -1082,24 +1105,11 @@ fn decode_summaries<S: GlobalStep>(
                 "{name}: the summaries of rank {r}: {e}"
             )))
         });
-        let recs = decode_records(&list, count).unwrap_or_else(|e| fail(e));
-        for (id, b) in recs {
-            if owner[id] != r || summaries[id].is_some() {
-                fail(Error::invalid(format!(
-                    "{name}: rank {r} sent a summary of tile {id}, which it does not own or was sent twice"
-                )));
-            }
-            let s: S::Summary = serde_json::from_slice(b).unwrap_or_else(|e| {
-                fail(Error::tile(
-                    &map_name,
-                    id,
-                    Error::invalid(format!(
-                        "its summary does not survive a serde_json round trip (NaN or infinity in an f64 field?): {e}"
-                    )),
-                ))
-            });
-            summaries[id] = Some(s);
-        }
+        decode_into(&mut summaries, &list, &map_name, "summary", |id| {
+            (owner[id] != r).then(|| {
+                format!("{name}: rank {r} sent a summary of tile {id}, which it does not own")
+            })
+        });
     }
     summaries
         .into_iter()

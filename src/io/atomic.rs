@@ -79,12 +79,19 @@ fn remove_stale_temps(path: &Path) {
         return;
     }
     let prefix = format!(".{}.orogen-tmp-", name.to_string_lossy());
+    remove_dead_pid_files(dir, &prefix);
+}
+
+/// Remove the files of `dir` named `PREFIX<pid>` whose process no longer runs
+/// (Linux: no `/proc/PID`): temporaries of killed writers. Files of this
+/// process and of live ones are left alone; errors are ignored (best effort).
+pub(crate) fn remove_dead_pid_files(dir: &Path, prefix: &str) {
     let Ok(rd) = std::fs::read_dir(dir) else {
         return;
     };
     for e in rd.flatten() {
         let n = e.file_name().to_string_lossy().into_owned();
-        let Some(pid) = n.strip_prefix(&prefix).and_then(|p| p.parse::<u32>().ok()) else {
+        let Some(pid) = n.strip_prefix(prefix).and_then(|p| p.parse::<u32>().ok()) else {
             continue;
         };
         if pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists() {

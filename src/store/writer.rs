@@ -184,19 +184,7 @@ fn remove_stale_lock_temps(lock: &Path) {
     let (Some(dir), Some(name)) = (lock.parent(), lock.file_name()) else {
         return;
     };
-    let prefix = format!("{}.", name.to_string_lossy());
-    let Ok(rd) = std::fs::read_dir(dir) else {
-        return;
-    };
-    for e in rd.flatten() {
-        let n = e.file_name().to_string_lossy().into_owned();
-        let Some(pid) = n.strip_prefix(&prefix).and_then(|p| p.parse::<u32>().ok()) else {
-            continue;
-        };
-        if pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists() {
-            let _ = std::fs::remove_file(e.path());
-        }
-    }
+    crate::io::atomic::remove_dead_pid_files(dir, &format!("{}.", name.to_string_lossy()));
 }
 
 impl Drop for Lock {
