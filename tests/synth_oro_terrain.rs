@@ -428,15 +428,16 @@ fn tin_distributions_match_the_low_relief_profile() {
     let Some(e) = real_errors("pysheds_dem.tif", 5.0) else {
         return;
     };
-    // Measured (seed 3, session 5: streamed TIN, saddle-height search,
-    // isolation stretch 1.3): isolation 0.040, prominence 0.010, dominance
-    // 0.051, elevation 0.073, density 0.071 (169 tree peaks, 182 found on
-    // the terrain: 13 extra low peaks; before the stretch and search: 0.006).
-    assert!(e["isolation_km"] <= 0.08, "{e:?}");
-    assert!(e["prominence"] <= 0.03, "{e:?}");
-    assert!(e["dominance"] <= 0.06, "{e:?}");
+    // Measured (seed 3, session 5, ridge contrast 5): isolation 0.051,
+    // prominence 0.005, dominance 0.025, elevation 0.074, density 0.071
+    // (169 tree peaks, 182 found on the terrain: extra hills the render
+    // raises in large ridge-free areas, see docs/notes/oro_dallas.md; with
+    // the paper's ridge weights: 0.040, 0.010, 0.051, 0.073, 0.071).
+    assert!(e["isolation_km"] <= 0.055, "{e:?}");
+    assert!(e["prominence"] <= 0.01, "{e:?}");
+    assert!(e["dominance"] <= 0.03, "{e:?}");
     assert!(e["elevation"] <= 0.08, "{e:?}");
-    assert!(e["peak_density"] <= 0.08, "{e:?}");
+    assert!(e["peak_density"] <= 0.075, "{e:?}");
 }
 
 #[test]

@@ -480,6 +480,9 @@ fn split_errors(
     if let Ok(v) = std::env::var("ORO_STRETCH") {
         o.isolation_stretch = v.parse().unwrap();
     }
+    if let Ok(v) = std::env::var("ORO_CONTRAST") {
+        o.ridge_contrast = v.parse().unwrap();
+    }
     let t = synthesize_tree(prof, &o).unwrap();
     let pr = t.prominences();
     // Every non-root peak keeps the threshold.
@@ -505,6 +508,9 @@ fn split_errors(
     let dem = read_window::<f32>(&*ter, Window::full(w, h)).unwrap();
     let s = PeakSamples::of_dem(&dem, &ter.info().georef, prof.min_prominence).unwrap();
     let e = prof.errors(&s);
+    if std::env::var("ORO_DIAG").as_deref() == Ok("2") {
+        spurious_peaks(&t, &dem, &ter.info().georef);
+    }
     if std::env::var("ORO_DIAG").is_ok() {
         println!(
             "  seed {seed}: {} tree peaks, {} terrain peaks, density error {:.3}, elevation {:.3}",
@@ -518,6 +524,61 @@ fn split_errors(
         tree,
         Some([e["isolation_km"], e["prominence"], e["dominance"]]),
     )
+}
+
+/// Diagnosis (`ORO_DIAG=2`): terrain peaks above the threshold that match
+/// no tree peak within a cell, with their prominence and the distance to
+/// the nearest tree peak and saddle; tree peaks not found.
+fn spurious_peaks(t: &SynthTree, dem: &Grid<f32>, geo: &GeoRef) {
+    let found = orogen::oro::peaks(
+        dem,
+        geo,
+        &PeakOptions {
+            min_prominence: t.min_prominence,
+            convention: EdgeConvention::SeaLevel,
+            isolation: false,
+        },
+    )
+    .unwrap()
+    .tree;
+    let cellof = |x: f64, y: f64| ((x / t.cell) as i64, (y / t.cell) as i64);
+    let prom = t.prominences();
+    let mut hit = vec![false; t.peaks.len()];
+    for q in &found.peaks {
+        let m = t.peaks.iter().position(|p| {
+            let (c, r) = cellof(p.x, p.y);
+            (q.col as i64 - c).abs() <= 1 && (q.row as i64 - r).abs() <= 1
+        });
+        match m {
+            Some(i) => hit[i] = true,
+            None => {
+                let (qx, qy) = ((q.col as f64 + 0.5) * t.cell, (q.row as f64 + 0.5) * t.cell);
+                let (dp, ip) = t
+                    .peaks
+                    .iter()
+                    .enumerate()
+                    .map(|(i, p)| ((p.x - qx).hypot(p.y - qy), i))
+                    .fold((f64::INFINITY, 0), |a, b| if b.0 < a.0 { b } else { a });
+                let ds = t
+                    .saddles
+                    .iter()
+                    .map(|s| (s.x - qx).hypot(s.y - qy))
+                    .fold(f64::INFINITY, f64::min);
+                println!(
+                    "    spurious ({}, {}) h {:.1} prom {:.1}; nearest tree peak {ip} ({:.1} m, prom {:.1}) at {:.0} m, saddle at {:.0} m",
+                    q.col, q.row, q.elevation, q.prominence, t.peaks[ip].elevation, prom[ip], dp, ds
+                );
+            }
+        }
+    }
+    for (i, p) in t.peaks.iter().enumerate() {
+        if !hit[i] {
+            println!(
+                "    lost tree peak {i}: {:.1} m, prom {:.1}",
+                p.elevation, prom[i]
+            );
+        }
+    }
 }
 
 /// The profile of a shared real DEM (None: the data are absent).
@@ -575,20 +636,21 @@ fn distributions_match_the_low_relief_profile() {
     let Some((worst, mean)) = terrain_errors(DALLAS.0, DALLAS.1) else {
         return;
     };
-    // Measured after the streamed TIN render (session 5, seeds 1-6):
-    // isolation 3.2-8.4 % (seed 4 is the one over the paper's 8 %), 4.6 %
-    // mean; prominence 0.1-1.7 %; dominance 2.6-5.1 %, 4.1 % mean (over the
-    // paper's 3 %: the tree's own topology, see docs/notes/oro_dist.md).
+    // Measured with the ridge contrast 5 (session 5, seeds 1-6,
+    // docs/notes/oro_dallas.md): isolation 3.4-7.7 %, 5.3 % mean; prominence
+    // 0.1-0.5 %; dominance 0.9-3.0 %, 1.8 % mean (the paper: isolation ≤ 8 %,
+    // prominence and dominance ≤ 3 %). With the paper's ridge weights:
+    // isolation up to 8.4 %, dominance 4.1 % mean, 5.1 % worst.
     assert!(
-        worst[0] <= 0.09 && mean[0] <= 0.055,
+        worst[0] <= 0.08 && mean[0] <= 0.056,
         "isolation {mean:?} {worst:?}"
     );
     assert!(
-        worst[1] <= 0.025 && mean[1] <= 0.012,
+        worst[1] <= 0.01 && mean[1] <= 0.006,
         "prominence {mean:?} {worst:?}"
     );
     assert!(
-        worst[2] <= 0.06 && mean[2] <= 0.047,
+        worst[2] <= 0.033 && mean[2] <= 0.021,
         "dominance {mean:?} {worst:?}"
     );
 }
@@ -615,8 +677,48 @@ fn saddle_refinement_lowers_the_tree_errors() {
     }
 }
 
+/// The ridge contrast leaves a contrasted profile (Mont Blanc, 876-4810 m)
+/// on the paper's weights (same tree as contrast 1) and changes the ridges
+/// of the low-relief one (Dallas, 165-298 m), lowering its tree dominance
+/// error (measured 0.6 % vs 3.0 % at seed 3); values below 1 are refused.
+#[test]
+fn ridge_contrast_only_changes_low_relief_trees() {
+    for (name, thr) in [ALPS, DALLAS] {
+        let Some((g, geo, prof)) = real_profile(name, thr) else {
+            return;
+        };
+        let (w, h) = (g.width(), g.height());
+        let (sx, sy) = geo.cell_size_m(h as i64 / 2);
+        let mut o = TreeOptions::new(w, h, (sx * sy).sqrt(), 3);
+        let def = synthesize_tree(&prof, &o).unwrap();
+        o.ridge_contrast = 1.0;
+        let paper = synthesize_tree(&prof, &o).unwrap();
+        let dom_err = |t: &SynthTree| {
+            let d: Vec<f64> = t
+                .prominences()
+                .iter()
+                .zip(&t.peaks)
+                .map(|(p, q)| p / q.elevation)
+                .collect();
+            prof.dominance.error_against(&d)
+        };
+        if name == ALPS.0 {
+            assert_eq!(def.to_json(), paper.to_json());
+        } else {
+            assert_ne!(def.edges(), paper.edges());
+            let (a, b) = (dom_err(&def), dom_err(&paper));
+            assert!(a <= 0.01 && b >= 0.02, "dominance {a} vs {b}");
+        }
+        o.ridge_contrast = 0.5;
+        let e = synthesize_tree(&prof, &o).unwrap_err().to_string();
+        assert!(e.contains("ridge_contrast"), "{e}");
+    }
+}
+
 /// Measurement harness (not a check): tree and terrain errors per seed.
-/// `ORO_SEEDS=n`, `ORO_ONLY=substring`, `ORO_STRETCH=x` (isolation stretch).
+/// `ORO_SEEDS=n`, `ORO_ONLY=substring`, `ORO_STRETCH=x` (isolation stretch),
+/// `ORO_CONTRAST=c` (ridge contrast; 1: the paper's weights), `ORO_DIAG=1`
+/// (peak counts) or `2` (also the spurious and lost peaks).
 #[test]
 #[ignore]
 fn measure_distribution_errors() {
