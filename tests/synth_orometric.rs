@@ -744,3 +744,66 @@ fn measure_distribution_errors() {
         }
     }
 }
+
+/// `--ridge-contrast` and `--no-refine` reach the library: the CLI trees equal
+/// `synthesize_tree` with the same options, and a contrast below 1 is refused.
+#[test]
+fn cli_ridge_contrast_and_no_refine_reach_the_library() {
+    let exe = env!("CARGO_BIN_EXE_orogen");
+    let dir = tempfile::tempdir().unwrap();
+    let prof_path =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("configs/profiles/lowrelief_dallas.json");
+    let prof = SynthProfile::load(&prof_path).unwrap();
+    let run = |extra: &[&str], name: &str| {
+        let out = dir.path().join(name);
+        let st = Command::new(exe)
+            .args(["synth", "divide-tree", "--profile"])
+            .arg(&prof_path)
+            .args(["--size", "300x300", "--cell", "90", "--seed", "2", "-o"])
+            .arg(&out)
+            .args(extra)
+            .output()
+            .unwrap();
+        (st, out)
+    };
+    let mut seen = Vec::new();
+    for (extra, contrast, refine) in [
+        (vec![], tree_synth::DEFAULT_RIDGE_CONTRAST, true),
+        (vec!["--ridge-contrast", "1"], 1.0, true),
+        (
+            vec!["--no-refine"],
+            tree_synth::DEFAULT_RIDGE_CONTRAST,
+            false,
+        ),
+    ] {
+        let (st, out) = run(&extra, "t.json");
+        assert!(
+            st.status.success(),
+            "{}",
+            String::from_utf8_lossy(&st.stderr)
+        );
+        let mut o = TreeOptions::new(300, 300, 90.0, 2);
+        o.ridge_contrast = contrast;
+        o.refine = refine;
+        let want = synthesize_tree(&prof, &o).unwrap();
+        let got = SynthTree::load(&out).unwrap();
+        assert_eq!(got.peaks.len(), want.peaks.len(), "{extra:?}");
+        for (a, b) in got.peaks.iter().zip(&want.peaks) {
+            assert_eq!(
+                (a.x, a.y, a.elevation),
+                (b.x, b.y, b.elevation),
+                "{extra:?}"
+            );
+        }
+        for (a, b) in got.saddles.iter().zip(&want.saddles) {
+            assert_eq!(a.elevation, b.elevation, "{extra:?}");
+        }
+        seen.push(std::fs::read(&out).unwrap());
+    }
+    // Each option changes the tree (else this test could not fail).
+    assert_ne!(seen[0], seen[1], "--ridge-contrast 1 gave the default tree");
+    assert_ne!(seen[0], seen[2], "--no-refine gave the default tree");
+    let (st, _) = run(&["--ridge-contrast", "0.5"], "bad.json");
+    assert!(!st.status.success());
+    assert!(String::from_utf8_lossy(&st.stderr).contains("contrast"));
+}

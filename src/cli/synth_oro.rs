@@ -71,6 +71,15 @@ pub struct TreeArgs {
     /// terrain's higher ground is nearer than the higher summit).
     #[arg(long, default_value_t = orogen::synth::orometric::tree_synth::DEFAULT_ISOLATION_STRETCH)]
     pub isolation_stretch: f64,
+    /// Least relief contrast of the ridge weights (1 = the paper's
+    /// ‖Pi−Pj‖ / min(h)^ρ; larger measures elevations above a base so that
+    /// low-relief regions still route ridges through higher peaks).
+    #[arg(long, default_value_t = orogen::synth::orometric::tree_synth::DEFAULT_RIDGE_CONTRAST)]
+    pub ridge_contrast: f64,
+    /// Skip the local search on saddle heights after the assignment (the
+    /// paper's method alone).
+    #[arg(long)]
+    pub no_refine: bool,
     // Multi-pass placement and authoring (Argudo et al. 2019 §5, §7).
     /// Placement passes by prominence bins: the most prominent bin first,
     /// each next bin about twice as many peaks; 1 = one pass.
@@ -324,6 +333,8 @@ fn make_tree(t: &TreeArgs) -> Result<SynthTree> {
     o.n_peaks = t.peaks;
     o.rho = t.rho;
     o.isolation_stretch = t.isolation_stretch;
+    o.ridge_contrast = t.ridge_contrast;
+    o.refine = !t.no_refine;
     if let Some(p) = &t.density_map {
         o.density_map = Some(read_map(p)?);
     }
