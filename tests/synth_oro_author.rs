@@ -4,35 +4,12 @@
 //! `orogen peaks` (the `oro` module, no code shared with the synthesis) on
 //! the rendered terrain, brute-force tree definitions, real DEM profiles.
 
+mod oro_common;
+use oro_common::*;
 use orogen::io::{open_raster, OpenOptions};
 use orogen::raster::{read_window, GeoRef, Grid, Window};
 use orogen::synth::orometric::*;
 use std::path::PathBuf;
-
-/// A real DEM: the copy in `tests/data/oro/` (so `cargo test` needs nothing
-/// outside the repository), else `../shared/data/`.
-fn shared(name: &str) -> Option<PathBuf> {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    let local = root.join("tests/data/oro").join(name);
-    if local.exists() {
-        return Some(local);
-    }
-    let p = root.join("../shared/data").join(name);
-    if p.exists() {
-        Some(p)
-    } else {
-        println!("note: {} absent, real-data check skipped", p.display());
-        None
-    }
-}
-
-fn load(name: &str) -> Option<(Grid<f32>, GeoRef)> {
-    let p = shared(name)?;
-    let src = open_raster(&p, &OpenOptions::default()).unwrap();
-    let (w, h) = (src.info().width, src.info().height);
-    let g = read_window::<f32>(&*src, Window::full(w, h)).unwrap();
-    Some((g, src.info().georef.clone()))
-}
 
 fn cell_of(geo: &GeoRef, h: usize) -> f64 {
     let (sx, sy) = geo.cell_size_m(h as i64 / 2);
@@ -111,42 +88,6 @@ fn toy_profile(shift: f64) -> SynthProfile {
     }
     s.area_km2 = 300.0 / 0.25;
     SynthProfile::from_samples(&[s], 30.0, "toy", vec!["hand".into()]).unwrap()
-}
-
-/// Prominence by definition: h − the highest, over higher peaks (ties:
-/// lower index is higher), of the lowest saddle on the tree path.
-fn brute_prominence(t: &SynthTree) -> Vec<f64> {
-    let n = t.peaks.len();
-    let mut adj = vec![Vec::new(); n];
-    for s in &t.saddles {
-        adj[s.peaks[0]].push((s.peaks[1], s.elevation));
-        adj[s.peaks[1]].push((s.peaks[0], s.elevation));
-    }
-    let h: Vec<f64> = t.peaks.iter().map(|p| p.elevation).collect();
-    (0..n)
-        .map(|i| {
-            let mut minv = vec![f64::NAN; n];
-            minv[i] = f64::INFINITY;
-            let mut stack = vec![i];
-            while let Some(a) = stack.pop() {
-                for &(b, z) in &adj[a] {
-                    if minv[b].is_nan() {
-                        minv[b] = minv[a].min(z);
-                        stack.push(b);
-                    }
-                }
-            }
-            let best = (0..n)
-                .filter(|&j| h[j] > h[i] || (h[j] == h[i] && j < i))
-                .map(|j| minv[j])
-                .fold(f64::NEG_INFINITY, f64::max);
-            if best.is_finite() {
-                h[i] - best
-            } else {
-                h[i]
-            }
-        })
-        .collect()
 }
 
 fn peaks_of(dem: &Grid<f32>, geo: &GeoRef, thr: f64) -> orogen::oro::DivideTree {

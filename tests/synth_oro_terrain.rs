@@ -4,33 +4,13 @@
 //! synthesis) on the render, `hydro::fill`, the domain area, windows against
 //! the whole render, and the profiles of real DEMs.
 
+mod oro_common;
+use oro_common::*;
 use orogen::io::{open_raster, OpenOptions};
-use orogen::oro::stats::SplitMix64;
 use orogen::oro::{EdgeConvention, PeakOptions};
 use orogen::raster::{read_window, Grid, Window};
 use orogen::synth::orometric::*;
-use std::path::PathBuf;
 use std::process::Command;
-
-/// A profile from hand-made peak values (no DEM needed).
-fn toy_profile() -> SynthProfile {
-    let mut r = SplitMix64(99);
-    let mut s = PeakSamples::default();
-    for _ in 0..400 {
-        let u = r.unit();
-        let e = 600.0 + 1400.0 * u;
-        let p = 30.0 + 500.0 * r.unit().powi(3) * u;
-        s.elevation.push(e);
-        s.prominence.push(p);
-        s.dominance.push(p / e);
-        s.isolation_km.push(0.3 + 2.5 * r.unit().powi(2));
-        s.isolation_dir.push((r.unit() * 8.0).floor());
-        s.saddle_km.push(0.2 + 1.5 * r.unit());
-        s.saddle_dir.push((r.unit() * 8.0).floor());
-    }
-    s.area_km2 = 400.0 / 0.25;
-    SynthProfile::from_samples(&[s], 30.0, "toy", vec!["hand".into()]).unwrap()
-}
 
 fn toy_tree(w: usize, h: usize, peaks: usize, seed: u64) -> SynthTree {
     let mut o = TreeOptions::new(w, h, 50.0, seed);
@@ -364,23 +344,6 @@ fn bad_terrain_options_are_refused() {
     big.width = 2_000_000;
     big.height = 2_000_000;
     assert!(TinTerrain::new(&big, &tin_opts(0.0)).is_err());
-}
-
-/// A real DEM: the copy in `tests/data/oro/` (so `cargo test` needs nothing
-/// outside the repository), else `../shared/data/`.
-fn shared(name: &str) -> Option<PathBuf> {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    let local = root.join("tests/data/oro").join(name);
-    if local.exists() {
-        return Some(local);
-    }
-    let p = root.join("../shared/data").join(name);
-    if p.exists() {
-        Some(p)
-    } else {
-        println!("note: {} absent, real-data check skipped", p.display());
-        None
-    }
 }
 
 /// Profile of a real DEM, synthesis of the same size with the TIN model,

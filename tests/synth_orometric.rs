@@ -3,97 +3,14 @@
 //! (the `oro` module, which shares no code with the synthesis) run on the
 //! synthesised terrain, and the profiles of real DEMs.
 
+mod oro_common;
+use oro_common::*;
 use orogen::io::{open_raster, OpenOptions};
-use orogen::oro::stats::SplitMix64;
 use orogen::oro::{EdgeConvention, PeakOptions};
 use orogen::raster::{read_window, GeoRef, Grid, Window};
 use orogen::synth::orometric::*;
 use std::path::PathBuf;
 use std::process::Command;
-
-/// A real DEM: the copy in `tests/data/oro/` (so `cargo test` needs nothing
-/// outside the repository), else `../shared/data/`.
-fn shared(name: &str) -> Option<PathBuf> {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    let local = root.join("tests/data/oro").join(name);
-    if local.exists() {
-        return Some(local);
-    }
-    let p = root.join("../shared/data").join(name);
-    if p.exists() {
-        Some(p)
-    } else {
-        println!("note: {} absent, real-data check skipped", p.display());
-        None
-    }
-}
-
-fn load(name: &str) -> Option<(Grid<f32>, GeoRef)> {
-    let p = shared(name)?;
-    let src = open_raster(&p, &OpenOptions::default()).unwrap();
-    let (w, h) = (src.info().width, src.info().height);
-    let g = read_window::<f32>(&*src, Window::full(w, h)).unwrap();
-    Some((g, src.info().georef.clone()))
-}
-
-/// A profile from hand-made peak values (no DEM needed).
-fn toy_profile() -> SynthProfile {
-    let mut r = SplitMix64(99);
-    let mut s = PeakSamples::default();
-    for _ in 0..400 {
-        let u = r.unit();
-        let e = 600.0 + 1400.0 * u;
-        let p = 30.0 + 500.0 * r.unit().powi(3) * u;
-        s.elevation.push(e);
-        s.prominence.push(p);
-        s.dominance.push(p / e);
-        s.isolation_km.push(0.3 + 2.5 * r.unit().powi(2));
-        s.isolation_dir.push((r.unit() * 8.0).floor());
-        s.saddle_km.push(0.2 + 1.5 * r.unit());
-        s.saddle_dir.push((r.unit() * 8.0).floor());
-    }
-    s.area_km2 = 400.0 / 0.25;
-    SynthProfile::from_samples(&[s], 30.0, "toy", vec!["hand".into()]).unwrap()
-}
-
-/// Prominence by definition: h − the highest, over strictly higher peaks
-/// (ties: lower index is higher), of the lowest saddle on the tree path.
-fn brute_prominence(t: &SynthTree) -> Vec<f64> {
-    let n = t.peaks.len();
-    let mut adj = vec![Vec::new(); n];
-    for s in &t.saddles {
-        adj[s.peaks[0]].push((s.peaks[1], s.elevation));
-        adj[s.peaks[1]].push((s.peaks[0], s.elevation));
-    }
-    let h: Vec<f64> = t.peaks.iter().map(|p| p.elevation).collect();
-    (0..n)
-        .map(|i| {
-            // Path minima from i to every peak (DFS on the tree).
-            let mut minv = vec![f64::NAN; n];
-            minv[i] = f64::INFINITY;
-            let mut stack = vec![i];
-            while let Some(a) = stack.pop() {
-                for &(b, z) in &adj[a] {
-                    if minv[b].is_nan() {
-                        minv[b] = minv[a].min(z);
-                        stack.push(b);
-                    }
-                }
-            }
-            let mut best = f64::NEG_INFINITY;
-            for j in 0..n {
-                if h[j] > h[i] || (h[j] == h[i] && j < i) {
-                    best = best.max(minv[j]);
-                }
-            }
-            if best.is_finite() {
-                h[i] - best
-            } else {
-                h[i]
-            }
-        })
-        .collect()
-}
 
 #[test]
 fn tree_prominences_match_the_definition() {
@@ -477,12 +394,6 @@ fn split_errors(
     let cell = (sx * sy).sqrt();
     let mut o = TreeOptions::new(w, h, cell, seed);
     o.refine = refine;
-    if let Ok(v) = std::env::var("ORO_STRETCH") {
-        o.isolation_stretch = v.parse().unwrap();
-    }
-    if let Ok(v) = std::env::var("ORO_CONTRAST") {
-        o.ridge_contrast = v.parse().unwrap();
-    }
     let t = synthesize_tree(prof, &o).unwrap();
     let pr = t.prominences();
     // Every non-root peak keeps the threshold.
@@ -508,77 +419,10 @@ fn split_errors(
     let dem = read_window::<f32>(&*ter, Window::full(w, h)).unwrap();
     let s = PeakSamples::of_dem(&dem, &ter.info().georef, prof.min_prominence).unwrap();
     let e = prof.errors(&s);
-    if std::env::var("ORO_DIAG").as_deref() == Ok("2") {
-        spurious_peaks(&t, &dem, &ter.info().georef);
-    }
-    if std::env::var("ORO_DIAG").is_ok() {
-        println!(
-            "  seed {seed}: {} tree peaks, {} terrain peaks, density error {:.3}, elevation {:.3}",
-            t.peaks.len(),
-            s.elevation.len(),
-            e["peak_density"],
-            e["elevation"]
-        );
-    }
     (
         tree,
         Some([e["isolation_km"], e["prominence"], e["dominance"]]),
     )
-}
-
-/// Diagnosis (`ORO_DIAG=2`): terrain peaks above the threshold that match
-/// no tree peak within a cell, with their prominence and the distance to
-/// the nearest tree peak and saddle; tree peaks not found.
-fn spurious_peaks(t: &SynthTree, dem: &Grid<f32>, geo: &GeoRef) {
-    let found = orogen::oro::peaks(
-        dem,
-        geo,
-        &PeakOptions {
-            min_prominence: t.min_prominence,
-            convention: EdgeConvention::SeaLevel,
-            isolation: false,
-        },
-    )
-    .unwrap()
-    .tree;
-    let cellof = |x: f64, y: f64| ((x / t.cell) as i64, (y / t.cell) as i64);
-    let prom = t.prominences();
-    let mut hit = vec![false; t.peaks.len()];
-    for q in &found.peaks {
-        let m = t.peaks.iter().position(|p| {
-            let (c, r) = cellof(p.x, p.y);
-            (q.col as i64 - c).abs() <= 1 && (q.row as i64 - r).abs() <= 1
-        });
-        match m {
-            Some(i) => hit[i] = true,
-            None => {
-                let (qx, qy) = ((q.col as f64 + 0.5) * t.cell, (q.row as f64 + 0.5) * t.cell);
-                let (dp, ip) = t
-                    .peaks
-                    .iter()
-                    .enumerate()
-                    .map(|(i, p)| ((p.x - qx).hypot(p.y - qy), i))
-                    .fold((f64::INFINITY, 0), |a, b| if b.0 < a.0 { b } else { a });
-                let ds = t
-                    .saddles
-                    .iter()
-                    .map(|s| (s.x - qx).hypot(s.y - qy))
-                    .fold(f64::INFINITY, f64::min);
-                println!(
-                    "    spurious ({}, {}) h {:.1} prom {:.1}; nearest tree peak {ip} ({:.1} m, prom {:.1}) at {:.0} m, saddle at {:.0} m",
-                    q.col, q.row, q.elevation, q.prominence, t.peaks[ip].elevation, prom[ip], dp, ds
-                );
-            }
-        }
-    }
-    for (i, p) in t.peaks.iter().enumerate() {
-        if !hit[i] {
-            println!(
-                "    lost tree peak {i}: {:.1} m, prom {:.1}",
-                p.elevation, prom[i]
-            );
-        }
-    }
 }
 
 /// The profile of a shared real DEM (None: the data are absent).
@@ -712,36 +556,6 @@ fn ridge_contrast_only_changes_low_relief_trees() {
         o.ridge_contrast = 0.5;
         let e = synthesize_tree(&prof, &o).unwrap_err().to_string();
         assert!(e.contains("ridge_contrast"), "{e}");
-    }
-}
-
-/// Measurement harness (not a check): tree and terrain errors per seed.
-/// `ORO_SEEDS=n`, `ORO_ONLY=substring`, `ORO_STRETCH=x` (isolation stretch),
-/// `ORO_CONTRAST=c` (ridge contrast; 1: the paper's weights), `ORO_DIAG=1`
-/// (peak counts) or `2` (also the spurious and lost peaks).
-#[test]
-#[ignore]
-fn measure_distribution_errors() {
-    let seeds: u64 = std::env::var("ORO_SEEDS").map_or(5, |v| v.parse().unwrap());
-    let only = std::env::var("ORO_ONLY").unwrap_or_default();
-    for (name, thr) in [ALPS, DALLAS] {
-        if !name.contains(&only) {
-            continue;
-        }
-        let Some((g, geo, prof)) = real_profile(name, thr) else {
-            return;
-        };
-        for seed in 1..=seeds {
-            for refine in [false, true] {
-                let t0 = std::time::Instant::now();
-                let (a, b) = split_errors(&g, &geo, &prof, seed, refine, true);
-                println!(
-                    "{name} seed {seed} refine {refine}: tree {a:.3?} | terrain {:.3?} ({:.1} s)",
-                    b.unwrap(),
-                    t0.elapsed().as_secs_f64()
-                );
-            }
-        }
     }
 }
 
