@@ -276,6 +276,22 @@ fn cell_values(sf: &ScaleFactors, i: usize) -> Option<[f64; NF]> {
     (!v[0].is_nan()).then_some(v)
 }
 
+/// The one input view and the one output grid of an `apply`, or an error
+/// naming the step (`what`) when the engine passed none.
+fn one_in_out<'a, 'b>(
+    inputs: &'a [TileView<f32>],
+    out: &'b mut [Grid<f32>],
+    what: &str,
+) -> Result<(&'a TileView<f32>, &'b mut Grid<f32>)> {
+    let view = inputs
+        .first()
+        .ok_or_else(|| Error::invalid(format!("{what} needs one input")))?;
+    let o = out
+        .first_mut()
+        .ok_or_else(|| Error::invalid(format!("{what}: no output")))?;
+    Ok((view, o))
+}
+
 impl GlobalStep for PeakStats {
     type In = f32;
     type Out = f32;
@@ -405,12 +421,7 @@ impl GlobalStep for PeakStats {
         slice: &Self::Slice,
         out: &mut [Grid<f32>],
     ) -> Result<()> {
-        let view = inputs
-            .first()
-            .ok_or_else(|| Error::invalid("peak prototypicality needs one input"))?;
-        let o = out
-            .first_mut()
-            .ok_or_else(|| Error::invalid("peak prototypicality: no output"))?;
+        let (view, o) = one_in_out(inputs, out, "peak prototypicality")?;
         let wsum: f64 = WEIGHTS.iter().sum();
         let mut acc = vec![0.0f64; view.core.w * view.core.h];
         let mut valid = vec![true; acc.len()];
@@ -535,12 +546,7 @@ impl GlobalStep for PeakSimilarity {
         slice: &Self::Slice,
         out: &mut [Grid<f32>],
     ) -> Result<()> {
-        let view = inputs
-            .first()
-            .ok_or_else(|| Error::invalid("peakedness_dw needs one input"))?;
-        let o = out
-            .first_mut()
-            .ok_or_else(|| Error::invalid("peakedness_dw: no output"))?;
+        let (view, o) = one_in_out(inputs, out, "peakedness_dw")?;
         let ds = self.distances(view)?;
         let used: Vec<usize> = (0..SCALES.len().min(self.stats.len()))
             .filter(|&s| self.stats[s].centroid.is_some())
