@@ -293,25 +293,7 @@ impl StreamPower {
                 if flags[i] & VALID == 0 {
                     continue;
                 }
-                let mut base = (b.north && y == 0)
-                    || (b.south && y + 1 == ht)
-                    || (b.west && x == 0)
-                    || (b.east && x + 1 == w);
-                if !base {
-                    for d in 0..8 {
-                        let (nx, ny) = (x as isize + DX[d], y as isize + DY[d]);
-                        if nx >= 0
-                            && ny >= 0
-                            && (nx as usize) < w
-                            && (ny as usize) < ht
-                            && flags[ny as usize * w + nx as usize] & VALID == 0
-                        {
-                            base = true;
-                            break;
-                        }
-                    }
-                }
-                if base {
+                if is_base(&b, x, y, w, ht, |_, nx, ny| flags[ny * w + nx] & VALID == 0) {
                     flags[i] |= BASE;
                     nbase += 1;
                 }
@@ -932,6 +914,35 @@ impl StreamPower {
         }
         Ok(())
     }
+}
+
+/// Whether the valid cell `(x, y)` of a `w` x `h` raster is a base level
+/// (see the module doc): on a border selected in `b`, or 8-adjacent to a cell
+/// inside the raster for which `invalid(d, nx, ny)` (direction `d`, neighbour
+/// `(nx, ny)`) holds.
+pub(crate) fn is_base(
+    b: &Boundary,
+    x: usize,
+    y: usize,
+    w: usize,
+    h: usize,
+    mut invalid: impl FnMut(usize, usize, usize) -> bool,
+) -> bool {
+    if (b.north && y == 0)
+        || (b.south && y + 1 == h)
+        || (b.west && x == 0)
+        || (b.east && x + 1 == w)
+    {
+        return true;
+    }
+    (0..8).any(|d| {
+        let (nx, ny) = (x as isize + DX[d], y as isize + DY[d]);
+        nx >= 0
+            && ny >= 0
+            && (nx as usize) < w
+            && (ny as usize) < h
+            && invalid(d, nx as usize, ny as usize)
+    })
 }
 
 /// Solve `x − hs + c·((x − hr)/d)^n = 0` for `x` in `(hr, hs]` (`c = K·dt·A^m`).

@@ -43,7 +43,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::stream_power::{
-    newton, order_key, BaseHeight, Depressions, StreamPowerParams, BASE, DX, DY,
+    is_base, newton, order_key, BaseHeight, Depressions, StreamPowerParams, BASE, DX, DY,
     MAX_DIFFUSION_SUBSTEPS, VALID,
 };
 use crate::error::{Error, IoContext, Result};
@@ -411,25 +411,7 @@ impl Solver {
                         continue;
                     }
                     let mut f = VALID;
-                    let mut base = (b.north && gy == 0)
-                        || (b.south && gy + 1 == ht)
-                        || (b.west && gx == 0)
-                        || (b.east && gx + 1 == w);
-                    if !base {
-                        for d in 0..8 {
-                            let (nx, ny) = (gx as isize + DX[d], gy as isize + DY[d]);
-                            if nx >= 0
-                                && ny >= 0
-                                && (nx as usize) < w
-                                && (ny as usize) < ht
-                                && !pv[pd.nb(q, d)].is_finite()
-                            {
-                                base = true;
-                                break;
-                            }
-                        }
-                    }
-                    if base {
+                    if is_base(&b, gx, gy, w, ht, |d, _, _| !pv[pd.nb(q, d)].is_finite()) {
                         f |= BASE;
                         nbase += 1;
                         if p.base_height == BaseHeight::Zero {
@@ -617,6 +599,45 @@ impl Solver {
                         }
                     }
                 }
+            }
+        }
+        self.stats.max_round = self.stats.max_round.max(npass);
+        Ok(())
+    }
+
+    /// Sweep the incomplete tiles in id order, round after round, until all
+    /// are complete. `pass(id)` reports whether it published anything new on
+    /// the tile's perimeter and whether the tile is now complete; a round in
+    /// which no tile did either means the receiver graph has a cycle.
+    fn sweeps(&mut self, mut pass: impl FnMut(&mut Solver, TileId) -> Result<Swept>) -> Result<()> {
+        let nt = self.lay.count();
+        let mut complete = vec![false; nt];
+        let mut npass = 0u64;
+        loop {
+            npass += 1;
+            let mut progress = false;
+            let mut all = true;
+            for id in 0..nt {
+                if complete[id] {
+                    continue;
+                }
+                self.stats.passes += 1;
+                let swept = pass(self, id)?;
+                progress |= swept.progress;
+                if swept.complete {
+                    complete[id] = true;
+                    progress = true;
+                } else {
+                    all = false;
+                }
+            }
+            if all {
+                break;
+            }
+            if !progress {
+                return Err(Error::invalid(
+                    "stream power (tiled): the receiver graph has a cycle; this is a bug, please report it",
+                ));
             }
         }
         self.stats.max_round = self.stats.max_round.max(npass);
@@ -878,115 +899,92 @@ impl Solver {
         for e in self.edges.iter_mut() {
             e.cnt.iter_mut().for_each(|v| *v = f64::NAN);
         }
-        let nt = self.lay.count();
-        let mut complete = vec![false; nt];
         let ca = self.cell * self.cell;
         let mut pend: Vec<u32> = Vec::new();
         let mut stack: Vec<u32> = Vec::new();
-        let mut npass = 0u64;
-        loop {
-            npass += 1;
+        self.sweeps(|s, id| {
             let mut progress = false;
-            let mut all = true;
-            for id in 0..nt {
-                if complete[id] {
+            let win = s.lay.window(id);
+            let pd = Pad::new(win);
+            let mut t = s.store.take(id, &s.lay)?;
+            let dirp = s.pad(&pd, &t.dir, |e, k| e.dir[k], NONE);
+            let cntp = s.pad(&pd, &vec![0.0; t.h.len()], |e, k| e.cnt[k], f64::NAN);
+            let n = t.h.len();
+            pend.clear();
+            pend.resize(n, 0);
+            for i in 0..n {
+                t.area[i] = if t.flags[i] & VALID != 0 { 1.0 } else { 0.0 };
+            }
+            for y in 0..pd.h {
+                for x in 0..pd.w {
+                    let i = y * pd.w + x;
+                    let q = pd.at(x, y);
+                    if t.dir[i] != NONE {
+                        if let Some(r) = pd.core(pd.nb(q, t.dir[i] as usize)) {
+                            pend[r] += 1;
+                        }
+                    }
+                    // Donors in the ring (other tiles) pointing at this cell.
+                    if x == 0 || y == 0 || x + 1 == pd.w || y + 1 == pd.h {
+                        for d in 0..8 {
+                            let j = pd.nb(q, d);
+                            if pd.core(j).is_some() || dirp[j] == NONE {
+                                continue;
+                            }
+                            if pd.nb(j, dirp[j] as usize) != q {
+                                continue;
+                            }
+                            if cntp[j].is_nan() {
+                                pend[i] += 1;
+                            } else {
+                                t.area[i] += cntp[j];
+                            }
+                        }
+                    }
+                }
+            }
+            stack.clear();
+            for i in 0..n {
+                if pend[i] == 0 {
+                    stack.push(i as u32);
+                }
+            }
+            let mut nfinal = 0usize;
+            for v in t.done.iter_mut() {
+                *v = 0;
+            }
+            while let Some(c) = stack.pop() {
+                let c = c as usize;
+                t.done[c] = 1;
+                nfinal += 1;
+                if t.dir[c] == NONE {
                     continue;
                 }
-                self.stats.passes += 1;
-                let win = self.lay.window(id);
-                let pd = Pad::new(win);
-                let mut t = self.store.take(id, &self.lay)?;
-                let dirp = self.pad(&pd, &t.dir, |e, k| e.dir[k], NONE);
-                let cntp = self.pad(&pd, &vec![0.0; t.h.len()], |e, k| e.cnt[k], f64::NAN);
-                let n = t.h.len();
-                pend.clear();
-                pend.resize(n, 0);
-                for i in 0..n {
-                    t.area[i] = if t.flags[i] & VALID != 0 { 1.0 } else { 0.0 };
-                }
-                for y in 0..pd.h {
-                    for x in 0..pd.w {
-                        let i = y * pd.w + x;
-                        let q = pd.at(x, y);
-                        if t.dir[i] != NONE {
-                            if let Some(r) = pd.core(pd.nb(q, t.dir[i] as usize)) {
-                                pend[r] += 1;
-                            }
-                        }
-                        // Donors in the ring (other tiles) pointing at this cell.
-                        if x == 0 || y == 0 || x + 1 == pd.w || y + 1 == pd.h {
-                            for d in 0..8 {
-                                let j = pd.nb(q, d);
-                                if pd.core(j).is_some() || dirp[j] == NONE {
-                                    continue;
-                                }
-                                if pd.nb(j, dirp[j] as usize) != q {
-                                    continue;
-                                }
-                                if cntp[j].is_nan() {
-                                    pend[i] += 1;
-                                } else {
-                                    t.area[i] += cntp[j];
-                                }
-                            }
-                        }
+                let q = pd.at(c % pd.w, c / pd.w);
+                if let Some(r) = pd.core(pd.nb(q, t.dir[c] as usize)) {
+                    t.area[r] += t.area[c];
+                    pend[r] -= 1;
+                    if pend[r] == 0 {
+                        stack.push(r as u32);
                     }
                 }
-                stack.clear();
-                for i in 0..n {
-                    if pend[i] == 0 {
-                        stack.push(i as u32);
-                    }
-                }
-                let mut nfinal = 0usize;
-                for v in t.done.iter_mut() {
-                    *v = 0;
-                }
-                while let Some(c) = stack.pop() {
-                    let c = c as usize;
-                    t.done[c] = 1;
-                    nfinal += 1;
-                    if t.dir[c] == NONE {
-                        continue;
-                    }
-                    let q = pd.at(c % pd.w, c / pd.w);
-                    if let Some(r) = pd.core(pd.nb(q, t.dir[c] as usize)) {
-                        t.area[r] += t.area[c];
-                        pend[r] -= 1;
-                        if pend[r] == 0 {
-                            stack.push(r as u32);
-                        }
-                    }
-                }
-                let e = &mut self.edges[id];
-                for_perimeter(win.w, win.h, |i, k| {
-                    if t.done[i] == 1 && e.cnt[k].is_nan() {
-                        e.cnt[k] = t.area[i];
-                        progress = true;
-                    }
-                });
-                if nfinal == n {
-                    complete[id] = true;
+            }
+            let e = &mut s.edges[id];
+            for_perimeter(win.w, win.h, |i, k| {
+                if t.done[i] == 1 && e.cnt[k].is_nan() {
+                    e.cnt[k] = t.area[i];
                     progress = true;
-                    for a in t.area.iter_mut() {
-                        *a *= ca;
-                    }
-                } else {
-                    all = false;
                 }
-                self.store.put(id, t)?;
+            });
+            let complete = nfinal == n;
+            if complete {
+                for a in t.area.iter_mut() {
+                    *a *= ca;
+                }
             }
-            if all {
-                break;
-            }
-            if !progress {
-                return Err(Error::invalid(
-                    "stream power (tiled): the receiver graph has a cycle; this is a bug, please report it",
-                ));
-            }
-        }
-        self.stats.max_round = self.stats.max_round.max(npass);
-        Ok(())
+            s.store.put(id, t)?;
+            Ok(Swept { progress, complete })
+        })
     }
 
     /// Implicit update in rounds (see the module doc).
@@ -997,10 +995,7 @@ impl Solver {
         for e in self.edges.iter_mut() {
             e.hn_ok.iter_mut().for_each(|v| *v = false);
         }
-        let nt = self.lay.count();
-        let mut complete = vec![false; nt];
         let mut work: Vec<u32> = Vec::new();
-        let mut npass = 0u64;
         // Solve cell i given its receiver's new height.
         let solve = |t: &mut Tile, i: usize, hr: f64| {
             let hs = t.h[i];
@@ -1016,116 +1011,96 @@ impl Solver {
                 t.h[i] = newton(hs, hr, d, c, n);
             }
         };
-        for t_id in 0..nt {
+        for t_id in 0..self.lay.count() {
             let mut t = self.store.take(t_id, &self.lay)?;
             t.done.iter_mut().for_each(|v| *v = 0);
             self.store.put(t_id, t)?;
         }
-        loop {
-            npass += 1;
+        self.sweeps(|s, id| {
             let mut progress = false;
-            let mut all = true;
-            for id in 0..nt {
-                if complete[id] {
+            let win = s.lay.window(id);
+            let pd = Pad::new(win);
+            let mut t = s.store.take(id, &s.lay)?;
+            let nc = t.h.len();
+            let hnp = s.pad(
+                &pd,
+                &vec![f64::NAN; nc],
+                |e, k| {
+                    if e.hn_ok[k] {
+                        e.hn[k]
+                    } else {
+                        f64::NAN
+                    }
+                },
+                f64::NAN,
+            );
+            let okp = s.pad(&pd, &vec![false; nc], |e, k| e.hn_ok[k], false);
+            work.clear();
+            for i in 0..nc {
+                if t.done[i] != 0 {
                     continue;
                 }
-                self.stats.passes += 1;
-                let win = self.lay.window(id);
-                let pd = Pad::new(win);
-                let mut t = self.store.take(id, &self.lay)?;
-                let nc = t.h.len();
-                let hnp = self.pad(
-                    &pd,
-                    &vec![f64::NAN; nc],
-                    |e, k| {
-                        if e.hn_ok[k] {
-                            e.hn[k]
-                        } else {
-                            f64::NAN
+                if t.dir[i] == NONE || t.flags[i] != VALID {
+                    t.done[i] = 1;
+                    work.push(i as u32);
+                    continue;
+                }
+                let q = pd.at(i % pd.w, i / pd.w);
+                let rq = pd.nb(q, t.dir[i] as usize);
+                match pd.core(rq) {
+                    Some(r) => {
+                        if t.done[r] != 0 {
+                            let hr = t.h[r];
+                            solve(&mut t, i, hr);
+                            t.done[i] = 1;
+                            work.push(i as u32);
                         }
-                    },
-                    f64::NAN,
-                );
-                let okp = self.pad(&pd, &vec![false; nc], |e, k| e.hn_ok[k], false);
-                work.clear();
-                for i in 0..nc {
-                    if t.done[i] != 0 {
-                        continue;
                     }
-                    if t.dir[i] == NONE || t.flags[i] != VALID {
-                        t.done[i] = 1;
-                        work.push(i as u32);
-                        continue;
-                    }
-                    let q = pd.at(i % pd.w, i / pd.w);
-                    let rq = pd.nb(q, t.dir[i] as usize);
-                    match pd.core(rq) {
-                        Some(r) => {
-                            if t.done[r] != 0 {
-                                let hr = t.h[r];
-                                solve(&mut t, i, hr);
-                                t.done[i] = 1;
-                                work.push(i as u32);
-                            }
-                        }
-                        None => {
-                            if okp[rq] {
-                                solve(&mut t, i, hnp[rq]);
-                                t.done[i] = 1;
-                                work.push(i as u32);
-                            }
+                    None => {
+                        if okp[rq] {
+                            solve(&mut t, i, hnp[rq]);
+                            t.done[i] = 1;
+                            work.push(i as u32);
                         }
                     }
                 }
-                while let Some(c) = work.pop() {
-                    let c = c as usize;
-                    let q = pd.at(c % pd.w, c / pd.w);
-                    for d in 0..8 {
-                        let Some(j) = pd.core(pd.nb(q, d)) else {
-                            continue;
-                        };
-                        if t.done[j] != 0 || t.dir[j] == NONE {
-                            continue;
-                        }
-                        let qj = pd.nb(q, d);
-                        if pd.nb(qj, t.dir[j] as usize) != q {
-                            continue;
-                        }
-                        let hr = t.h[c];
-                        solve(&mut t, j, hr);
-                        t.done[j] = 1;
-                        work.push(j as u32);
+            }
+            while let Some(c) = work.pop() {
+                let c = c as usize;
+                let q = pd.at(c % pd.w, c / pd.w);
+                for d in 0..8 {
+                    let Some(j) = pd.core(pd.nb(q, d)) else {
+                        continue;
+                    };
+                    if t.done[j] != 0 || t.dir[j] == NONE {
+                        continue;
                     }
+                    let qj = pd.nb(q, d);
+                    if pd.nb(qj, t.dir[j] as usize) != q {
+                        continue;
+                    }
+                    let hr = t.h[c];
+                    solve(&mut t, j, hr);
+                    t.done[j] = 1;
+                    work.push(j as u32);
                 }
-                let ndone = t.done.iter().filter(|&&v| v != 0).count();
-                let e = &mut self.edges[id];
-                for_perimeter(win.w, win.h, |i, k| {
-                    if t.done[i] != 0 && !e.hn_ok[k] {
-                        e.hn[k] = t.h[i];
-                        e.hn_ok[k] = true;
-                        progress = true;
-                    }
-                });
-                if ndone == nc {
-                    complete[id] = true;
+            }
+            let ndone = t.done.iter().filter(|&&v| v != 0).count();
+            let e = &mut s.edges[id];
+            for_perimeter(win.w, win.h, |i, k| {
+                if t.done[i] != 0 && !e.hn_ok[k] {
+                    e.hn[k] = t.h[i];
+                    e.hn_ok[k] = true;
                     progress = true;
-                    for_perimeter(win.w, win.h, |i, k| e.h[k] = t.h[i]);
-                } else {
-                    all = false;
                 }
-                self.store.put(id, t)?;
+            });
+            let complete = ndone == nc;
+            if complete {
+                for_perimeter(win.w, win.h, |i, k| e.h[k] = t.h[i]);
             }
-            if all {
-                break;
-            }
-            if !progress {
-                return Err(Error::invalid(
-                    "stream power (tiled): the receiver graph has a cycle; this is a bug, please report it",
-                ));
-            }
-        }
-        self.stats.max_round = self.stats.max_round.max(npass);
-        Ok(())
+            s.store.put(id, t)?;
+            Ok(Swept { progress, complete })
+        })
     }
 
     /// Explicit diffusion substeps with a halo exchange of depth 1 each.
@@ -1185,6 +1160,14 @@ impl Solver {
         }
         Ok(())
     }
+}
+
+/// What one pass of [`Solver::sweeps`] did to its tile.
+struct Swept {
+    /// Something new was published on the tile's perimeter.
+    progress: bool,
+    /// Every cell of the tile is final.
+    complete: bool,
 }
 
 /// Calls `f(core index, perimeter index)` for every perimeter cell of a
