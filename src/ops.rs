@@ -105,6 +105,32 @@ fn make_sinks(
     Ok(sinks)
 }
 
+/// What [`run_local_to_paths`] and [`run_global_to_paths`] share: check the
+/// inputs' sizes and that the step (`name`, with `n_out` outputs) gets one
+/// path per output, then choose the tile layout and make the sinks.
+#[allow(clippy::too_many_arguments)]
+fn plan(
+    name: String,
+    params: serde_json::Value,
+    n_out: usize,
+    inputs: &[&dyn RasterSource],
+    outputs: &[PathBuf],
+    out_types: &[(DType, Option<f64>)],
+    oo: &OutputOptions,
+    tile: Option<usize>,
+) -> Result<(TileLayout, Vec<Box<dyn crate::exec::TileSink>>)> {
+    let first = check_inputs(inputs)?;
+    if outputs.len() != n_out {
+        return Err(Error::invalid(format!(
+            "{name} writes {n_out} output(s), {} path(s) given",
+            outputs.len()
+        )));
+    }
+    let layout = choose_layout(first, outputs, oo, tile);
+    let sinks = make_sinks(name, params, inputs, outputs, out_types, oo)?;
+    Ok((layout, sinks))
+}
+
 /// Run a local step on `inputs` and write output `k` to `outputs[k]` as
 /// `(dtype, nodata)` of `out_types[k]`.
 pub fn run_local_to_paths<S: LocalStep>(
@@ -116,17 +142,16 @@ pub fn run_local_to_paths<S: LocalStep>(
     tile: Option<usize>,
     cfg: &EngineConfig,
 ) -> Result<()> {
-    let first = check_inputs(inputs)?;
-    if outputs.len() != step.outputs() {
-        return Err(Error::invalid(format!(
-            "{} writes {} output(s), {} path(s) given",
-            step.name(),
-            step.outputs(),
-            outputs.len()
-        )));
-    }
-    let layout = choose_layout(first, outputs, oo, tile);
-    let sinks = make_sinks(step.name(), step.params(), inputs, outputs, out_types, oo)?;
+    let (layout, sinks) = plan(
+        step.name(),
+        step.params(),
+        step.outputs(),
+        inputs,
+        outputs,
+        out_types,
+        oo,
+        tile,
+    )?;
     LocalEngine::new(cfg.clone()).run_local(step, inputs, layout, sinks)
 }
 
@@ -142,17 +167,16 @@ pub fn run_global_to_paths<S: GlobalStep>(
     tile: Option<usize>,
     cfg: &EngineConfig,
 ) -> Result<()> {
-    let first = check_inputs(inputs)?;
-    if outputs.len() != step.outputs() {
-        return Err(Error::invalid(format!(
-            "{} writes {} output(s), {} path(s) given",
-            step.name(),
-            step.outputs(),
-            outputs.len()
-        )));
-    }
-    let layout = choose_layout(first, outputs, oo, tile);
-    let sinks = make_sinks(step.name(), step.params(), inputs, outputs, out_types, oo)?;
+    let (layout, sinks) = plan(
+        step.name(),
+        step.params(),
+        step.outputs(),
+        inputs,
+        outputs,
+        out_types,
+        oo,
+        tile,
+    )?;
     LocalEngine::new(cfg.clone()).run_global_apply(step, inputs, layout, sinks)
 }
 
