@@ -116,6 +116,15 @@ struct PngArgs {
     png_offset: f64,
 }
 
+impl PngArgs {
+    fn open_options(&self) -> OpenOptions {
+        OpenOptions {
+            png_scale: self.png_scale,
+            png_offset: self.png_offset,
+        }
+    }
+}
+
 #[derive(Copy, Clone, ValueEnum)]
 enum Compress {
     None,
@@ -558,13 +567,7 @@ fn output_options(o: &OutFmt) -> Result<OutputOptions> {
 }
 
 fn open(i: &In) -> Result<Box<dyn RasterSource>> {
-    let src = io::open_raster(
-        &i.input,
-        &OpenOptions {
-            png_scale: i.png.png_scale,
-            png_offset: i.png.png_offset,
-        },
-    )?;
+    let src = io::open_raster(&i.input, &i.png.open_options())?;
     warn_georef(src.as_ref());
     Ok(src)
 }
@@ -643,23 +646,13 @@ fn run(cli: Cli) -> Result<()> {
             out,
             run,
         } => {
-            let src = io::open_inputs(
-                &inputs,
-                &OpenOptions {
-                    png_scale: png.png_scale,
-                    png_offset: png.png_offset,
-                },
-            )?;
+            let src = io::open_inputs(&inputs, &png.open_options())?;
             warn_georef(src.as_ref());
-            let oo = output_options(&out.fmt)?;
-            ops::convert(src.as_ref(), &out.output, &oo, run.tile, &engine(&run)?)?;
-            wrote(&out.output);
+            convert1(src.as_ref(), &out, &run)?;
         }
         Cmd::Export { input, out, run } => {
             let src = open(&input)?;
-            let oo = output_options(&out.fmt)?;
-            ops::convert(src.as_ref(), &out.output, &oo, run.tile, &engine(&run)?)?;
-            wrote(&out.output);
+            convert1(src.as_ref(), &out, &run)?;
         }
         Cmd::Slope {
             input,
@@ -889,10 +882,7 @@ fn run(cli: Cli) -> Result<()> {
             };
             let src = open(&input)?;
             if let Some(m) = multi {
-                let w = match &weights {
-                    Some(p) => Some(io::open_raster(p, &OpenOptions::default())?),
-                    None => None,
-                };
+                let w = open_weights(weights.as_deref())?;
                 let oo = output_options(&out.fmt)?;
                 let rounds = ops::accumulate_multi(
                     src.as_ref(),
@@ -916,10 +906,7 @@ fn run(cli: Cli) -> Result<()> {
                     src.info().dtype
                 );
             }
-            let w = match &weights {
-                Some(p) => Some(io::open_raster(p, &OpenOptions::default())?),
-                None => None,
-            };
+            let w = open_weights(weights.as_deref())?;
             let mut inputs: Vec<&dyn RasterSource> = vec![src.as_ref()];
             if let Some(w) = &w {
                 inputs.push(w.as_ref());
@@ -975,6 +962,22 @@ fn run(cli: Cli) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// Copy `src` to the output (`orogen ingest`, `orogen export`).
+fn convert1(src: &dyn RasterSource, out: &Out, run: &Run) -> Result<()> {
+    let oo = output_options(&out.fmt)?;
+    ops::convert(src, &out.output, &oo, run.tile, &engine(run)?)?;
+    wrote(&out.output);
+    Ok(())
+}
+
+/// The optional weights raster of `orogen accumulate`.
+fn open_weights(p: Option<&Path>) -> Result<Option<Box<dyn RasterSource>>> {
+    Ok(match p {
+        Some(p) => Some(io::open_raster(p, &OpenOptions::default())?),
+        None => None,
+    })
 }
 
 /// Run a one-output local step and write it as `ty` (dtype, nodata).
