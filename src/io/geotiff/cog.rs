@@ -32,7 +32,7 @@
 
 use super::rows::RowBuffer;
 use super::writer::{
-    clean_stale_temps, encode_band, encode_ifd, geo_entries, resolve_predictor, Entry, WriteOptions,
+    check_create, clean_stale_temps, encode_band, encode_ifd, geo_entries, Entry, WriteOptions,
 };
 use crate::error::{Error, IoContext, Result};
 use crate::exec::TileSink;
@@ -112,27 +112,8 @@ impl CogWriter {
         resampling: Resampling,
     ) -> Result<CogWriter> {
         let path = path.as_ref().to_path_buf();
-        if width == 0 || height == 0 || width > u32::MAX as usize || height > u32::MAX as usize {
-            return Err(Error::invalid(format!(
-                "{}: cannot write a {width} x {height} raster (each side must be 1..2^32-1)",
-                path.display()
-            )));
-        }
+        let predictor = check_create(&path, width, height, dtype, georef, opts)?;
         let block = opts.block;
-        if block == 0 || block % 16 != 0 || block > 1 << 15 {
-            return Err(Error::invalid(format!(
-                "block size {block} must be a positive multiple of 16 (at most 32768)"
-            )));
-        }
-        let predictor = resolve_predictor(opts, dtype)?;
-        if let Some(nd) = georef.nodata {
-            if !dtype.represents(nd) && !nd.is_nan() {
-                return Err(Error::invalid(format!(
-                    "{}: nodata value {nd} cannot be stored in {dtype}",
-                    path.display()
-                )));
-            }
-        }
         let name = path
             .file_name()
             .ok_or_else(|| Error::invalid(format!("{}: not a file path", path.display())))?

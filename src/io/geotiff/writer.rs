@@ -407,6 +407,41 @@ pub(super) fn clean_stale_temps(path: &Path) {
     }
 }
 
+/// The checks both writers make before creating a file: the size fits a
+/// TIFF (each side 1..2^32-1), the block size is valid, the predictor suits
+/// `dtype` and the nodata value can be stored in it. Returns the predictor.
+pub(super) fn check_create(
+    path: &Path,
+    width: usize,
+    height: usize,
+    dtype: DType,
+    georef: &GeoRef,
+    opts: &WriteOptions,
+) -> Result<u16> {
+    if width == 0 || height == 0 || width > u32::MAX as usize || height > u32::MAX as usize {
+        return Err(Error::invalid(format!(
+            "{}: cannot write a {width} x {height} raster (each side must be 1..2^32-1)",
+            path.display()
+        )));
+    }
+    let block = opts.block;
+    if block == 0 || !block.is_multiple_of(16) || block > 1 << 15 {
+        return Err(Error::invalid(format!(
+            "block size {block} must be a positive multiple of 16 (at most 32768)"
+        )));
+    }
+    let predictor = resolve_predictor(opts, dtype)?;
+    if let Some(nd) = georef.nodata {
+        if !dtype.represents(nd) && !nd.is_nan() {
+            return Err(Error::invalid(format!(
+                "{}: nodata value {nd} cannot be stored in {dtype}",
+                path.display()
+            )));
+        }
+    }
+    Ok(predictor)
+}
+
 /// The predictor written for `dtype` under `opts` (automatic choice: 2 for
 /// integers, 3 for floats; none when uncompressed, as libtiff and GDAL only
 /// apply predictors inside compression codecs).
@@ -471,27 +506,8 @@ impl GeoTiffWriter {
         opts: &WriteOptions,
     ) -> Result<GeoTiffWriter> {
         let path = path.as_ref().to_path_buf();
-        if width == 0 || height == 0 || width > u32::MAX as usize || height > u32::MAX as usize {
-            return Err(Error::invalid(format!(
-                "{}: cannot write a {width} x {height} raster (each side must be 1..2^32-1)",
-                path.display()
-            )));
-        }
+        let predictor = check_create(&path, width, height, dtype, georef, opts)?;
         let block = opts.block;
-        if block == 0 || block % 16 != 0 || block > 1 << 15 {
-            return Err(Error::invalid(format!(
-                "block size {block} must be a positive multiple of 16 (at most 32768)"
-            )));
-        }
-        let predictor = resolve_predictor(opts, dtype)?;
-        if let Some(nd) = georef.nodata {
-            if !dtype.represents(nd) && !nd.is_nan() {
-                return Err(Error::invalid(format!(
-                    "{}: nodata value {nd} cannot be stored in {dtype}",
-                    path.display()
-                )));
-            }
-        }
         let blocks_x = width.div_ceil(block);
         let blocks_y = height.div_ceil(block);
         let n_blocks = blocks_x * blocks_y;
