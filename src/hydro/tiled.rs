@@ -97,6 +97,52 @@ pub fn perimeter_cells(w: usize, h: usize) -> impl Iterator<Item = (usize, usize
     })
 }
 
+/// Every `reduce` of this folder first checks that it got one summary per
+/// tile of `layout`; `what` names the reduce in the error.
+pub(crate) fn check_summaries(what: &str, n: usize, layout: &TileLayout) -> Result<()> {
+    if n != layout.count() {
+        return Err(Error::invalid(format!(
+            "{what}: {n} summaries for {} tiles",
+            layout.count()
+        )));
+    }
+    Ok(())
+}
+
+/// The own amounts of the core cells of a weighted accumulation: each valid
+/// cell (`valid(i)`, row-major core index) its weight from input `k` in fixed
+/// point, the others 0. The weights must cover the same tile as `base`;
+/// `what` names the step and `base_name` that input in the errors.
+pub(crate) fn weighted_amounts(
+    inputs: &[TileView<f32>],
+    k: usize,
+    base: &TileView<f32>,
+    what: &str,
+    base_name: &str,
+    valid: impl Fn(usize) -> bool,
+) -> Result<Vec<i128>> {
+    let wt = inputs
+        .get(k)
+        .ok_or_else(|| Error::invalid(format!("weighted {what} needs the weights as input {k}")))?;
+    if wt.core != base.core {
+        return Err(Error::invalid(format!(
+            "{what}: weights and {base_name} tiles differ"
+        )));
+    }
+    let (w, h) = (base.core.w, base.core.h);
+    let mut own = Vec::with_capacity(w * h);
+    for y in 0..h {
+        for x in 0..w {
+            own.push(if valid(y * w + x) {
+                weight_to_fixed(wt.at(x as i64, y as i64))?
+            } else {
+                0
+            });
+        }
+    }
+    Ok(own)
+}
+
 fn need_halo<T>(v: &TileView<T>, step: &str) -> Result<()> {
     if v.halo < 1 {
         return Err(Error::invalid(format!(
@@ -255,13 +301,7 @@ impl GlobalStep for TiledFill {
     }
 
     fn reduce(&self, layout: &TileLayout, summaries: Vec<FillSummary>) -> Result<FillSolution> {
-        if summaries.len() != layout.count() {
-            return Err(Error::invalid(format!(
-                "fill reduce: {} summaries for {} tiles",
-                summaries.len(),
-                layout.count()
-            )));
-        }
+        check_summaries("fill reduce", summaries.len(), layout)?;
         let mut offsets = Vec::with_capacity(summaries.len());
         let mut counts = Vec::with_capacity(summaries.len());
         let mut total = 1usize;
@@ -499,29 +539,15 @@ impl TiledAccumulation {
         for y in 0..h {
             core.extend_from_slice(&all[(y + hl) * gw + hl..(y + hl) * gw + hl + w]);
         }
-        let mut own = Vec::with_capacity(w * h);
-        if self.weighted {
-            let wt = inputs.get(1).ok_or_else(|| {
-                Error::invalid("weighted accumulation needs the weights as input 1")
-            })?;
-            if wt.core != d.core {
-                return Err(Error::invalid(
-                    "accumulation: weights and directions tiles differ",
-                ));
-            }
-            for y in 0..h {
-                for x in 0..w {
-                    let c = core[y * w + x];
-                    own.push(if c == NODATA_DIR {
-                        0
-                    } else {
-                        weight_to_fixed(wt.at(x as i64, y as i64))?
-                    });
-                }
-            }
+        let own = if self.weighted {
+            weighted_amounts(inputs, 1, d, "accumulation", "directions", |i| {
+                core[i] != NODATA_DIR
+            })?
         } else {
-            own.extend(core.iter().map(|&c| if c == NODATA_DIR { 0 } else { 1 }));
-        }
+            core.iter()
+                .map(|&c| if c == NODATA_DIR { 0 } else { 1 })
+                .collect()
+        };
         Ok((all, core, own, w, h))
     }
 }
@@ -606,13 +632,7 @@ impl GlobalStep for TiledAccumulation {
     }
 
     fn reduce(&self, layout: &TileLayout, summaries: Vec<AccumSummary>) -> Result<AccumSolution> {
-        if summaries.len() != layout.count() {
-            return Err(Error::invalid(format!(
-                "accumulation reduce: {} summaries for {} tiles",
-                summaries.len(),
-                layout.count()
-            )));
-        }
+        check_summaries("accumulation reduce", summaries.len(), layout)?;
         let mut offsets = Vec::with_capacity(summaries.len());
         let mut total = 0usize;
         for (t, s) in summaries.iter().enumerate() {

@@ -43,7 +43,7 @@
 //! half the tile's cells; map time is linear in the tile's area.
 
 use super::fill::{neighbours, next_up_n};
-use super::tiled::{perimeter_cells, perimeter_index, perimeter_len};
+use super::tiled::{check_summaries, perimeter_cells, perimeter_index, perimeter_len};
 use super::{valid, D8_CODES, DX, DY, NODATA_DIR, NO_FLOW};
 use crate::error::{Error, Result};
 use crate::exec::GlobalStep;
@@ -368,13 +368,7 @@ fn first_view<'a>(inputs: &'a [TileView<f32>], what: &str) -> Result<&'a TileVie
 
 /// The reduce shared by both steps.
 fn reduce_flats(layout: &TileLayout, summaries: Vec<FlatSummary>) -> Result<FlatSolution> {
-    if summaries.len() != layout.count() {
-        return Err(Error::invalid(format!(
-            "flats reduce: {} summaries for {} tiles",
-            summaries.len(),
-            layout.count()
-        )));
-    }
+    check_summaries("flats reduce", summaries.len(), layout)?;
     let mut node_of = Vec::with_capacity(summaries.len());
     let mut first = Vec::with_capacity(summaries.len() + 1);
     let mut init_t = Vec::new();

@@ -53,12 +53,14 @@
 //! (≈ 120 bytes per perimeter cell, about twice that while the summaries
 //! are decoded).
 
-use super::accum::{fixed_to_f64, weight_to_fixed};
+use super::accum::fixed_to_f64;
 use super::dinf::dinf_cell;
 use super::mfd::{
     accumulate_fixed_core, d8_fallback, mfd_cell, mfd_params, overflow, split_fixed, MfdMethod, ONE,
 };
-use super::tiled::{perimeter_cells, perimeter_index, perimeter_len};
+use super::tiled::{
+    check_summaries, perimeter_cells, perimeter_index, perimeter_len, weighted_amounts,
+};
 use super::{code_to_dir, valid, DX, DY, NODATA_DIR};
 use crate::error::{Error, Result};
 use crate::exec::{Engine, GlobalStep, TileSink};
@@ -227,28 +229,16 @@ impl TiledMultiAccumulation {
                 frac[c] = f;
             }
         }
-        let mut acc = Vec::with_capacity(w * h);
-        if self.weighted {
-            let wt = inputs.get(2).ok_or_else(|| {
-                Error::invalid("weighted divergent accumulation needs the weights as input 2")
-            })?;
-            if wt.core != dem.core {
-                return Err(Error::invalid(
-                    "divergent accumulation: weights and DEM tiles differ",
-                ));
-            }
-            for y in 0..h {
-                for x in 0..w {
-                    acc.push(if valid_core[y * w + x] {
-                        weight_to_fixed(wt.at(x as i64, y as i64))?
-                    } else {
-                        0
-                    });
-                }
-            }
+        let mut acc = if self.weighted {
+            weighted_amounts(inputs, 2, dem, "divergent accumulation", "DEM", |i| {
+                valid_core[i]
+            })?
         } else {
-            acc.extend(valid_core.iter().map(|&v| if v { ONE } else { 0 }));
-        }
+            valid_core
+                .iter()
+                .map(|&v| if v { ONE } else { 0 })
+                .collect()
+        };
         if !inflow.is_empty() {
             if inflow.len() != perimeter_len(w, h) {
                 return Err(Error::invalid(
@@ -385,13 +375,7 @@ impl GlobalStep for TiledMultiAccumulation {
         if self.final_pass {
             return Ok((*self.inflow).clone());
         }
-        if summaries.len() != layout.count() {
-            return Err(Error::invalid(format!(
-                "divergent accumulation reduce: {} summaries for {} tiles",
-                summaries.len(),
-                layout.count()
-            )));
-        }
+        check_summaries("divergent accumulation reduce", summaries.len(), layout)?;
         let mut offsets = Vec::with_capacity(summaries.len());
         let mut total = 0usize;
         for (t, s) in summaries.iter().enumerate() {
