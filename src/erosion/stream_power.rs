@@ -873,17 +873,7 @@ impl StreamPower {
 
     fn diffuse(&mut self, h: &mut [f64]) -> Result<()> {
         let (w, ht) = (self.w, self.h);
-        let lim = 0.2 * self.cell * self.cell / self.p.kd;
-        let nsub = (self.p.dt / lim).ceil().max(1.0);
-        if nsub > MAX_DIFFUSION_SUBSTEPS as f64 {
-            return Err(Error::invalid(format!(
-                "stream power: diffusion with Kd = {} and dt = {} needs {nsub:.0} explicit substeps \
-                 per step (more than {MAX_DIFFUSION_SUBSTEPS}); lower dt or Kd",
-                self.p.kd, self.p.dt
-            )));
-        }
-        let nsub = nsub as usize;
-        let c = self.p.dt / nsub as f64 * self.p.kd / (self.cell * self.cell);
+        let (nsub, c) = diffusion_substeps(&self.p, self.cell)?;
         self.scratch.resize(w * ht, 0.0);
         for _ in 0..nsub {
             self.scratch.copy_from_slice(h);
@@ -914,6 +904,24 @@ impl StreamPower {
         }
         Ok(())
     }
+}
+
+/// The explicit diffusion substeps of one step of `p` on cells of `cell`
+/// metres: how many (each within the stability limit
+/// `dt_sub <= 0.2·cell²/Kd`) and the factor `Kd·dt_sub/cell²`; an error when
+/// more than [`MAX_DIFFUSION_SUBSTEPS`] would be needed.
+pub(crate) fn diffusion_substeps(p: &StreamPowerParams, cell: f64) -> Result<(usize, f64)> {
+    let lim = 0.2 * cell * cell / p.kd;
+    let nsub = (p.dt / lim).ceil().max(1.0);
+    if nsub > MAX_DIFFUSION_SUBSTEPS as f64 {
+        return Err(Error::invalid(format!(
+            "stream power: diffusion with Kd = {} and dt = {} needs {nsub:.0} explicit substeps \
+             per step (more than {MAX_DIFFUSION_SUBSTEPS}); lower dt or Kd",
+            p.kd, p.dt
+        )));
+    }
+    let nsub = nsub as usize;
+    Ok((nsub, p.dt / nsub as f64 * p.kd / (cell * cell)))
 }
 
 /// Whether the valid cell `(x, y)` of a `w` x `h` raster is a base level

@@ -43,8 +43,8 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::stream_power::{
-    is_base, newton, order_key, BaseHeight, Depressions, StreamPowerParams, BASE, DX, DY,
-    MAX_DIFFUSION_SUBSTEPS, VALID,
+    diffusion_substeps, is_base, newton, order_key, BaseHeight, Depressions, StreamPowerParams,
+    BASE, DX, DY, VALID,
 };
 use crate::error::{Error, IoContext, Result};
 use crate::hydro::tiled::{perimeter_index, perimeter_len};
@@ -1105,17 +1105,7 @@ impl Solver {
 
     /// Explicit diffusion substeps with a halo exchange of depth 1 each.
     fn diffuse(&mut self) -> Result<()> {
-        let lim = 0.2 * self.cell * self.cell / self.p.kd;
-        let nsub = (self.p.dt / lim).ceil().max(1.0);
-        if nsub > MAX_DIFFUSION_SUBSTEPS as f64 {
-            return Err(Error::invalid(format!(
-                "stream power: diffusion with Kd = {} and dt = {} needs {nsub:.0} explicit substeps \
-                 per step (more than {MAX_DIFFUSION_SUBSTEPS}); lower dt or Kd",
-                self.p.kd, self.p.dt
-            )));
-        }
-        let nsub = nsub as usize;
-        let c = self.p.dt / nsub as f64 * self.p.kd / (self.cell * self.cell);
+        let (nsub, c) = diffusion_substeps(&self.p, self.cell)?;
         let nt = self.lay.count();
         let mut next: Vec<Vec<f64>> = self.edges.iter().map(|e| e.h.clone()).collect();
         for _ in 0..nsub {
