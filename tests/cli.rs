@@ -1,39 +1,8 @@
 //! The CLI as a user runs it: demo, info, ingest/export round trip, bad input.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
 
-fn orogen() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_orogen"))
-}
-
-fn data(p: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data")
-        .join(p)
-}
-
-fn ok(cmd: &mut Command) -> String {
-    let out = cmd.output().unwrap();
-    assert!(
-        out.status.success(),
-        "{:?} failed: {}",
-        cmd,
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr)
-}
-
-/// Runs a command that must fail: returns stderr, checks for one "error:" line and no panic.
-fn fails(cmd: &mut Command) -> String {
-    let out = cmd.output().unwrap();
-    let err = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert!(!out.status.success(), "{cmd:?} should fail");
-    assert_eq!(out.status.code(), Some(1), "{cmd:?}: {err}");
-    assert!(!err.contains("panicked"), "{cmd:?} panicked: {err}");
-    assert!(err.starts_with("error: "), "{cmd:?}: {err}");
-    err
-}
+use common::cli::{data, fails, ok, orogen};
 
 #[test]
 fn demo_writes_everything_it_lists() {

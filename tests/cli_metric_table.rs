@@ -2,21 +2,30 @@
 //! files written, markdown/CSV shapes, the heat map is a PNG of the right
 //! size, errors name what is accepted.
 
-use std::process::Command;
+mod common;
 
-fn orogen() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_orogen"))
-}
+use common::cli::orogen;
+use std::path::Path;
+use std::process::Output;
 
 const DEM: &str = "tests/data/whitebox_DEM.tif";
+
+/// `orogen metric table DEM -o DIR EXTRA`.
+fn table(dir: &Path, extra: &[&str]) -> Output {
+    orogen()
+        .args(["metric", "table", DEM, "-o"])
+        .arg(dir)
+        .args(extra)
+        .output()
+        .unwrap()
+}
 
 #[test]
 fn metric_table_writes_cost_and_correlation() {
     let dir = tempfile::tempdir().unwrap();
-    let out = orogen()
-        .args(["metric", "table", DEM, "-o"])
-        .arg(dir.path())
-        .args([
+    let out = table(
+        dir.path(),
+        &[
             "--radii",
             "200m,3c",
             "--only",
@@ -24,9 +33,8 @@ fn metric_table_writes_cost_and_correlation() {
             "--corr-radius",
             "2c",
             "-q",
-        ])
-        .output()
-        .unwrap();
+        ],
+    );
     assert!(
         out.status.success(),
         "{}",
@@ -55,36 +63,21 @@ fn metric_table_writes_cost_and_correlation() {
 #[test]
 fn metric_table_errors_name_the_fix() {
     let dir = tempfile::tempdir().unwrap();
-    let out = orogen()
-        .args(["metric", "table", DEM, "-o"])
-        .arg(dir.path())
-        .args(["--only", "slope,bogus"])
-        .output()
-        .unwrap();
+    let out = table(dir.path(), &["--only", "slope,bogus"]);
     assert!(!out.status.success());
     let e = String::from_utf8_lossy(&out.stderr);
     assert!(
         e.contains("unknown metric 'bogus'") && e.contains("jut"),
         "{e}"
     );
-    let out = orogen()
-        .args(["metric", "table", DEM, "-o"])
-        .arg(dir.path())
-        .args(["--max-cells", "100"])
-        .output()
-        .unwrap();
+    let out = table(dir.path(), &["--max-cells", "100"]);
     assert!(!out.status.success());
     let e = String::from_utf8_lossy(&out.stderr);
     assert!(
         e.contains("whitebox_DEM.tif") && e.contains("--max-cells"),
         "{e}"
     );
-    let out = orogen()
-        .args(["metric", "table", DEM, "-o"])
-        .arg(dir.path())
-        .args(["--radii", "-5m"])
-        .output()
-        .unwrap();
+    let out = table(dir.path(), &["--radii", "-5m"]);
     assert!(!out.status.success());
 }
 

@@ -3,20 +3,19 @@
 //! round trips, and errors.
 
 use orogen::exec::stats::{Stats, StatsSummary};
-use orogen::exec::{roundtrip_summary, Engine, EngineConfig, GlobalStep, LocalEngine, MemSink};
+use orogen::exec::{roundtrip_summary, Engine, GlobalStep, MemSink};
 use orogen::raster::{DType, GeoRef, Grid, MemRaster, RasterSource, TileId, TileLayout, TileView};
 use orogen::{Error, Result};
 
+mod common;
+use common::engine::{engine, tile_min};
+use common::Rng;
+
 fn grid(w: usize, h: usize, seed: u64) -> Vec<f64> {
-    let mut s = seed;
+    let mut rng = Rng(seed);
     (0..w * h)
         .map(|_| {
-            // SplitMix64 (Steele, Lea & Flood 2014).
-            s = s.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = s;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            z ^= z >> 31;
+            let z = rng.next();
             match z % 50 {
                 0 => f64::NAN,
                 1 => -120.0,                  // below the histogram range
@@ -25,14 +24,6 @@ fn grid(w: usize, h: usize, seed: u64) -> Vec<f64> {
             }
         })
         .collect()
-}
-
-fn engine(threads: usize) -> LocalEngine {
-    LocalEngine::new(EngineConfig {
-        threads,
-        memory_budget: 1 << 22,
-        progress: false,
-    })
 }
 
 #[test]
@@ -107,13 +98,7 @@ impl GlobalStep for MinusMin {
         serde_json::Value::Null
     }
     fn map(&self, inputs: &[TileView<f32>]) -> Result<Option<f32>> {
-        Ok(inputs[0]
-            .grid
-            .data()
-            .iter()
-            .copied()
-            .filter(|v| !v.is_nan())
-            .reduce(f32::min))
+        Ok(tile_min(inputs))
     }
     fn reduce(&self, layout: &TileLayout, summaries: Vec<Option<f32>>) -> Result<f32> {
         assert_eq!(summaries.len(), layout.count());

@@ -6,7 +6,7 @@
 //! byte-identical to one written through `write`; an unrecorded or torn
 //! delegated tile is not trusted on resume.
 
-use orogen::exec::{Engine, EngineConfig, GlobalStep, LocalEngine, MemSink, TileSink};
+use orogen::exec::{Engine, GlobalStep, MemSink, TileSink};
 use orogen::raster::{
     AnyGrid, DType, GeoRef, Grid, MemRaster, RasterSource, TileId, TileLayout, TileView,
 };
@@ -14,25 +14,17 @@ use orogen::store::{Provenance, StoreOptions, StoreWriter, TileEntry, TileStore}
 use orogen::{Error, Result};
 use std::path::Path;
 
-fn engine(threads: usize) -> LocalEngine {
-    LocalEngine::new(EngineConfig {
-        threads,
-        memory_budget: 1 << 22,
-        progress: false,
-    })
-}
+mod common;
+use common::engine::{engine, tile_min};
+use common::Rng;
 
 /// Deterministic test heights with a few nodata cells (SplitMix64, Steele,
 /// Lea & Flood 2014).
 fn heights(w: usize, h: usize, seed: u64) -> Vec<f32> {
-    let mut s = seed;
+    let mut rng = Rng(seed);
     (0..w * h)
         .map(|_| {
-            s = s.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = s;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            z ^= z >> 31;
+            let z = rng.next();
             if z % 37 == 0 {
                 f32::NAN
             } else {
@@ -59,13 +51,7 @@ impl GlobalStep for MinusPrefixMin {
         serde_json::Value::Null
     }
     fn map(&self, inputs: &[TileView<f32>]) -> Result<Option<f32>> {
-        Ok(inputs[0]
-            .grid
-            .data()
-            .iter()
-            .copied()
-            .filter(|v| !v.is_nan())
-            .reduce(f32::min))
+        Ok(tile_min(inputs))
     }
     fn reduce(&self, layout: &TileLayout, summaries: Vec<Option<f32>>) -> Result<Vec<f32>> {
         if summaries.len() != layout.count() {

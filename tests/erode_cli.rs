@@ -2,29 +2,17 @@
 //! independent of tile size, exchange period and state backend, parameters
 //! from a TOML file, clear errors for bad parameters.
 
+mod common;
+
+use common::cli::{fails_args as fails, ok_args as ok, s};
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
-fn orogen(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_orogen"))
-        .args(args)
-        .output()
-        .expect("run orogen")
-}
-
-fn ok(args: &[&str]) {
-    let o = orogen(args);
-    assert!(
-        o.status.success(),
-        "orogen {args:?} failed: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-}
-
-fn fails(args: &[&str]) -> String {
-    let o = orogen(args);
-    assert!(!o.status.success(), "orogen {args:?} should fail");
-    String::from_utf8_lossy(&o.stderr).into_owned()
+/// `erode DEM --model MODEL EXTRA -o OUT`.
+fn erode<'a>(dem: &'a Path, model: &'a str, extra: &[&'a str], out: &'a Path) -> Vec<&'a str> {
+    let mut v = vec!["erode", s(dem), "--model", model];
+    v.extend_from_slice(extra);
+    v.extend_from_slice(&["-o", s(out)]);
+    v
 }
 
 fn dem(dir: &Path) -> PathBuf {
@@ -47,10 +35,6 @@ fn dem(dir: &Path) -> PathBuf {
     p
 }
 
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
 #[test]
 fn hydraulic_writes_outputs_and_previews_independent_of_tiling() {
     let dir = tempfile::tempdir().unwrap();
@@ -60,65 +44,62 @@ fn hydraulic_writes_outputs_and_previews_independent_of_tiling() {
     let c = dir.path().join("c.tif");
     let water = dir.path().join("w.tif");
     let pv = dir.path().join("pv");
-    ok(&[
-        "erode",
-        s(&d),
-        "--model",
+    ok(&erode(
+        &d,
         "hydraulic",
-        "--steps",
-        "25",
-        "--tile",
-        "64",
-        "-q",
-        "--set",
-        "rain=0.05",
-        "--water",
-        s(&water),
-        "--preview",
-        s(&pv),
-        "-o",
-        s(&a),
-    ]);
-    ok(&[
-        "erode",
-        s(&d),
-        "--model",
+        &[
+            "--steps",
+            "25",
+            "--tile",
+            "64",
+            "-q",
+            "--set",
+            "rain=0.05",
+            "--water",
+            s(&water),
+            "--preview",
+            s(&pv),
+        ],
+        &a,
+    ));
+    ok(&erode(
+        &d,
         "hydraulic",
-        "--steps",
-        "25",
-        "--tile",
-        "7",
-        "--exchange",
-        "3",
-        "-q",
-        "--set",
-        "rain=0.05",
-        "-o",
-        s(&b),
-    ]);
+        &[
+            "--steps",
+            "25",
+            "--tile",
+            "7",
+            "--exchange",
+            "3",
+            "-q",
+            "--set",
+            "rain=0.05",
+        ],
+        &b,
+    ));
     let scratch = dir.path().join("scratch");
     std::fs::create_dir_all(&scratch).unwrap();
-    ok(&[
-        "erode",
-        s(&d),
-        "--model",
+    ok(&erode(
+        &d,
         "hydraulic",
-        "--steps",
-        "25",
-        "--tile",
-        "13",
-        "--exchange",
-        "1",
-        "--threads",
-        "1",
-        "--scratch",
-        s(&scratch),
-        "-q",
-        "--set",
-        "rain=0.05",
-        "-o",
-        s(&c),
-    ]);
+        &[
+            "--steps",
+            "25",
+            "--tile",
+            "13",
+            "--exchange",
+            "1",
+            "--threads",
+            "1",
+            "--scratch",
+            s(&scratch),
+            "-q",
+            "--set",
+            "rain=0.05",
+        ],
+        &c,
+    ));
     let (ba, bb, bc) = (
         std::fs::read(&a).unwrap(),
         std::fs::read(&b).unwrap(),
@@ -150,66 +131,41 @@ fn params_file_gives_model_tables_and_steps() {
     .unwrap();
     let a = dir.path().join("t1.tif");
     let b = dir.path().join("t2.tif");
-    ok(&[
-        "erode",
-        s(&d),
-        "--model",
-        "thermal",
-        "--params",
-        s(&toml),
-        "-q",
-        "-o",
-        s(&a),
-    ]);
+    ok(&erode(&d, "thermal", &["--params", s(&toml), "-q"], &a));
     // Flags override the file; the same values give the same bytes.
-    ok(&[
-        "erode",
-        s(&d),
-        "--model",
+    ok(&erode(
+        &d,
         "thermal",
-        "--params",
-        s(&toml),
-        "--steps",
-        "6",
-        "--talus",
-        "20",
-        "--tile",
-        "9",
-        "-q",
-        "-o",
-        s(&b),
-    ]);
+        &[
+            "--params",
+            s(&toml),
+            "--steps",
+            "6",
+            "--talus",
+            "20",
+            "--tile",
+            "9",
+            "-q",
+        ],
+        &b,
+    ));
     assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
     // The example parameter file of the repository is valid.
     let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/erosion-hydraulic.toml");
     let h = dir.path().join("h.tif");
-    ok(&[
-        "erode",
-        s(&d),
-        "--model",
+    ok(&erode(
+        &d,
         "hydraulic",
-        "--params",
-        s(&example),
-        "--steps",
-        "3",
-        "-q",
-        "-o",
-        s(&h),
-    ]);
+        &["--params", s(&example), "--steps", "3", "-q"],
+        &h,
+    ));
     let c = dir.path().join("d.tif");
-    ok(&[
-        "erode",
-        s(&d),
-        "--model",
+    ok(&erode(
+        &d,
         "diffusion",
-        "--params",
-        s(&toml),
-        "--tile",
-        "16",
-        "-q",
-        "-o",
-        s(&c),
-    ]);
+        &["--params", s(&toml), "--tile", "16", "-q"],
+        &c,
+    ));
     assert_ne!(std::fs::read(&c).unwrap(), std::fs::read(&d).unwrap());
 }
 

@@ -4,51 +4,19 @@
 //! for any tile size and thread count; parameters from a TOML file with flags
 //! overriding it; clear errors.
 
-use orogen::raster::{read_window, Grid, Window};
+mod common;
+
+use common::cli::{fails_args as fails, ok_args as ok, read_f32 as read, s, same};
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 const DEM: &str = "tests/data/bigtujunga_crop.tif";
 
-fn orogen(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_orogen"))
-        .args(args)
-        .output()
-        .expect("run orogen")
-}
-
-fn ok(args: &[&str]) -> String {
-    let o = orogen(args);
-    assert!(
-        o.status.success(),
-        "orogen {args:?} failed: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn fails(args: &[&str]) -> String {
-    let o = orogen(args);
-    assert!(!o.status.success(), "orogen {args:?} should fail");
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-fn read(p: &Path) -> Grid<f32> {
-    let src = orogen::io::open_raster(p, &Default::default()).unwrap();
-    let i = src.info().clone();
-    read_window::<f32>(src.as_ref(), Window::full(i.width, i.height)).unwrap()
-}
-
-fn same(a: &Grid<f32>, b: &Grid<f32>) -> bool {
-    a.width() == b.width()
-        && a.data()
-            .iter()
-            .zip(b.data())
-            .all(|(x, y)| x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan()))
+/// `erode DEM --model stream-power EXTRA -o OUT`.
+fn sp<'a>(extra: &[&'a str], out: &'a Path) -> Vec<&'a str> {
+    let mut v = vec!["erode", DEM, "--model", "stream-power"];
+    v.extend_from_slice(extra);
+    v.extend_from_slice(&["-o", s(out)]);
+    v
 }
 
 fn erode(dir: &Path, name: &str, extra: &[&str]) -> (PathBuf, String) {
@@ -122,119 +90,57 @@ fn params_file_and_flags() {
     .unwrap();
     // The file alone equals the same parameters as flags.
     let a = dir.path().join("a.tif");
-    ok(&[
-        "erode",
-        DEM,
-        "--model",
-        "stream-power",
-        "--params",
-        s(&cfg),
-        "-q",
-        "-o",
-        s(&a),
-    ]);
+    ok(&sp(&["--params", s(&cfg), "-q"], &a));
     let flags = dir.path().join("f.tif");
-    ok(&[
-        "erode",
-        DEM,
-        "--model",
-        "stream-power",
-        "--steps",
-        "3",
-        "--k",
-        "4e-5",
-        "--m",
-        "0.5",
-        "--uplift",
-        "0.002",
-        "-q",
-        "-o",
-        s(&flags),
-    ]);
+    ok(&sp(
+        &[
+            "--steps", "3", "--k", "4e-5", "--m", "0.5", "--uplift", "0.002", "-q",
+        ],
+        &flags,
+    ));
     assert!(same(&read(&a), &read(&flags)));
     // A flag overrides the file (--k), --set overrides the file (m).
     let b = dir.path().join("b.tif");
-    ok(&[
-        "erode",
-        DEM,
-        "--model",
-        "stream-power",
-        "--params",
-        s(&cfg),
-        "--k",
-        "1e-4",
-        "--set",
-        "m=0.45",
-        "-q",
-        "-o",
-        s(&b),
-    ]);
+    ok(&sp(
+        &["--params", s(&cfg), "--k", "1e-4", "--set", "m=0.45", "-q"],
+        &b,
+    ));
     let c = dir.path().join("c.tif");
-    ok(&[
-        "erode",
-        DEM,
-        "--model",
-        "stream-power",
-        "--steps",
-        "3",
-        "--k",
-        "1e-4",
-        "--m",
-        "0.45",
-        "--uplift",
-        "0.002",
-        "-q",
-        "-o",
-        s(&c),
-    ]);
+    ok(&sp(
+        &[
+            "--steps", "3", "--k", "1e-4", "--m", "0.45", "--uplift", "0.002", "-q",
+        ],
+        &c,
+    ));
     assert!(same(&read(&b), &read(&c)));
     assert!(!same(&read(&a), &read(&b)));
     // The shipped example file parses.
     let e = dir.path().join("e.tif");
-    ok(&[
-        "erode",
-        DEM,
-        "--model",
-        "stream-power",
-        "--params",
-        "configs/erosion-stream-power.toml",
-        "--steps",
-        "1",
-        "-q",
-        "-o",
-        s(&e),
-    ]);
+    ok(&sp(
+        &[
+            "--params",
+            "configs/erosion-stream-power.toml",
+            "--steps",
+            "1",
+            "-q",
+        ],
+        &e,
+    ));
     // Unknown keys are listed with the valid ones.
     std::fs::write(&cfg, "[stream-power]\nK = 1e-5\n").unwrap();
-    let err = fails(&[
-        "erode",
-        DEM,
-        "--model",
-        "stream-power",
-        "--params",
-        s(&cfg),
-        "--steps",
-        "1",
-        "-o",
-        s(&dir.path().join("x.tif")),
-    ]);
+    let err = fails(&sp(
+        &["--params", s(&cfg), "--steps", "1"],
+        &dir.path().join("x.tif"),
+    ));
     assert!(
         err.contains("unknown field `K`") && err.contains("uplift_map"),
         "{err}"
     );
     std::fs::write(&cfg, "[stream-power]\ndepressions = \"lakes\"\n").unwrap();
-    let err = fails(&[
-        "erode",
-        DEM,
-        "--model",
-        "stream-power",
-        "--params",
-        s(&cfg),
-        "--steps",
-        "1",
-        "-o",
-        s(&dir.path().join("x.tif")),
-    ]);
+    let err = fails(&sp(
+        &["--params", s(&cfg), "--steps", "1"],
+        &dir.path().join("x.tif"),
+    ));
     assert!(err.contains("basin-graph"), "{err}");
 }
 
@@ -242,46 +148,14 @@ fn params_file_and_flags() {
 fn tiled_refuses_what_it_cannot_do() {
     let dir = tempfile::tempdir().unwrap();
     let o = dir.path().join("x.tif");
-    let err = fails(&[
-        "erode",
-        DEM,
-        "--model",
-        "stream-power",
-        "--steps",
-        "1",
-        "--tiled",
-        "--depressions",
-        "basin-graph",
-        "-o",
-        s(&o),
-    ]);
+    let err = fails(&sp(
+        &["--steps", "1", "--tiled", "--depressions", "basin-graph"],
+        &o,
+    ));
     assert!(err.contains("basin-graph") && err.contains("fill"), "{err}");
-    let err = fails(&[
-        "erode",
-        DEM,
-        "--model",
-        "stream-power",
-        "--steps",
-        "1",
-        "--tiled",
-        "--levels",
-        "60,30",
-        "-o",
-        s(&o),
-    ]);
+    let err = fails(&sp(&["--steps", "1", "--tiled", "--levels", "60,30"], &o));
     assert!(err.contains("--levels"), "{err}");
-    let err = fails(&[
-        "erode",
-        DEM,
-        "--model",
-        "stream-power",
-        "--steps",
-        "1",
-        "--scratch",
-        s(dir.path()),
-        "-o",
-        s(&o),
-    ]);
+    let err = fails(&sp(&["--steps", "1", "--scratch", s(dir.path())], &o));
     assert!(err.contains("--scratch"), "{err}");
     assert!(!o.exists());
 }

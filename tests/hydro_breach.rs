@@ -11,7 +11,9 @@ use orogen::hydro::tiled_breach::{TiledLeastCostBreach, TiledRho8};
 use orogen::hydro::{breach, breach_masked, rho8_directions, BreachMethod, BreachOptions};
 use orogen::raster::{read_view, GeoRef, Grid, MemRaster, RasterSource, TileLayout, TileView};
 use proptest::prelude::*;
-use std::path::Path;
+
+mod common;
+use common::hydro::read_raw;
 use std::time::Instant;
 
 const N8: [(i64, i64); 8] = [
@@ -145,16 +147,9 @@ fn opts(method: BreachMethod, epsilon: bool, fill_remaining: bool) -> BreachOpti
     }
 }
 
+/// Random DEMs up to 10 x 10.
 fn dem() -> impl Strategy<Value = Grid<f32>> {
-    (1usize..11, 1usize..11).prop_flat_map(|(w, h)| {
-        let cell = prop_oneof![
-            12 => (-4i32..7).prop_map(|v| v as f32),
-            3 => -400.0f32..900.0,
-            2 => Just(f32::NAN),
-        ];
-        proptest::collection::vec(cell, w * h)
-            .prop_map(move |v| Grid::from_vec(w, h, v).expect("sized"))
-    })
+    common::hydro::dem(11)
 }
 
 proptest! {
@@ -487,21 +482,6 @@ fn tiled_least_cost(g: &Grid<f32>, dist: usize, eps: bool, tile: usize) -> Grid<
         out.paste(&o[0], core.x, core.y);
     }
     out
-}
-
-/// Read a raw little-endian f32 file (see tests/data/hydro/SOURCES.md).
-fn read_raw(name: &str, w: usize, h: usize, nodata: f32) -> Grid<f32> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data/hydro")
-        .join(name);
-    let bytes = std::fs::read(&p).expect("test data present");
-    assert_eq!(bytes.len(), w * h * 4);
-    let v = bytes
-        .chunks_exact(4)
-        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-        .map(|z| if z == nodata { f32::NAN } else { z })
-        .collect();
-    Grid::from_vec(w, h, v).unwrap()
 }
 
 #[test]

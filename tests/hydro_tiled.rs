@@ -14,7 +14,9 @@ use orogen::raster::{
     read_view, Cell, GeoRef, Grid, IntoAny, MemRaster, RasterSource, TileLayout, TileView,
 };
 use proptest::prelude::*;
-use std::path::Path;
+
+mod common;
+use common::hydro::read_raw;
 use std::time::Instant;
 
 fn run_global<S>(step: &S, srcs: &[&dyn RasterSource], tile: usize) -> orogen::Result<Grid<S::Out>>
@@ -289,16 +291,9 @@ fn check_all(g: &Grid<f32>, tiles: &[usize]) -> Result<(), TestCaseError> {
     Ok(())
 }
 
+/// Random DEMs up to 19 x 19.
 fn dem() -> impl Strategy<Value = Grid<f32>> {
-    (1usize..20, 1usize..20).prop_flat_map(|(w, h)| {
-        let cell = prop_oneof![
-            12 => (-4i32..7).prop_map(|v| v as f32),
-            3 => -400.0f32..900.0,
-            2 => Just(f32::NAN),
-        ];
-        proptest::collection::vec(cell, w * h)
-            .prop_map(move |v| Grid::from_vec(w, h, v).expect("sized"))
-    })
+    common::hydro::dem(20)
 }
 
 proptest! {
@@ -337,21 +332,6 @@ fn depression_spanning_many_tiles() {
 fn all_nodata_and_constant_grids() {
     check_all(&Grid::new(9, 6, f32::NAN), &[1, 4, 9]).unwrap();
     check_all(&Grid::new(13, 11, 5.0), &[1, 3, 7, 13]).unwrap();
-}
-
-/// Read a raw little-endian f32 file written by `gdal_translate -of ENVI -ot Float32`.
-fn read_raw(name: &str, w: usize, h: usize, nodata: f32) -> Grid<f32> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data/hydro")
-        .join(name);
-    let bytes = std::fs::read(&p).expect("test data present");
-    assert_eq!(bytes.len(), w * h * 4);
-    let v = bytes
-        .chunks_exact(4)
-        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-        .map(|z| if z == nodata { f32::NAN } else { z })
-        .collect();
-    Grid::from_vec(w, h, v).unwrap()
 }
 
 #[test]

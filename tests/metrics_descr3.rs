@@ -5,11 +5,8 @@
 
 #![allow(clippy::needless_range_loop)] // index loops read like the definitions
 
-use orogen::metrics::{parse_specs, MultiMetric};
-use orogen::raster::RasterSource;
-
 mod common;
-use common::{run, run1, source, Rng, CELL};
+use common::{assert_tiled_equals_untiled, check, horn, run1, source, spec_err as err, Rng, CELL};
 
 /// Random terrain (smooth + noise, values rounded to 1/8) with nodata holes.
 fn random_grid(w: usize, h: usize, seed: u64, holes: f64) -> Vec<f32> {
@@ -29,28 +26,6 @@ fn random_grid(w: usize, h: usize, seed: u64, holes: f64) -> Vec<f32> {
             }
         })
         .collect()
-}
-
-fn get(d: &[f32], w: usize, h: usize, x: i64, y: i64) -> f64 {
-    if x < 0 || y < 0 || x >= w as i64 || y >= h as i64 {
-        f64::NAN
-    } else {
-        d[y as usize * w + x as usize] as f64
-    }
-}
-
-/// Horn's gradient written out from the paper's weights (east, north), NaN
-/// if any of the 9 cells is missing.
-fn horn(d: &[f32], w: usize, h: usize, x: i64, y: i64) -> (f64, f64) {
-    let z = |dx: i64, dy: i64| get(d, w, h, x + dx, y + dy);
-    let east = z(1, -1) + 2.0 * z(1, 0) + z(1, 1);
-    let west = z(-1, -1) + 2.0 * z(-1, 0) + z(-1, 1);
-    let north = z(-1, -1) + 2.0 * z(0, -1) + z(1, -1);
-    let south = z(-1, 1) + 2.0 * z(0, 1) + z(1, 1);
-    if z(0, 0).is_nan() {
-        return (f64::NAN, f64::NAN);
-    }
-    ((east - west) / (8.0 * CELL), (north - south) / (8.0 * CELL))
 }
 
 /// Aspect (azimuth of steepest descent, clockwise from north) in degrees.
@@ -112,18 +87,6 @@ fn asymmetry_oracle(data: &[f32], w: usize, h: usize, r: i64, az: f64, tol: f64)
             }
         })
         .collect()
-}
-
-fn check(name: &str, got: &[f32], want: &[f64], w: usize, rel: f64, abs: f64) {
-    assert_eq!(got.len(), want.len());
-    for (i, (g, e)) in got.iter().zip(want).enumerate() {
-        let ok = if e.is_nan() {
-            g.is_nan()
-        } else {
-            (*g as f64 - e).abs() <= abs + rel * e.abs()
-        };
-        assert!(ok, "{name}: cell ({}, {}) got {g}, want {e}", i % w, i / w);
-    }
 }
 
 // ---------- asymmetry index ----------
@@ -230,39 +193,7 @@ fn tiled_equals_untiled_bit_for_bit() {
     let data = random_grid(w, h, 23, 0.03);
     let src = source(&data, w, h);
     let specs = "asymmetry_index:radius=5c:azimuth=90,asymmetry_index:radius=2c:azimuth=250,asymmetry_index:radius=9c:azimuth=80:tolerance=60";
-    let whole = run(&src, specs, 64, 1);
-    for (k, g) in whole.iter().enumerate() {
-        assert!(
-            g.iter().filter(|v| !v.is_nan()).count() > w * h / 3,
-            "metric {k} mostly nodata"
-        );
-    }
-    for (tile, threads) in [(1, 2), (7, 2), (13, 1), (16, 2)] {
-        let got = run(&src, specs, tile, threads);
-        for (k, (a, b)) in whole.iter().zip(&got).enumerate() {
-            for i in 0..a.len() {
-                assert!(
-                    a[i].to_bits() == b[i].to_bits() || (a[i].is_nan() && b[i].is_nan()),
-                    "metric {k} tile {tile} cell {i}: {} vs {}",
-                    a[i],
-                    b[i]
-                );
-            }
-        }
-    }
-}
-
-fn err(s: &str) -> String {
-    match parse_specs(s) {
-        Ok(v) => {
-            let src = source(&[0f32; 100], 10, 10);
-            match MultiMetric::new(&v, src.info()) {
-                Ok(_) => panic!("{s} accepted"),
-                Err(e) => e.to_string(),
-            }
-        }
-        Err(e) => e.to_string(),
-    }
+    assert_tiled_equals_untiled(&src, specs, w * h / 3);
 }
 
 #[test]

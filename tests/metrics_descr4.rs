@@ -13,7 +13,7 @@ use orogen::metrics::{parse_specs, MetricSpec};
 use orogen::raster::{MemRaster, RasterSource, TileLayout};
 
 mod common;
-use common::{run, source, Rng, CELL};
+use common::{check_abs as check, run, source, Rng, CELL};
 
 /// Hills (Gaussian bumps of 60..400 m) plus noise, with nodata holes.
 fn hills(w: usize, h: usize, seed: u64, holes: f64) -> Vec<f32> {
@@ -246,18 +246,6 @@ fn both(src: &MemRaster, top: f64, tile: usize, threads: usize) -> (Vec<f32>, Ve
     )
     .unwrap();
     (p.unwrap().into_vec(), s.unwrap().into_vec())
-}
-
-fn check(name: &str, got: &[f32], want: &[f64], w: usize, abs: f64) {
-    assert_eq!(got.len(), want.len());
-    for (i, (g, e)) in got.iter().zip(want).enumerate() {
-        let ok = if e.is_nan() {
-            g.is_nan()
-        } else {
-            (*g as f64 - e).abs() <= abs
-        };
-        assert!(ok, "{name}: cell ({}, {}) got {g}, want {e}", i % w, i / w);
-    }
 }
 
 #[test]

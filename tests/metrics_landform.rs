@@ -6,39 +6,12 @@
 
 #![allow(clippy::needless_range_loop)] // index loops read like the definitions
 
-use orogen::exec::run_local_to_memory;
-use orogen::exec::{EngineConfig, LocalEngine};
 use orogen::io::{open_raster, OpenOptions};
-use orogen::metrics::{parse_specs, MultiMetric};
-use orogen::raster::{Crs, DType, GeoRef, Grid, MemRaster, RasterSource, TileLayout};
+use orogen::metrics::parse_specs;
 use std::path::Path;
 
-const CELL: f64 = 10.0;
-
-fn source(data: &[f32], w: usize, h: usize) -> MemRaster {
-    let g = Grid::from_vec(w, h, data.to_vec()).unwrap();
-    MemRaster::from_grid(
-        g,
-        GeoRef::north_up(500_000.0, 4_000_000.0, CELL, Crs::projected(32611)),
-    )
-}
-
-fn run(src: &dyn RasterSource, specs: &str, tile: usize, threads: usize) -> Vec<Vec<f32>> {
-    let specs = parse_specs(specs).unwrap();
-    let info = src.info();
-    let step = MultiMetric::new(&specs, info).unwrap();
-    let engine = LocalEngine::new(EngineConfig {
-        threads,
-        ..EngineConfig::default()
-    });
-    let layout = TileLayout::new(info.width, info.height, tile);
-    let types = vec![(DType::F32, None); specs.len()];
-    run_local_to_memory(&engine, &step, &[src], layout, &types)
-        .unwrap()
-        .iter()
-        .map(|g| g.to_typed::<f32>(None).into_vec())
-        .collect()
-}
+mod common;
+use common::{run, source, CELL};
 
 /// The paper's landform table, written as (class number, name, the
 /// (number of −, number of +) cells of Fig. 4 holding it).

@@ -6,40 +6,14 @@
 
 #![allow(clippy::needless_range_loop)] // index loops read like the definitions
 
-use orogen::exec::run_local_to_memory;
-use orogen::exec::{EngineConfig, LocalEngine};
-use orogen::metrics::{parse_specs, MultiMetric};
-use orogen::raster::{Crs, DType, GeoRef, Grid, MemRaster, RasterSource, TileLayout};
+use orogen::raster::{Crs, GeoRef, Grid, MemRaster, RasterSource};
 
 mod common;
-use common::{run, source, Rng, CELL};
+use common::{check_abs as check, random_terrain, run, run_bits, source, spec_err as err, CELL};
 
-/// Random terrain (smooth + noise, values rounded to 1/8, with ties) with nodata holes.
+/// Random terrain (smooth + noise, values rounded to 1/2, with ties) with nodata holes.
 fn random_grid(w: usize, h: usize, seed: u64, holes: f64) -> Vec<f32> {
-    let mut rng = Rng(seed);
-    (0..w * h)
-        .map(|i| {
-            let (x, y) = ((i % w) as f64, (i / w) as f64);
-            if rng.unit() < holes {
-                f32::NAN
-            } else {
-                let z = 40.0 * (x * 0.3).sin() + 25.0 * (y * 0.21).cos() + 8.0 * rng.unit();
-                ((z * 2.0).round() / 2.0) as f32
-            }
-        })
-        .collect()
-}
-
-fn check(name: &str, got: &[f32], want: &[f64], w: usize, abs: f64) {
-    assert_eq!(got.len(), want.len());
-    for (i, (g, e)) in got.iter().zip(want).enumerate() {
-        let ok = if e.is_nan() {
-            g.is_nan()
-        } else {
-            (*g as f64 - e).abs() <= abs
-        };
-        assert!(ok, "{name}: cell ({}, {}) got {g}, want {e}", i % w, i / w);
-    }
+    random_terrain(w, h, seed, holes, 2.0)
 }
 
 /// Direct evaluation of the four definitions at every cell: all cells of
@@ -231,17 +205,6 @@ fn tiled_equals_untiled_bit_for_bit() {
     }
 }
 
-fn err(s: &str) -> String {
-    let src = source(&[1.0; 100], 10, 10);
-    match parse_specs(s) {
-        Err(e) => e.to_string(),
-        Ok(specs) => match MultiMetric::new(&specs, src.info()) {
-            Err(e) => e.to_string(),
-            Ok(_) => panic!("{s} was accepted"),
-        },
-    }
-}
-
 #[test]
 fn bad_parameters_are_clear_errors() {
     let e = err("dominance:radius=-3c");
@@ -284,28 +247,7 @@ fn tiled_equals_untiled_real_and_geographic() {
     );
     let specs =
         "dominance:radius=200m,submission:radius=5c,peakedness:radius=150m,domination:radius=6c";
-    let runt = |src: &dyn RasterSource, tile: usize| -> Vec<Vec<u32>> {
-        let sp = parse_specs(specs).unwrap();
-        let info = src.info();
-        let step = MultiMetric::new(&sp, info).unwrap();
-        let engine = LocalEngine::new(EngineConfig {
-            threads: 2,
-            ..EngineConfig::default()
-        });
-        let layout = TileLayout::new(info.width, info.height, tile);
-        let types = vec![(DType::F32, None); sp.len()];
-        run_local_to_memory(&engine, &step, &[src], layout, &types)
-            .unwrap()
-            .iter()
-            .map(|g| {
-                g.to_typed::<f32>(None)
-                    .data()
-                    .iter()
-                    .map(|v| if v.is_nan() { u32::MAX } else { v.to_bits() })
-                    .collect()
-            })
-            .collect()
-    };
+    let runt = |src: &dyn RasterSource, tile: usize| run_bits(src, specs, tile, 2);
     for src in [real.as_ref(), &geo as &dyn RasterSource] {
         let whole = runt(src, 512);
         // Something was computed: not all nodata, dominance not all zero.

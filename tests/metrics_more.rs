@@ -7,65 +7,18 @@
 
 #![allow(clippy::needless_range_loop)] // index loops read like the definitions
 
-use orogen::exec::run_local_to_memory;
-use orogen::exec::{EngineConfig, LocalEngine};
 use orogen::metrics::fractional::{frac_constant, gamma};
 use orogen::metrics::table;
-use orogen::metrics::{parse_specs, MultiMetric};
-use orogen::raster::{DType, RasterSource, TileLayout};
 
 mod common;
-use common::{run, run1, source, Rng, CELL};
+use common::{
+    assert_tiled_equals_untiled, check, get, horn, random_terrain, run, run1, run_bits, source,
+    spec_err as err, Rng, CELL,
+};
 
 /// Random terrain (smooth + noise, values rounded to 1/8) with nodata holes.
 fn random_grid(w: usize, h: usize, seed: u64, holes: f64) -> Vec<f32> {
-    let mut rng = Rng(seed);
-    (0..w * h)
-        .map(|i| {
-            let (x, y) = ((i % w) as f64, (i / w) as f64);
-            if rng.unit() < holes {
-                f32::NAN
-            } else {
-                let z = 40.0 * (x * 0.3).sin() + 25.0 * (y * 0.21).cos() + 8.0 * rng.unit();
-                ((z * 8.0).round() / 8.0) as f32
-            }
-        })
-        .collect()
-}
-
-fn get(d: &[f32], w: usize, h: usize, x: i64, y: i64) -> f64 {
-    if x < 0 || y < 0 || x >= w as i64 || y >= h as i64 {
-        f64::NAN
-    } else {
-        d[y as usize * w + x as usize] as f64
-    }
-}
-
-/// Horn's gradient written out from the paper's weights (east, north), NaN
-/// if any of the 9 cells is missing.
-fn horn(d: &[f32], w: usize, h: usize, x: i64, y: i64) -> (f64, f64) {
-    let z = |dx: i64, dy: i64| get(d, w, h, x + dx, y + dy);
-    let east = z(1, -1) + 2.0 * z(1, 0) + z(1, 1);
-    let west = z(-1, -1) + 2.0 * z(-1, 0) + z(-1, 1);
-    let north = z(-1, -1) + 2.0 * z(0, -1) + z(1, -1);
-    let south = z(-1, 1) + 2.0 * z(0, 1) + z(1, 1);
-    if z(0, 0).is_nan() {
-        // Horn's weights skip the centre, but a nodata cell has no slope.
-        return (f64::NAN, f64::NAN);
-    }
-    ((east - west) / (8.0 * CELL), (north - south) / (8.0 * CELL))
-}
-
-fn check(name: &str, got: &[f32], want: &[f64], w: usize, rel: f64, abs: f64) {
-    assert_eq!(got.len(), want.len());
-    for (i, (g, e)) in got.iter().zip(want).enumerate() {
-        let ok = if e.is_nan() {
-            g.is_nan()
-        } else {
-            (*g as f64 - e).abs() <= abs + rel * e.abs()
-        };
-        assert!(ok, "{name}: cell ({}, {}) got {g}, want {e}", i % w, i / w);
-    }
+    random_terrain(w, h, seed, holes, 8.0)
 }
 
 // ---------- directional slope ----------
@@ -554,42 +507,10 @@ fn tiled_equals_untiled_bit_for_bit() {
     let data = random_grid(w, h, 23, 0.04);
     let src = source(&data, w, h);
     let specs = "directional_slope:azimuth=33,average_slope:radius=4c,fractional_laplacian:radius=5c:s=0.4,hillslope_asymmetry:radius=5c:azimuth=90,shary_landform,shary_landform:radius=3c,ors:radius=4c,jut:radius=60m,rut:radius=5c";
-    let whole = run(&src, specs, 64, 1);
-    for (k, g) in whole.iter().enumerate() {
-        assert!(
-            g.iter().filter(|v| !v.is_nan()).count() > w * h / 2,
-            "metric {k} mostly nodata"
-        );
-    }
-    for (tile, threads) in [(1, 2), (7, 2), (13, 1), (16, 2)] {
-        let got = run(&src, specs, tile, threads);
-        for (k, (a, b)) in whole.iter().zip(&got).enumerate() {
-            for i in 0..a.len() {
-                assert!(
-                    a[i].to_bits() == b[i].to_bits() || (a[i].is_nan() && b[i].is_nan()),
-                    "metric {k} tile {tile} cell {i}: {} vs {}",
-                    a[i],
-                    b[i]
-                );
-            }
-        }
-    }
+    assert_tiled_equals_untiled(&src, specs, w * h / 2);
 }
 
 // ---------- bad parameters ----------
-
-fn err(s: &str) -> String {
-    match parse_specs(s) {
-        Ok(v) => {
-            let src = source(&vec![0f32; 100], 10, 10);
-            match MultiMetric::new(&v, src.info()) {
-                Ok(_) => panic!("{s} accepted"),
-                Err(e) => e.to_string(),
-            }
-        }
-        Err(e) => e.to_string(),
-    }
-}
 
 #[test]
 fn bad_parameters_are_clear_errors() {
@@ -721,28 +642,7 @@ fn tiled_equals_untiled_on_a_real_dem() {
     )
     .unwrap();
     let specs = "directional_slope:azimuth=200,average_slope:radius=300m,fractional_laplacian:radius=4c,hillslope_asymmetry:radius=6c,shary_landform:radius=2c,ors:radius=400m,jut:radius=4c,rut:radius=4c";
-    let runt = |tile: usize| -> Vec<Vec<u32>> {
-        let sp = parse_specs(specs).unwrap();
-        let info = src.info();
-        let step = MultiMetric::new(&sp, info).unwrap();
-        let engine = LocalEngine::new(EngineConfig {
-            threads: 2,
-            ..EngineConfig::default()
-        });
-        let layout = TileLayout::new(info.width, info.height, tile);
-        let types = vec![(DType::F32, None); sp.len()];
-        run_local_to_memory(&engine, &step, &[src.as_ref()], layout, &types)
-            .unwrap()
-            .iter()
-            .map(|g| {
-                g.to_typed::<f32>(None)
-                    .data()
-                    .iter()
-                    .map(|v| if v.is_nan() { u32::MAX } else { v.to_bits() })
-                    .collect()
-            })
-            .collect()
-    };
+    let runt = |tile: usize| run_bits(src.as_ref(), specs, tile, 2);
     let whole = runt(256);
     for tile in [9, 37, 100] {
         assert!(runt(tile) == whole, "tile {tile}");

@@ -12,38 +12,16 @@
 //! `day_geometry` (itself checked against the almanac here), so they test the
 //! time integration, terrain term and shadows independently of the astronomy.
 
-use orogen::exec::run_local_to_memory;
-use orogen::exec::{EngineConfig, LocalEngine};
 use orogen::metrics::solar::{day_geometry, refraction_deg, sun_position, SOLAR_CONSTANT};
-use orogen::metrics::{parse_specs, MultiMetric};
-use orogen::raster::{Crs, DType, GeoRef, Grid, MemRaster, RasterSource, TileLayout};
+use orogen::raster::RasterSource;
 use std::f64::consts::PI;
 
-const CELL: f64 = 10.0;
+mod common;
+use common::{source, CELL};
 
-fn source(data: &[f32], w: usize, h: usize) -> MemRaster {
-    let g = Grid::from_vec(w, h, data.to_vec()).unwrap();
-    MemRaster::from_grid(
-        g,
-        GeoRef::north_up(500_000.0, 4_000_000.0, CELL, Crs::projected(32611)),
-    )
-}
-
+/// [`common::run`] on 2 threads.
 fn run(src: &dyn RasterSource, specs: &str, tile: usize) -> Vec<Vec<f32>> {
-    let specs = parse_specs(specs).unwrap();
-    let info = src.info();
-    let step = MultiMetric::new(&specs, info).unwrap();
-    let engine = LocalEngine::new(EngineConfig {
-        threads: 2,
-        ..EngineConfig::default()
-    });
-    let layout = TileLayout::new(info.width, info.height, tile);
-    let types = vec![(DType::F32, None); specs.len()];
-    run_local_to_memory(&engine, &step, &[src], layout, &types)
-        .unwrap()
-        .iter()
-        .map(|g| g.to_typed::<f32>(None).into_vec())
-        .collect()
+    common::run(src, specs, tile, 2)
 }
 
 /// A plane z = a·x_east + b·y_north (metres) on a w x h grid.

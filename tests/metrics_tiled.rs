@@ -6,7 +6,6 @@
 
 #![allow(clippy::needless_range_loop)] // index loops read like the definitions
 
-use orogen::exec::run_local_to_memory;
 use orogen::exec::{Engine, EngineConfig, LocalEngine, MemSink, TileSink};
 use orogen::io::{open_raster, OpenOptions, OutputOptions};
 use orogen::metrics::registry::{resolve, Length, MetricKind, METRICS};
@@ -16,28 +15,8 @@ use std::path::Path;
 
 const SPECS: &str = "mean_curvature:radius=3c,profile_curvature:radius=2c,dzdx,slope,aspect,northness,normal_z,laplacian,profile_curvature,plan_curvature,tangential_curvature,mean_curvature,gaussian_curvature,min_curvature,max_curvature,mean:radius=4c,stdev:radius=3c,variance:radius=5c:shape=disk,tpi:radius=90m,ntpi:radius=4c,relief:radius=5c,tophat_white:radius=3c,tophat_black:radius=2c,percentile:radius=3c,sky_view_approx,tri_riley,tri,rugosity,roughness:radius=3c,openness:radius=150m,openness_neg:radius=4c:directions=16,sky_view:radius=150m";
 
-fn run(src: &dyn RasterSource, specs: &str, tile: usize, threads: usize) -> Vec<Vec<u32>> {
-    let specs = parse_specs(specs).unwrap();
-    let info = src.info();
-    let step = MultiMetric::new(&specs, info).unwrap();
-    let engine = LocalEngine::new(EngineConfig {
-        threads,
-        ..EngineConfig::default()
-    });
-    let layout = TileLayout::new(info.width, info.height, tile);
-    let types = vec![(DType::F32, None); specs.len()];
-    run_local_to_memory(&engine, &step, &[src], layout, &types)
-        .unwrap()
-        .iter()
-        .map(|g| {
-            g.to_typed::<f32>(None)
-                .data()
-                .iter()
-                .map(|v| if v.is_nan() { u32::MAX } else { v.to_bits() })
-                .collect()
-        })
-        .collect()
-}
+mod common;
+use common::run_bits as run;
 
 fn tiled_equals_untiled(path: &str) {
     let src = open_raster(Path::new(path), &OpenOptions::default()).unwrap();

@@ -8,34 +8,10 @@
 
 #![allow(clippy::needless_range_loop)] // index loops read like the definitions
 
-use orogen::exec::run_local_to_memory;
-use orogen::exec::{EngineConfig, LocalEngine};
 use orogen::metrics::horizon::{tangents, HorizonMethod};
 use orogen::metrics::visibility::{accumulate_viewshed, viewshed, ViewshedOptions};
 use orogen::metrics::{parse_specs, MultiMetric};
-use orogen::raster::{read_view, Crs, DType, GeoRef, Grid, MemRaster, RasterSource, TileLayout};
-
-/// SplitMix64 (Steele, Lea & Flood 2014) for reproducible test data.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-}
-
-const CELL: f64 = 10.0;
-
-fn source(data: &[f32], w: usize, h: usize) -> MemRaster {
-    let g = Grid::from_vec(w, h, data.to_vec()).unwrap();
-    MemRaster::from_grid(
-        g,
-        GeoRef::north_up(500_000.0, 4_000_000.0, CELL, Crs::projected(32611)),
-    )
-}
+use orogen::raster::{read_view, Crs, GeoRef, Grid, MemRaster, RasterSource, TileLayout};
 
 /// Heights in 0..range (small ranges make many exact ties) with ~1/nd nodata.
 fn random_grid(w: usize, h: usize, seed: u64, range: u64, nd: u64) -> Vec<f32> {
@@ -52,30 +28,8 @@ fn random_grid(w: usize, h: usize, seed: u64, range: u64, nd: u64) -> Vec<f32> {
         .collect()
 }
 
-fn run(src: &dyn RasterSource, specs: &str, tile: usize, threads: usize) -> Vec<Vec<f32>> {
-    let specs = parse_specs(specs).unwrap();
-    let info = src.info();
-    let step = MultiMetric::new(&specs, info).unwrap();
-    let engine = LocalEngine::new(EngineConfig {
-        threads,
-        ..EngineConfig::default()
-    });
-    let layout = TileLayout::new(info.width, info.height, tile);
-    let types = vec![(DType::F32, None); specs.len()];
-    run_local_to_memory(&engine, &step, &[src], layout, &types)
-        .unwrap()
-        .iter()
-        .map(|g| g.to_typed::<f32>(None).into_vec())
-        .collect()
-}
-
-fn at(d: &[f32], w: usize, h: usize, x: i64, y: i64) -> f64 {
-    if x < 0 || y < 0 || x >= w as i64 || y >= h as i64 {
-        f64::NAN
-    } else {
-        d[y as usize * w + x as usize] as f64
-    }
-}
+mod common;
+use common::{get as at, run, source, Rng, CELL};
 
 const STEPS16: [(i64, i64); 16] = [
     (0, -1),

@@ -1,37 +1,9 @@
 //! `orogen orostats`, `orogen classify` and `orogen ridges` as a user runs them.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
 
-fn orogen() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_orogen"))
-}
-
-fn data(p: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data")
-        .join(p)
-}
-
-fn ok(cmd: &mut Command) -> String {
-    let out = cmd.output().unwrap();
-    assert!(
-        out.status.success(),
-        "{:?} failed: {}",
-        cmd,
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr)
-}
-
-fn fails(cmd: &mut Command) -> String {
-    let out = cmd.output().unwrap();
-    let err = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert!(!out.status.success(), "{cmd:?} should fail");
-    assert!(!err.contains("panicked"), "{cmd:?} panicked: {err}");
-    assert!(err.starts_with("error: "), "{cmd:?}: {err}");
-    err
-}
+use common::cli::{data, fails, ok, orogen};
+use std::path::Path;
 
 fn asc(path: &Path, w: usize, h: usize, f: impl Fn(usize, usize) -> f64) {
     let mut s = format!(

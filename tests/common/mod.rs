@@ -4,6 +4,10 @@
 
 #![allow(dead_code)] // each test binary uses a subset
 
+pub mod cli;
+pub mod engine;
+pub mod hydro;
+
 use orogen::exec::run_local_to_memory;
 use orogen::exec::{EngineConfig, LocalEngine};
 use orogen::metrics::{parse_specs, MultiMetric};
@@ -34,7 +38,9 @@ pub fn source(data: &[f32], w: usize, h: usize) -> MemRaster {
     )
 }
 
-pub fn run(src: &MemRaster, specs: &str, tile: usize, threads: usize) -> Vec<Vec<f32>> {
+/// Run the metrics of `specs` with square tiles of `tile` on `threads`
+/// threads; one grid per metric.
+pub fn run(src: &dyn RasterSource, specs: &str, tile: usize, threads: usize) -> Vec<Vec<f32>> {
     let specs = parse_specs(specs).unwrap();
     let info = src.info();
     let step = MultiMetric::new(&specs, info).unwrap();
@@ -44,7 +50,7 @@ pub fn run(src: &MemRaster, specs: &str, tile: usize, threads: usize) -> Vec<Vec
     });
     let layout = TileLayout::new(info.width, info.height, tile);
     let types = vec![(DType::F32, None); specs.len()];
-    run_local_to_memory(&engine, &step, &[src as &dyn RasterSource], layout, &types)
+    run_local_to_memory(&engine, &step, &[src], layout, &types)
         .unwrap()
         .iter()
         .map(|g| g.to_typed::<f32>(None).into_vec())
@@ -53,4 +59,121 @@ pub fn run(src: &MemRaster, specs: &str, tile: usize, threads: usize) -> Vec<Vec
 
 pub fn run1(src: &MemRaster, spec: &str) -> Vec<f32> {
     run(src, spec, 16, 2).remove(0)
+}
+
+/// [`run`] as bit patterns, every NaN as `u32::MAX` (to compare bit for bit).
+pub fn run_bits(src: &dyn RasterSource, specs: &str, tile: usize, threads: usize) -> Vec<Vec<u32>> {
+    run(src, specs, tile, threads)
+        .iter()
+        .map(|g| {
+            g.iter()
+                .map(|v| if v.is_nan() { u32::MAX } else { v.to_bits() })
+                .collect()
+        })
+        .collect()
+}
+
+/// Random terrain (smooth + noise, values rounded to multiples of `1/q`)
+/// with a fraction `holes` of nodata cells.
+pub fn random_terrain(w: usize, h: usize, seed: u64, holes: f64, q: f64) -> Vec<f32> {
+    let mut rng = Rng(seed);
+    (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as f64, (i / w) as f64);
+            if rng.unit() < holes {
+                f32::NAN
+            } else {
+                let z = 40.0 * (x * 0.3).sin() + 25.0 * (y * 0.21).cos() + 8.0 * rng.unit();
+                ((z * q).round() / q) as f32
+            }
+        })
+        .collect()
+}
+
+/// The error of a metric spec that must be refused, by the parser or when
+/// the metrics are built for a 10 x 10 source.
+pub fn spec_err(s: &str) -> String {
+    match parse_specs(s) {
+        Ok(v) => {
+            let src = source(&[0f32; 100], 10, 10);
+            match MultiMetric::new(&v, src.info()) {
+                Ok(_) => panic!("{s} accepted"),
+                Err(e) => e.to_string(),
+            }
+        }
+        Err(e) => e.to_string(),
+    }
+}
+
+/// Every metric of `specs` has more than `min_valid` valid cells in one
+/// whole-grid tile, and tiles of 1, 7, 13 and 16 cells (1 or 2 threads) give
+/// the same bits (any NaN equals any NaN).
+pub fn assert_tiled_equals_untiled(src: &MemRaster, specs: &str, min_valid: usize) {
+    let whole = run(src, specs, 64, 1);
+    for (k, g) in whole.iter().enumerate() {
+        assert!(
+            g.iter().filter(|v| !v.is_nan()).count() > min_valid,
+            "metric {k} mostly nodata"
+        );
+    }
+    for (tile, threads) in [(1, 2), (7, 2), (13, 1), (16, 2)] {
+        let got = run(src, specs, tile, threads);
+        for (k, (a, b)) in whole.iter().zip(&got).enumerate() {
+            assert_eq!(a.len(), b.len(), "metric {k} tile {tile}");
+            for (i, (x, y)) in a.iter().zip(b).enumerate() {
+                assert!(
+                    x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan()),
+                    "metric {k} tile {tile} cell {i}: {x} vs {y}"
+                );
+            }
+        }
+    }
+}
+
+/// Cell `(x, y)` of a `w` x `h` grid as f64, NaN outside it.
+pub fn get(d: &[f32], w: usize, h: usize, x: i64, y: i64) -> f64 {
+    if x < 0 || y < 0 || x >= w as i64 || y >= h as i64 {
+        f64::NAN
+    } else {
+        d[y as usize * w + x as usize] as f64
+    }
+}
+
+/// Horn's gradient written out from the paper's weights (east, north), NaN
+/// if any of the 9 cells is missing.
+pub fn horn(d: &[f32], w: usize, h: usize, x: i64, y: i64) -> (f64, f64) {
+    let z = |dx: i64, dy: i64| get(d, w, h, x + dx, y + dy);
+    let east = z(1, -1) + 2.0 * z(1, 0) + z(1, 1);
+    let west = z(-1, -1) + 2.0 * z(-1, 0) + z(-1, 1);
+    let north = z(-1, -1) + 2.0 * z(0, -1) + z(1, -1);
+    let south = z(-1, 1) + 2.0 * z(0, 1) + z(1, 1);
+    if z(0, 0).is_nan() {
+        // Horn's weights skip the centre, but a nodata cell has no slope.
+        return (f64::NAN, f64::NAN);
+    }
+    ((east - west) / (8.0 * CELL), (north - south) / (8.0 * CELL))
+}
+
+/// Asserts `got` equals `want` cell by cell: NaN where `want` is NaN, else
+/// within `tol(want)`; `w` (the grid width) places a failing cell.
+fn check_tol(name: &str, got: &[f32], want: &[f64], w: usize, tol: impl Fn(f64) -> f64) {
+    assert_eq!(got.len(), want.len());
+    for (i, (g, e)) in got.iter().zip(want).enumerate() {
+        let ok = if e.is_nan() {
+            g.is_nan()
+        } else {
+            (*g as f64 - e).abs() <= tol(*e)
+        };
+        assert!(ok, "{name}: cell ({}, {}) got {g}, want {e}", i % w, i / w);
+    }
+}
+
+/// [`check_tol`] within `abs + rel·|want|`.
+pub fn check(name: &str, got: &[f32], want: &[f64], w: usize, rel: f64, abs: f64) {
+    check_tol(name, got, want, w, |e| abs + rel * e.abs());
+}
+
+/// [`check_tol`] within `abs`.
+pub fn check_abs(name: &str, got: &[f32], want: &[f64], w: usize, abs: f64) {
+    check_tol(name, got, want, w, |_| abs);
 }
