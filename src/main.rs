@@ -531,7 +531,7 @@ fn output_options(o: &OutFmt) -> Result<OutputOptions> {
             bail!("--predictor {p}: use 1 (none), 2 (horizontal) or 3 (floating point)");
         }
     }
-    if o.block < 16 || o.block % 16 != 0 {
+    if o.block < 16 || !o.block.is_multiple_of(16) {
         bail!(
             "--block {}: GeoTIFF tiles must be a multiple of 16 (e.g. 256, 512)",
             o.block

@@ -25,7 +25,7 @@ fn heights(w: usize, h: usize, seed: u64) -> Vec<f32> {
     (0..w * h)
         .map(|_| {
             let z = rng.next();
-            if z % 37 == 0 {
+            if z.is_multiple_of(37) {
                 f32::NAN
             } else {
                 ((z >> 9) % 1000) as f32 * 0.25

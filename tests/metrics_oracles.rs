@@ -183,7 +183,7 @@ fn wood_quadric_exact_on_paraboloid_with_holes() {
             let z = aa * (x - cx - 15.0).powi(2)
                 + bb * (y - cy + 5.0).powi(2)
                 + 0.004 * (x - cx) * (y - cy);
-            if r.next() % 9 == 0 && i != 11 * w + 12 {
+            if r.next().is_multiple_of(9) && i != 11 * w + 12 {
                 f32::NAN
             } else {
                 z as f32
@@ -362,7 +362,7 @@ fn random_grid(w: usize, h: usize, seed: u64) -> Vec<f32> {
     (0..w * h)
         .map(|_| {
             let v = r.next();
-            if v % 12 == 0 {
+            if v.is_multiple_of(12) {
                 f32::NAN
             } else {
                 ((v >> 8) % 200) as f32

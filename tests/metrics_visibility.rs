@@ -19,7 +19,7 @@ fn random_grid(w: usize, h: usize, seed: u64, range: u64, nd: u64) -> Vec<f32> {
     (0..w * h)
         .map(|_| {
             let v = r.next();
-            if nd > 0 && v % nd == 0 {
+            if nd > 0 && v.is_multiple_of(nd) {
                 f32::NAN
             } else {
                 ((v >> 8) % range) as f32 * 0.5

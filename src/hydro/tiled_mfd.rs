@@ -324,7 +324,7 @@ fn perimeter_xy(w: usize, h: usize, k: usize) -> (usize, usize) {
     if k < w + mid {
         let j = k - w;
         let y = 1 + j / side;
-        let x = if j % side == 0 { 0 } else { w - 1 };
+        let x = if j.is_multiple_of(side) { 0 } else { w - 1 };
         (x, y)
     } else {
         (k - w - mid, h - 1)
