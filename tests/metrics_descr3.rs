@@ -6,7 +6,9 @@
 #![allow(clippy::needless_range_loop)] // index loops read like the definitions
 
 mod common;
-use common::{assert_tiled_equals_untiled, check, horn, run1, source, spec_err as err, Rng, CELL};
+use common::{
+    assert_tiled_equals_untiled, check, horn, ridge, run1, source, spec_err as err, Rng, CELL,
+};
 
 /// Random terrain (smooth + noise, values rounded to 1/8) with nodata holes.
 fn random_grid(w: usize, h: usize, seed: u64, holes: f64) -> Vec<f32> {
@@ -115,17 +117,6 @@ fn asymmetry_index_brute_force() {
         );
         check("asymmetry_index", &got, &want, w, 1e-5, 1e-5);
     }
-}
-
-/// An east-west ridge on row `crest`: slopes `gn` north, `gs` south.
-fn ridge(w: usize, h: usize, crest: usize, gn: f64, gs: f64) -> Vec<f32> {
-    (0..w * h)
-        .map(|i| {
-            let y = (i / w) as f64;
-            let d = (y - crest as f64) * CELL; // positive to the south
-            (if d < 0.0 { gn * d } else { -gs * d }) as f32
-        })
-        .collect()
 }
 
 #[test]

@@ -12,8 +12,8 @@ use orogen::metrics::table;
 
 mod common;
 use common::{
-    assert_tiled_equals_untiled, check, get, horn, random_terrain, run, run1, run_bits, source,
-    spec_err as err, Rng, CELL,
+    assert_tiled_equals_untiled, check, get, horn, random_terrain, ridge, run, run1, run_bits,
+    source, spec_err as err, Rng, CELL,
 };
 
 /// Random terrain (smooth + noise, values rounded to 1/8) with nodata holes.
@@ -200,18 +200,6 @@ fn fractional_laplacian_brute_force() {
 }
 
 // ---------- hillslope asymmetry ----------
-
-/// An east-west ridge on row `crest`: slopes `gn` on the north side and `gs`
-/// on the south side (rise per metre towards the crest).
-fn ridge(w: usize, h: usize, crest: usize, gn: f64, gs: f64) -> Vec<f32> {
-    (0..w * h)
-        .map(|i| {
-            let y = (i / w) as f64;
-            let d = (y - crest as f64) * CELL; // positive to the south
-            (if d < 0.0 { gn * d } else { -gs * d }) as f32
-        })
-        .collect()
-}
 
 #[test]
 fn hillslope_asymmetry_plane_and_ridges() {

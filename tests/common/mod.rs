@@ -177,3 +177,15 @@ pub fn check(name: &str, got: &[f32], want: &[f64], w: usize, rel: f64, abs: f64
 pub fn check_abs(name: &str, got: &[f32], want: &[f64], w: usize, abs: f64) {
     check_tol(name, got, want, w, |_| abs);
 }
+
+/// An east-west ridge on row `crest`: slopes `gn` on the north side and `gs`
+/// on the south side (rise per metre towards the crest).
+pub fn ridge(w: usize, h: usize, crest: usize, gn: f64, gs: f64) -> Vec<f32> {
+    (0..w * h)
+        .map(|i| {
+            let y = (i / w) as f64;
+            let d = (y - crest as f64) * CELL; // positive to the south
+            (if d < 0.0 { gn * d } else { -gs * d }) as f32
+        })
+        .collect()
+}
