@@ -30,7 +30,9 @@
 //!    peak count, elevations, isolation and saddle targets of a peak come
 //!    from the profile of the region it is placed in.
 
-use super::assign::{assign_saddles_grouped, prominences, refine_histograms, GroupTargets};
+use super::assign::{
+    assign_saddles_grouped, prominences, refine_histograms, GroupTargets, SaddleProblem,
+};
 use super::profile::SynthProfile;
 use super::typemap::TypeMap;
 use crate::error::{Error, Result};
@@ -143,6 +145,10 @@ pub struct TreeOptions {
     /// C = 5). Profiles already that contrasted (Mont Blanc: 876–4810 m,
     /// 5.5) keep the paper's weights (b = 0). 1: the paper's weights.
     pub ridge_contrast: f64,
+    /// Width (m) of the band over which the type map's region profiles are
+    /// blended at their borders (see [`super::typemap`]). Default
+    /// [`DEFAULT_TYPE_BLEND_M`]; 0: sharp borders.
+    pub type_blend_m: f64,
 }
 
 impl TreeOptions {
@@ -167,6 +173,7 @@ impl TreeOptions {
             type_map: None,
             refine: true,
             ridge_contrast: DEFAULT_RIDGE_CONTRAST,
+            type_blend_m: DEFAULT_TYPE_BLEND_M,
         }
     }
 }
@@ -174,6 +181,10 @@ impl TreeOptions {
 /// Default [`TreeOptions::ridge_contrast`] (the Mont Blanc profile's own
 /// contrast, rounded down: it keeps the paper's weights there).
 pub const DEFAULT_RIDGE_CONTRAST: f64 = 5.0;
+/// Default [`TreeOptions::type_blend_m`]: 6 km, about two to three peak
+/// spacings of the shipped profiles (Mont Blanc 0.16, Dallas 0.2 peaks per
+/// km²), so a border mixes a few peaks of each side instead of a step.
+pub const DEFAULT_TYPE_BLEND_M: f64 = 6000.0;
 /// Default isolation stretch ([`TreeOptions::isolation_stretch`]).
 pub const DEFAULT_ISOLATION_STRETCH: f64 = 1.3;
 /// Default number of placement passes (see `docs/notes/oro_author.md`).
@@ -528,6 +539,11 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
             "isolation_stretch must be a positive number",
         ));
     }
+    if !(opts.type_blend_m.is_finite() && opts.type_blend_m >= 0.0) {
+        return Err(Error::invalid(
+            "type_blend_m (the blend band at type-map borders) must be a number ≥ 0 m",
+        ));
+    }
     if opts.passes == 0 || opts.passes > 16 {
         return Err(Error::invalid(
             "passes (prominence bins placed one after the other) must be 1..16",
@@ -663,22 +679,36 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
     // mapped through the profile's peak-elevation quantiles, so high peaks
     // gather in massifs as in real ranges instead of landing next to low ones
     // (with a type map: the quantiles of the region's profile).
+    // With a type map, the coherent map holds the fBm's rank fraction u and
+    // a peak of region r reads r's quantile q_r(u) with r's σ (1/20 of its
+    // elevation range): in a blend band each region's peaks keep their own
+    // elevations (a blended elevation would suit neither side).
     let auto_ch;
+    let mut rank_map = None;
     let ch_src = match &opts.elevation_map {
         Some(g) => Some(g),
-        None if opts.coherent => {
-            auto_ch = match tm {
-                None => coherent_elevation_map(profile, w, h, opts.seed),
-                Some(t) => coherent_map_with(w, h, opts.seed, |u, fx, fy| {
-                    profiles[t.region_at(fx, fy).unwrap_or(0)]
-                        .elevation
-                        .quantile(u)
-                }),
-            };
-            Some(&auto_ch)
-        }
+        None if opts.coherent => match tm {
+            None => {
+                auto_ch = coherent_elevation_map(profile, w, h, opts.seed);
+                Some(&auto_ch)
+            }
+            Some(_) => {
+                rank_map = Some(coherent_map_with(w, h, opts.seed, |u, _, _| u));
+                None
+            }
+        },
         None => None,
     };
+    let rank_map = rank_map.as_ref().map(|g| DomainMap {
+        g,
+        sx: g.width() as f64 / wm,
+        sy: g.height() as f64 / hm,
+    });
+    let region_sigma: Vec<f64> = profiles
+        .iter()
+        .map(|p| ((p.elevation.quantile(1.0) - p.elevation.quantile(0.0)) / 20.0).max(1.0))
+        .collect();
+    let (blend_fx, blend_fy) = (opts.type_blend_m / wm, opts.type_blend_m / hm);
     let ch = match ch_src {
         Some(g) => {
             let (lo, hi) = g
@@ -802,8 +832,10 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
                        region: usize,
                        ridges: Option<&DomainMap>|
      -> bool {
-        if tm.is_some() && region_at(x, y) != Some(region) {
-            return false;
+        if let Some(t) = tm {
+            if t.region_blended(x / wm, y / hm, blend_fx, blend_fy, opts.seed) != Some(region) {
+                return false;
+            }
         }
         if kept_out(x, y) {
             return false;
@@ -820,6 +852,13 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
                 return false;
             }
             let z = (v - hh) / sigma;
+            if rng.unit() >= (-0.5 * z * z).exp() {
+                return false;
+            }
+        }
+        if let Some(m) = &rank_map {
+            let v = profiles[region].elevation.quantile(m.at(x, y));
+            let z = (v - hh) / region_sigma[region];
             if rng.unit() >= (-0.5 * z * z).exp() {
                 return false;
             }
@@ -1059,17 +1098,17 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
                 (hmax[e] - t).clamp(0.0, hmax[e].max(0.0))
             })
             .collect();
-        assign_saddles_grouped(
-            &hp,
-            &edges,
-            &hmax,
-            0.0,
-            &mut hs,
-            &group_of_peak,
-            &groups,
-            &pinned,
-            opts.iterations,
-        )?;
+        let problem = SaddleProblem {
+            h: &hp,
+            edges: &edges,
+            hmax: &hmax,
+            floor: 0.0,
+            group_of_peak: &group_of_peak,
+            groups: &groups,
+            thresholds: &thr_of,
+            pinned: &pinned,
+        };
+        assign_saddles_grouped(&problem, &mut hs, opts.iterations)?;
         // Repair: a peak whose prominence fell below its profile's threshold
         // (owners change as saddles move) gets its key saddle lowered to the
         // threshold. Lowering saddles never lowers another peak's
@@ -1089,18 +1128,7 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
             }
         }
         if opts.refine {
-            refine_histograms(
-                &hp,
-                &edges,
-                &hmax,
-                0.0,
-                &mut hs,
-                &group_of_peak,
-                &groups,
-                &thr_of,
-                &pinned,
-                opts.seed,
-            )?;
+            refine_histograms(&problem, &mut hs, opts.seed)?;
         }
         for (s, v) in saddles.iter_mut().zip(hs) {
             s.elevation = v;
