@@ -143,11 +143,24 @@ pub struct TreeOptions {
     /// ground through much lower peaks whose saddles capped their
     /// prominence (tree dominance error 2.4–5.4 %, measured; 0.0–1.2 % with
     /// C = 5). Profiles already that contrasted (Mont Blanc: 876–4810 m,
-    /// 5.5) keep the paper's weights (b = 0). 1: the paper's weights.
+    /// 5.5) get b = 0 from this rule (but see [`TreeOptions::ridge_base`]).
+    /// 1 with `ridge_base` 0: the paper's weights.
     pub ridge_contrast: f64,
+    /// Least base of the ridge weights as a fraction β ∈ [0, 1) of the
+    /// lowest peak: b = max(b_C, β · lowest) with b_C the base of
+    /// [`TreeOptions::ridge_contrast`]. Default [`DEFAULT_RIDGE_BASE`]. On
+    /// Mont Blanc (876–4810 m, contrast 5.5, so b_C = 0) the paper's
+    /// weights joined high peaks through much lower ones, whose h_max caps
+    /// the saddles on the way: the tree kept 4–7 peaks of prominence
+    /// > 3000 m where the profile has 1 and too many of 800–1500 m (tree
+    /// prominence error 1.6–3.2 %, rendered 2.0–3.5 %, seeds 1–6); with
+    /// β = 0.72 (contrast ≈ 17) 0.9–2.1 % and 1.2–2.7 % (docs/notes/oro6.md).
+    /// On Dallas b_C (contrast 5: 132 m = 0.8 · 165 m) is larger, so its
+    /// trees do not change. 0: the contrast alone.
+    pub ridge_base: f64,
     /// Width (m) of the band over which the type map's region profiles are
     /// blended at their borders (see [`super::typemap`]). Default
-    /// [`DEFAULT_TYPE_BLEND_M`]; 0: sharp borders.
+    /// [`DEFAULT_TYPE_BLEND_M`] = 0: sharp borders.
     pub type_blend_m: f64,
 }
 
@@ -173,6 +186,7 @@ impl TreeOptions {
             type_map: None,
             refine: true,
             ridge_contrast: DEFAULT_RIDGE_CONTRAST,
+            ridge_base: DEFAULT_RIDGE_BASE,
             type_blend_m: DEFAULT_TYPE_BLEND_M,
         }
     }
@@ -181,10 +195,15 @@ impl TreeOptions {
 /// Default [`TreeOptions::ridge_contrast`] (the Mont Blanc profile's own
 /// contrast, rounded down: it keeps the paper's weights there).
 pub const DEFAULT_RIDGE_CONTRAST: f64 = 5.0;
-/// Default [`TreeOptions::type_blend_m`]: 6 km, about two to three peak
-/// spacings of the shipped profiles (Mont Blanc 0.16, Dallas 0.2 peaks per
-/// km²), so a border mixes a few peaks of each side instead of a step.
-pub const DEFAULT_TYPE_BLEND_M: f64 = 6000.0;
+/// Default [`TreeOptions::ridge_base`] (calibrated on Mont Blanc, seeds
+/// 1–6; see the field).
+pub const DEFAULT_RIDGE_BASE: f64 = 0.72;
+/// Default [`TreeOptions::type_blend_m`]: 0, sharp borders (as before the
+/// blend existed; the CLI has no flag for it yet). A band of about 6 km,
+/// two to three peak spacings of the shipped profiles (Mont Blanc 0.16,
+/// Dallas 0.18 peaks per km²), mixes a few peaks of each side at a border
+/// instead of a step; wider bands ramp more slowly.
+pub const DEFAULT_TYPE_BLEND_M: f64 = 0.0;
 /// Default isolation stretch ([`TreeOptions::isolation_stretch`]).
 pub const DEFAULT_ISOLATION_STRETCH: f64 = 1.3;
 /// Default number of placement passes (see `docs/notes/oro_author.md`).
@@ -1000,6 +1019,11 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
             "ridge_contrast must be a number ≥ 1 (1: ridge weights on absolute elevations)",
         ));
     }
+    if !(opts.ridge_base.is_finite() && (0.0..1.0).contains(&opts.ridge_base)) {
+        return Err(Error::invalid(
+            "ridge_base must be a fraction in [0, 1) of the lowest peak (0: the contrast alone)",
+        ));
+    }
     let edges = {
         // Ridge weights on the relief above a common base (see
         // `TreeOptions::ridge_contrast`); `ridge_tree_with` floors it at 1 m.
@@ -1013,11 +1037,14 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
             .map(|p| p.min_prominence)
             .fold(0.0f64, f64::max);
         let c = opts.ridge_contrast;
-        let base = if c > 1.0 {
-            ((c * lowest - highest) / (c - 1.0)).clamp(0.0, (lowest - thr).max(0.0))
+        let by_contrast = if c > 1.0 {
+            (c * lowest - highest) / (c - 1.0)
         } else {
             0.0
         };
+        let base = by_contrast
+            .max(opts.ridge_base * lowest)
+            .clamp(0.0, (lowest - thr).max(0.0));
         if base > 0.0 {
             let rel: Vec<SynthPeak> = peaks
                 .iter()

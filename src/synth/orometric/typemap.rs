@@ -5,8 +5,8 @@
 //! elevation, isolation and prominence/dominance targets from that region's
 //! profile, and each region gets its profile's density × its area.
 //!
-//! Borders are blended over a band (`TreeOptions::type_blend_m`, default
-//! [`super::tree_synth::DEFAULT_TYPE_BLEND_M`]): near a border the map is
+//! Borders may be blended over a band (`TreeOptions::type_blend_m`, default
+//! [`super::tree_synth::DEFAULT_TYPE_BLEND_M`] = 0, sharp): near a border the map is
 //! a fine mosaic in which region r holds the share of r in the band-wide
 //! square around each grain ([`TypeMap::blend_weight`], a box filter: it
 //! ramps linearly across a straight border), a peak of region r is placed
