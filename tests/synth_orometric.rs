@@ -467,8 +467,8 @@ fn distributions_match_the_alps_profile() {
     };
     // The paper's figures on every seed (worst = the largest of seeds
     // 1-6): isolation ≤ 8 %, prominence and dominance ≤ 3 %. Measured
-    // (session 6, ridge base 0.72): isolation 3.6-6.9 %, prominence
-    // 1.2-2.7 %, dominance 0.3-1.5 % (session 5, paper's ridge weights:
+    // (session 6, ridge base 0.72): isolation 5.2-7.9 %, prominence
+    // 1.4-2.6 %, dominance 0.6-1.5 % (session 5, paper's ridge weights:
     // prominence 2.0-3.5 %, three seeds over 3 %; docs/notes/oro6.md).
     assert!(worst[0] <= 0.08, "isolation {worst:?}");
     assert!(worst[1] <= 0.03, "prominence {worst:?}");
@@ -486,6 +486,8 @@ fn distributions_match_the_low_relief_profile() {
     // 0.1-0.5 %; dominance 0.9-3.0 %, 1.8 % mean (the paper: isolation ≤ 8 %,
     // prominence and dominance ≤ 3 %). With the paper's ridge weights:
     // isolation up to 8.4 %, dominance 4.1 % mean, 5.1 % worst.
+    // The paper's figures on every seed (session 6: the same trees and
+    // figures; dominance 2.99 % at seed 1).
     assert!(
         worst[0] <= 0.08 && mean[0] <= 0.056,
         "isolation {mean:?} {worst:?}"
@@ -495,7 +497,7 @@ fn distributions_match_the_low_relief_profile() {
         "prominence {mean:?} {worst:?}"
     );
     assert!(
-        worst[2] <= 0.033 && mean[2] <= 0.021,
+        worst[2] <= 0.03 && mean[2] <= 0.021,
         "dominance {mean:?} {worst:?}"
     );
 }
@@ -528,7 +530,7 @@ fn saddle_refinement_lowers_the_tree_errors() {
 /// of the lowest peak) changes Mont Blanc's and not Dallas's (its contrast
 /// base is higher). Each lowers the tree error it was made for, at seed 3:
 /// Dallas dominance (measured 0.6 % vs 3.0 % with the paper's weights),
-/// Mont Blanc prominence (measured 1.6 % vs 3.2 %). Bad values are refused.
+/// Mont Blanc prominence (measured 1.8 % vs 3.2 %). Bad values are refused.
 #[test]
 fn ridge_bases_change_the_trees_they_were_made_for() {
     for (name, thr) in [ALPS, DALLAS] {
