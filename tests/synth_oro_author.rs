@@ -31,10 +31,11 @@ fn errors_with(
     o.passes = passes;
     o.ridge_attraction = attraction;
     // The placement's effect is measured on the assignment alone, with the
-    // isolation stretch it was calibrated with (the saddle refinement of
+    // isolation stretch and ridge weights it was calibrated with (the saddle refinement of
     // docs/notes/oro_dist.md lowers both rows further and narrows the gap).
     o.refine = false;
     o.isolation_stretch = 1.2;
+    o.ridge_base = 0.0;
     let t = synthesize_tree(&prof, &o).unwrap();
     let ter = OroTerrain::new(&t, &TerrainOptions::default()).unwrap();
     let dem = ter.render();

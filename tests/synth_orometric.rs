@@ -419,6 +419,11 @@ fn split_errors(
     let dem = read_window::<f32>(&*ter, Window::full(w, h)).unwrap();
     let s = PeakSamples::of_dem(&dem, &ter.info().georef, prof.min_prominence).unwrap();
     let e = prof.errors(&s);
+    println!(
+        "  seed {seed}: {} tree peaks, {} found on the terrain",
+        t.peaks.len(),
+        s.elevation.len()
+    );
     (
         tree,
         Some([e["isolation_km"], e["prominence"], e["dominance"]]),
@@ -445,13 +450,13 @@ fn terrain_errors(name: &str, thr: f64) -> Option<([f64; 3], [f64; 3])> {
     for seed in SEEDS {
         let (tree, ter) = split_errors(&g, &geo, &prof, seed, true, true);
         let ter = ter.unwrap();
-        println!("{name} seed {seed}: tree {tree:.3?} terrain {ter:.3?}");
+        println!("{name} seed {seed}: tree {tree:.4?} terrain {ter:.4?}");
         for k in 0..3 {
             worst[k] = worst[k].max(ter[k]);
             mean[k] += ter[k] / SEEDS.len() as f64;
         }
     }
-    println!("{name}: worst {worst:.3?} mean {mean:.3?}");
+    println!("{name}: worst {worst:.4?} mean {mean:.4?}");
     Some((worst, mean))
 }
 
@@ -460,19 +465,15 @@ fn distributions_match_the_alps_profile() {
     let Some((worst, mean)) = terrain_errors(ALPS.0, ALPS.1) else {
         return;
     };
-    // Measured after the streamed TIN render (session 5, seeds 1-6):
-    // isolation 3.3-6.5 %; prominence 2.0-3.5 %, 2.8 % mean; dominance
-    // 1.2-3.0 %, 2.1 % mean (docs/notes/oro_dist.md). The paper: isolation
-    // ≤ 8 %, prominence and dominance ≤ 3 %.
-    assert!(worst[0] <= 0.075, "isolation {worst:?}");
-    assert!(
-        mean[1] <= 0.033 && worst[1] <= 0.04,
-        "prominence {mean:?} {worst:?}"
-    );
-    assert!(
-        mean[2] <= 0.027 && worst[2] <= 0.035,
-        "dominance {mean:?} {worst:?}"
-    );
+    // The paper's figures on every seed (worst = the largest of seeds
+    // 1-6): isolation ≤ 8 %, prominence and dominance ≤ 3 %. Measured
+    // (session 6, ridge base 0.72): isolation 5.2-7.9 %, prominence
+    // 1.4-2.6 %, dominance 0.6-1.5 % (session 5, paper's ridge weights:
+    // prominence 2.0-3.5 %, three seeds over 3 %; docs/notes/oro6.md).
+    assert!(worst[0] <= 0.08, "isolation {worst:?}");
+    assert!(worst[1] <= 0.03, "prominence {worst:?}");
+    assert!(worst[2] <= 0.03, "dominance {worst:?}");
+    assert!(mean[1] <= 0.025 && mean[2] <= 0.02, "{mean:?}");
 }
 
 #[test]
@@ -485,6 +486,8 @@ fn distributions_match_the_low_relief_profile() {
     // 0.1-0.5 %; dominance 0.9-3.0 %, 1.8 % mean (the paper: isolation ≤ 8 %,
     // prominence and dominance ≤ 3 %). With the paper's ridge weights:
     // isolation up to 8.4 %, dominance 4.1 % mean, 5.1 % worst.
+    // The paper's figures on every seed (session 6: the same trees and
+    // figures; dominance 2.99 % at seed 1).
     assert!(
         worst[0] <= 0.08 && mean[0] <= 0.056,
         "isolation {mean:?} {worst:?}"
@@ -494,7 +497,7 @@ fn distributions_match_the_low_relief_profile() {
         "prominence {mean:?} {worst:?}"
     );
     assert!(
-        worst[2] <= 0.033 && mean[2] <= 0.021,
+        worst[2] <= 0.03 && mean[2] <= 0.021,
         "dominance {mean:?} {worst:?}"
     );
 }
@@ -521,12 +524,15 @@ fn saddle_refinement_lowers_the_tree_errors() {
     }
 }
 
-/// The ridge contrast leaves a contrasted profile (Mont Blanc, 876-4810 m)
-/// on the paper's weights (same tree as contrast 1) and changes the ridges
-/// of the low-relief one (Dallas, 165-298 m), lowering its tree dominance
-/// error (measured 0.6 % vs 3.0 % at seed 3); values below 1 are refused.
+/// The two bases of the ridge weights: the contrast rule (default 5)
+/// changes the ridges of the low-relief profile (Dallas, 165-298 m) and not
+/// Mont Blanc's (876-4810 m, contrast 5.5); the base fraction (default 0.72
+/// of the lowest peak) changes Mont Blanc's and not Dallas's (its contrast
+/// base is higher). Each lowers the tree error it was made for, at seed 3:
+/// Dallas dominance (measured 0.6 % vs 3.0 % with the paper's weights),
+/// Mont Blanc prominence (measured 1.8 % vs 3.2 %). Bad values are refused.
 #[test]
-fn ridge_contrast_only_changes_low_relief_trees() {
+fn ridge_bases_change_the_trees_they_were_made_for() {
     for (name, thr) in [ALPS, DALLAS] {
         let Some((g, geo, prof)) = real_profile(name, thr) else {
             return;
@@ -535,27 +541,41 @@ fn ridge_contrast_only_changes_low_relief_trees() {
         let (sx, sy) = geo.cell_size_m(h as i64 / 2);
         let mut o = TreeOptions::new(w, h, (sx * sy).sqrt(), 3);
         let def = synthesize_tree(&prof, &o).unwrap();
+        o.ridge_base = 0.0;
+        let contrast_only = synthesize_tree(&prof, &o).unwrap();
         o.ridge_contrast = 1.0;
         let paper = synthesize_tree(&prof, &o).unwrap();
-        let dom_err = |t: &SynthTree| {
-            let d: Vec<f64> = t
-                .prominences()
+        let errs = |t: &SynthTree| {
+            let p = t.prominences();
+            let d: Vec<f64> = p
                 .iter()
                 .zip(&t.peaks)
                 .map(|(p, q)| p / q.elevation)
                 .collect();
-            prof.dominance.error_against(&d)
+            (
+                prof.prominence.error_against(&p),
+                prof.dominance.error_against(&d),
+            )
         };
         if name == ALPS.0 {
-            assert_eq!(def.to_json(), paper.to_json());
-        } else {
+            assert_eq!(contrast_only.to_json(), paper.to_json());
             assert_ne!(def.edges(), paper.edges());
-            let (a, b) = (dom_err(&def), dom_err(&paper));
+            let (a, b) = (errs(&def).0, errs(&paper).0);
+            assert!(a <= 0.02 && b >= 0.025, "prominence {a} vs {b}");
+        } else {
+            assert_eq!(def.to_json(), contrast_only.to_json());
+            assert_ne!(def.edges(), paper.edges());
+            let (a, b) = (errs(&def).1, errs(&paper).1);
             assert!(a <= 0.01 && b >= 0.02, "dominance {a} vs {b}");
         }
-        o.ridge_contrast = 0.5;
-        let e = synthesize_tree(&prof, &o).unwrap_err().to_string();
+        let mut bad = TreeOptions::new(w, h, (sx * sy).sqrt(), 3);
+        bad.ridge_contrast = 0.5;
+        let e = synthesize_tree(&prof, &bad).unwrap_err().to_string();
         assert!(e.contains("ridge_contrast"), "{e}");
+        bad.ridge_contrast = 5.0;
+        bad.ridge_base = 1.0;
+        let e = synthesize_tree(&prof, &bad).unwrap_err().to_string();
+        assert!(e.contains("ridge_base"), "{e}");
     }
 }
 

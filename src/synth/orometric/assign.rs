@@ -221,35 +221,80 @@ pub struct GroupTargets<'a> {
     pub dominance: &'a super::profile::Hist,
 }
 
+/// The fixed data of the grouped saddle problem shared by
+/// [`assign_pass_grouped`], [`assign_saddles_grouped`] and
+/// [`refine_histograms`] (the saddle heights `hs` are passed apart: they
+/// are what the three change).
+#[derive(Debug, Clone, Copy)]
+pub struct SaddleProblem<'a> {
+    /// Peak elevations.
+    pub h: &'a [f64],
+    /// The two peaks each saddle joins (ridges of the divide tree).
+    pub edges: &'a [(usize, usize)],
+    /// Upper bound of each saddle's height, h_max(K).
+    pub hmax: &'a [f64],
+    /// Lower bound of every saddle's height.
+    pub floor: f64,
+    /// Target group (index into `groups`) of each peak.
+    pub group_of_peak: &'a [usize],
+    /// Target distributions per group.
+    pub groups: &'a [GroupTargets<'a>],
+    /// Prominence threshold per group (a peak owning a saddle keeps it).
+    pub thresholds: &'a [f64],
+    /// Saddles whose height is fixed (pasted fragments).
+    pub pinned: &'a [bool],
+}
+
+impl SaddleProblem<'_> {
+    /// Every per-saddle, per-peak and per-group slice has its length and
+    /// every group index exists (`what` names the caller in the error).
+    fn check(&self, hs: &[f64], what: &str) -> Result<()> {
+        let m = self.edges.len();
+        if self.hmax.len() != m
+            || hs.len() != m
+            || self.pinned.len() != m
+            || self.group_of_peak.len() != self.h.len()
+            || self.thresholds.len() != self.groups.len()
+        {
+            return Err(Error::invalid(format!(
+                "{what}: bounds, pins, groups and saddles differ in number"
+            )));
+        }
+        if self.group_of_peak.iter().any(|&g| g >= self.groups.len()) {
+            return Err(Error::invalid(format!(
+                "{what}: a peak belongs to no target group"
+            )));
+        }
+        if self
+            .edges
+            .iter()
+            .any(|&(a, b)| a >= self.h.len() || b >= self.h.len())
+        {
+            return Err(Error::invalid(format!("{what}: a ridge names no peak")));
+        }
+        Ok(())
+    }
+}
+
 /// One pass of [`assign_pass`] where each saddle draws its target from the
 /// group of its owner: saddle e (not `pinned`) whose owner is in group
 /// `group_of_peak[own[e]]` gets one of the lowest `k_g` of `k_g + r_g`
 /// stratified samples of that group's histogram (`k_g` = its number of
 /// free saddles this pass, `r_g` = its peaks owning no saddle: the root,
 /// whose value is the top of the histogram), by the same blocked assignment.
-#[allow(clippy::too_many_arguments)]
-pub fn assign_pass_grouped(
-    h: &[f64],
-    edges: &[(usize, usize)],
-    hmax: &[f64],
-    floor: f64,
-    hs: &mut [f64],
-    group_of_peak: &[usize],
-    groups: &[GroupTargets],
-    pinned: &[bool],
-    kind: Target,
-) -> Result<()> {
+pub fn assign_pass_grouped(pb: &SaddleProblem, hs: &mut [f64], kind: Target) -> Result<()> {
+    pb.check(hs, "saddle assignment")?;
+    let SaddleProblem {
+        h,
+        edges,
+        hmax,
+        floor,
+        group_of_peak,
+        groups,
+        pinned,
+        ..
+    } = *pb;
     let n = edges.len();
-    if hmax.len() != n || hs.len() != n || pinned.len() != n || group_of_peak.len() != h.len() {
-        return Err(Error::invalid(
-            "saddle assignment: bounds, pins, groups and saddles differ in number",
-        ));
-    }
-    if group_of_peak.iter().any(|&g| g >= groups.len()) {
-        return Err(Error::invalid(
-            "saddle assignment: a peak belongs to no target group",
-        ));
-    }
     let own = owners(h, edges, hs);
     // Peaks owning a saddle (all but the root); pinned saddles' owners keep
     // their values and count as owning.
@@ -291,32 +336,8 @@ pub fn assign_pass_grouped(
 
 /// [`assign_saddles`] with per-group targets and pinned saddles (see
 /// [`assign_pass_grouped`]).
-#[allow(clippy::too_many_arguments)]
-pub fn assign_saddles_grouped(
-    h: &[f64],
-    edges: &[(usize, usize)],
-    hmax: &[f64],
-    floor: f64,
-    hs: &mut [f64],
-    group_of_peak: &[usize],
-    groups: &[GroupTargets],
-    pinned: &[bool],
-    iterations: usize,
-) -> Result<()> {
-    let pass = |hs: &mut [f64], kind| {
-        assign_pass_grouped(
-            h,
-            edges,
-            hmax,
-            floor,
-            hs,
-            group_of_peak,
-            groups,
-            pinned,
-            kind,
-        )
-    };
-    schedule(hs, iterations, pass)
+pub fn assign_saddles_grouped(pb: &SaddleProblem, hs: &mut [f64], iterations: usize) -> Result<()> {
+    schedule(hs, iterations, |hs, kind| assign_pass_grouped(pb, hs, kind))
 }
 
 /// Histogram state of one target group during [`refine_histograms`]: bin
@@ -441,31 +462,19 @@ const REFINE_WORK: usize = 20_000_000;
 /// Simulated annealing (e^(−Δ/T), T from 0.5/n down to 0) was tried and
 /// ended worse on both real profiles for the same number of steps.
 /// Heights stay in `[floor, hmax[e]]`. Returns the final objective.
-#[allow(clippy::too_many_arguments)]
-pub fn refine_histograms(
-    h: &[f64],
-    edges: &[(usize, usize)],
-    hmax: &[f64],
-    floor: f64,
-    hs: &mut [f64],
-    group_of_peak: &[usize],
-    groups: &[GroupTargets],
-    thresholds: &[f64],
-    pinned: &[bool],
-    seed: u64,
-) -> Result<f64> {
+pub fn refine_histograms(pb: &SaddleProblem, hs: &mut [f64], seed: u64) -> Result<f64> {
+    pb.check(hs, "saddle refinement")?;
+    let SaddleProblem {
+        h,
+        edges,
+        hmax,
+        floor,
+        group_of_peak,
+        groups,
+        thresholds,
+        pinned,
+    } = *pb;
     let m = edges.len();
-    if hmax.len() != m
-        || hs.len() != m
-        || pinned.len() != m
-        || group_of_peak.len() != h.len()
-        || thresholds.len() != groups.len()
-        || group_of_peak.iter().any(|&g| g >= groups.len())
-    {
-        return Err(Error::invalid(
-            "saddle refinement: bounds, pins, groups and saddles differ in number",
-        ));
-    }
     if hs.iter().chain(h).any(|v| !v.is_finite()) {
         return Err(Error::invalid(
             "saddle refinement: an elevation is not finite",

@@ -4,6 +4,16 @@
 //! label with its own [`SynthProfile`]. A peak placed in a region takes its
 //! elevation, isolation and prominence/dominance targets from that region's
 //! profile, and each region gets its profile's density × its area.
+//!
+//! Borders may be blended over a band (`TreeOptions::type_blend_m`, default
+//! [`super::tree_synth::DEFAULT_TYPE_BLEND_M`] = 0, sharp): near a border the map is
+//! a fine mosaic in which region r holds the share of r in the band-wide
+//! square around each grain ([`TypeMap::blend_weight`], a box filter: it
+//! ramps linearly across a straight border), a peak of region r is placed
+//! only on r's grains, and its coarse elevation C_H there is r's. So peak
+//! density, elevations and orometry change gradually across a border
+//! instead of in one step (a departure from the paper, which does not say
+//! how C_T borders behave).
 
 use super::profile::SynthProfile;
 use crate::error::{Error, Result};
@@ -94,6 +104,92 @@ impl TypeMap {
         }
     }
 
+    /// Share of `region` in the blend band around the domain fraction
+    /// (fx, fy): of the points of a [`BLEND_LATTICE`]² lattice over the
+    /// rectangle of sides (bx, by) (domain fractions) centred there, the
+    /// fraction in `region`, counting only labelled points (a nodata area
+    /// does not dilute its neighbours). 0 on nodata itself (no peak there,
+    /// as without blending); with bx = by = 0, 1 in `region` and 0
+    /// elsewhere (sharp borders). A box filter of the region indicator:
+    /// across a straight border it ramps linearly over the band.
+    pub fn blend_weight(&self, fx: f64, fy: f64, region: usize, bx: f64, by: f64) -> f64 {
+        let Some(here) = self.region_at(fx, fy) else {
+            return 0.0;
+        };
+        if !(bx > 0.0 || by > 0.0) || !(bx.is_finite() && by.is_finite()) {
+            return if here == region { 1.0 } else { 0.0 };
+        }
+        let w = self.share(fx, fy, region, bx, by);
+        if w == 0.0 && here == region {
+            // No labelled lattice point (a band thinner than a map cell).
+            return 1.0;
+        }
+        w
+    }
+
+    /// Region of the blended type map at (fx, fy): None on nodata; with
+    /// a band (bx, by > 0, domain fractions) the band is cut into a mosaic
+    /// of grains of side 1/[`BLEND_GRAINS`] of it and each grain goes to
+    /// region r with probability [`TypeMap::blend_weight`] of r at its
+    /// centre (a hash of `seed` and the grain: deterministic). Peaks are
+    /// then placed only where the blended region is theirs, so each
+    /// region's peak density near a border follows its share (a plain
+    /// acceptance probability would not: the placement retries rejected
+    /// proposals until one passes).
+    pub fn region_blended(&self, fx: f64, fy: f64, bx: f64, by: f64, seed: u64) -> Option<usize> {
+        let here = self.region_at(fx, fy)?;
+        if !(bx > 0.0 && by > 0.0 && bx.is_finite() && by.is_finite()) {
+            return Some(here);
+        }
+        let (gx, gy) = (bx / BLEND_GRAINS as f64, by / BLEND_GRAINS as f64);
+        let (ix, iy) = ((fx / gx).floor(), (fy / gy).floor());
+        let (cx, cy) = ((ix + 0.5) * gx, (iy + 0.5) * gy);
+        let mut h = seed ^ 0x626c_656e_6400_0000;
+        for v in [ix as i64 as u64, iy as i64 as u64] {
+            h = (h ^ v).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+            h ^= h >> 29;
+            h = h.wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            h ^= h >> 32;
+        }
+        let u = (h >> 11) as f64 / (1u64 << 53) as f64;
+        let mut acc = 0.0;
+        let mut last = here;
+        for r in 0..=self.regions.len() {
+            let w = self.share(cx, cy, r, bx, by);
+            if w > 0.0 {
+                acc += w;
+                last = r;
+                if u < acc {
+                    return Some(r);
+                }
+            }
+        }
+        Some(last)
+    }
+
+    /// [`TypeMap::blend_weight`] without the test of the centre point.
+    fn share(&self, fx: f64, fy: f64, region: usize, bx: f64, by: f64) -> f64 {
+        let k = BLEND_LATTICE;
+        let (mut hit, mut lab) = (0usize, 0usize);
+        for j in 0..k {
+            let v = fy + by * ((j as f64 + 0.5) / k as f64 - 0.5);
+            for i in 0..k {
+                let u = fx + bx * ((i as f64 + 0.5) / k as f64 - 0.5);
+                if !(0.0..1.0).contains(&u) || !(0.0..1.0).contains(&v) {
+                    continue;
+                }
+                if let Some(r) = self.region_at(u, v) {
+                    lab += 1;
+                    hit += usize::from(r == region);
+                }
+            }
+        }
+        if lab == 0 {
+            return 0.0;
+        }
+        hit as f64 / lab as f64
+    }
+
     /// Fraction of the map's cells in each region (index as
     /// [`TypeMap::region_at`]; nodata cells are in none).
     pub fn fractions(&self) -> Vec<f64> {
@@ -108,6 +204,11 @@ impl TypeMap {
         f
     }
 }
+
+/// Points per side of the lattice [`TypeMap::blend_weight`] averages over.
+pub const BLEND_LATTICE: usize = 9;
+/// Grains per band width of the mosaic of [`TypeMap::region_blended`].
+pub const BLEND_GRAINS: usize = 16;
 
 /// Largest GeoJSON type map read.
 const MAX_GEOJSON_BYTES: u64 = 256 << 20;
