@@ -670,10 +670,10 @@ fn cli_ridge_base_and_type_blend_reach_the_library() {
             .arg(&out)
             .args(extra);
         if typed {
-            c.arg("--type-map").arg(&ct).arg("--type-profile").arg(format!(
-                "2={}",
-                dallas_path.display()
-            ));
+            c.arg("--type-map")
+                .arg(&ct)
+                .arg("--type-profile")
+                .arg(format!("2={}", dallas_path.display()));
         }
         (c.output().unwrap(), out)
     };
