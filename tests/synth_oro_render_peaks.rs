@@ -237,7 +237,10 @@ fn render_peaks_match_the_tree() {
             let Some(t) = tally(name, thr, seed) else {
                 return;
             };
-            println!("{name} seed {seed}: {t:?}");
+            println!(
+                "{name} seed {seed}: {} tree peaks, {} found: {t:?}",
+                t.tree, t.found
+            );
             all.push(t);
         }
         let lost: usize = all.iter().map(|t| t.lost).sum();
