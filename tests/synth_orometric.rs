@@ -641,3 +641,88 @@ fn cli_ridge_contrast_and_no_refine_reach_the_library() {
     assert!(!st.status.success());
     assert!(String::from_utf8_lossy(&st.stderr).contains("contrast"));
 }
+
+/// `--ridge-base` and `--type-blend` reach the library: the CLI trees equal
+/// `synthesize_tree` with the same options, each differs from the default
+/// (Mont Blanc: the base changes its trees, not Dallas's), and out-of-range
+/// values are refused with the option's name.
+#[test]
+fn cli_ridge_base_and_type_blend_reach_the_library() {
+    let exe = env!("CARGO_BIN_EXE_orogen");
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("configs/profiles");
+    let alps_path = cfg.join("alps_montblanc.json");
+    let dallas_path = cfg.join("lowrelief_dallas.json");
+    let alps = SynthProfile::load(&alps_path).unwrap();
+    let dallas = SynthProfile::load(&dallas_path).unwrap();
+    let ct = dir.path().join("ct.asc");
+    std::fs::write(
+        &ct,
+        "ncols 2\nnrows 1\nxllcorner 0\nyllcorner 0\ncellsize 1\nNODATA_value -9999\n1 2\n",
+    )
+    .unwrap();
+    let run = |extra: &[&str], typed: bool, name: &str| {
+        let out = dir.path().join(name);
+        let mut c = Command::new(exe);
+        c.args(["synth", "divide-tree", "--profile"])
+            .arg(&alps_path)
+            .args(["--size", "300x150", "--cell", "90", "--seed", "2", "-o"])
+            .arg(&out)
+            .args(extra);
+        if typed {
+            c.arg("--type-map")
+                .arg(&ct)
+                .arg("--type-profile")
+                .arg(format!("2={}", dallas_path.display()));
+        }
+        (c.output().unwrap(), out)
+    };
+    let mut seen = Vec::new();
+    for (extra, typed, base, blend) in [
+        (vec![], false, tree_synth::DEFAULT_RIDGE_BASE, 0.0),
+        (vec!["--ridge-base", "0"], false, 0.0, 0.0),
+        (vec![], true, tree_synth::DEFAULT_RIDGE_BASE, 0.0),
+        (
+            vec!["--type-blend", "6000"],
+            true,
+            tree_synth::DEFAULT_RIDGE_BASE,
+            6000.0,
+        ),
+    ] {
+        let (st, out) = run(&extra, typed, "t.json");
+        assert!(
+            st.status.success(),
+            "{}",
+            String::from_utf8_lossy(&st.stderr)
+        );
+        let mut o = TreeOptions::new(300, 150, 90.0, 2);
+        o.ridge_base = base;
+        o.type_blend_m = blend;
+        if typed {
+            let labels = Grid::from_vec(2, 1, vec![1.0, 2.0]).unwrap();
+            o.type_map = Some(TypeMap::new(labels, vec![(2, dallas.clone())]).unwrap());
+        }
+        let want = synthesize_tree(&alps, &o).unwrap();
+        let got = SynthTree::load(&out).unwrap();
+        assert_eq!(got.peaks.len(), want.peaks.len(), "{extra:?}");
+        for (a, b) in got.peaks.iter().zip(&want.peaks) {
+            assert_eq!(
+                (a.x, a.y, a.elevation),
+                (b.x, b.y, b.elevation),
+                "{extra:?}"
+            );
+        }
+        for (a, b) in got.saddles.iter().zip(&want.saddles) {
+            assert_eq!(a.elevation, b.elevation, "{extra:?}");
+        }
+        seen.push(std::fs::read(&out).unwrap());
+    }
+    assert_ne!(seen[0], seen[1], "--ridge-base 0 gave the default tree");
+    assert_ne!(seen[2], seen[3], "--type-blend 6000 gave the sharp tree");
+    let (st, _) = run(&["--ridge-base", "1"], false, "bad.json");
+    assert!(!st.status.success());
+    assert!(String::from_utf8_lossy(&st.stderr).contains("ridge_base"));
+    let (st, _) = run(&["--type-blend=-5"], true, "bad.json");
+    assert!(!st.status.success());
+    assert!(String::from_utf8_lossy(&st.stderr).contains("type_blend_m"));
+}

@@ -76,6 +76,15 @@ pub struct TreeArgs {
     /// low-relief regions still route ridges through higher peaks).
     #[arg(long, default_value_t = orogen::synth::orometric::tree_synth::DEFAULT_RIDGE_CONTRAST)]
     pub ridge_contrast: f64,
+    /// Least base of the ridge weights as a fraction (0..1) of the lowest
+    /// peak (0: the contrast rule alone; see `TreeOptions::ridge_base`).
+    #[arg(long, default_value_t = orogen::synth::orometric::tree_synth::DEFAULT_RIDGE_BASE)]
+    pub ridge_base: f64,
+    /// Width (metres) of the band over which the type map's region profiles
+    /// blend at their borders (0: sharp borders; about 6000 mixes a few
+    /// peaks of each side).
+    #[arg(long = "type-blend", value_name = "METRES", default_value_t = orogen::synth::orometric::tree_synth::DEFAULT_TYPE_BLEND_M)]
+    pub type_blend_m: f64,
     /// Skip the local search on saddle heights after the assignment (the
     /// paper's method alone).
     #[arg(long)]
@@ -334,6 +343,8 @@ fn make_tree(t: &TreeArgs) -> Result<SynthTree> {
     o.rho = t.rho;
     o.isolation_stretch = t.isolation_stretch;
     o.ridge_contrast = t.ridge_contrast;
+    o.ridge_base = t.ridge_base;
+    o.type_blend_m = t.type_blend_m;
     o.refine = !t.no_refine;
     if let Some(p) = &t.density_map {
         o.density_map = Some(read_map(p)?);
