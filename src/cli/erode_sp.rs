@@ -598,7 +598,7 @@ pub fn run(
         .map(|&v| v as f32)
         .filter(|v| v.is_finite())
         .fold(None, |m: Option<f32>, v| Some(m.map_or(v, |m| m.min(v))));
-    let bound = sp_lower_bound(input_min, None, &a.model, a.model.params()?.dt)?;
+    let bound = sp_lower_bound(input_min, None, a.model, a.model.params()?.dt)?;
     let nd = match (bound, lowest(out.data())) {
         (Some(b), Some(o)) => below(Some(b.min(o))),
         (b, o) => below(b.or(o)),
