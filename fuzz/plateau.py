@@ -11,6 +11,17 @@ size, and whether it ended on a plateau. A crash/timeout/OOM ends the run
 with the reproducer in fuzz/artifacts/<target>/ and a non-zero exit.
 
   fuzz/plateau.py geotiff --min 180 --max 1200 [--bin PATH] [--work DIR]
+                 [--seeds DIR] [--state FILE]
+
+Resumed runs (session 6): with --state FILE the run continues the counts
+of earlier runs of the target on the same working corpus: cumulative
+executions and seconds, the highest `cov` ever seen, and the cumulative
+time of the last new `cov` (a resumed run first replays its corpus, which
+only reaches the old coverage; an edge counts as new when `cov` exceeds
+every earlier run's). --quiet then means "seconds of fuzzing, over all
+runs, without a new cov edge": the plateau rule. The state is updated at
+the end of the run and one JSON line per run is appended to
+WORK/runs.jsonl.
 
 The binary defaults to the optimised uninstrumented-by-ASan build
 (`cargo fuzz build -s none`): fuzz/target/x86_64-unknown-linux-gnu/release/.
@@ -40,6 +51,8 @@ def main():
     ap.add_argument("--bin")
     ap.add_argument("--work", default="/tmp/orogen-fuzz-plateau")
     ap.add_argument("--timeout", type=int, default=10)
+    ap.add_argument("--seeds", help="extra read-only seed folder")
+    ap.add_argument("--state", help="JSON file carrying counts across resumed runs")
     ap.add_argument("extra", nargs="*", help="extra libFuzzer flags")
     a = ap.parse_args()
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -48,7 +61,11 @@ def main():
     )
     corpus = os.path.join(a.work, "corpus", a.target)
     os.makedirs(corpus, exist_ok=True)
-    seeds = os.path.join(root, "fuzz/corpus", a.target)
+    seeds = a.seeds or os.path.join(root, "fuzz/corpus", a.target)
+    st = {"seconds": 0.0, "executions": 0, "best_cov": -1, "last_new_cov_cum": 0.0, "runs": 0}
+    if a.state and os.path.exists(a.state):
+        st.update(json.load(open(a.state)))
+    base_t = st["seconds"]
     art = os.path.join(root, "fuzz/artifacts", a.target) + "/"
     os.makedirs(art, exist_ok=True)
     log_path = os.path.join(a.work, f"{a.target}.log")
@@ -98,10 +115,16 @@ def main():
                         eps = int(m.group(7))
                     if cov > last_cov:
                         last_cov, t_last_cov = cov, t
+                    if cov > st["best_cov"]:
+                        st["best_cov"], st["last_new_cov_cum"] = cov, base_t + t
             t = time.time() - t0
-            if not stopped and t >= a.min and (
-                t_last_cov <= t * 2 / 3 or t - t_last_cov >= a.quiet
-            ):
+            quiet_cum = base_t + t - st["last_new_cov_cum"]
+            rule = (
+                quiet_cum >= a.quiet
+                if a.state
+                else (t_last_cov <= t * 2 / 3 or t - t_last_cov >= a.quiet)
+            )
+            if not stopped and t >= a.min and rule:
                 plateau, stopped = True, True
                 log.write(f"[{t:8.1f}] plateau: no new cov since {t_last_cov:.1f} s; stopping\n")
                 p.send_signal(signal.SIGINT)  # libFuzzer prints final stats
@@ -130,6 +153,20 @@ def main():
         "finding": finding,
         "rc": rc,
     }
+    if a.state:
+        st["seconds"] = base_t + t_end
+        st["executions"] += out["executions"]
+        st["runs"] += 1
+        json.dump(st, open(a.state, "w"))
+        out.update(
+            cum_seconds=round(st["seconds"]),
+            cum_executions=st["executions"],
+            best_cov=st["best_cov"],
+            quiet_cum_s=round(st["seconds"] - st["last_new_cov_cum"]),
+            plateau=st["seconds"] - st["last_new_cov_cum"] >= a.quiet,
+        )
+        with open(os.path.join(a.work, "runs.jsonl"), "a") as f:
+            f.write(json.dumps(out) + "\n")
     print(json.dumps(out), flush=True)
     sys.exit(1 if finding else 0)
 

@@ -13,7 +13,7 @@ use orogen::erosion::multires::{downsample_area, erode_multires};
 use orogen::erosion::stream_power::{
     stream_power, BaseHeight, Boundary, Depressions, StreamPowerParams, Uplift,
 };
-use orogen::hydro::FILL_NODATA;
+use orogen::hydro::out_nodata::{below, valid_range};
 use orogen::raster::{read_window, AnyGrid, GeoRef, Grid, MemRaster, Window};
 use std::path::{Path, PathBuf};
 
@@ -581,16 +581,33 @@ pub fn run(
         .model
         .erode(&dem, cell, &info.georef)
         .with_context(|| format!("{}", a.input.input.display()))?;
-    let out = out.map(|v| {
-        if v.is_finite() {
-            v as f32
-        } else {
-            FILL_NODATA as f32
-        }
-    });
+    // Output nodata: −9999 unless the eroded surface may reach it
+    // (bathymetry), then a customary value below it (`hydro::out_nodata`'s
+    // rule, on the bound the tiled solve uses, so both write the same bytes;
+    // the actual minimum too, should the bound ever fail).
+    let out = out.map(|v| v as f32);
+    let lowest = |d: &[f32]| {
+        d.iter()
+            .copied()
+            .filter(|v| v.is_finite())
+            .fold(None, |m: Option<f32>, v| Some(m.map_or(v, |m| m.min(v))))
+    };
+    let input_min = dem
+        .data()
+        .iter()
+        .map(|&v| v as f32)
+        .filter(|v| v.is_finite())
+        .fold(None, |m: Option<f32>, v| Some(m.map_or(v, |m| m.min(v))));
+    let bound = sp_lower_bound(input_min, None, a.model, a.model.params()?.dt)?;
+    let nd = match (bound, lowest(out.data())) {
+        (Some(b), Some(o)) => below(Some(b.min(o))),
+        (b, o) => below(b.or(o)),
+    }
+    .unwrap_or(f64::NAN);
+    let out = out.map(|v| if v.is_finite() { v } else { nd as f32 });
     let mem = MemRaster::new(
         AnyGrid::F32(out),
-        info.georef.clone().with_nodata(Some(FILL_NODATA)),
+        info.georef.clone().with_nodata(Some(nd)),
         info.path.clone(),
     );
     orogen::ops::convert(&mem, &a.out.output, &oo, a.run.tile, &cfg)?;
@@ -642,7 +659,8 @@ fn run_tiled(
             (SpBackend::Disk(dir.clone()), Some(dir))
         }
     };
-    let georef = info.georef.clone().with_nodata(Some(FILL_NODATA));
+    let nd = tiled_nodata(src, map_src.as_deref(), model, p.dt)?;
+    let georef = info.georef.clone().with_nodata(Some(nd));
     let prov = orogen::store::Provenance::new(
         "erode-stream-power",
         serde_json::json!({
@@ -671,13 +689,27 @@ fn run_tiled(
         layout.tile,
         &backend,
         |id, win, g| {
+            let low = g
+                .data()
+                .iter()
+                .map(|&v| v as f32)
+                .filter(|v| v.is_finite())
+                .fold(f32::INFINITY, f32::min);
             let g = g.map(|v| {
+                let v = v as f32;
                 if v.is_finite() {
-                    v as f32
+                    v
                 } else {
-                    FILL_NODATA as f32
+                    nd as f32
                 }
             });
+            if low as f64 <= nd {
+                // Out of the bound `tiled_nodata` derived: refuse rather
+                // than write a cell that reads back as nodata.
+                return Err(orogen::Error::invalid(format!(
+                    "tile {id}: an eroded elevation ({low}) reaches the output nodata ({nd}) chosen from the input's minimum; this is a bug, please report it"
+                )));
+            }
             sink.write(id, win, AnyGrid::F32(g))
         },
     );
@@ -708,4 +740,47 @@ fn run_tiled(
     }
     crate::wrote(&out.output);
     Ok(())
+}
+
+/// Output nodata of the tiled solve, fixed before the first tile is written:
+/// the rule of `hydro::out_nodata` (−9999 unless the data come within 1 m of
+/// it, then a customary value below them) applied to [`sp_lower_bound`].
+/// One read pass over the input (and the uplift map).
+fn tiled_nodata(
+    src: &dyn orogen::raster::RasterSource,
+    map: Option<&dyn orogen::raster::RasterSource>,
+    model: &StreamPowerArgs,
+    dt: f64,
+) -> Result<f64> {
+    let input_min = valid_range(src)?.map(|r| r.0);
+    let bound = sp_lower_bound(input_min, map, model, dt)?;
+    Ok(below(bound).unwrap_or(f64::NAN))
+}
+
+/// A lower bound of the eroded surface: Braun & Willett's (2013) implicit
+/// update makes each new height a weighted mean of the uplifted old height
+/// and its receiver's new height, and stable explicit hillslope diffusion
+/// averages neighbours, so no cell goes below the input minimum plus the
+/// most negative uplift over the run, `steps · levels · dt · min(0, U)`
+/// (U: `--uplift`, or the minimum of `--uplift-map`, opened here unless
+/// `map` is given). None without valid input cells.
+fn sp_lower_bound(
+    input_min: Option<f32>,
+    map: Option<&dyn orogen::raster::RasterSource>,
+    model: &StreamPowerArgs,
+    dt: f64,
+) -> Result<Option<f32>> {
+    let Some(lo) = input_min else {
+        return Ok(None);
+    };
+    let u_min = match (map, &model.uplift_map) {
+        (Some(m), _) => valid_range(m)?.map_or(0.0, |r| r.0 as f64),
+        (None, Some(path)) => {
+            let m = orogen::io::open_raster(path, &Default::default())?;
+            valid_range(m.as_ref())?.map_or(0.0, |r| r.0 as f64)
+        }
+        (None, None) => model.uplift_rate(),
+    };
+    let steps = model.steps as f64 * model.levels.len().max(1) as f64;
+    Ok(Some((lo as f64 + steps * dt * u_min.min(0.0)) as f32))
 }

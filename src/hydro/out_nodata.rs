@@ -57,6 +57,13 @@ pub fn below(min: Option<f32>) -> Option<f64> {
 
 /// The lowest valid (finite as f32, not the declared nodata) cell of `src`.
 fn lowest_valid(src: &dyn RasterSource) -> Result<Option<f32>> {
+    Ok(valid_range(src)?.map(|r| r.0))
+}
+
+/// The lowest and highest valid (finite as f32, not the declared nodata)
+/// cells of `src`, from one read pass in block-aligned windows of at most
+/// [`SCAN_CELLS`] cells; `None` when no cell is valid.
+pub fn valid_range(src: &dyn RasterSource) -> Result<Option<(f32, f32)>> {
     let info = src.info();
     let (w, h) = (info.width, info.height);
     if w == 0 || h == 0 {
@@ -72,7 +79,7 @@ fn lowest_valid(src: &dyn RasterSource) -> Result<Option<f32>> {
         let side = ((SCAN_CELLS as f64).sqrt() as usize).max(1);
         ((side / bw).max(1) * bw, (side / bh).max(1) * bh)
     };
-    let mut lo = f32::INFINITY;
+    let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
     let mut y = 0;
     while y < h {
         let hh = wh.min(h - y);
@@ -82,15 +89,16 @@ fn lowest_valid(src: &dyn RasterSource) -> Result<Option<f32>> {
             // read_window turns the declared nodata into NaN.
             let g = read_window::<f32>(src, Window::new(x as i64, y as i64, cw, hh))?;
             for &v in g.data() {
-                if v.is_finite() && v < lo {
-                    lo = v;
+                if v.is_finite() {
+                    lo = lo.min(v);
+                    hi = hi.max(v);
                 }
             }
             x += cw;
         }
         y += hh;
     }
-    Ok(lo.is_finite().then_some(lo))
+    Ok(lo.is_finite().then_some((lo, hi)))
 }
 
 #[cfg(test)]

@@ -52,6 +52,57 @@ pub fn write_atomic_with(
     Ok(())
 }
 
+/// Replace `path` by `bytes` through this process's temporary and a rename,
+/// WITHOUT fsync: a killed process leaves the previous file (or none) and
+/// at most a temporary, never a prefix under the final name; a power loss
+/// may still lose recent files. For many small outputs whose set is marked
+/// complete by a later, durable file (web tiles and their `metadata.json`):
+/// an fsync per 256² tile measured 1.3 ms against 0.13 ms without on this
+/// machine's ext4, a third of a tile's encoding time. Stale temporaries are
+/// not looked for here (a directory scan per file): the caller removes them
+/// once with [`remove_dead_temps`]. Crash points `KIND.tmp` (temporary
+/// complete) and `KIND.renamed`.
+pub fn replace_file(path: &Path, bytes: &[u8], kind: &str) -> Result<()> {
+    let tmp = temp_name(path)?;
+    if let Err(e) = std::fs::write(&tmp, bytes) {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(Error::io(path, e));
+    }
+    crate::store::crash::point(kind, "tmp");
+    if let Err(e) = std::fs::rename(&tmp, path) {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(Error::io(path, e));
+    }
+    crate::store::crash::point(kind, "renamed");
+    Ok(())
+}
+
+/// Remove every temporary `.NAME.orogen-tmp-PID` in `dir` (not recursive)
+/// whose writer no longer runs (Linux: no `/proc/PID`); best effort.
+pub fn remove_dead_temps(dir: &Path) {
+    if !Path::new("/proc/self").exists() {
+        return;
+    }
+    let Ok(rd) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for e in rd.flatten() {
+        let n = e.file_name().to_string_lossy().into_owned();
+        let Some((head, pid)) = n.rsplit_once(".orogen-tmp-") else {
+            continue;
+        };
+        let Ok(pid) = pid.parse::<u32>() else {
+            continue;
+        };
+        if head.starts_with('.')
+            && pid != std::process::id()
+            && !Path::new(&format!("/proc/{pid}")).exists()
+        {
+            let _ = std::fs::remove_file(e.path());
+        }
+    }
+}
+
 /// The temporary of `path` for this process: `.NAME.orogen-tmp-PID` beside it.
 pub fn temp_name(path: &Path) -> Result<PathBuf> {
     let name = path
@@ -176,6 +227,28 @@ mod tests {
             other.exists(),
             "temporaries of other outputs are not ours to remove"
         );
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn replace_file_and_dead_temporaries_of_any_name() {
+        let d = dir("r");
+        let p = d.join("7.png");
+        replace_file(&p, b"first", "tile").unwrap();
+        replace_file(&p, b"second", "tile").unwrap();
+        assert_eq!(std::fs::read(&p).unwrap(), b"second");
+        assert_eq!(names(&d), vec!["7.png".to_string()]);
+        let dead = d.join(".3.png.orogen-tmp-4294967295");
+        std::fs::write(&dead, b"torn").unwrap();
+        let live_pid = std::os::unix::process::parent_id();
+        let live = d.join(format!(".4.png.orogen-tmp-{live_pid}"));
+        std::fs::write(&live, b"busy").unwrap();
+        let odd = d.join("x.orogen-tmp-4294967295");
+        std::fs::write(&odd, b"not hidden: not ours").unwrap();
+        remove_dead_temps(&d);
+        assert!(!dead.exists() && live.exists() && odd.exists());
+        let e = replace_file(&d.join("no/dir/1.png"), b"x", "tile").unwrap_err();
+        assert!(e.to_string().contains("1.png"), "{e}");
         std::fs::remove_dir_all(&d).unwrap();
     }
 

@@ -1164,7 +1164,8 @@ fn roughness(view: &TileView<f32>, field: &NormalField, big: usize, r: usize, o:
 }
 
 /// Compute `specs` on `src` in one tiled pass, writing metric `k` to
-/// `outputs[k]` (`.tif` or `.tiles`, f32 with nodata [`METRIC_NODATA`]).
+/// `outputs[k]` (`.tif` or `.tiles`, f32 with nodata [`METRIC_NODATA`], or
+/// for metrics in the DEM's unit the value [`output_nodata`] chooses).
 pub fn compute(
     src: &dyn RasterSource,
     specs: &[MetricSpec],
@@ -1190,7 +1191,20 @@ pub fn compute(
         let ls: Vec<MetricSpec> = local.iter().map(|&i| specs[i].clone()).collect();
         let lp: Vec<PathBuf> = local.iter().map(|&i| outputs[i].clone()).collect();
         let step = MultiMetric::new(&ls, src.info())?;
-        let types = vec![(DType::F32, Some(METRIC_NODATA)); lp.len()];
+        let nd = output_nodata(src, &ls)?;
+        let types: Vec<(DType, Option<f64>)> = ls
+            .iter()
+            .map(|s| {
+                (
+                    DType::F32,
+                    Some(if s.def().units == "z" {
+                        nd
+                    } else {
+                        METRIC_NODATA
+                    }),
+                )
+            })
+            .collect();
         crate::ops::run_local_to_paths(&step, &[src], &lp, &types, oo, tile, cfg)?;
     }
     if !whole.is_empty() {
@@ -1199,6 +1213,27 @@ pub fn compute(
         super::peak_dw::compute_paths(src, &ws, &wp, oo, tile, cfg)?;
     }
     Ok(())
+}
+
+/// Nodata of the outputs in the DEM's own unit (`z`: mean, TPI, relief,
+/// dominance, ...), whose values lie in `[min(lo, lo − hi), hi − lo]` for
+/// valid input cells in `[lo, hi]` (a window mean lies between the extremes;
+/// a difference of two cells is at least `lo − hi`). [`METRIC_NODATA`]
+/// (−9999) unless that bound comes within 1 m of it, then the rule of
+/// [`crate::hydro::out_nodata::below`] (−99 999, ...): bathymetry and other
+/// DEMs below −9999 m would otherwise turn real values into nodata. One read
+/// pass over the input, only when a `z` metric is asked for and the input
+/// type can reach −9999 (u8 and i8 inputs cannot). Other metrics (angles,
+/// ratios, curvatures, indices) keep −9999.
+pub fn output_nodata(src: &dyn RasterSource, specs: &[MetricSpec]) -> Result<f64> {
+    if !specs.iter().any(|s| s.def().units == "z")
+        || matches!(src.info().dtype, DType::U8 | DType::I8)
+    {
+        return Ok(METRIC_NODATA);
+    }
+    let bound = crate::hydro::out_nodata::valid_range(src)?
+        .map(|(lo, hi)| (lo as f64).min(lo as f64 - hi as f64) as f32);
+    Ok(crate::hydro::out_nodata::below(bound).unwrap_or(f64::NAN))
 }
 
 /// Check that `specs` can run on a raster described by `info` (local or

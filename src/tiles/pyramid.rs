@@ -19,6 +19,9 @@
 //!
 //! Tiles go to `DIR/{z}/{x}/{y}.png` with `DIR/metadata.json` (TileJSON
 //! fields); [`super::archive`] packs them into MBTiles and PMTiles files.
+//! Each tile is written to a temporary and renamed into place, and
+//! `metadata.json` last: a killed run leaves complete tiles, temporaries
+//! (removed by the next run) and no `metadata.json`.
 
 use super::proj::{lonlat_to_merc, merc_to_lonlat, SourceCrs};
 use crate::error::{Error, Result};
@@ -455,8 +458,10 @@ impl Ctx<'_> {
             let png = png_bytes(&rgba)?;
             let d = self.dir.join(z.to_string()).join(x.to_string());
             std::fs::create_dir_all(&d).map_err(|e| Error::io(&d, e))?;
+            // Temporary + rename: a killed run never leaves a torn tile under
+            // its final name (issue 12).
             let p = d.join(format!("{y}.png"));
-            std::fs::write(&p, png).map_err(|e| Error::io(&p, e))?;
+            crate::io::atomic::replace_file(&p, &png, "tile")?;
             self.written
                 .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         }
@@ -504,6 +509,7 @@ pub fn build_pyramid(
         })
         .collect();
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    remove_dead_tile_temps(dir, zmax);
     let ctx = Ctx {
         src,
         geo,
@@ -530,6 +536,22 @@ pub fn build_pyramid(
     let meta = dir.join("metadata.json");
     let text = serde_json::to_string_pretty(&pinfo)
         .map_err(|e| Error::invalid(format!("metadata: {e}")))?;
-    std::fs::write(&meta, text).map_err(|e| Error::io(&meta, e))?;
+    // Written last and atomically (fsynced): its presence marks a complete
+    // pyramid.
+    crate::io::atomic::write_file_atomic(&meta, text.as_bytes())?;
     Ok(pinfo)
+}
+
+/// Remove the tile temporaries (`z/x/.y.png.orogen-tmp-PID`) a killed run
+/// left in `dir`; tiles it completed are complete (renamed into place) and
+/// are rewritten by this run.
+fn remove_dead_tile_temps(dir: &Path, zmax: u8) {
+    for z in 0..=zmax {
+        let Ok(xs) = std::fs::read_dir(dir.join(z.to_string())) else {
+            continue;
+        };
+        for xe in xs.flatten() {
+            crate::io::atomic::remove_dead_temps(&xe.path());
+        }
+    }
 }

@@ -160,7 +160,20 @@ impl GeoTiffReader {
             l.intermediate_buffer_size = opts.max_block_bytes.max(1 << 20);
             l
         };
-        let mut dec = open_decoder(path, &limits)?;
+        // Tag values are read into a `Vec<Value>` sized from the declared
+        // count before anything is read (tiff 0.11.3 bounds it only by
+        // `decoding_buffer_size`): a 1 KiB file declaring 33 M GeoKey shorts
+        // asked for 1 GiB (fuzzing, session 6). A tag cannot hold more
+        // values than the file has bytes, so the metadata decoder is bounded
+        // by that; blocks are decoded with the full limits (set below).
+        let meta_limits = {
+            let mut l = limits.clone();
+            let per_file = (file_len as usize)
+                .saturating_mul(std::mem::size_of::<tiff::decoder::ifd::Value>());
+            l.decoding_buffer_size = per_file.clamp(1 << 20, l.decoding_buffer_size);
+            l
+        };
+        let mut dec = open_decoder(path, &meta_limits)?;
         let (w, h) = dec.dimensions().map_err(|e| tiff_err(path, e))?;
         let (width, height) = (w as usize, h as usize);
         if width == 0 || height == 0 {
@@ -365,6 +378,7 @@ impl GeoTiffReader {
         }
 
         let georef = read_georef(&mut dec, path, dtype)?;
+        let dec = dec.with_limits(limits.clone());
         let info = RasterInfo {
             width,
             height,

@@ -1,0 +1,63 @@
+#!/usr/bin/env bash
+# Fuzz every target to a coverage plateau, one fuzzer at a time (issue 12;
+# session 6). Round-robin over the targets in slices of SLICE seconds, each
+# slice resuming the target's working corpus (WORK/corpus/TARGET) and its
+# counts (WORK/state/TARGET.json) through fuzz/plateau.py --state; a target
+# leaves the rotation once it has fuzzed QUIET seconds in total without a
+# new `cov` edge (the plateau rule), or on a finding (reproducer in
+# fuzz/artifacts/TARGET/). Stops at the epoch second DEADLINE.
+#
+#   BIN_DIR=/work/fuzzwork/target/x86_64-unknown-linux-gnu/release \
+#   WORK=/work/fuzzwork SEEDS=/work/fuzzwork/seeds SLICE=240 QUIET=300 \
+#   DEADLINE=$(date -d 17:45 +%s) tools/fuzz_plateau.sh [TARGET...]
+#
+# Runs under `nice -n 19`, one process (libFuzzer's default: one job, one
+# worker): never more than one core. Every slice appends one JSON line to
+# WORK/runs.jsonl.
+set -uo pipefail
+cd "$(dirname "$0")/.."
+
+bin_dir="${BIN_DIR:-fuzz/target/x86_64-unknown-linux-gnu/release}"
+work="${WORK:-/tmp/orogen-fuzz-plateau}"
+seeds="${SEEDS:-fuzz/corpus}"
+slice="${SLICE:-240}"
+quiet="${QUIET:-300}"
+deadline="${DEADLINE:-$(( $(date +%s) + 3600 ))}"
+mkdir -p "$work/state"
+# The bundled SQLite has same-named function-local statics that ASan's ODR
+# check reports at start-up (see docs/RELIABILITY.md, session 6).
+export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_odr_violation=0}"
+
+targets=("$@")
+if [ ${#targets[@]} -eq 0 ]; then
+    mapfile -t targets < <(ls fuzz/fuzz_targets | sed 's/\.rs$//')
+fi
+
+declare -A done_
+while :; do
+    left=0
+    for t in "${targets[@]}"; do
+        [ -n "${done_[$t]:-}" ] && continue
+        now=$(date +%s)
+        remaining=$(( deadline - now ))
+        if [ "$remaining" -lt 60 ]; then
+            echo "fuzz_plateau: deadline reached" >&2
+            exit 0
+        fi
+        left=1
+        max=$(( slice < remaining ? slice : remaining ))
+        line=$(nice -n 19 python3 fuzz/plateau.py "$t" --bin "$bin_dir/$t" \
+            --work "$work" --seeds "$seeds/$t" --state "$work/state/$t.json" \
+            --min 30 --max "$max" --quiet "$quiet")
+        rc=$?
+        echo "$line"
+        if [ $rc -ne 0 ]; then
+            echo "fuzz_plateau: FINDING in $t (fuzz/artifacts/$t/)" >&2
+            done_[$t]=finding
+        elif echo "$line" | grep -q '"plateau": true'; then
+            done_[$t]=plateau
+        fi
+    done
+    [ $left -eq 0 ] && break
+done
+echo "fuzz_plateau: every target reached a plateau or a finding" >&2
