@@ -269,6 +269,8 @@ mod local;
 #[cfg(feature = "mpi")]
 pub mod mpi;
 pub mod mpi_codec;
+#[cfg(feature = "mpi")]
+mod mpi_queue;
 pub mod mpi_halo;
 pub mod stats;
 
