@@ -269,9 +269,9 @@ mod local;
 #[cfg(feature = "mpi")]
 pub mod mpi;
 pub mod mpi_codec;
+pub mod mpi_halo;
 #[cfg(feature = "mpi")]
 mod mpi_queue;
-pub mod mpi_halo;
 pub mod stats;
 
 pub use copy::{copy, ingest, run_local_to_memory, MemSink, MemSinkHandle};

@@ -5,15 +5,20 @@
 //! Every rank runs the same command (SPMD), so every rank reaches the same
 //! engine call with the same step, inputs and layout; the engine then splits
 //! the tiles between the ranks:
-//! - tiles to do are listed by rank 0 (resume) and broadcast; the `k`-th goes
-//!   to rank `k mod ranks` ([`super::mpi_codec::owners`]); each rank runs its
-//!   tiles on its own thread pool ([`LocalEngine::pipeline`]);
+//! - tiles to do are listed by rank 0 (resume) and broadcast; the ranks
+//!   draw them from a work queue rank 0 serves ([`super::mpi_queue`]:
+//!   guided chunks on request, so ranks whose tiles are cheap take more);
+//!   each rank runs what it drew on its own thread pool. Which rank does
+//!   which tile changes from run to run; the output does not;
 //! - local steps and the apply phase of global steps: each rank computes its
 //!   tiles, converts them to the sinks' native types and sends them to rank
-//!   0, which writes every tile in increasing id order to its sinks, exactly
-//!   as the in-process engine does (so the bytes are the same). The sinks of
-//!   the other ranks are dropped unwritten. Cost: every output cell crosses
-//!   the network once, to rank 0, and rank 0's disk writes everything;
+//!   0 as they finish, which puts them back in order and writes every tile
+//!   in increasing id order to its sinks, exactly as the in-process engine
+//!   does (so the bytes are the same; see [`MpiEngine::distribute`] for the
+//!   bounded reorder window). Tile-store outputs are written by the rank
+//!   that computed the tile; rank 0 records them, in tile order too. The
+//!   sinks of the other ranks are dropped unwritten. Cost: every GeoTIFF
+//!   output cell crosses the network once, to rank 0;
 //! - global steps (Barnes 2016, "Parallel priority-flood depression filling
 //!   for trillion cell digital elevation models on desktops or clusters",
 //!   Computers & Geosciences 96; Barnes 2017, "Parallel non-divergent flow
@@ -26,9 +31,12 @@
 //!   caller on every rank and solutions are not serialisable, so this
 //!   replaces Barnes's "rank 0 reduces and sends each rank its slice"; the
 //!   price is that each rank receives all summaries instead of its slices.
+//!   `run_global_apply` (no solution returned) follows Barnes: rank 0
+//!   reduces and sends each grant of the apply phase with its tiles' slices.
 //!
 //! MPI calls are made only from the thread that started MPI (thread level
-//! "funneled"): the pipeline hands results to the calling thread.
+//! "funneled"): the worker pools hand results to the calling thread, and
+//! rank 0 serves the queue by polling between its own tiles.
 //!
 //! Failure: an error on any rank once the ranks communicate prints the rank,
 //! host and the error (which names the step and tile) and calls MPI_Abort,
@@ -453,7 +461,12 @@ impl mpi_queue::Serve<Vec<AnyGrid>> for Writer<'_> {
                 a.copy_from_slice(b);
                 u64::from_le_bytes(a)
             })
-            .ok_or_else(|| Error::invalid(format!("{}: a tile message from rank {from} is shorter than its header", self.name)))?;
+            .ok_or_else(|| {
+                Error::invalid(format!(
+                    "{}: a tile message from rank {from} is shorter than its header",
+                    self.name
+                ))
+            })?;
         let k = usize::try_from(id)
             .ok()
             .and_then(|id| self.ids.binary_search(&id).ok())
@@ -784,12 +797,15 @@ impl MpiEngine {
     /// order whatever the order of arrival, so neither the output nor a
     /// store's journal depends on which rank did which tile.
     ///
-    /// Memory on rank 0: its own tiles in flight (`cap`) plus the tiles
-    /// that arrived before an earlier one was written. When cells travel,
-    /// the queue grants nothing beyond a window of `W` positions past the
-    /// first unwritten one, `W = max(2 x ranks, min(ranks x cap,
-    /// budget / bytes_per_tile))`, so rank 0 holds at most `cap + W` tiles;
-    /// receipts alone (12 bytes per output) are not windowed.
+    /// Memory on rank 0: its own tiles in flight (`d = min(cap, threads +
+    /// 1)`, see `mpi_queue::depth`) plus the tiles that arrived before an
+    /// earlier one was written. When cells travel, the queue grants nothing
+    /// beyond a window of `W` positions past the first unwritten one, `W =
+    /// max(2 x ranks, min(ranks x cap, budget / bytes_per_tile - d))`, so
+    /// rank 0 holds at most `d + W` tiles: within its `--memory` budget
+    /// unless that is under `2 x ranks + d` tiles. Receipts alone (12 bytes
+    /// per delegated output) are not windowed. Other ranks hold at most `d`
+    /// tiles, and each message buffer is one of those tiles.
     ///
     /// `slices_out` (rank 0) gives the payload of a grant (the slices of
     /// its tiles, when only rank 0 holds the solution); `slices_in` (other
@@ -816,9 +832,13 @@ impl MpiEngine {
         let delegated = Self::shared_delegation(comm, &sinks, meta, layout);
         let (moved, work) = if me == 0 {
             let travels = delegated.iter().any(|d| d.is_none());
+            // The reorder window and rank 0's own tiles in flight share its
+            // memory budget (at least two tiles per rank, so every rank can
+            // work while the next one travels).
+            let own = mpi_queue::depth(cap, threads);
             let window = travels.then(|| {
                 (ranks * cap)
-                    .min(self.local.tiles_in_flight(bytes))
+                    .min(self.local.tiles_in_flight(bytes).saturating_sub(own))
                     .max(2 * ranks)
             });
             let max_chunk = if slices_out.is_some() {
@@ -842,8 +862,7 @@ impl MpiEngine {
                 frontier: 0,
                 moved: 0,
             };
-            let work =
-                mpi_queue::serve(comm, name, threads, cap, ids, &mut q, compute, &mut w);
+            let work = mpi_queue::serve(comm, name, threads, cap, ids, &mut q, compute, &mut w);
             last_words::clear();
             if let Err(e) = finish_all(w.sinks) {
                 fail(e);
@@ -1089,9 +1108,8 @@ impl MpiEngine {
             pack(&list)
         };
         let slices_in = |grant: &[TileId], bytes: &[u8]| -> Result<()> {
-            let list = unpack(bytes).map_err(|e| {
-                Error::invalid(format!("{name}: the slices sent by rank 0: {e}"))
-            })?;
+            let list = unpack(bytes)
+                .map_err(|e| Error::invalid(format!("{name}: the slices sent by rank 0: {e}")))?;
             let mut got = received
                 .lock()
                 .map_err(|_| Error::invalid("MPI engine: slice table lock poisoned"))?;
@@ -1139,8 +1157,18 @@ impl MpiEngine {
             (true, 0) => (Some(&slices_out), None),
             (true, _) => (None, Some(&slices_in)),
         };
-        let (moved, work) =
-            self.distribute(comm, &apply_name, layout, &ids, &meta, bytes, sinks, &apply, out, inn);
+        let (moved, work) = self.distribute(
+            comm,
+            &apply_name,
+            layout,
+            &ids,
+            &meta,
+            bytes,
+            sinks,
+            &apply,
+            out,
+            inn,
+        );
         Self::report(
             comm,
             Phase {
@@ -1270,7 +1298,16 @@ impl Engine for MpiEngine {
         if sinks.is_empty() {
             return Ok(solution);
         }
-        self.apply_phase(&comm, step, inputs, &layout, sinks, Some(&solution), false, t1);
+        self.apply_phase(
+            &comm,
+            step,
+            inputs,
+            &layout,
+            sinks,
+            Some(&solution),
+            false,
+            t1,
+        );
         Ok(solution)
     }
 

@@ -389,7 +389,9 @@ pub fn decode_grant(msg: &[u8], len: usize) -> Result<(Vec<usize>, &[u8])> {
     let mut end = 0u64;
     for _ in 0..runs {
         let (s, n) = (r.u64()?, r.u64()?);
-        let e = s.checked_add(n).filter(|&e| n > 0 && s >= end && e <= len as u64);
+        let e = s
+            .checked_add(n)
+            .filter(|&e| n > 0 && s >= end && e <= len as u64);
         let Some(e) = e else {
             return Err(Error::invalid(format!(
                 "MPI engine: a work-queue grant of positions {s}+{n} (after {end}) does not fit the {len} tiles to do"
@@ -566,7 +568,9 @@ mod tests {
         let mut guard = 0;
         while (0..ranks).any(|r| !q.exhausted(r)) {
             for (r, g) in got.iter_mut().enumerate() {
-                let frontier = (0..q.len()).find(|&k| q.owner(k).is_none()).unwrap_or(q.len());
+                let frontier = (0..q.len())
+                    .find(|&k| q.owner(k).is_none())
+                    .unwrap_or(q.len());
                 g.extend(q.grant(r, want, frontier));
             }
             guard += 1;
@@ -696,7 +700,10 @@ mod tests {
         huge.extend_from_slice(&u64::MAX.to_le_bytes());
         assert!(decode_grant(&huge, 13).is_err(), "absurd length");
         assert!(Schedule::parse("fifo").is_err());
-        assert_eq!(Schedule::parse("round-robin").unwrap(), Schedule::RoundRobin);
+        assert_eq!(
+            Schedule::parse("round-robin").unwrap(),
+            Schedule::RoundRobin
+        );
     }
 
     #[test]

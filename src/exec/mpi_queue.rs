@@ -191,7 +191,7 @@ fn with_lanes<R: Send, T>(
 /// more than the memory budget allows (`cap`). Results are taken in
 /// completion order, so a deeper pipeline would only hoard tiles another
 /// rank could be computing.
-fn depth(cap: usize, threads: usize) -> usize {
+pub(super) fn depth(cap: usize, threads: usize) -> usize {
     cap.min(threads.max(1) + 1).max(1)
 }
 
