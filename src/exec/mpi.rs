@@ -332,6 +332,11 @@ fn schedule() -> Schedule {
     Schedule::parse(&v).unwrap_or_else(|e| fail(e))
 }
 
+/// Rank 0's payload of a grant: the packed slices of the granted tiles.
+type SlicesOut<'a> = &'a (dyn Fn(&[TileId]) -> Result<Vec<u8>> + Sync);
+/// A rank's intake of a grant's payload (granted tiles, packed slices).
+type SlicesIn<'a> = &'a (dyn Fn(&[TileId], &[u8]) -> Result<()> + Sync);
+
 /// How a tile arrived at rank 0 before its turn to be written.
 enum Arrived {
     /// Computed on rank 0 (the sinks' native types).
@@ -350,7 +355,7 @@ struct Writer<'a> {
     meta: &'a [(DType, Option<f64>)],
     sinks: Vec<Box<dyn TileSink>>,
     delegated: &'a [Option<DelegatedTiles>],
-    slices: Option<&'a (dyn Fn(&[TileId]) -> Result<Vec<u8>> + Sync)>,
+    slices: Option<SlicesOut<'a>>,
     /// Positions that arrived and wait for an earlier one (at most the
     /// queue's window when cells travel; receipts only otherwise).
     buffer: std::collections::BTreeMap<usize, Arrived>,
@@ -493,7 +498,7 @@ impl mpi_queue::Serve<Vec<AnyGrid>> for Writer<'_> {
 /// rank 0 as they finish; slices that come with grants to `slices`.
 struct Sender<'a> {
     ids: &'a [TileId],
-    slices: Option<&'a (dyn Fn(&[TileId], &[u8]) -> Result<()> + Sync)>,
+    slices: Option<SlicesIn<'a>>,
     moved: u64,
 }
 
@@ -822,8 +827,8 @@ impl MpiEngine {
         bytes: u64,
         sinks: Vec<Box<dyn TileSink>>,
         compute: &(dyn Fn(TileId) -> Result<Vec<AnyGrid>> + Sync),
-        slices_out: Option<&(dyn Fn(&[TileId]) -> Result<Vec<u8>> + Sync)>,
-        slices_in: Option<&(dyn Fn(&[TileId], &[u8]) -> Result<()> + Sync)>,
+        slices_out: Option<SlicesOut<'_>>,
+        slices_in: Option<SlicesIn<'_>>,
     ) -> (u64, Work) {
         let me = comm.rank() as usize;
         let ranks = comm.size() as usize;
@@ -1034,6 +1039,7 @@ impl MpiEngine {
     /// replicated reduce) or on rank 0 only (`shipped`, Barnes): then rank 0 sends
     /// the slices of the tiles of each grant along with it. Errors end the
     /// job.
+    #[allow(clippy::too_many_arguments)]
     fn apply_phase<S: GlobalStep>(
         &self,
         comm: &SimpleCommunicator,
@@ -1149,10 +1155,7 @@ impl MpiEngine {
             step.apply(&views, &slice, &mut out)?;
             convert_outputs(&name, &out, layout, id, &meta)
         };
-        let (out, inn): (
-            Option<&(dyn Fn(&[TileId]) -> Result<Vec<u8>> + Sync)>,
-            Option<&(dyn Fn(&[TileId], &[u8]) -> Result<()> + Sync)>,
-        ) = match (shipped, me) {
+        let (out, inn): (Option<SlicesOut<'_>>, Option<SlicesIn<'_>>) = match (shipped, me) {
             (false, _) => (None, None),
             (true, 0) => (Some(&slices_out), None),
             (true, _) => (None, Some(&slices_in)),

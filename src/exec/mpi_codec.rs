@@ -642,14 +642,11 @@ mod tests {
         let mut q = Queue::new(cost.len(), ranks, schedule, None, usize::MAX).unwrap();
         let mut clock = vec![0u64; ranks];
         let mut local: Vec<std::collections::VecDeque<usize>> = vec![Default::default(); ranks];
-        loop {
-            // The rank that is free first works next (ties: lowest rank).
-            let Some(r) = (0..ranks)
-                .filter(|&r| !local[r].is_empty() || !q.exhausted(r))
-                .min_by_key(|&r| (clock[r], r))
-            else {
-                break;
-            };
+        // The rank that is free first works next (ties: lowest rank).
+        while let Some(r) = (0..ranks)
+            .filter(|&r| !local[r].is_empty() || !q.exhausted(r))
+            .min_by_key(|&r| (clock[r], r))
+        {
             if local[r].is_empty() {
                 local[r].extend(q.grant(r, 1, 0));
             }
