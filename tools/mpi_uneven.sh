@@ -1,8 +1,8 @@
 #!/bin/bash
 # The MPI work queue balances uneven work, with the bytes of one process.
 #
-# Input: a real DEM (default srtm3_N46E008, the Alps, 1201x1201) whose odd
-# tile columns (tiles of 128: 10 columns) are set to nodata with GDAL, so
+# Input: a real DEM (default srtm3_N46E008, the Alps, 1201x1201; or a window
+# of one) whose odd tile columns (tiles of 128: 10 columns) are set to nodata, so
 # half of the tiles cost almost nothing. Round robin deals tile k to rank
 # k mod 2, which with 10 tile columns is the tile's column parity: rank 1
 # gets every nodata tile. The queue (the default) deals chunks on request.
@@ -14,7 +14,10 @@
 # busy seconds (summed over its workers) and when its last tile finished
 # (OROGEN_MPI_STATS lines of rank 0), and the wall time of each run.
 #
-# Usage: tools/mpi_uneven.sh [--release] [--dem PATH] [--threads N]
+# Usage: tools/mpi_uneven.sh [--release] [--dem PATH] [--threads N] [--tile N] [--srcwin "X Y W H"]
+# (the number of tile columns must be even for round robin to split by
+# parity; release builds need larger tiles to take measurable time, e.g.
+#  --release --dem ../shared/data/poland_N49-55_E014-025.tif --srcwin "5600 4128 4096 3072" --tile 512)
 # (assumes `cargo build [--release] --features mpi`; GDAL's gdal_translate and
 # python3 with numpy make the input)
 set -euo pipefail
@@ -22,12 +25,16 @@ cd "$(dirname "$0")/.."
 profile=debug
 dem=../shared/data/srtm3_N46E008.tif
 threads=1
+tile=128
+srcwin=""
 while [ $# -gt 0 ]; do
     case "$1" in
     --release) profile=release ;;
     --dem) dem="$2"; shift ;;
     --threads) threads="$2"; shift ;;
-    *) echo "usage: $0 [--release] [--dem PATH] [--threads N]" >&2; exit 2 ;;
+    --tile) tile="$2"; shift ;;
+    --srcwin) srcwin="-srcwin $2"; shift ;;
+    *) echo "usage: $0 [--release] [--dem PATH] [--threads N] [--tile N] [--srcwin 'X Y W H']" >&2; exit 2 ;;
     esac
     shift
 done
@@ -36,28 +43,26 @@ mpirun_="mpirun --allow-run-as-root --oversubscribe"
 work=$(mktemp -d -t orogen-mpi-uneven.XXXXXX)
 trap 'rm -rf "$work"' EXIT
 fails=0
-tile=128
 
-# Odd tile columns to nodata: via ESRI ASCII (text) so only numpy is needed.
-gdal_translate -q -of AAIGrid -ot Int16 "$dem" "$work/dem.asc"
-python3 - "$work/dem.asc" "$work/striped.asc" "$tile" <<'EOF'
+# Odd tile columns to nodata: through GDAL's raw ENVI format (a flat int16
+# file and a header), so only numpy is needed.
+gdal_translate -q -of ENVI -ot Int16 $srcwin "$dem" "$work/dem.img"
+python3 - "$work/dem.img" "$work/dem.hdr" "$tile" <<'EOF2'
 import sys
 import numpy as np
-src, dst, tile = sys.argv[1], sys.argv[2], int(sys.argv[3])
-with open(src) as f:
-    head = [next(f) for _ in range(6)]
-keys = {l.split()[0].lower(): l.split()[1] for l in head}
-a = np.loadtxt(src, skiprows=6, dtype=np.int32)
-nodata = int(float(keys.get("nodata_value", "-32768")))
-cols = np.arange(a.shape[1]) // tile
-a[:, cols % 2 == 1] = nodata
-head = [l for l in head if not l.lower().startswith("nodata_value")]
-with open(dst, "w") as f:
-    f.writelines(head)
-    f.write(f"NODATA_value {nodata}\n")
-    np.savetxt(f, a, fmt="%d")
-EOF
-gdal_translate -q -of GTiff -ot Int16 -co TILED=YES -co COMPRESS=DEFLATE "$work/striped.asc" "$work/striped.tif"
+img, hdr, tile = sys.argv[1], sys.argv[2], int(sys.argv[3])
+h = {}
+for line in open(hdr):
+    if "=" in line:
+        k, v = line.split("=", 1)
+        h[k.strip().lower()] = v.strip()
+w, rows = int(h["samples"]), int(h["lines"])
+order = "<" if h.get("byte order", "0") == "0" else ">"
+a = np.fromfile(img, dtype=order + "i2").reshape(rows, w)
+a[:, (np.arange(w) // tile) % 2 == 1] = -32768
+a.tofile(img)
+EOF2
+gdal_translate -q -of GTiff -a_nodata -32768 -co TILED=YES -co COMPRESS=DEFLATE "$work/dem.img" "$work/striped.tif"
 in="$work/striped.tif"
 
 steps() {
