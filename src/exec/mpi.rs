@@ -376,21 +376,23 @@ impl Writer<'_> {
             .collect()
     }
 
-    /// Write every buffered position from the frontier on.
-    fn flush(&mut self, q: &Queue) -> Result<()> {
-        while let Some(a) = self.buffer.remove(&self.frontier) {
-            let id = self.ids[self.frontier];
-            match a {
-                Arrived::Own(grids) => write_outputs(&mut self.sinks, self.layout, id, grids)
-                    .map_err(|e| Error::tile(self.name, id, e))?,
-                Arrived::Remote(msg) => self
-                    .write_remote(id, &msg)
-                    .map_err(|e| Error::tile(self.name, id, e))?,
-            }
-            self.frontier += 1;
+    /// Write the tile at the frontier if it is there (one tile, so the
+    /// queue is served between writes); true if one was written.
+    fn write_next(&mut self, q: &Queue) -> Result<bool> {
+        let Some(a) = self.buffer.remove(&self.frontier) else {
+            return Ok(false);
+        };
+        let id = self.ids[self.frontier];
+        match a {
+            Arrived::Own(grids) => write_outputs(&mut self.sinks, self.layout, id, grids)
+                .map_err(|e| Error::tile(self.name, id, e))?,
+            Arrived::Remote(msg) => self
+                .write_remote(id, &msg)
+                .map_err(|e| Error::tile(self.name, id, e))?,
         }
+        self.frontier += 1;
         note_pending(self.name, self.ids, q, &self.got, self.frontier, &self.left);
-        Ok(())
+        Ok(true)
     }
 
     fn write_remote(&mut self, id: TileId, msg: &[u8]) -> Result<()> {
@@ -456,7 +458,8 @@ impl mpi_queue::Serve<Vec<AnyGrid>> for Writer<'_> {
     fn own(&mut self, k: usize, grids: Vec<AnyGrid>, q: &Queue) -> Result<()> {
         self.arrive(k, 0, q)?;
         self.buffer.insert(k, Arrived::Own(grids));
-        self.flush(q)
+        note_pending(self.name, self.ids, q, &self.got, self.frontier, &self.left);
+        Ok(())
     }
     fn remote(&mut self, from: usize, msg: Vec<u8>, q: &Queue) -> Result<()> {
         let id = msg
@@ -484,7 +487,11 @@ impl mpi_queue::Serve<Vec<AnyGrid>> for Writer<'_> {
         self.arrive(k, from, q)?;
         self.moved += msg.len() as u64;
         self.buffer.insert(k, Arrived::Remote(msg));
-        self.flush(q)
+        note_pending(self.name, self.ids, q, &self.got, self.frontier, &self.left);
+        Ok(())
+    }
+    fn write_one(&mut self, q: &Queue) -> Result<bool> {
+        self.write_next(q)
     }
     fn frontier(&self) -> usize {
         self.frontier
@@ -553,6 +560,9 @@ impl mpi_queue::Serve<Vec<u8>> for MapServe<'_> {
             "{}: rank {from} sent a tile message during the map phase",
             self.name
         )))
+    }
+    fn write_one(&mut self, _q: &Queue) -> Result<bool> {
+        Ok(false)
     }
     fn frontier(&self) -> usize {
         0

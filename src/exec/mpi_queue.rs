@@ -78,6 +78,10 @@ pub(super) trait Serve<R> {
     fn own(&mut self, k: usize, r: R, q: &Queue) -> Result<()>;
     /// A tile message from rank `from`.
     fn remote(&mut self, from: usize, msg: Vec<u8>, q: &Queue) -> Result<()>;
+    /// Consume (write) at most one result that is due; true if it did. Rank
+    /// 0 serves the queue between two of these, so a burst of writes never
+    /// leaves a rank waiting for its next grant longer than one write.
+    fn write_one(&mut self, q: &Queue) -> Result<bool>;
     /// First position not yet consumed (the window's frontier).
     fn frontier(&self) -> usize;
     /// Every result consumed.
@@ -276,7 +280,10 @@ pub(super) fn serve<R: Send, H: Serve<R>>(
                 let Some(k) = local.pop_front() else { break };
                 lanes.push(k, ids[k]);
             }
-            if let Some((k, res)) = lanes.poll(POLL) {
+            // Write one due tile; wait for a result only when there was none.
+            let wrote = hooks.write_one(q)?;
+            let wait = if wrote { Duration::ZERO } else { POLL };
+            if let Some((k, res)) = lanes.poll(wait) {
                 let v = res.map_err(|e| tile_err(name, ids[k], e))?;
                 last = t0.elapsed().as_secs_f64();
                 hooks.own(k, v, q)?;
