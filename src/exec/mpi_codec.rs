@@ -331,7 +331,14 @@ impl Queue {
             Schedule::Queue => {
                 let remaining = self.len.saturating_sub(self.next);
                 let guided = remaining.div_ceil(2 * self.ranks).max(1);
+                // Under a window no grant takes more than a 2·ranks-th of
+                // it, or one rank would hold the whole window and the others
+                // wait for it to write.
+                let share = self
+                    .window
+                    .map_or(usize::MAX, |w| (w / (2 * self.ranks)).max(1));
                 let n = guided
+                    .min(share)
                     .min(self.max_chunk)
                     .min(limit.saturating_sub(self.next));
                 let ks: Vec<usize> = (self.next..self.next + n).collect();
