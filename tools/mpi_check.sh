@@ -6,7 +6,9 @@
 #   fill, flow (D8), accumulate (D8), peaks --tiled (divide tree),
 #   metric (slope + tpi, one pass), erode (thermal)
 # in-process and under `mpirun -n 1|2|4` with `--engine mpi`, and `cmp`s
-# every output file. Also `orogen run job.toml --engine mpi` with 2 ranks.
+# every output file. Also `orogen run job.toml --engine mpi` with 2 ranks,
+# uneven work under both schedules (tools/mpi_uneven.sh) and a killed rank
+# (tools/mpi_kill.sh).
 #
 # Erosion with halo exchange across ranks (hydraulic, thermal, diffusion;
 # several exchange intervals, tiles that do not divide the raster) is checked
@@ -176,10 +178,22 @@ for f in filled.tif metric/slope.tif; do
 done
 echo "job file, 2 ranks: compared"
 
-# Kill rank 1 mid-job (fill to a tile store), then resume to identical
-# bytes (tools/mpi_kill.sh, about 1 min).
 kill_flags=""
 if [ "$profile" = release ]; then kill_flags="--release"; fi
+
+# Uneven work (nodata stripes): the work queue and round robin both give the
+# in-process bytes (tools/mpi_uneven.sh; needs GDAL's gdal_translate and numpy).
+if command -v gdal_translate >/dev/null && python3 -c 'import numpy' 2>/dev/null; then
+    if ! tools/mpi_uneven.sh $kill_flags; then
+        echo "DIFFER: uneven work (tools/mpi_uneven.sh)"
+        fails=$((fails + 1))
+    fi
+else
+    echo "uneven work: skipped (no gdal_translate or numpy)"
+fi
+
+# Kill rank 1 mid-job (fill to a tile store), then resume to identical
+# bytes (tools/mpi_kill.sh, about 1 min).
 if ! tools/mpi_kill.sh $kill_flags; then
     echo "DIFFER: kill a rank (tools/mpi_kill.sh)"
     fails=$((fails + 1))

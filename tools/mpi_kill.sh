@@ -75,7 +75,7 @@ echo "killed run: exit status $status"
 sed 's/^/  | /' "$work/killed.err"
 [ "$status" != 0 ] || bad "the killed run exited 0"
 grep -q "rank 1" "$work/killed.err" || bad "no message names rank 1"
-grep -q "rank 1: [0-9]* tile(s) not received: " "$work/killed.err" ||
+grep -q "rank 1: [0-9]* tile(s) granted and not received: " "$work/killed.err" ||
     bad "rank 0 did not name the tiles it waited for from rank 1"
 if grep -q '"complete": *true' "$work/mpi.tiles/manifest.json" 2>/dev/null; then
     bad "the store of the killed run looks complete"

@@ -33,7 +33,7 @@ use crate::exec::mpi_halo::{
     extract, partition, paste, patch_window, HaloPlan, HaloTransport, Single,
 };
 use crate::exec::{to_sink_type, EngineConfig, TileSink};
-use crate::raster::{read_window, Grid, RasterSource, TileId, TileLayout, Window};
+use crate::raster::{read_window, DType, Grid, RasterSource, TileId, TileLayout, Window};
 use rayon::prelude::*;
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};
@@ -155,6 +155,7 @@ pub fn run<M: LocalModel>(
         cfg,
         &mut Single,
         None,
+        false,
         emit,
     )
 }
@@ -167,7 +168,10 @@ pub fn run<M: LocalModel>(
 /// `emit`, in increasing tile id order; remote tiles carry only the fields
 /// in `keep` (all if `None`; the others are empty). The result is the same
 /// bits for any number of ranks and threads. With [`Single`] this is
-/// [`run`], with no copy or message added.
+/// [`run`], with no copy or message added. With `narrow`, remote tiles
+/// travel as `f32` (half the bytes): their kept fields reach `emit` rounded
+/// to `f32`, which gives the same bytes when every kept field is written
+/// as `f32` (an `f32` widened to `f64` converts back to itself).
 #[allow(clippy::too_many_arguments)]
 pub fn run_ranked<M: LocalModel, X: HaloTransport>(
     model: &M,
@@ -178,6 +182,7 @@ pub fn run_ranked<M: LocalModel, X: HaloTransport>(
     cfg: &EngineConfig,
     x: &mut X,
     keep: Option<&[usize]>,
+    narrow: bool,
     mut emit: impl FnMut(TileId, Window, &Patch) -> Result<()>,
 ) -> Result<RunStats> {
     let info = src.info();
@@ -376,17 +381,27 @@ pub fn run_ranked<M: LocalModel, X: HaloTransport>(
     let mut final_bytes = 0u64;
     if me == 0 {
         let mut buf = Vec::new();
+        let mut buf32: Vec<f32> = Vec::new();
         for (id, &from) in owner.iter().enumerate() {
             let core = layout.window(id);
             let patch = if from == 0 {
                 finished(id).map_err(|e| x.fail(e))?
             } else {
-                buf.resize(core.len() * keep.len(), 0.0);
-                x.recv_from(from, &mut buf).map_err(|e| x.fail(e))?;
+                let n = core.len() * keep.len();
                 let mut patch = Patch::new(core.x, core.y, core.w, core.h, 0);
                 patch.fields = vec![Vec::new(); nf];
-                for (&f, c) in keep.iter().zip(buf.chunks_exact(core.len())) {
-                    patch.fields[f] = c.to_vec();
+                if narrow {
+                    buf32.resize(n, 0.0);
+                    x.recv_from_f32(from, &mut buf32).map_err(|e| x.fail(e))?;
+                    for (&f, c) in keep.iter().zip(buf32.chunks_exact(core.len())) {
+                        patch.fields[f] = c.iter().map(|&v| f64::from(v)).collect();
+                    }
+                } else {
+                    buf.resize(n, 0.0);
+                    x.recv_from(from, &mut buf).map_err(|e| x.fail(e))?;
+                    for (&f, c) in keep.iter().zip(buf.chunks_exact(core.len())) {
+                        patch.fields[f] = c.to_vec();
+                    }
                 }
                 patch
             };
@@ -394,14 +409,24 @@ pub fn run_ranked<M: LocalModel, X: HaloTransport>(
         }
     } else {
         let mut buf = Vec::new();
+        let mut buf32: Vec<f32> = Vec::new();
         for &id in mine {
             let patch = finished(id).map_err(|e| x.fail(e))?;
-            buf.clear();
-            for &f in &keep {
-                buf.extend_from_slice(&patch.fields[f]);
+            if narrow {
+                buf32.clear();
+                for &f in &keep {
+                    buf32.extend(patch.fields[f].iter().map(|&v| v as f32));
+                }
+                final_bytes += buf32.len() as u64 * 4;
+                x.send_to_root_f32(&buf32).map_err(|e| x.fail(e))?;
+            } else {
+                buf.clear();
+                for &f in &keep {
+                    buf.extend_from_slice(&patch.fields[f]);
+                }
+                final_bytes += buf.len() as u64 * 8;
+                x.send_to_root(&buf).map_err(|e| x.fail(e))?;
             }
-            final_bytes += buf.len() as u64 * 8;
-            x.send_to_root(&buf).map_err(|e| x.fail(e))?;
         }
     }
     if x.distributed() {
@@ -551,6 +576,9 @@ pub fn run_to_sinks_ranked<M: LocalModel, X: HaloTransport>(
     let mut keep: Vec<usize> = sinks.iter().map(|(f, _)| *f).collect();
     keep.sort_unstable();
     keep.dedup();
+    // Every output f32 (the same on every rank: the other ranks' sinks
+    // report the real sinks' types): tiles travel as f32.
+    let narrow = !sinks.is_empty() && sinks.iter().all(|(_, s)| s.dtype() == DType::F32);
     let stats = run_ranked(
         model,
         src,
@@ -560,6 +588,7 @@ pub fn run_to_sinks_ranked<M: LocalModel, X: HaloTransport>(
         cfg,
         x,
         Some(&keep),
+        narrow,
         |id, core, p| {
             for (f, sink) in sinks.iter_mut() {
                 let g = Grid::from_vec(core.w, core.h, p.fields[*f].clone())?;
@@ -814,6 +843,20 @@ mod tests {
         fn recv_from(&mut self, from: usize, buf: &mut [f64]) -> Result<()> {
             self.recv(from, buf)
         }
+        // The test channel carries f64: f32 values widened (exact) and back.
+        fn send_to_root_f32(&mut self, data: &[f32]) -> Result<()> {
+            self.tx[0]
+                .send(data.iter().map(|&v| f64::from(v)).collect())
+                .map_err(|_| Error::invalid("rank 0 gone"))
+        }
+        fn recv_from_f32(&mut self, from: usize, buf: &mut [f32]) -> Result<()> {
+            let mut wide = vec![0.0f64; buf.len()];
+            self.recv(from, &mut wide)?;
+            for (d, s) in buf.iter_mut().zip(&wide) {
+                *d = *s as f32;
+            }
+            Ok(())
+        }
         fn sum(&mut self, v: &[u64]) -> Result<Vec<u64>> {
             Ok(v.to_vec())
         }
@@ -857,6 +900,7 @@ mod tests {
         ranks: usize,
         threads: usize,
         keep: Option<&[usize]>,
+        narrow: bool,
         backend: impl Fn(usize) -> Backend + Sync,
     ) -> Vec<Grid<f64>> {
         let info = src.info();
@@ -882,6 +926,7 @@ mod tests {
                             &cfg(threads),
                             &mut c,
                             keep,
+                            narrow,
                             |id, core, p| {
                                 emitted.push(id);
                                 for (g, f) in grids.iter_mut().zip(&p.fields) {
@@ -935,7 +980,7 @@ mod tests {
         for (tile, k) in [(7usize, 1usize), (11, 3), (8, 8)] {
             for ranks in 1..=4 {
                 let threads = 1 + ranks % 2;
-                let got = ranked(model, &src, tile, k, ranks, threads, None, |_| {
+                let got = ranked(model, &src, tile, k, ranks, threads, None, false, |_| {
                     Backend::Memory
                 });
                 for (f, (a, b)) in got.iter().zip(&reference).enumerate() {
@@ -1003,7 +1048,7 @@ mod tests {
         let src = MemRaster::from_grid(dem, GeoRef::pixel());
         let tmp = std::env::temp_dir().join(format!("orogen-halo-test-{}", std::process::id()));
         let keep = [0usize, 2];
-        let got = ranked(&model, &src, 6, 2, 3, 2, Some(&keep), |r| {
+        let got = ranked(&model, &src, 6, 2, 3, 2, Some(&keep), false, |r| {
             Backend::Disk(tmp.join(format!("rank{r}")))
         });
         let _ = std::fs::remove_dir_all(&tmp);
@@ -1014,5 +1059,43 @@ mod tests {
         // tiles do); the last tile belongs to rank 2.
         let f = 1;
         assert_eq!(got[f].get(22, 30), -1.0);
+    }
+
+    /// `narrow`: remote tiles arrive rounded to f32, so every cell rounds to
+    /// the f32 of the whole-grid run (what an f32 output writes), and the
+    /// tiles of other ranks are really rounded (rank 0's own are not).
+    #[test]
+    fn narrow_tiles_give_the_f32_of_the_whole_grid_run() {
+        let dem = terrain(23, 31);
+        let p = ThermalParams {
+            talus: 30.0,
+            ..Default::default()
+        };
+        let model = Thermal::new(p, 12, CellSize::square(2.0)).unwrap();
+        let reference = run_untiled(&model, &dem);
+        let src = MemRaster::from_grid(dem, GeoRef::pixel());
+        let got = ranked(&model, &src, 6, 2, 3, 1, Some(&[0]), true, |_| {
+            Backend::Memory
+        });
+        let owner = partition(&TileLayout::new(23, 31, 6), 3);
+        let (mut remote_rounded, mut own_exact) = (0usize, 0usize);
+        for y in 0..31 {
+            for x in 0..23 {
+                let (a, b) = (got[0].get(x, y), reference[0].get(x, y));
+                assert_eq!((a as f32).to_bits(), (b as f32).to_bits(), "cell {x},{y}");
+                let id = (y / 6) * 23usize.div_ceil(6) + x / 6;
+                if owner[id] == 0 {
+                    assert_eq!(a.to_bits(), b.to_bits(), "rank 0's own cell {x},{y}");
+                    own_exact += 1;
+                } else {
+                    assert_eq!(a, f64::from(a as f32), "cell {x},{y} is not an f32");
+                    remote_rounded += usize::from(a != b);
+                }
+            }
+        }
+        assert!(
+            own_exact > 0 && remote_rounded > 0,
+            "{own_exact} {remote_rounded}"
+        );
     }
 }

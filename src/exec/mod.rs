@@ -270,6 +270,8 @@ mod local;
 pub mod mpi;
 pub mod mpi_codec;
 pub mod mpi_halo;
+#[cfg(feature = "mpi")]
+mod mpi_queue;
 pub mod stats;
 
 pub use copy::{copy, ingest, run_local_to_memory, MemSink, MemSinkHandle};

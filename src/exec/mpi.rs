@@ -5,15 +5,20 @@
 //! Every rank runs the same command (SPMD), so every rank reaches the same
 //! engine call with the same step, inputs and layout; the engine then splits
 //! the tiles between the ranks:
-//! - tiles to do are listed by rank 0 (resume) and broadcast; the `k`-th goes
-//!   to rank `k mod ranks` ([`super::mpi_codec::owners`]); each rank runs its
-//!   tiles on its own thread pool ([`LocalEngine::pipeline`]);
+//! - tiles to do are listed by rank 0 (resume) and broadcast; the ranks
+//!   draw them from a work queue rank 0 serves ([`super::mpi_queue`]:
+//!   guided chunks on request, so ranks whose tiles are cheap take more);
+//!   each rank runs what it drew on its own thread pool. Which rank does
+//!   which tile changes from run to run; the output does not;
 //! - local steps and the apply phase of global steps: each rank computes its
 //!   tiles, converts them to the sinks' native types and sends them to rank
-//!   0, which writes every tile in increasing id order to its sinks, exactly
-//!   as the in-process engine does (so the bytes are the same). The sinks of
-//!   the other ranks are dropped unwritten. Cost: every output cell crosses
-//!   the network once, to rank 0, and rank 0's disk writes everything;
+//!   0 as they finish, which puts them back in order and writes every tile
+//!   in increasing id order to its sinks, exactly as the in-process engine
+//!   does (so the bytes are the same; see [`MpiEngine::distribute`] for the
+//!   bounded reorder window). Tile-store outputs are written by the rank
+//!   that computed the tile; rank 0 records them, in tile order too. The
+//!   sinks of the other ranks are dropped unwritten. Cost: every GeoTIFF
+//!   output cell crosses the network once, to rank 0;
 //! - global steps (Barnes 2016, "Parallel priority-flood depression filling
 //!   for trillion cell digital elevation models on desktops or clusters",
 //!   Computers & Geosciences 96; Barnes 2017, "Parallel non-divergent flow
@@ -26,9 +31,12 @@
 //!   caller on every rank and solutions are not serialisable, so this
 //!   replaces Barnes's "rank 0 reduces and sends each rank its slice"; the
 //!   price is that each rank receives all summaries instead of its slices.
+//!   `run_global_apply` (no solution returned) follows Barnes: rank 0
+//!   reduces and sends each grant of the apply phase with its tiles' slices.
 //!
 //! MPI calls are made only from the thread that started MPI (thread level
-//! "funneled"): the pipeline hands results to the calling thread.
+//! "funneled"): the worker pools hand results to the calling thread, and
+//! rank 0 serves the queue by polling between its own tiles.
 //!
 //! Failure: an error on any rank once the ranks communicate prints the rank,
 //! host and the error (which names the step and tile) and calls MPI_Abort,
@@ -41,9 +49,10 @@ use super::local::{
     write_outputs,
 };
 use super::mpi_codec::{
-    decode_records, decode_tile_written, encode_tile_written, owner_table, owners, perimeter_cells,
-    push_record, route_records, TileParts,
+    decode_records, decode_tile_written, encode_tile_written, perimeter_cells, push_record, Queue,
+    Schedule, TileParts,
 };
+use super::mpi_queue::{self, Work};
 use super::{Engine, GlobalStep, LocalEngine, LocalStep, TileSink};
 use crate::error::{Error, Result};
 use crate::raster::{AnyGrid, DType, RasterSource, TileId, TileLayout};
@@ -66,7 +75,7 @@ static STATE: Mutex<Option<State>> = Mutex::new(None);
 static ACTIVE: AtomicBool = AtomicBool::new(false);
 
 /// Message tag of tile messages (rank -> rank 0).
-const TAG_TILE: i32 = 11;
+pub(super) const TAG_TILE: i32 = 11;
 /// Message tag of byte strings sent point to point ([`send_bytes`]).
 const TAG_BYTES: i32 = 12;
 /// Largest piece of one broadcast (MPI counts are 32-bit).
@@ -157,7 +166,8 @@ pub fn abort(msg: &str) -> ! {
     world().abort(1)
 }
 
-fn fail(e: Error) -> ! {
+/// End the job on every rank with `e` (see [`abort`]).
+pub(super) fn fail(e: Error) -> ! {
     abort(&e.to_string())
 }
 
@@ -266,20 +276,31 @@ mod last_words {
     }
 }
 
-/// While rank 0 writes its own tiles, its last words are refreshed only
-/// every this many tiles (each tile from another rank refreshes them).
-const NOTE_EVERY: usize = 16;
-
-/// Rank 0's last words while it waits for tiles: `pending[k..]` are the
-/// tiles still to come, `owner[j]` the rank of `pending[j]`, `left[r]` how
-/// many of them rank `r` owns; names the first few per rank (a bounded
-/// look-ahead, so this costs O(ranks) per tile, not O(tiles)).
-fn note_pending(step: &str, pending: &[TileId], owner: &[usize], k: usize, left: &[usize]) {
+/// Rank 0's last words while tiles are still out: for each rank other
+/// than 0, how many tiles it was granted and has not delivered (`left`),
+/// naming the first few of them found in `ids[frontier..]` (a bounded
+/// look-ahead, so a refresh costs O(ranks), not O(tiles)); `got[k]` says
+/// position `k` arrived.
+fn note_pending(
+    step: &str,
+    ids: &[TileId],
+    q: &Queue,
+    got: &[bool],
+    frontier: usize,
+    left: &[usize],
+) {
     let ranks = left.len();
     let mut first: Vec<Vec<String>> = vec![Vec::new(); ranks];
-    for (j, &id) in pending.iter().enumerate().skip(k).take(64 * ranks) {
-        if let Some(f) = first.get_mut(owner[j]).filter(|f| f.len() < 6) {
-            f.push(id.to_string());
+    for k in (frontier..ids.len()).take(64 * ranks.max(1)) {
+        if got[k] {
+            continue;
+        }
+        if let Some(f) = q
+            .owner(k)
+            .and_then(|o| first.get_mut(o))
+            .filter(|f| f.len() < 6)
+        {
+            f.push(ids[k].to_string());
         }
     }
     let mut lines = String::new();
@@ -287,7 +308,7 @@ fn note_pending(step: &str, pending: &[TileId], owner: &[usize], k: usize, left:
         let n = left[r];
         if n > 0 {
             lines.push_str(&format!(
-                "\n  rank {r}: {n} tile(s) not received: {}{}",
+                "\n  rank {r}: {n} tile(s) granted and not received: {}{}",
                 first[r].join(", "),
                 if n > first[r].len() { ", ..." } else { "" }
             ));
@@ -296,12 +317,274 @@ fn note_pending(step: &str, pending: &[TileId], owner: &[usize], k: usize, left:
     let msg = format!(
         "error: MPI rank 0 ended (SIGTERM) during {step}; {}{lines}\nerror: a rank died or the job was cancelled (mpirun names the rank); rerun the same command to resume from the finished tiles of tile-store outputs\n",
         if lines.is_empty() {
-            "every other rank had delivered its tiles"
+            "every other rank had delivered the tiles granted to it"
         } else {
             "still missing from the other ranks:"
         }
     );
     last_words::set(&msg);
+}
+
+/// The work-queue schedule chosen on rank 0 (`OROGEN_MPI_SCHEDULE`:
+/// `queue`, the default, or `round-robin` to compare against).
+fn schedule() -> Schedule {
+    let v = std::env::var("OROGEN_MPI_SCHEDULE").unwrap_or_default();
+    Schedule::parse(&v).unwrap_or_else(|e| fail(e))
+}
+
+/// Rank 0's payload of a grant: the packed slices of the granted tiles.
+type SlicesOut<'a> = &'a (dyn Fn(&[TileId]) -> Result<Vec<u8>> + Sync);
+/// A rank's intake of a grant's payload (granted tiles, packed slices).
+type SlicesIn<'a> = &'a (dyn Fn(&[TileId], &[u8]) -> Result<()> + Sync);
+
+/// How a tile arrived at rank 0 before its turn to be written.
+enum Arrived {
+    /// Computed on rank 0 (the sinks' native types).
+    Own(Vec<AnyGrid>),
+    /// A tile message from another rank.
+    Remote(Vec<u8>),
+}
+
+/// Rank 0's side of [`MpiEngine::distribute`]: puts tiles arriving in any
+/// order back into tile order and writes them (or records the receipts of
+/// delegated writes) exactly as the in-process engine does.
+struct Writer<'a> {
+    name: &'a str,
+    layout: &'a TileLayout,
+    ids: &'a [TileId],
+    meta: &'a [(DType, Option<f64>)],
+    sinks: Vec<Box<dyn TileSink>>,
+    delegated: &'a [Option<DelegatedTiles>],
+    slices: Option<SlicesOut<'a>>,
+    /// Positions that arrived and wait for an earlier one (at most the
+    /// queue's window when cells travel; receipts only otherwise).
+    buffer: std::collections::BTreeMap<usize, Arrived>,
+    got: Vec<bool>,
+    left: Vec<usize>,
+    frontier: usize,
+    moved: u64,
+}
+
+impl Writer<'_> {
+    fn shapes_of(&self, id: TileId) -> Vec<(DType, usize, usize)> {
+        let core = self.layout.window(id);
+        self.meta
+            .iter()
+            .zip(self.delegated)
+            .filter(|(_, d)| d.is_none())
+            .map(|(m, _)| (m.0, core.w, core.h))
+            .collect()
+    }
+
+    /// Write the tile at the frontier if it is there (one tile, so the
+    /// queue is served between writes); true if one was written.
+    fn write_next(&mut self, q: &Queue) -> Result<bool> {
+        let Some(a) = self.buffer.remove(&self.frontier) else {
+            return Ok(false);
+        };
+        let id = self.ids[self.frontier];
+        match a {
+            Arrived::Own(grids) => write_outputs(&mut self.sinks, self.layout, id, grids)
+                .map_err(|e| Error::tile(self.name, id, e))?,
+            Arrived::Remote(msg) => self
+                .write_remote(id, &msg)
+                .map_err(|e| Error::tile(self.name, id, e))?,
+        }
+        self.frontier += 1;
+        note_pending(self.name, self.ids, q, &self.got, self.frontier, &self.left);
+        Ok(true)
+    }
+
+    fn write_remote(&mut self, id: TileId, msg: &[u8]) -> Result<()> {
+        let n_written = self.delegated.iter().filter(|d| d.is_some()).count();
+        let (cells, written) = decode_tile_written(msg, id, &self.shapes_of(id), n_written)?;
+        let core = self.layout.window(id);
+        let mut cells = cells.into_iter();
+        let mut written = written.into_iter();
+        for (s, d) in self.sinks.iter_mut().zip(self.delegated) {
+            let done = s.is_done(id);
+            if d.is_some() {
+                let Some((crc32, bytes)) = written.next() else {
+                    break;
+                };
+                if !done {
+                    s.record_delegated(
+                        id,
+                        TileEntry {
+                            state: TileState::Done,
+                            crc32,
+                            bytes,
+                        },
+                    )?;
+                }
+            } else {
+                let Some(g) = cells.next() else { break };
+                if !done {
+                    s.write(id, core, g)?;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn arrive(&mut self, k: usize, from: usize, q: &Queue) -> Result<()> {
+        if q.owner(k) != Some(from) || self.got[k] {
+            return Err(Error::invalid(format!(
+                "{}: rank {from} delivered tile {}, which it was not granted or which came twice",
+                self.name, self.ids[k]
+            )));
+        }
+        self.got[k] = true;
+        if let Some(l) = self.left.get_mut(from) {
+            *l = l.saturating_sub(1);
+        }
+        Ok(())
+    }
+}
+
+impl mpi_queue::Serve<Vec<AnyGrid>> for Writer<'_> {
+    fn payload(&mut self, ks: &[usize]) -> Result<Vec<u8>> {
+        match self.slices {
+            Some(f) => f(&ks.iter().map(|&k| self.ids[k]).collect::<Vec<_>>()),
+            None => Ok(Vec::new()),
+        }
+    }
+    fn granted(&mut self, r: usize, ks: &[usize], q: &Queue) {
+        if let Some(l) = self.left.get_mut(r) {
+            *l += ks.len();
+        }
+        note_pending(self.name, self.ids, q, &self.got, self.frontier, &self.left);
+    }
+    fn own(&mut self, k: usize, grids: Vec<AnyGrid>, q: &Queue) -> Result<()> {
+        self.arrive(k, 0, q)?;
+        self.buffer.insert(k, Arrived::Own(grids));
+        note_pending(self.name, self.ids, q, &self.got, self.frontier, &self.left);
+        Ok(())
+    }
+    fn remote(&mut self, from: usize, msg: Vec<u8>, q: &Queue) -> Result<()> {
+        let id = msg
+            .get(..8)
+            .map(|b| {
+                let mut a = [0u8; 8];
+                a.copy_from_slice(b);
+                u64::from_le_bytes(a)
+            })
+            .ok_or_else(|| {
+                Error::invalid(format!(
+                    "{}: a tile message from rank {from} is shorter than its header",
+                    self.name
+                ))
+            })?;
+        let k = usize::try_from(id)
+            .ok()
+            .and_then(|id| self.ids.binary_search(&id).ok())
+            .ok_or_else(|| {
+                Error::invalid(format!(
+                    "{}: rank {from} sent tile {id}, which is not to do",
+                    self.name
+                ))
+            })?;
+        self.arrive(k, from, q)?;
+        self.moved += msg.len() as u64;
+        self.buffer.insert(k, Arrived::Remote(msg));
+        note_pending(self.name, self.ids, q, &self.got, self.frontier, &self.left);
+        Ok(())
+    }
+    fn write_one(&mut self, q: &Queue) -> Result<bool> {
+        self.write_next(q)
+    }
+    fn frontier(&self) -> usize {
+        self.frontier
+    }
+    fn complete(&self) -> bool {
+        self.frontier >= self.ids.len()
+    }
+}
+
+/// A rank's side of [`MpiEngine::distribute`]: tiles (and receipts) to
+/// rank 0 as they finish; slices that come with grants to `slices`.
+struct Sender<'a> {
+    ids: &'a [TileId],
+    slices: Option<SlicesIn<'a>>,
+    moved: u64,
+}
+
+impl mpi_queue::Draw<TileParts> for Sender<'_> {
+    fn payload(&mut self, ks: &[usize], bytes: &[u8]) -> Result<()> {
+        match self.slices {
+            Some(f) => f(&ks.iter().map(|&k| self.ids[k]).collect::<Vec<_>>(), bytes),
+            None => Ok(()),
+        }
+    }
+    fn result(&mut self, k: usize, (cells, written): TileParts) -> Result<Option<Vec<u8>>> {
+        let msg = encode_tile_written(self.ids[k], &cells, &written);
+        self.moved += msg.len() as u64;
+        Ok(Some(msg))
+    }
+}
+
+/// Rank 0's side of the map phase: its own summaries into a record list;
+/// the last words name each rank's latest grant (summaries travel only at
+/// the end of the phase).
+struct MapServe<'a> {
+    name: &'a str,
+    records: Vec<u8>,
+    last: Vec<String>,
+}
+
+impl mpi_queue::Serve<Vec<u8>> for MapServe<'_> {
+    fn payload(&mut self, _ks: &[usize]) -> Result<Vec<u8>> {
+        Ok(Vec::new())
+    }
+    fn granted(&mut self, r: usize, ks: &[usize], _q: &Queue) {
+        if let (Some(slot), Some(a), Some(b)) = (self.last.get_mut(r), ks.first(), ks.last()) {
+            *slot = format!("tiles {a}..={b}");
+        }
+        let mut lines = String::new();
+        for (r, l) in self.last.iter().enumerate().skip(1) {
+            if !l.is_empty() {
+                lines.push_str(&format!("\n  rank {r}: last granted {l}"));
+            }
+        }
+        last_words::set(&format!(
+            "error: MPI rank 0 ended (SIGTERM) during {}, map phase (summaries travel at its end);{lines}\nerror: a rank died or the job was cancelled (mpirun names the rank); rerun the same command to resume from the finished tiles of tile-store outputs\n",
+            self.name
+        ));
+    }
+    fn own(&mut self, k: usize, b: Vec<u8>, _q: &Queue) -> Result<()> {
+        push_record(&mut self.records, k, &b);
+        Ok(())
+    }
+    fn remote(&mut self, from: usize, _msg: Vec<u8>, _q: &Queue) -> Result<()> {
+        Err(Error::invalid(format!(
+            "{}: rank {from} sent a tile message during the map phase",
+            self.name
+        )))
+    }
+    fn write_one(&mut self, _q: &Queue) -> Result<bool> {
+        Ok(false)
+    }
+    fn frontier(&self) -> usize {
+        0
+    }
+    fn complete(&self) -> bool {
+        true
+    }
+}
+
+/// A rank's side of the map phase: summaries into a record list.
+struct MapDraw {
+    records: Vec<u8>,
+}
+
+impl mpi_queue::Draw<Vec<u8>> for MapDraw {
+    fn payload(&mut self, _ks: &[usize], _bytes: &[u8]) -> Result<()> {
+        Ok(())
+    }
+    fn result(&mut self, k: usize, b: Vec<u8>) -> Result<Option<Vec<u8>>> {
+        push_record(&mut self.records, k, &b);
+        Ok(None)
+    }
 }
 
 /// The MPI engine: an [`Engine`] over the ranks of `MPI_COMM_WORLD`, each
@@ -324,6 +607,8 @@ struct Phase<'a> {
     /// Bytes before compression.
     raw: u64,
     t0: Instant,
+    /// What this rank did in the phase's work queue (none: zero).
+    work: Work,
 }
 
 /// Compress a record list for the wire: raw length (`u64`), then zstd
@@ -449,18 +734,35 @@ impl MpiEngine {
     }
 
     /// Sum `up`/`down` over the ranks and, on rank 0 with
-    /// `OROGEN_MPI_STATS` set, print one JSON line for the phase.
+    /// `OROGEN_MPI_STATS` set, print one JSON line for the phase, with each
+    /// rank's tiles, busy seconds (summed over its workers) and the time its
+    /// last tile finished, and the work queue's own message bytes.
     fn report(comm: &SimpleCommunicator, p: Phase) {
+        const F: usize = 7;
         let n = comm.size() as usize;
-        let mine = [p.up, p.down, p.raw];
-        let mut all = vec![0u64; 3 * n];
+        let w = p.work;
+        let mine = [
+            p.up,
+            p.down,
+            p.raw,
+            w.tiles,
+            (w.busy * 1e6) as u64,
+            (w.last * 1e6) as u64,
+            w.queue_bytes,
+        ];
+        let mut all = vec![0u64; F * n];
         comm.all_gather_into(&mine[..], &mut all[..]);
         if comm.rank() != 0 || std::env::var_os("OROGEN_MPI_STATS").is_none() {
             return;
         }
-        let up: u64 = all.iter().step_by(3).sum();
-        let down: u64 = all.iter().skip(1).step_by(3).sum();
-        let raw: u64 = all.iter().skip(2).step_by(3).sum();
+        let col = |i: usize| all.iter().skip(i).step_by(F).copied().collect::<Vec<u64>>();
+        let up: u64 = col(0).iter().sum();
+        let down: u64 = col(1).iter().sum();
+        let raw: u64 = col(2).iter().sum();
+        let tiles_done = col(3);
+        let secs = |v: Vec<u64>| v.into_iter().map(|x| x as f64 * 1e-6).collect::<Vec<f64>>();
+        let queue: u64 = col(6).iter().sum();
+        let done: u64 = tiles_done.iter().sum();
         let per = |b: u64| {
             if p.perimeter == 0 {
                 0.0
@@ -483,17 +785,47 @@ impl MpiEngine {
                 "bytes_up_per_perimeter_cell": per(up),
                 "bytes_down_per_perimeter_cell": per(down),
                 "seconds": p.t0.elapsed().as_secs_f64(),
+                "schedule": format!("{:?}", schedule()),
+                "tiles_per_rank": tiles_done,
+                "busy_s_per_rank": secs(col(4)),
+                "last_tile_s_per_rank": secs(col(5)),
+                "queue_bytes": queue,
+                "queue_bytes_per_tile": if done == 0 { 0.0 } else { queue as f64 / done as f64 },
             })
         );
     }
 
-    /// Compute the tiles `ids` spread over the ranks and write them on rank
-    /// 0 in increasing id order. `compute` gives a tile's outputs in the
-    /// sinks' native types. Outputs whose sink on rank 0 can delegate its
-    /// writes (a tile store: [`TileSink::delegate`]) are written by the rank
-    /// that computed the tile, which sends rank 0 only the tile's checksum
-    /// and size to record; the others travel to rank 0. Returns the bytes
-    /// sent to rank 0. Errors end the job (MPI_Abort).
+    /// Tiles in flight on one rank for tiles of `bytes` (the in-process
+    /// pipeline's rule: the budget, at most `4 x workers + 4`).
+    fn cap(&self, bytes: u64) -> usize {
+        let threads = self.local.config().threads.max(1);
+        self.local.tiles_in_flight(bytes).min(4 * threads + 4)
+    }
+
+    /// Compute the tiles `ids` spread over the ranks by the work queue
+    /// ([`mpi_queue`]) and write them on rank 0 in increasing id order.
+    /// `compute` gives a tile's outputs in the sinks' native types. Outputs
+    /// whose sink on rank 0 can delegate its writes (a tile store:
+    /// [`TileSink::delegate`]) are written by the rank that computed the
+    /// tile, which sends rank 0 only the tile's checksum and size to record;
+    /// the others travel to rank 0. Rank 0 writes (and records) in tile
+    /// order whatever the order of arrival, so neither the output nor a
+    /// store's journal depends on which rank did which tile.
+    ///
+    /// Memory on rank 0: its own tiles in flight (`d = min(cap, threads +
+    /// 1)`, see `mpi_queue::depth`) plus the tiles that arrived before an
+    /// earlier one was written. When cells travel, the queue grants nothing
+    /// beyond a window of `W` positions past the first unwritten one, `W =
+    /// max(2 x ranks, min(ranks x cap, budget / bytes_per_tile - d))`, so
+    /// rank 0 holds at most `d + W` tiles: within its `--memory` budget
+    /// unless that is under `2 x ranks + d` tiles. Receipts alone (12 bytes
+    /// per delegated output) are not windowed. Other ranks hold at most `d`
+    /// tiles, and each message buffer is one of those tiles.
+    ///
+    /// `slices_out` (rank 0) gives the payload of a grant (the slices of
+    /// its tiles, when only rank 0 holds the solution); `slices_in` (other
+    /// ranks) takes it. Returns the bytes sent to rank 0 (tiles, receipts)
+    /// and this rank's work. Errors end the job (MPI_Abort).
     #[allow(clippy::too_many_arguments)]
     fn distribute(
         &self,
@@ -503,105 +835,64 @@ impl MpiEngine {
         ids: &[TileId],
         meta: &[(DType, Option<f64>)],
         bytes: u64,
-        mut sinks: Vec<Box<dyn TileSink>>,
+        sinks: Vec<Box<dyn TileSink>>,
         compute: &(dyn Fn(TileId) -> Result<Vec<AnyGrid>> + Sync),
-    ) -> u64 {
+        slices_out: Option<SlicesOut<'_>>,
+        slices_in: Option<SlicesIn<'_>>,
+    ) -> (u64, Work) {
         let me = comm.rank() as usize;
         let ranks = comm.size() as usize;
-        let owner = owners(ids, ranks);
-        let mut owner_of = vec![0usize; layout.count()];
-        for (k, &id) in ids.iter().enumerate() {
-            owner_of[id] = owner[k];
-        }
+        let threads = self.local.config().threads.max(1);
+        let cap = self.cap(bytes);
         let delegated = Self::shared_delegation(comm, &sinks, meta, layout);
-        let shapes_of = |id: TileId| -> Vec<(DType, usize, usize)> {
-            let core = layout.window(id);
-            meta.iter()
-                .zip(&delegated)
-                .filter(|(_, d)| d.is_none())
-                .map(|(m, _)| (m.0, core.w, core.h))
-                .collect()
-        };
-        let n_written = delegated.iter().filter(|d| d.is_some()).count();
-        let mut moved = 0u64;
-        if me == 0 {
-            let c0 = |id: TileId| -> Result<Option<Vec<AnyGrid>>> {
-                if owner_of[id] == 0 {
-                    compute(id).map(Some)
-                } else {
-                    Ok(None)
-                }
-            };
-            let mut left = vec![0usize; ranks];
-            for &o in &owner {
-                left[o] += 1;
-            }
-            let mut k = 0usize;
-            let r = self.local.pipeline(name, ids, bytes, &c0, |id, got| {
-                if k % NOTE_EVERY == 0 || owner[k] != 0 {
-                    note_pending(name, ids, &owner, k, &left);
-                }
-                left[owner[k]] -= 1;
-                k += 1;
-                match got {
-                    Some(grids) => write_outputs(&mut sinks, layout, id, grids),
-                    None => {
-                        let from = owner_of[id];
-                        let (msg, _) = comm
-                            .process_at_rank(from as i32)
-                            .receive_vec_with_tag::<u8>(TAG_TILE);
-                        moved += msg.len() as u64;
-                        let (cells, written) =
-                            decode_tile_written(&msg, id, &shapes_of(id), n_written)?;
-                        let core = layout.window(id);
-                        let mut cells = cells.into_iter();
-                        let mut written = written.into_iter();
-                        for (s, d) in sinks.iter_mut().zip(&delegated) {
-                            let done = s.is_done(id);
-                            if d.is_some() {
-                                let Some((crc32, bytes)) = written.next() else {
-                                    break;
-                                };
-                                if !done {
-                                    s.record_delegated(
-                                        id,
-                                        TileEntry {
-                                            state: TileState::Done,
-                                            crc32,
-                                            bytes,
-                                        },
-                                    )?;
-                                }
-                            } else {
-                                let Some(g) = cells.next() else { break };
-                                if !done {
-                                    s.write(id, core, g)?;
-                                }
-                            }
-                        }
-                        Ok(())
-                    }
-                }
+        let (moved, work) = if me == 0 {
+            let travels = delegated.iter().any(|d| d.is_none());
+            // The reorder window and rank 0's own tiles in flight share its
+            // memory budget (at least two tiles per rank, so every rank can
+            // work while the next one travels).
+            let own = mpi_queue::depth(cap, threads);
+            let window = travels.then(|| {
+                (ranks * cap)
+                    .min(self.local.tiles_in_flight(bytes).saturating_sub(own))
+                    .max(2 * ranks)
             });
+            let max_chunk = if slices_out.is_some() {
+                4 * cap
+            } else {
+                usize::MAX
+            };
+            let mut q = Queue::new(ids.len(), ranks, schedule(), window, max_chunk)
+                .unwrap_or_else(|e| fail(e));
+            let mut w = Writer {
+                name,
+                layout,
+                ids,
+                meta,
+                sinks,
+                delegated: &delegated,
+                slices: slices_out,
+                buffer: Default::default(),
+                got: vec![false; ids.len()],
+                left: vec![0; ranks],
+                frontier: 0,
+                moved: 0,
+            };
+            let work = mpi_queue::serve(comm, name, threads, cap, ids, &mut q, compute, &mut w);
             last_words::clear();
-            if let Err(e) = r.and_then(|_| finish_all(sinks)) {
+            if let Err(e) = finish_all(w.sinks) {
                 fail(e);
             }
+            (w.moved, work)
         } else {
             drop(sinks);
-            let mine: Vec<TileId> = ids
-                .iter()
-                .zip(&owner)
-                .filter(|(_, &o)| o == me)
-                .map(|(&id, _)| id)
-                .collect();
             // Compute, then write the delegated outputs here (on the
             // workers, in parallel): what travels is the rest plus receipts.
+            let delegated = &delegated;
             let work = |id: TileId| -> Result<TileParts> {
                 let grids = compute(id)?;
                 let mut cells = Vec::new();
                 let mut written = Vec::new();
-                for (g, d) in grids.into_iter().zip(&delegated) {
+                for (g, d) in grids.into_iter().zip(delegated) {
                     match d {
                         Some(d) => {
                             let e = d.write_tile(id, &g)?;
@@ -612,27 +903,17 @@ impl MpiEngine {
                 }
                 Ok((cells, written))
             };
-            let r = self
-                .local
-                .pipeline(name, &mine, bytes, &work, |id, (cells, written)| {
-                    let msg = encode_tile_written(id, &cells, &written);
-                    if msg.len() > i32::MAX as usize {
-                        return Err(Error::invalid(format!(
-                        "tile {id} is {} bytes, over MPI's 2 GiB message limit; use smaller tiles (--tile)",
-                        msg.len()
-                    )));
-                    }
-                    moved += msg.len() as u64;
-                    comm.process_at_rank(0).send_with_tag(&msg[..], TAG_TILE);
-                    Ok(())
-                });
-            if let Err(e) = r {
-                fail(e);
-            }
-        }
+            let mut s = Sender {
+                ids,
+                slices: slices_in,
+                moved: 0,
+            };
+            let work = mpi_queue::draw(comm, name, threads, cap, ids, &work, &mut s);
+            (s.moved, work)
+        };
         // Nobody goes on (and reads the output) before rank 0 finished it.
         comm.barrier();
-        moved
+        (moved, work)
     }
 
     /// Rank 0 decides, per output, whether the ranks write their tiles
@@ -709,22 +990,20 @@ impl MpiEngine {
         }
     }
 
-    /// Map phase of a global step: this rank maps its share of all tiles
-    /// (round robin); returns the owner of every tile and this rank's
-    /// summaries as a record list of JSON. Errors end the job.
+    /// Map phase of a global step: the ranks map all tiles, drawn from the
+    /// work queue; returns (rank 0) the queue, which records who mapped
+    /// which tile, this rank's summaries as a record list of JSON, and this
+    /// rank's work. Errors end the job.
     fn map_mine<S: GlobalStep>(
         &self,
         comm: &SimpleCommunicator,
         step: &S,
         inputs: &[&dyn RasterSource],
         layout: &TileLayout,
-    ) -> (Vec<usize>, Vec<u8>) {
+    ) -> (Option<Queue>, Vec<u8>, Work) {
         let name = step.name();
-        let me = comm.rank() as usize;
         let halo = step.halo();
         let all: Vec<TileId> = (0..layout.count()).collect();
-        let owner = owners(&all, comm.size() as usize);
-        let mine: Vec<TileId> = all.iter().copied().filter(|&id| owner[id] == me).collect();
         let map_bytes =
             super::local_tile_bytes(layout, halo, inputs, std::mem::size_of::<S::In>(), 0, &[]);
         let map_name = format!("{name} (map)");
@@ -735,32 +1014,57 @@ impl MpiEngine {
                 Error::invalid(format!("{name}: a tile summary does not serialise: {e}"))
             })
         };
-        let mut records = Vec::new();
-        let r = self
-            .local
-            .pipeline(&map_name, &mine, map_bytes, &map, |id, b| {
-                push_record(&mut records, id, &b);
-                Ok(())
-            });
-        if let Err(e) = r {
-            fail(e);
+        let threads = self.local.config().threads.max(1);
+        let cap = self.cap(map_bytes);
+        if comm.rank() == 0 {
+            let mut q = Queue::new(
+                all.len(),
+                comm.size() as usize,
+                schedule(),
+                None,
+                usize::MAX,
+            )
+            .unwrap_or_else(|e| fail(e));
+            let mut h = MapServe {
+                name: &map_name,
+                records: Vec::new(),
+                last: vec![String::new(); comm.size().max(1) as usize],
+            };
+            let work = mpi_queue::serve(comm, &map_name, threads, cap, &all, &mut q, &map, &mut h);
+            last_words::clear();
+            (Some(q), h.records, work)
+        } else {
+            let mut h = MapDraw {
+                records: Vec::new(),
+            };
+            let work = mpi_queue::draw(comm, &map_name, threads, cap, &all, &map, &mut h);
+            (None, h.records, work)
         }
-        (owner, records)
     }
 
-    /// Apply phase of a global step: like a local step, with each tile's
-    /// slice from `slice_of` (owned or borrowed). Errors end the job.
-    fn apply_phase<S: GlobalStep, B: std::borrow::Borrow<S::Slice>>(
+    /// Apply phase of a global step: like a local step, each tile with its
+    /// slice. The tiles to apply are drawn from the work queue again (apply
+    /// costs need not follow map costs, and a resumed output applies fewer
+    /// tiles than were mapped). `solution` is there on every rank (the
+    /// replicated reduce) or on rank 0 only (`shipped`, Barnes): then rank 0 sends
+    /// the slices of the tiles of each grant along with it. Errors end the
+    /// job.
+    #[allow(clippy::too_many_arguments)]
+    fn apply_phase<S: GlobalStep>(
         &self,
         comm: &SimpleCommunicator,
         step: &S,
         inputs: &[&dyn RasterSource],
         layout: &TileLayout,
         sinks: Vec<Box<dyn TileSink>>,
-        slice_of: &(dyn Fn(TileId) -> Result<B> + Sync),
+        solution: Option<&S::Solution>,
+        shipped: bool,
+        t_reduce: Instant,
     ) {
         let name = step.name();
         let t1 = Instant::now();
+        let me = comm.rank() as usize;
+        let count = layout.count();
         let halo = step.halo();
         let meta: Vec<(DType, Option<f64>)> =
             sinks.iter().map(|s| (s.dtype(), s.nodata())).collect();
@@ -775,27 +1079,125 @@ impl MpiEngine {
         );
         let ids = Self::shared_todo(comm, layout, &sinks);
         self.note_resume(comm, &name, &ids, layout);
+        Self::report(
+            comm,
+            Phase {
+                step: &name,
+                phase: "global: reduce",
+                tiles: count,
+                perimeter: perimeter_cells(layout),
+                up: 0,
+                down: 0,
+                raw: 0,
+                t0: t_reduce,
+                work: Work::default(),
+            },
+        );
+        // Slices that came with grants (ranks other than 0, Barnes).
+        let received: Mutex<std::collections::HashMap<TileId, S::Slice>> =
+            Mutex::new(Default::default());
+        let slice_of = |id: TileId| -> Result<S::Slice> {
+            match solution {
+                Some(sol) => Ok(step.slice(sol, id)),
+                None => received
+                    .lock()
+                    .map_err(|_| Error::invalid("MPI engine: slice table lock poisoned"))?
+                    .remove(&id)
+                    .ok_or_else(|| {
+                        Error::invalid(format!("rank 0 sent no slice of tile {id} to this rank"))
+                    }),
+            }
+        };
+        let slices_out = |grant: &[TileId]| -> Result<Vec<u8>> {
+            let Some(sol) = solution else {
+                return Ok(Vec::new());
+            };
+            let mut list = Vec::new();
+            for &id in grant {
+                let b = serde_json::to_vec(&step.slice(sol, id)).map_err(|e| {
+                    Error::invalid(format!(
+                        "{name}: the slice of tile {id} does not serialise: {e}"
+                    ))
+                })?;
+                push_record(&mut list, id, &b);
+            }
+            pack(&list)
+        };
+        let slices_in = |grant: &[TileId], bytes: &[u8]| -> Result<()> {
+            let list = unpack(bytes)
+                .map_err(|e| Error::invalid(format!("{name}: the slices sent by rank 0: {e}")))?;
+            let mut got = received
+                .lock()
+                .map_err(|_| Error::invalid("MPI engine: slice table lock poisoned"))?;
+            let mut n = 0;
+            for (id, b) in decode_records(&list, count)? {
+                if grant.binary_search(&id).is_err() || got.contains_key(&id) {
+                    return Err(Error::invalid(format!(
+                        "{name}: rank 0 sent the slice of tile {id}, which this rank was not granted or already has"
+                    )));
+                }
+                let v: S::Slice = serde_json::from_slice(b).map_err(|e| {
+                    Error::tile(
+                        &name,
+                        id,
+                        Error::invalid(format!(
+                            "its slice does not survive a serde_json round trip (NaN or infinity in an f64 field?): {e}"
+                        )),
+                    )
+                })?;
+                got.insert(id, v);
+                n += 1;
+            }
+            if n != grant.len() {
+                return Err(Error::invalid(format!(
+                    "{name}: rank 0 granted {} tiles with {n} slices",
+                    grant.len()
+                )));
+            }
+            Ok(())
+        };
         let n_out = step.outputs();
         let apply_name = format!("{name} (apply)");
         let apply = |id: TileId| -> Result<Vec<AnyGrid>> {
             let views = read_views::<S::In>(inputs, layout, id, halo)?;
             let slice = slice_of(id)?;
             let mut out = blank_outputs::<S::Out>(n_out, layout, id);
-            step.apply(&views, slice.borrow(), &mut out)?;
+            step.apply(&views, &slice, &mut out)?;
             convert_outputs(&name, &out, layout, id, &meta)
         };
-        let moved = self.distribute(comm, &apply_name, layout, &ids, &meta, bytes, sinks, &apply);
+        let (out, inn): (Option<SlicesOut<'_>>, Option<SlicesIn<'_>>) = match (shipped, me) {
+            (false, _) => (None, None),
+            (true, 0) => (Some(&slices_out), None),
+            (true, _) => (None, Some(&slices_in)),
+        };
+        let (moved, work) = self.distribute(
+            comm,
+            &apply_name,
+            layout,
+            &ids,
+            &meta,
+            bytes,
+            sinks,
+            &apply,
+            out,
+            inn,
+        );
         Self::report(
             comm,
             Phase {
                 step: &name,
-                phase: "global: apply, tiles (or receipts) to rank 0",
+                phase: if shipped {
+                    "global: apply (queue; slices with the grants), tiles (or receipts) to rank 0"
+                } else {
+                    "global: apply (queue), tiles (or receipts) to rank 0"
+                },
                 tiles: ids.len(),
                 perimeter: perimeter_cells(layout),
                 up: moved,
-                down: 0,
+                down: work.payload_bytes,
                 raw: moved,
                 t0: t1,
+                work,
             },
         );
     }
@@ -836,18 +1238,21 @@ impl Engine for MpiEngine {
             step.run(&views, &mut out)?;
             convert_outputs(&name, &out, &layout, id, &meta)
         };
-        let moved = self.distribute(&comm, &name, &layout, &ids, &meta, bytes, sinks, &compute);
+        let (moved, work) = self.distribute(
+            &comm, &name, &layout, &ids, &meta, bytes, sinks, &compute, None, None,
+        );
         Self::report(
             &comm,
             Phase {
                 step: &name,
-                phase: "local: tiles to rank 0",
+                phase: "local (queue): tiles (or receipts) to rank 0",
                 tiles: ids.len(),
                 perimeter: perimeter_cells(&layout),
                 up: moved,
                 down: 0,
                 raw: moved,
                 t0,
+                work,
             },
         );
         Ok(())
@@ -872,7 +1277,7 @@ impl Engine for MpiEngine {
 
         // Map, then every rank's summaries to every rank.
         let t0 = Instant::now();
-        let (owner, records) = self.map_mine(&comm, step, inputs, &layout);
+        let (queue, records, work) = self.map_mine(&comm, step, inputs, &layout);
         let raw = records.len() as u64;
         let packed = pack(&records).unwrap_or_else(|e| fail(e));
         drop(records);
@@ -884,36 +1289,45 @@ impl Engine for MpiEngine {
             .filter(|(r, _)| *r != me)
             .map(|(_, l)| l.len() as u64)
             .sum();
-        let summaries = decode_summaries::<S>(&name, &lists, &owner, count);
+        let summaries = decode_summaries::<S>(&name, &lists, queue.as_ref(), count);
         drop(lists);
         Self::report(
             &comm,
             Phase {
                 step: &name,
-                phase: "global: map + summaries to every rank",
+                phase: "global: map (queue) + summaries to every rank",
                 tiles: count,
                 perimeter: perimeter_cells(&layout),
                 up,
                 down,
                 raw,
                 t0,
+                work,
             },
         );
         // Reduce: the same on every rank (same summaries, deterministic step).
+        let t1 = Instant::now();
         let solution = step.reduce(&layout, summaries)?;
         if sinks.is_empty() {
             return Ok(solution);
         }
-        let solution_ref = &solution;
-        self.apply_phase(&comm, step, inputs, &layout, sinks, &|id| {
-            Ok(step.slice(solution_ref, id))
-        });
+        self.apply_phase(
+            &comm,
+            step,
+            inputs,
+            &layout,
+            sinks,
+            Some(&solution),
+            false,
+            t1,
+        );
         Ok(solution)
     }
 
     /// Barnes's scheme (2016, 2017): the summaries go to rank 0 only, rank 0
-    /// reduces and sends each rank only the slices of the tiles it applies;
-    /// no other rank ever holds the solution or all summaries.
+    /// reduces and sends each rank only the slices of the tiles it applies
+    /// (with the work-queue grants of those tiles); no other rank ever holds
+    /// the solution or all summaries.
     fn run_global_apply<S: GlobalStep>(
         &self,
         step: &S,
@@ -936,7 +1350,7 @@ impl Engine for MpiEngine {
         // Map, then the summaries to rank 0 (rank 0's own are packed too,
         // so the figure counts every tile's summary whatever the rank count).
         let t0 = Instant::now();
-        let (owner, records) = self.map_mine(&comm, step, inputs, &layout);
+        let (queue, records, work) = self.map_mine(&comm, step, inputs, &layout);
         let raw = records.len() as u64;
         let packed = pack(&records).unwrap_or_else(|e| fail(e));
         drop(records);
@@ -952,7 +1366,7 @@ impl Engine for MpiEngine {
                 lists.push(recv_bytes(&comm, r).unwrap_or_else(|e| fail(e)));
             }
             last_words::clear();
-            Some(decode_summaries::<S>(&name, &lists, &owner, count))
+            Some(decode_summaries::<S>(&name, &lists, queue.as_ref(), count))
         } else {
             send_bytes(&comm, 0, &packed);
             drop(packed);
@@ -962,95 +1376,33 @@ impl Engine for MpiEngine {
             &comm,
             Phase {
                 step: &name,
-                phase: "global: map + summaries to rank 0",
+                phase: "global: map (queue) + summaries to rank 0",
                 tiles: count,
                 perimeter,
                 up,
                 down: 0,
                 raw,
                 t0,
+                work,
             },
         );
+        let t1 = Instant::now();
+        let solution = summaries.map(|s| step.reduce(&layout, s).unwrap_or_else(|e| fail(e)));
         if sinks.is_empty() {
-            // Nothing to apply: the reduce is run for its errors only.
-            if let Some(s) = summaries {
-                if let Err(e) = step.reduce(&layout, s) {
-                    fail(e);
-                }
-            }
+            // Nothing to apply: the reduce ran for its errors only.
             comm.barrier();
             return Ok(());
         }
-
-        // Reduce on rank 0; slices of the tiles to do, routed to their ranks.
-        let t1 = Instant::now();
-        let ids = Self::shared_todo(&comm, &layout, &sinks);
-        let table = owner_table(&ids, ranks, count).unwrap_or_else(|e| fail(e));
-        let (raw_down, mine) = if let Some(summaries) = summaries {
-            let solution = step.reduce(&layout, summaries).unwrap_or_else(|e| fail(e));
-            let mut raw_down = 0u64;
-            let records: Vec<(TileId, Vec<u8>)> = ids
-                .iter()
-                .map(|&id| {
-                    let b = serde_json::to_vec(&step.slice(&solution, id)).unwrap_or_else(|e| {
-                        fail(Error::invalid(format!(
-                            "{name}: the slice of tile {id} does not serialise: {e}"
-                        )))
-                    });
-                    raw_down += b.len() as u64;
-                    (id, b)
-                })
-                .collect();
-            drop(solution);
-            let lists = route_records(&records, &table, ranks).unwrap_or_else(|e| fail(e));
-            drop(records);
-            let mut mine = Vec::new();
-            for (r, list) in lists.into_iter().enumerate() {
-                let p = pack(&list).unwrap_or_else(|e| fail(e));
-                if r == 0 {
-                    mine = p;
-                } else {
-                    send_bytes(&comm, r, &p);
-                }
-            }
-            (raw_down, mine)
-        } else {
-            (0, recv_bytes(&comm, 0).unwrap_or_else(|e| fail(e)))
-        };
-        let down = mine.len() as u64;
-        let mine = unpack(&mine).unwrap_or_else(|e| {
-            fail(Error::invalid(format!(
-                "{name}: the slices sent by rank 0: {e}"
-            )))
-        });
-        let mut slices: Vec<Option<S::Slice>> = (0..count).map(|_| None).collect();
-        decode_into(&mut slices, &mine, &name, "slice", |id| {
-            (table[id] != Some(me)).then(|| {
-                format!(
-                    "{name}: rank 0 sent this rank the slice of tile {id}, which it does not apply"
-                )
-            })
-        });
-        drop(mine);
-        Self::report(
+        self.apply_phase(
             &comm,
-            Phase {
-                step: &name,
-                phase: "global: reduce on rank 0 + slices to each rank",
-                tiles: ids.len(),
-                perimeter,
-                up: 0,
-                down,
-                raw: raw_down,
-                t0: t1,
-            },
+            step,
+            inputs,
+            &layout,
+            sinks,
+            solution.as_ref(),
+            ranks > 1,
+            t1,
         );
-        let slices = &slices;
-        self.apply_phase(&comm, step, inputs, &layout, sinks, &|id| {
-            slices[id].as_ref().ok_or_else(|| {
-                Error::invalid(format!("rank 0 sent no slice of tile {id} to this rank"))
-            })
-        });
         Ok(())
     }
 }
@@ -1089,12 +1441,13 @@ fn decode_into<T: serde::de::DeserializeOwned>(
 }
 
 /// Every tile's summary from the packed record lists by rank (`lists[r]`
-/// from rank `r`), checking each tile comes from its owner exactly once.
+/// from rank `r`), checking each tile comes exactly once and (on rank 0,
+/// which holds the `queue`) from the rank that was granted it.
 /// Errors end the job.
 fn decode_summaries<S: GlobalStep>(
     name: &str,
     lists: &[Vec<u8>],
-    owner: &[usize],
+    queue: Option<&Queue>,
     count: usize,
 ) -> Vec<S::Summary> {
     let map_name = format!("{name} (map)");
@@ -1106,8 +1459,8 @@ fn decode_summaries<S: GlobalStep>(
             )))
         });
         decode_into(&mut summaries, &list, &map_name, "summary", |id| {
-            (owner[id] != r).then(|| {
-                format!("{name}: rank {r} sent a summary of tile {id}, which it does not own")
+            queue.filter(|q| q.owner(id) != Some(r)).map(|_| {
+                format!("{name}: rank {r} sent a summary of tile {id}, which it was not granted")
             })
         });
     }

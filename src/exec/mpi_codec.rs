@@ -198,52 +198,216 @@ fn decode_cells(
     Ok(out)
 }
 
-/// Owner rank of every tile of `count` tiles for the tiles to do `ids`
-/// (`None` for tiles not to do): the routing table by which rank 0 sends
-/// each rank the slices of exactly its tiles.
-pub fn owner_table(ids: &[TileId], ranks: usize, count: usize) -> Result<Vec<Option<usize>>> {
-    let mut table = vec![None; count];
-    for (&id, o) in ids.iter().zip(owners(ids, ranks)) {
-        match table.get_mut(id) {
-            Some(slot @ None) => *slot = Some(o),
-            Some(Some(_)) => {
-                return Err(Error::invalid(format!(
-                    "MPI engine: tile {id} is listed twice among the tiles to do"
-                )))
-            }
-            None => {
-                return Err(Error::invalid(format!(
-                    "MPI engine: tile {id} is listed to do, the layout has {count} tiles"
-                )))
-            }
-        }
-    }
-    Ok(table)
+/// How the tiles to do are dealt to the ranks.
+///
+/// Both deal tiles on request (a rank asks rank 0 when its own queue runs
+/// low), so both run through the same code and the same flow control; they
+/// differ only in which tiles a request gets. The output never depends on
+/// the schedule.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Schedule {
+    /// Dynamic work queue with a guided schedule (the default): a request
+    /// gets the next `ceil(remaining / (2 x ranks))` tiles in tile order
+    /// (at least 1), so chunks are large while much is left and single
+    /// tiles at the end, when a rank that drew cheap tiles takes over the
+    /// last expensive ones. Guided self-scheduling: Polychronopoulos & Kuck
+    /// (1987), "Guided self-scheduling: a practical scheduling scheme for
+    /// parallel supercomputers", IEEE Trans. Computers C-36(12); the
+    /// `2 x ranks` divisor is the "factoring" refinement (Hummel, Schonberg
+    /// & Flynn 1992, "Factoring: a method for scheduling parallel loops",
+    /// CACM 35(8)), which leaves half of the work to later, smaller chunks.
+    Queue,
+    /// Static round robin (the `k`-th tile to do belongs to rank
+    /// `k mod ranks`), handed out in the same requests: kept to measure the
+    /// queue against (`OROGEN_MPI_SCHEDULE=round-robin`).
+    RoundRobin,
 }
 
-/// Split per-tile records (`(id, bytes)` in increasing id order) into one
-/// record list per rank by `table` (see [`owner_table`]); a record of a
-/// tile that is not to do is an error.
-pub fn route_records(
-    records: &[(TileId, Vec<u8>)],
-    table: &[Option<usize>],
+impl Schedule {
+    /// Parse `queue` or `round-robin` (the value of `OROGEN_MPI_SCHEDULE`).
+    pub fn parse(s: &str) -> Result<Schedule> {
+        match s {
+            "queue" | "" => Ok(Schedule::Queue),
+            "round-robin" => Ok(Schedule::RoundRobin),
+            _ => Err(Error::invalid(format!(
+                "OROGEN_MPI_SCHEDULE={s}: expected `queue` (the default) or `round-robin`"
+            ))),
+        }
+    }
+}
+
+/// Rank 0's record of the work queue over the tiles to do, numbered
+/// `0..len` (positions in the tile list every rank holds): which rank got
+/// which position, and what a request gets ([`Schedule`]).
+///
+/// With a `window` (outputs that travel to rank 0, which writes them in
+/// tile order), no position at or beyond `frontier + window` is handed out,
+/// where `frontier` is the first position rank 0 has not yet written: rank
+/// 0 then never holds more than `window` tiles waiting for an earlier one.
+/// The position at the frontier itself is always grantable, so the queue
+/// cannot stall (see the deadlock note in `exec::mpi_queue`).
+#[derive(Debug, Clone)]
+pub struct Queue {
+    len: usize,
     ranks: usize,
-) -> Result<Vec<Vec<u8>>> {
-    let mut lists = vec![Vec::new(); ranks.max(1)];
-    for (id, b) in records {
-        let owner = table
-            .get(*id)
-            .copied()
-            .flatten()
-            .filter(|&o| o < lists.len());
-        let Some(o) = owner else {
+    schedule: Schedule,
+    window: Option<usize>,
+    max_chunk: usize,
+    /// Queue: next position to hand out.
+    next: usize,
+    /// Round robin: next position of each rank (`r`, `r + ranks`, ...).
+    next_of: Vec<usize>,
+    owner: Vec<u32>,
+}
+
+/// Owner value of a position not yet handed out.
+const NOBODY: u32 = u32::MAX;
+
+impl Queue {
+    /// A queue over `len` positions for `ranks` ranks; `window` as above;
+    /// no grant is larger than `max_chunk` (at least 1).
+    pub fn new(
+        len: usize,
+        ranks: usize,
+        schedule: Schedule,
+        window: Option<usize>,
+        max_chunk: usize,
+    ) -> Result<Queue> {
+        let ranks = ranks.max(1);
+        if ranks >= NOBODY as usize {
+            return Err(Error::invalid(format!("MPI engine: {ranks} ranks")));
+        }
+        Ok(Queue {
+            len,
+            ranks,
+            schedule,
+            window: window.map(|w| w.max(1)),
+            max_chunk: max_chunk.max(1),
+            next: 0,
+            next_of: (0..ranks).collect(),
+            owner: vec![NOBODY; len],
+        })
+    }
+
+    /// Positions to do.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// True if there is nothing to do at all.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// True when rank `r` will never be granted anything more.
+    pub fn exhausted(&self, r: usize) -> bool {
+        match self.schedule {
+            Schedule::Queue => self.next >= self.len,
+            Schedule::RoundRobin => self.next_of.get(r).is_none_or(|&k| k >= self.len),
+        }
+    }
+
+    /// The rank position `k` was granted to, if any.
+    pub fn owner(&self, k: usize) -> Option<usize> {
+        self.owner
+            .get(k)
+            .filter(|&&o| o != NOBODY)
+            .map(|&o| o as usize)
+    }
+
+    /// Grant rank `r` up to `want` positions (increasing); `frontier` is the
+    /// first position rank 0 has not consumed (only used with a window).
+    /// Empty when nothing can be granted now (window full) or ever
+    /// ([`Queue::exhausted`]).
+    pub fn grant(&mut self, r: usize, want: usize, frontier: usize) -> Vec<usize> {
+        let limit = match self.window {
+            Some(w) => frontier.saturating_add(w).min(self.len),
+            None => self.len,
+        };
+        if r >= self.ranks {
+            return Vec::new();
+        }
+        let out: Vec<usize> = match self.schedule {
+            Schedule::Queue => {
+                let remaining = self.len.saturating_sub(self.next);
+                let guided = remaining.div_ceil(2 * self.ranks).max(1);
+                // Under a window no grant takes more than a 2·ranks-th of
+                // it, or one rank would hold the whole window and the others
+                // wait for it to write.
+                let share = self
+                    .window
+                    .map_or(usize::MAX, |w| (w / (2 * self.ranks)).max(1));
+                let n = guided
+                    .min(share)
+                    .min(self.max_chunk)
+                    .min(limit.saturating_sub(self.next));
+                let ks: Vec<usize> = (self.next..self.next + n).collect();
+                self.next += n;
+                ks
+            }
+            Schedule::RoundRobin => {
+                let mut ks = Vec::new();
+                let k = &mut self.next_of[r];
+                while *k < limit && ks.len() < want.clamp(1, self.max_chunk) {
+                    ks.push(*k);
+                    *k += self.ranks;
+                }
+                ks
+            }
+        };
+        for &k in &out {
+            self.owner[k] = r as u32;
+        }
+        out
+    }
+}
+
+/// Encode a grant: `n: u32` runs of consecutive positions as
+/// `start: u64, len: u64`, then the payload (slices of the granted tiles,
+/// or nothing). No positions means "no more work".
+pub fn encode_grant(ks: &[usize], payload: &[u8]) -> Vec<u8> {
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    for &k in ks {
+        match runs.last_mut() {
+            Some((s, n)) if *s + *n == k => *n += 1,
+            _ => runs.push((k, 1)),
+        }
+    }
+    let mut out = Vec::with_capacity(4 + 16 * runs.len() + payload.len());
+    out.extend_from_slice(&(runs.len() as u32).to_le_bytes());
+    for (s, n) in runs {
+        out.extend_from_slice(&(s as u64).to_le_bytes());
+        out.extend_from_slice(&(n as u64).to_le_bytes());
+    }
+    out.extend_from_slice(payload);
+    out
+}
+
+/// Decode [`encode_grant`]: the positions (each `< len`, increasing, no
+/// repeats) and the payload.
+pub fn decode_grant(msg: &[u8], len: usize) -> Result<(Vec<usize>, &[u8])> {
+    let mut r = Reader {
+        b: msg,
+        at: 0,
+        what: "work-queue grant",
+    };
+    let runs = r.u32()?;
+    let mut ks = Vec::new();
+    let mut end = 0u64;
+    for _ in 0..runs {
+        let (s, n) = (r.u64()?, r.u64()?);
+        let e = s
+            .checked_add(n)
+            .filter(|&e| n > 0 && s >= end && e <= len as u64);
+        let Some(e) = e else {
             return Err(Error::invalid(format!(
-                "MPI engine: a slice of tile {id}, which no rank is to do"
+                "MPI engine: a work-queue grant of positions {s}+{n} (after {end}) does not fit the {len} tiles to do"
             )));
         };
-        push_record(&mut lists[o], *id, b);
+        ks.extend(s as usize..e as usize);
+        end = e;
     }
-    Ok(lists)
+    Ok((ks, &msg[r.at..]))
 }
 
 /// Append one record (`id`, `bytes`) to a record list.
@@ -272,16 +436,6 @@ pub fn decode_records(list: &[u8], count: usize) -> Result<Vec<(TileId, &[u8])>>
         out.push((id as TileId, r.take(len)?));
     }
     Ok(out)
-}
-
-/// Owner rank of each entry of `ids` (a list in increasing tile order):
-/// the `k`-th tile to do goes to rank `k mod ranks`. Round robin over the
-/// row-major order spreads every band of rows, and hence uneven work that
-/// follows the terrain, over all ranks; the owners depend only on `ids` and
-/// `ranks`, and the output never depends on them.
-pub fn owners(ids: &[TileId], ranks: usize) -> Vec<usize> {
-    let r = ranks.max(1);
-    (0..ids.len()).map(|k| k % r).collect()
 }
 
 /// Cells on the perimeter of every tile of `layout`, the unit Barnes (2017)
@@ -414,47 +568,146 @@ mod tests {
         assert!(decode_tile_written(&msg, 5, &shapes(cells), 2).is_err());
     }
 
-    #[test]
-    fn slices_are_routed_to_the_owner_of_their_tile_only() {
-        // 10 tiles, 3..=8 to do on 2 ranks: 3,5,7 -> rank 0; 4,6,8 -> rank 1.
-        let ids: Vec<TileId> = (3..=8).collect();
-        let table = owner_table(&ids, 2, 10).unwrap();
-        let want: Vec<Option<usize>> = (0..10)
-            .map(|t| (3..=8).contains(&t).then(|| (t - 3) % 2))
-            .collect();
-        assert_eq!(table, want);
-        let records: Vec<(TileId, Vec<u8>)> =
-            ids.iter().map(|&id| (id, vec![id as u8; id])).collect();
-        let lists = route_records(&records, &table, 2).unwrap();
-        assert_eq!(lists.len(), 2);
-        for (r, list) in lists.iter().enumerate() {
-            let got = decode_records(list, 10).unwrap();
-            let got_ids: Vec<TileId> = got.iter().map(|(id, _)| *id).collect();
-            let want_ids: Vec<TileId> = ids.iter().copied().filter(|t| (t - 3) % 2 == r).collect();
-            assert_eq!(got_ids, want_ids, "rank {r}");
-            for (id, b) in got {
-                assert_eq!(b, &vec![id as u8; id][..]);
+    /// Hand out every position of `q` to ranks asking in turn, with the
+    /// frontier following the lowest position not yet granted.
+    fn drain(q: &mut Queue, ranks: usize, want: usize) -> Vec<Vec<usize>> {
+        let mut got = vec![Vec::new(); ranks];
+        let mut guard = 0;
+        while (0..ranks).any(|r| !q.exhausted(r)) {
+            for (r, g) in got.iter_mut().enumerate() {
+                let frontier = (0..q.len())
+                    .find(|&k| q.owner(k).is_none())
+                    .unwrap_or(q.len());
+                g.extend(q.grant(r, want, frontier));
             }
+            guard += 1;
+            assert!(guard < 10_000);
         }
-        // A slice for a tile no rank does, a duplicate or out-of-range id.
-        assert!(route_records(&[(0, vec![1])], &table, 2).is_err());
-        assert!(owner_table(&[1, 1], 2, 10).is_err());
-        assert!(owner_table(&[10], 2, 10).is_err());
-        // More ranks than tiles: the extra ranks get empty lists.
-        let t4 = owner_table(&[2, 5], 4, 6).unwrap();
-        let l4 = route_records(&[(2, vec![9]), (5, vec![8])], &t4, 4).unwrap();
-        assert_eq!(
-            l4.iter().map(|l| l.is_empty()).collect::<Vec<_>>(),
-            vec![false, false, true, true]
-        );
+        got
     }
 
     #[test]
-    fn owners_cover_every_rank_evenly() {
-        let ids: Vec<TileId> = vec![0, 2, 3, 4, 7, 8, 9];
-        assert_eq!(owners(&ids, 3), vec![0, 1, 2, 0, 1, 2, 0]);
-        assert_eq!(owners(&ids, 1), vec![0; 7]);
-        assert_eq!(owners(&ids, 0), vec![0; 7]);
+    fn queue_hands_out_every_position_once_in_shrinking_chunks() {
+        for ranks in 1..=5 {
+            let mut q = Queue::new(100, ranks, Schedule::Queue, None, usize::MAX).unwrap();
+            let mut sizes = Vec::new();
+            let mut seen = [false; 100];
+            let mut r = 0;
+            while !q.exhausted(0) {
+                let ks = q.grant(r % ranks, 8, 0);
+                sizes.push(ks.len());
+                for &k in &ks {
+                    assert!(!seen[k]);
+                    seen[k] = true;
+                    assert_eq!(q.owner(k), Some(r % ranks));
+                }
+                r += 1;
+            }
+            assert!(seen.iter().all(|&s| s), "{ranks} ranks");
+            // Guided: ceil(remaining / 2N), never growing, ending in ones.
+            assert_eq!(sizes[0], 100usize.div_ceil(2 * ranks));
+            assert!(sizes.windows(2).all(|w| w[0] >= w[1]), "{sizes:?}");
+            assert_eq!(*sizes.last().unwrap(), 1);
+            assert!(q.grant(0, 8, 0).is_empty());
+        }
+    }
+
+    #[test]
+    fn round_robin_gives_rank_r_the_positions_r_mod_n() {
+        let mut q = Queue::new(11, 3, Schedule::RoundRobin, None, usize::MAX).unwrap();
+        let got = drain(&mut q, 3, 2);
+        assert_eq!(got[0], vec![0, 3, 6, 9]);
+        assert_eq!(got[1], vec![1, 4, 7, 10]);
+        assert_eq!(got[2], vec![2, 5, 8]);
+    }
+
+    #[test]
+    fn window_limits_what_is_granted_ahead_of_the_frontier() {
+        for schedule in [Schedule::Queue, Schedule::RoundRobin] {
+            let mut q = Queue::new(50, 2, schedule, Some(6), usize::MAX).unwrap();
+            // Frontier stuck at 0: nothing at or past position 6 goes out.
+            let mut all = Vec::new();
+            for _ in 0..20 {
+                all.extend(q.grant(0, 4, 0));
+                all.extend(q.grant(1, 4, 0));
+            }
+            assert!(all.iter().all(|&k| k < 6), "{schedule:?} {all:?}");
+            assert_eq!(all.len(), 6, "{schedule:?}");
+            // The frontier moves on: so does the window, and all is granted.
+            let got = drain(&mut q, 2, 4);
+            let mut every: Vec<usize> = got.concat();
+            every.extend(all);
+            every.sort_unstable();
+            assert_eq!(every, (0..50).collect::<Vec<_>>(), "{schedule:?}");
+        }
+    }
+
+    /// Discrete-event simulation of `ranks` ranks drawing from the queue
+    /// (one tile at a time each, no communication cost): the time the last
+    /// rank finishes.
+    fn makespan(cost: &[u64], ranks: usize, schedule: Schedule) -> u64 {
+        let mut q = Queue::new(cost.len(), ranks, schedule, None, usize::MAX).unwrap();
+        let mut clock = vec![0u64; ranks];
+        let mut local: Vec<std::collections::VecDeque<usize>> = vec![Default::default(); ranks];
+        // The rank that is free first works next (ties: lowest rank).
+        while let Some(r) = (0..ranks)
+            .filter(|&r| !local[r].is_empty() || !q.exhausted(r))
+            .min_by_key(|&r| (clock[r], r))
+        {
+            if local[r].is_empty() {
+                local[r].extend(q.grant(r, 1, 0));
+            }
+            if let Some(k) = local[r].pop_front() {
+                clock[r] += cost[k];
+            }
+        }
+        clock.into_iter().max().unwrap_or(0)
+    }
+
+    #[test]
+    fn queue_balances_what_round_robin_cannot() {
+        // 10 x 10 tiles whose odd columns are empty (cost 1) and even ones
+        // full (cost 100): round robin over 2 ranks gives rank 0 every full
+        // tile. Brute-force bound: total / ranks + the largest tile.
+        let cost: Vec<u64> = (0..100).map(|k| if k % 2 == 0 { 100 } else { 1 }).collect();
+        let total: u64 = cost.iter().sum();
+        assert_eq!(makespan(&cost, 2, Schedule::RoundRobin), 50 * 100);
+        let m = makespan(&cost, 2, Schedule::Queue);
+        assert!(m <= total / 2 + 100, "queue makespan {m}, total {total}");
+        let m3 = makespan(&cost, 3, Schedule::Queue);
+        assert!(m3 <= total / 3 + 100, "3 ranks: {m3}");
+    }
+
+    #[test]
+    fn grants_round_trip_and_reject_damage() {
+        let ks = vec![3, 4, 5, 9, 11, 12];
+        let msg = encode_grant(&ks, b"slices");
+        assert_eq!(msg.len(), 4 + 3 * 16 + 6);
+        let (back, payload) = decode_grant(&msg, 13).unwrap();
+        assert_eq!(back, ks);
+        assert_eq!(payload, b"slices");
+        let end = encode_grant(&[], &[]);
+        assert_eq!(decode_grant(&end, 13).unwrap(), (vec![], &[][..]));
+        assert!(decode_grant(&msg, 12).is_err(), "beyond the tiles to do");
+        assert!(decode_grant(&msg[..10], 13).is_err(), "cut");
+        // Overlapping, empty or absurd runs.
+        let mut bad = Vec::new();
+        bad.extend_from_slice(&2u32.to_le_bytes());
+        for (s, n) in [(4u64, 2u64), (5, 1)] {
+            bad.extend_from_slice(&s.to_le_bytes());
+            bad.extend_from_slice(&n.to_le_bytes());
+        }
+        assert!(decode_grant(&bad, 13).is_err(), "overlap");
+        let mut huge = Vec::new();
+        huge.extend_from_slice(&1u32.to_le_bytes());
+        huge.extend_from_slice(&1u64.to_le_bytes());
+        huge.extend_from_slice(&u64::MAX.to_le_bytes());
+        assert!(decode_grant(&huge, 13).is_err(), "absurd length");
+        assert!(Schedule::parse("fifo").is_err());
+        assert_eq!(
+            Schedule::parse("round-robin").unwrap(),
+            Schedule::RoundRobin
+        );
     }
 
     #[test]

@@ -254,6 +254,11 @@ pub trait HaloTransport {
     fn send_to_root(&mut self, data: &[f64]) -> Result<()>;
     /// On rank 0: fill `buf` from rank `from`'s next finished tile.
     fn recv_from(&mut self, from: usize, buf: &mut [f64]) -> Result<()>;
+    /// [`HaloTransport::send_to_root`] of values already rounded to `f32`
+    /// (outputs that are written as `f32`: half the bytes, same output).
+    fn send_to_root_f32(&mut self, data: &[f32]) -> Result<()>;
+    /// On rank 0: the counterpart of [`HaloTransport::send_to_root_f32`].
+    fn recv_from_f32(&mut self, from: usize, buf: &mut [f32]) -> Result<()>;
     /// Element-wise sum of `v` over the ranks.
     fn sum(&mut self, v: &[u64]) -> Result<Vec<u64>>;
     /// Wait until every rank got here.
@@ -283,6 +288,16 @@ impl HaloTransport for Single {
         ))
     }
     fn recv_from(&mut self, from: usize, _buf: &mut [f64]) -> Result<()> {
+        Err(Error::invalid(format!(
+            "halo exchange: a single process has no rank {from} to receive from"
+        )))
+    }
+    fn send_to_root_f32(&mut self, _data: &[f32]) -> Result<()> {
+        Err(Error::invalid(
+            "halo exchange: a single process has no other rank to send to",
+        ))
+    }
+    fn recv_from_f32(&mut self, from: usize, _buf: &mut [f32]) -> Result<()> {
         Err(Error::invalid(format!(
             "halo exchange: a single process has no rank {from} to receive from"
         )))
@@ -401,6 +416,26 @@ mod with_mpi {
             if got as usize != buf.len() {
                 return Err(Error::invalid(format!(
                     "halo exchange: rank {from} sent a tile of {got} values, expected {}",
+                    buf.len()
+                )));
+            }
+            Ok(())
+        }
+        fn send_to_root_f32(&mut self, data: &[f32]) -> Result<()> {
+            count_ok(data.len())?;
+            self.comm.process_at_rank(0).send_with_tag(data, TAG_FINAL);
+            Ok(())
+        }
+        fn recv_from_f32(&mut self, from: usize, buf: &mut [f32]) -> Result<()> {
+            count_ok(buf.len())?;
+            let status = self
+                .comm
+                .process_at_rank(from as i32)
+                .receive_into_with_tag(buf, TAG_FINAL);
+            let got = status.count(f32::equivalent_datatype());
+            if got as usize != buf.len() {
+                return Err(Error::invalid(format!(
+                    "halo exchange: rank {from} sent a tile of {got} f32 values, expected {}",
                     buf.len()
                 )));
             }
