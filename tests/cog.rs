@@ -18,7 +18,7 @@ fn smooth(w: usize, h: usize, seed: u64) -> Grid<f32> {
             .wrapping_mul(6364136223846793005)
             .wrapping_add(1442695040888963407);
         let noise = ((s >> 33) % 1000) as f32 / 100.0;
-        if (s >> 20) % 97 == 0 {
+        if (s >> 20).is_multiple_of(97) {
             f32::NAN
         } else {
             (x as f32 * 0.05).sin() * 300.0 + (y as f32 * 0.031).cos() * 200.0 + noise

@@ -28,7 +28,7 @@ fn random_grid(w: usize, h: usize, seed: u64) -> Vec<f64> {
     (0..w * h)
         .map(|_| {
             let v = r.next();
-            if v % 20 == 0 {
+            if v.is_multiple_of(20) {
                 f64::NAN
             } else {
                 ((v >> 8) % 100) as f64 - 50.0

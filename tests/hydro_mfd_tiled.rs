@@ -91,7 +91,7 @@ fn tiled(
 
 fn weights_for(w: usize, h: usize, seed: u32) -> Grid<f32> {
     Grid::from_fn(w, h, |x, y| {
-        if (x * 7 + y * 3 + seed as usize) % 11 == 0 {
+        if (x * 7 + y * 3 + seed as usize).is_multiple_of(11) {
             f32::NAN
         } else {
             ((x * 31 + y * 17 + seed as usize) % 13) as f32 * 0.37 - 1.5

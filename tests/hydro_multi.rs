@@ -377,7 +377,7 @@ proptest! {
         let filled = fill(&dem).unwrap();
         let (w, h) = (dem.width(), dem.height());
         let weights = Grid::from_fn(w, h, |x, y| {
-            if (x + y + seed as usize) % 5 == 0 { f32::NAN } else { (x + 2 * y) as f32 * 0.5 + 1.0 }
+            if (x + y + seed as usize).is_multiple_of(5) { f32::NAN } else { (x + 2 * y) as f32 * 0.5 + 1.0 }
         });
         for (name, flow) in routers(&filled) {
             let acc = accumulate_fractions(&flow, &weights).unwrap();

@@ -9,7 +9,7 @@ use std::path::PathBuf;
 
 /// The synthetic elevation of cell (x, y), with a few voids.
 fn synth(x: usize, y: usize) -> i16 {
-    if (x * 31 + y * 17) % 997 == 0 {
+    if (x * 31 + y * 17).is_multiple_of(997) {
         -32768
     } else {
         ((x * 7 + y * 13) % 5000) as i16 - 100

@@ -434,7 +434,11 @@ fn diamond_square_equals_the_in_place_algorithm() {
         }
         // Diamond step: edge midpoints, skipped on the array's border.
         for y in (0..n).step_by(half) {
-            let x0 = if (y / half) % 2 == 0 { half } else { 0 };
+            let x0 = if (y / half).is_multiple_of(2) {
+                half
+            } else {
+                0
+            };
             for x in (x0..n).step_by(step) {
                 if x < half || y < half || x + half >= n || y + half >= n {
                     continue;

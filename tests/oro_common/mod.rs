@@ -10,20 +10,17 @@ use orogen::synth::orometric::*;
 use std::path::PathBuf;
 
 /// A real DEM: the copy in `tests/data/oro/` (so `cargo test` needs nothing
-/// outside the repository), else `../shared/data/`.
+/// outside the repository). Its absence fails the test instead of skipping
+/// the real-data check; the `Option` only lets callers use `?`.
 pub fn shared(name: &str) -> Option<PathBuf> {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let local = root.join("tests/data/oro").join(name);
-    if local.exists() {
-        return Some(local);
-    }
-    let p = root.join("../shared/data").join(name);
-    if p.exists() {
-        Some(p)
-    } else {
-        println!("note: {} absent, real-data check skipped", p.display());
-        None
-    }
+    assert!(
+        local.exists(),
+        "{} is missing: the real-data checks need the repository's copy",
+        local.display()
+    );
+    Some(local)
 }
 
 pub fn load(name: &str) -> Option<(Grid<f32>, GeoRef)> {
