@@ -141,6 +141,41 @@ fn tiles_killed_mid_run_leave_only_complete_tiles_and_a_rerun_completes() {
     }
 }
 
+/// An MBTiles-only run cuts its pyramid in a hidden scratch folder beside the
+/// output; a run killed mid-pyramid leaves it behind, and the next run
+/// removes it (its pid no longer runs) and completes.
+#[test]
+fn tiles_scratch_folder_of_a_killed_run_is_removed_by_the_rerun() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dem = data("bigtujunga_crop.tif");
+    let out = tmp.path().join("t.mbtiles");
+    let scratch = |d: &Path| -> Vec<String> {
+        std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.starts_with(".t.mbtiles.orogen-tiles-"))
+            .collect()
+    };
+    let o = run(
+        &tiles_args(s(&dem), s(&out)),
+        &[("OROGEN_CRASH_AT", "tile.tmp:2")],
+    );
+    assert!(!o.status.success(), "the crash point was not reached");
+    assert_eq!(
+        scratch(tmp.path()).len(),
+        1,
+        "the killed run's scratch folder"
+    );
+    assert!(!out.exists(), "no MBTiles from a killed run");
+    ok(&tiles_args(s(&dem), s(&out)));
+    assert!(out.exists());
+    assert!(
+        scratch(tmp.path()).is_empty(),
+        "left behind: {:?}",
+        scratch(tmp.path())
+    );
+}
+
 /// Write `g` (f32, no declared nodata) as a GeoTIFF at `p`.
 fn write_tif(g: Grid<f32>, p: &Path) {
     let mem = MemRaster::from_grid(g, GeoRef::pixel());

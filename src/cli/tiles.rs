@@ -102,6 +102,12 @@ pub fn run(a: TilesArgs) -> Result<()> {
                 .file_name()
                 .map(|n| n.to_string_lossy().into_owned())
                 .unwrap_or_default();
+            // Scratch folders of killed runs (their pid no longer runs) go first.
+            let parent = match first.parent() {
+                Some(d) if !d.as_os_str().is_empty() => d,
+                _ => Path::new("."),
+            };
+            orogen::io::atomic::remove_dead_pid_files(parent, &format!(".{name}.orogen-tiles-"));
             Some(first.with_file_name(format!(".{name}.orogen-tiles-{}", std::process::id())))
         }
     };

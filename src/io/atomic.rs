@@ -133,10 +133,14 @@ fn remove_stale_temps(path: &Path) {
     remove_dead_pid_files(dir, &prefix);
 }
 
-/// Remove the files of `dir` named `PREFIX<pid>` whose process no longer runs
-/// (Linux: no `/proc/PID`): temporaries of killed writers. Files of this
+/// Remove the entries of `dir` named `PREFIX<pid>` whose process no longer
+/// runs (Linux: no `/proc/PID`; nothing is removed where `/proc` is absent):
+/// temporaries and scratch folders of killed writers. Entries of this
 /// process and of live ones are left alone; errors are ignored (best effort).
-pub(crate) fn remove_dead_pid_files(dir: &Path, prefix: &str) {
+pub fn remove_dead_pid_files(dir: &Path, prefix: &str) {
+    if !Path::new("/proc/self").exists() {
+        return;
+    }
     let Ok(rd) = std::fs::read_dir(dir) else {
         return;
     };
@@ -146,7 +150,11 @@ pub(crate) fn remove_dead_pid_files(dir: &Path, prefix: &str) {
             continue;
         };
         if pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists() {
-            let _ = std::fs::remove_file(e.path());
+            if e.file_type().is_ok_and(|t| t.is_dir()) {
+                let _ = std::fs::remove_dir_all(e.path());
+            } else {
+                let _ = std::fs::remove_file(e.path());
+            }
         }
     }
 }
