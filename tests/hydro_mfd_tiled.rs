@@ -11,7 +11,9 @@ use orogen::hydro::tiled_mfd::{run_multi_accumulation, Router};
 use orogen::hydro::{d8_directions, fill};
 use orogen::raster::{AnyGrid, DType, GeoRef, Grid, MemRaster, RasterSource, TileLayout};
 use proptest::prelude::*;
-use std::path::Path;
+
+mod common;
+use common::hydro::read_raw;
 
 const ROUTERS: [Router; 5] = [
     Router::Dinf,
@@ -231,20 +233,6 @@ fn inputs_are_checked() {
         vec![Box::new(sink)],
     );
     assert!(r.is_err());
-}
-
-fn read_raw(name: &str, w: usize, h: usize, nodata: f32) -> Grid<f32> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data/hydro")
-        .join(name);
-    let bytes = std::fs::read(&p).expect("test data present");
-    assert_eq!(bytes.len(), w * h * 4);
-    let v = bytes
-        .chunks_exact(4)
-        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-        .map(|z| if z == nodata { f32::NAN } else { z })
-        .collect();
-    Grid::from_vec(w, h, v).unwrap()
 }
 
 #[test]

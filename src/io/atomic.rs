@@ -80,27 +80,10 @@ pub fn replace_file(path: &Path, bytes: &[u8], kind: &str) -> Result<()> {
 /// Remove every temporary `.NAME.orogen-tmp-PID` in `dir` (not recursive)
 /// whose writer no longer runs (Linux: no `/proc/PID`); best effort.
 pub fn remove_dead_temps(dir: &Path) {
-    if !Path::new("/proc/self").exists() {
-        return;
-    }
-    let Ok(rd) = std::fs::read_dir(dir) else {
-        return;
-    };
-    for e in rd.flatten() {
-        let n = e.file_name().to_string_lossy().into_owned();
-        let Some((head, pid)) = n.rsplit_once(".orogen-tmp-") else {
-            continue;
-        };
-        let Ok(pid) = pid.parse::<u32>() else {
-            continue;
-        };
-        if head.starts_with('.')
-            && pid != std::process::id()
-            && !Path::new(&format!("/proc/{pid}")).exists()
-        {
-            let _ = std::fs::remove_file(e.path());
-        }
-    }
+    remove_dead(dir, |n| {
+        let (head, pid) = n.rsplit_once(".orogen-tmp-")?;
+        head.starts_with('.').then_some(pid)
+    });
 }
 
 /// The temporary of `path` for this process: `.NAME.orogen-tmp-PID` beside it.
@@ -126,18 +109,23 @@ fn remove_stale_temps(path: &Path) {
     } else {
         dir
     };
-    if !Path::new("/proc/self").exists() {
-        return;
-    }
     let prefix = format!(".{}.orogen-tmp-", name.to_string_lossy());
     remove_dead_pid_files(dir, &prefix);
 }
 
 /// Remove the entries of `dir` named `PREFIX<pid>` whose process no longer
-/// runs (Linux: no `/proc/PID`; nothing is removed where `/proc` is absent):
-/// temporaries and scratch folders of killed writers. Entries of this
-/// process and of live ones are left alone; errors are ignored (best effort).
+/// runs: temporaries and scratch folders of killed writers (see
+/// [`remove_dead`]).
 pub fn remove_dead_pid_files(dir: &Path, prefix: &str) {
+    remove_dead(dir, |n| n.strip_prefix(prefix));
+}
+
+/// Remove the entries of `dir` whose name `pid_of` maps to the decimal pid
+/// of a process that no longer runs (Linux: no `/proc/PID`; nothing is
+/// removed where `/proc` is absent). Entries of this process and of live
+/// ones are left alone; folders are removed whole; errors are ignored (best
+/// effort).
+fn remove_dead(dir: &Path, pid_of: impl Fn(&str) -> Option<&str>) {
     if !Path::new("/proc/self").exists() {
         return;
     }
@@ -146,7 +134,7 @@ pub fn remove_dead_pid_files(dir: &Path, prefix: &str) {
     };
     for e in rd.flatten() {
         let n = e.file_name().to_string_lossy().into_owned();
-        let Some(pid) = n.strip_prefix(prefix).and_then(|p| p.parse::<u32>().ok()) else {
+        let Some(pid) = pid_of(&n).and_then(|p| p.parse::<u32>().ok()) else {
             continue;
         };
         if pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists() {
