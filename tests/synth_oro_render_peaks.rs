@@ -213,8 +213,10 @@ fn tally(name: &str, thr: f64, seed: u64) -> Option<Tally> {
 
 /// Seeds 1-6 on both real profiles. NOT yet the exact check: the
 /// render still adds peaks (river crests, hills between rivers with no
-/// ridge, border strips) and loses a few (mostly at the threshold), see
-/// docs/notes/oro6b.md. The bounds are the figures measured (session 6,
+/// ridge, border strips), see docs/notes/oro6b.md and oro7.md. Lost peaks:
+/// none on the low-relief profile; on the Alps the few left are tree peaks
+/// within one or two cells of another peak's ridge or of a slope the raster
+/// cannot hold (oro7.md). The bounds are the figures measured (session 7,
 /// default TIN render), asserted per seed and in total so that a change
 /// which adds or loses peaks fails here.
 #[test]
@@ -222,15 +224,8 @@ fn render_peaks_match_the_tree() {
     // (name, threshold, most lost per seed, total lost, most spurious per
     // seed, total spurious)
     for (name, thr, lost_seed, lost_all, sp_seed, sp_all) in [
-        ("pysheds_dem.tif", 5.0, 1, 3, 13, 57),
-        (
-            "terraindescriptors_alps_montblanc.tif",
-            30.0,
-            8,
-            34,
-            24,
-            117,
-        ),
+        ("pysheds_dem.tif", 5.0, 0, 0, 13, 58),
+        ("terraindescriptors_alps_montblanc.tif", 30.0, 3, 8, 26, 127),
     ] {
         let mut all = Vec::new();
         for seed in 1..=6u64 {
@@ -254,8 +249,8 @@ fn render_peaks_match_the_tree() {
             let s: usize = t.spurious.iter().sum();
             assert!(t.lost <= lost_seed, "{name} seed {}: {t:?}", k + 1);
             assert!(s <= sp_seed, "{name} seed {}: {t:?}", k + 1);
-            // The tree's peaks are nearly all there: ≥ 98.5 % recovered.
-            assert!(t.lost * 1000 <= 15 * t.tree, "{name} seed {}: {t:?}", k + 1);
+            // The tree's peaks are nearly all there: ≥ 99.4 % recovered.
+            assert!(t.lost * 1000 <= 6 * t.tree, "{name} seed {}: {t:?}", k + 1);
         }
         assert!(lost <= lost_all, "{name}: lost {lost}");
         assert!(

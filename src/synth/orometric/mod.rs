@@ -20,6 +20,7 @@
 pub mod assign;
 pub mod edit;
 pub mod fragment;
+pub mod minimax;
 pub mod profile;
 pub mod rivers;
 pub mod terrain;

@@ -14,10 +14,14 @@
 //!    from the triangles that touch the border (the outlets).
 //! 3. Drainage area A: the triangle areas accumulated downstream (the
 //!    outlets together drain exactly the domain).
-//! 4. Elevations: each river node gets the upper bound min(ridge vertices of
-//!    its triangle) − margin (a river runs below the ridge points it lies
-//!    between, so no path across it can make a pass higher than the tree's
-//!    saddles); from the outlets upward the elevation grows with the
+//! 4. Elevations: each river node gets an upper bound: the margin below
+//!    the lowest ridge vertex of its triangle and below the pass height on
+//!    the tree of each pair of ridge vertices its river separates (the two
+//!    ends of each non-ridge edge, [`super::minimax`]), so no path across a
+//!    river can make a pass higher than the tree's saddles (the river graph
+//!    is the dual of the ridge triangulation minus the ridges, a spanning
+//!    forest of the faces: every non-ridge edge between ridge vertices is
+//!    crossed by a river); from the outlets upward the elevation grows with the
 //!    equilibrium channel slope S = s₁ · (A / 1 km²)^−0.45 (Flint 1974,
 //!    "Stream gradient as a function of order, magnitude, and discharge",
 //!    Water Resour. Res. 10(5)) capped by the bound; a final downstream pass
@@ -26,6 +30,7 @@
 //!    downstream incentre (they stay inside the two triangles, so
 //!    they never cross a ridge), refined to λ.
 
+use super::minimax::{PassHeights, RidgeAnchor};
 use super::tree_synth::SynthTree;
 use crate::error::{Error, Result};
 use crate::oro::stats::SplitMix64;
@@ -58,6 +63,10 @@ pub struct RiverOptions {
 pub struct Ridges {
     pub pts: Vec<[f64; 3]>,
     pub segs: Vec<[u32; 2]>,
+    /// Where each point lies on the tree (parallel to `pts`).
+    pub anchor: Vec<RidgeAnchor>,
+    /// The saddle of the ridge each segment belongs to (parallel to `segs`).
+    pub seg_saddle: Vec<u32>,
 }
 
 /// A vertex of the refined river network.
@@ -109,14 +118,17 @@ pub fn refine_ridges(tree: &SynthTree, lambda: f64, jitter: f64) -> Result<Ridge
         ));
     }
     let mut pts: Vec<[f64; 3]> = Vec::new();
-    for p in &tree.peaks {
+    let mut anchor: Vec<RidgeAnchor> = Vec::new();
+    for (i, p) in tree.peaks.iter().enumerate() {
+        anchor.push(RidgeAnchor::Peak(i as u32));
         pts.push([
             snap(p.x, cell, tree.width),
             snap(p.y, cell, tree.height),
             p.elevation,
         ]);
     }
-    for s in &tree.saddles {
+    for (k, s) in tree.saddles.iter().enumerate() {
+        anchor.push(RidgeAnchor::Saddle(k as u32));
         pts.push([
             snap(s.x, cell, tree.width),
             snap(s.y, cell, tree.height),
@@ -131,6 +143,7 @@ pub fn refine_ridges(tree: &SynthTree, lambda: f64, jitter: f64) -> Result<Ridge
     let np = tree.peaks.len();
     let mut rng = SplitMix64(tree.seed ^ 0x7269_7665_7273_0001);
     let mut segs = Vec::new();
+    let mut seg_saddle = Vec::new();
     for (k, s) in tree.saddles.iter().enumerate() {
         let sv = (np + k) as u32;
         for &pi in &s.peaks {
@@ -154,14 +167,22 @@ pub fn refine_ridges(tree: &SynthTree, lambda: f64, jitter: f64) -> Result<Ridge
                     (ay + t * dy + off * ny).clamp(lo, hy),
                     az + t * (bz - az),
                 ]);
+                anchor.push(RidgeAnchor::Half(pi as u32, k as u32));
                 let cur = (pts.len() - 1) as u32;
                 segs.push([prev, cur]);
+                seg_saddle.push(k as u32);
                 prev = cur;
             }
             segs.push([prev, sv]);
+            seg_saddle.push(k as u32);
         }
     }
-    Ok(Ridges { pts, segs })
+    Ok(Ridges {
+        pts,
+        segs,
+        anchor,
+        seg_saddle,
+    })
 }
 
 /// Border frame: points every ≈ λ along the four sides, corners included.
@@ -277,6 +298,16 @@ impl RiverNetwork {
             .map(|s| [map[s[0] as usize], map[s[1] as usize]])
             .collect();
         let (t, dropped) = cdt(&uniq, &edges)?;
+        // Where each unique ridge vertex lies on the tree (None: frame).
+        let mut anchor: Vec<Option<RidgeAnchor>> = vec![None; uniq.len()];
+        for (i, &m) in map[..n_ridge].iter().enumerate().rev() {
+            anchor[m as usize] = Some(ridges.anchor[i]);
+        }
+        let passes = PassHeights::new(tree);
+        let pass = |a: usize, b: usize| match (anchor[a], anchor[b]) {
+            (Some(x), Some(y)) => passes.between(x, uniq[a][2], y, uniq[b][2]),
+            _ => f64::INFINITY,
+        };
 
         // Faces of the triangulation as river nodes.
         let nf_all = t.num_all_faces();
@@ -337,6 +368,11 @@ impl RiverNetwork {
                 if e.as_undirected().is_constraint_edge() {
                     continue;
                 }
+                // The river here separates the edge's two ridge vertices:
+                // it stays below their pass height on the tree.
+                let (va, vb) = (e.from().fix().index(), e.to().fix().index());
+                let p = pass(va, vb) - o.margin;
+                faces[s].bound = faces[s].bound.min(p.max(o.floor));
                 if let Some(g) = e.rev().face().as_inner() {
                     let [a, b] = e.positions();
                     let m = [0.5 * (a.x + b.x), 0.5 * (a.y + b.y)];

@@ -55,8 +55,12 @@
 //! cells within 0.71 cell of a river segment read at most the river's
 //! elevation (a 4-connected channel no 8-path can hop over) and cells
 //! within 0.55 cell of a ridge at least the ridge's (an 8-connected
-//! crest); multifractal noise below the prominence threshold fades in over
-//! 4 cells away from both. Every cell is a pure function of its position.
+//! crest); the 8 cells around a saddle's cell read at most the saddle
+//! (a *pinch*: where a ridge bends at its saddle the crest cells on either
+//! side touch diagonally, and the raster's pass would bypass the saddle
+//! cell; cells on another ridge's crest and tree peaks are left alone);
+//! multifractal noise below the prominence threshold fades in over 4 cells
+//! away from both. Every cell is a pure function of its position.
 
 use super::rivers::{cdt, dedup, RiverNetwork, RiverOptions};
 use super::terrain::TerrainOptions;
@@ -191,12 +195,23 @@ impl PointGrid {
     }
 }
 
-/// A ridge or river segment for the crest / channel bands and the noise fade.
+/// A ridge or river segment for the crest / channel bands, the noise fade
+/// and the samples' clearance.
 #[derive(Debug, Clone, Copy)]
 struct Line {
     a: [f64; 3],
     b: [f64; 3],
-    ridge: bool,
+    kind: LineKind,
+    /// The tree saddle of a ridge segment's ridge (u32::MAX otherwise).
+    saddle: u32,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum LineKind {
+    /// Crest band (cells read at least the ridge).
+    Ridge,
+    /// Channel band (cells read at most the river).
+    Channel,
 }
 
 impl Line {
@@ -324,6 +339,12 @@ pub struct TinTerrain {
     lny: usize,
     lstart: Vec<u32>,
     lids: Vec<u32>,
+    /// Saddle pinches per bucket of the line index: (col, row, elevation)
+    /// of the saddle cells whose 3 x 3 block touches the bucket.
+    pstart: Vec<u32>,
+    pinch: Vec<(u32, u32, f64, u32)>,
+    /// Cells holding a tree peak (never pinched).
+    peak_cells: std::collections::HashSet<(u32, u32)>,
     band: f64,
     noise: Option<(Fbm, f64)>,
     side: usize,
@@ -529,10 +550,12 @@ impl TinTerrain {
         let mut lines: Vec<Line> = ridges
             .segs
             .iter()
-            .map(|s| Line {
+            .zip(&ridges.seg_saddle)
+            .map(|(s, &k)| Line {
                 a: ridges.pts[s[0] as usize],
                 b: ridges.pts[s[1] as usize],
-                ridge: true,
+                kind: LineKind::Ridge,
+                saddle: k,
             })
             .collect();
         for n in &rivers.nodes {
@@ -541,7 +564,8 @@ impl TinTerrain {
                 lines.push(Line {
                     a: [n.x, n.y, n.z],
                     b: [m.x, m.y, m.z],
-                    ridge: false,
+                    kind: LineKind::Channel,
+                    saddle: u32::MAX,
                 });
             }
         }
@@ -613,6 +637,60 @@ impl TinTerrain {
         let nsx = tree.width.div_ceil(side);
         let georef = GeoRef::north_up(0.0, hm, cell, Crs::default());
         let dropped = dropped + rivers.dropped_ridges;
+        // Saddle pinches: the crest band keeps a ridge 8-connected, so
+        // where it bends at a saddle the two crest cells beside the saddle
+        // cell can touch diagonally and bypass it (a pass above the tree's
+        // saddle). The cells around a saddle cell read at most the saddle.
+        let cell_of = |x: f64, y: f64| {
+            (
+                ((x / cell).floor().clamp(0.0, (tree.width - 1) as f64)) as u32,
+                ((y / cell).floor().clamp(0.0, (tree.height - 1) as f64)) as u32,
+            )
+        };
+        let peak_cells: std::collections::HashSet<(u32, u32)> =
+            tree.peaks.iter().map(|p| cell_of(p.x, p.y)).collect();
+        let saddle_cells: Vec<(u32, u32, f64, u32)> = tree
+            .saddles
+            .iter()
+            .enumerate()
+            .map(|(k, s)| {
+                let (c, r) = cell_of(s.x, s.y);
+                (c, r, s.elevation, k as u32)
+            })
+            .collect();
+        // Buckets (x0..=x1, y0..=y1) touched by the 3 x 3 block of a cell.
+        let pbucket = |c: u32, r: u32| {
+            let span = |v: u32, n: usize| {
+                let lo = (v.saturating_sub(1) as usize / b).min(n - 1);
+                (lo, ((v as usize + 1) / b).min(n - 1))
+            };
+            (span(c, lnx), span(r, lny))
+        };
+        let mut pstart = vec![0u32; lnx * lny + 1];
+        for &(c, r, _, _) in &saddle_cells {
+            let ((x0, x1), (y0, y1)) = pbucket(c, r);
+            for by in y0..=y1 {
+                for bx in x0..=x1 {
+                    pstart[by * lnx + bx + 1] += 1;
+                }
+            }
+        }
+        for i in 1..pstart.len() {
+            pstart[i] += pstart[i - 1];
+        }
+        let mut fill = pstart.clone();
+        let mut pinch = vec![(0u32, 0u32, 0f64, 0u32); pstart[lnx * lny] as usize];
+        for &sc in &saddle_cells {
+            let ((x0, x1), (y0, y1)) = pbucket(sc.0, sc.1);
+            for by in y0..=y1 {
+                for bx in x0..=x1 {
+                    let k = by * lnx + bx;
+                    pinch[fill[k] as usize] = sc;
+                    fill[k] += 1;
+                }
+            }
+        }
+        drop(fill);
         Ok(TinTerrain {
             info: RasterInfo {
                 width: tree.width,
@@ -647,6 +725,9 @@ impl TinTerrain {
             lny,
             lstart,
             lids,
+            pstart,
+            pinch,
+            peak_cells,
             band,
             noise,
             side,
@@ -1118,7 +1199,8 @@ impl TinTerrain {
 
     /// Elevation of the cell centre (col + ½, row + ½) in super-tile `st`.
     #[inline]
-    fn cell_value(&self, st: &Super, col: usize, row: usize) -> f64 {
+    /// (surface, whether the cell is a crest or pinch cell, noise).
+    fn cell_value(&self, st: &Super, col: usize, row: usize) -> (f64, bool, f64) {
         let c = self.cell;
         let (x, y) = ((col as f64 + 0.5) * c, (row as f64 + 0.5) * c);
         let mut v = st.tin.value(x, y);
@@ -1130,7 +1212,7 @@ impl TinTerrain {
             let l = &self.lines[i as usize];
             let (d, zl) = l.probe(x, y);
             dmin = dmin.min(d);
-            if l.ridge {
+            if l.kind == LineKind::Ridge {
                 if d <= self.band {
                     crest = crest.max(zl);
                 }
@@ -1139,14 +1221,38 @@ impl TinTerrain {
             }
         }
         v = v.min(chan).max(crest);
+        let mut keep = crest.is_finite();
+        for &(sc, sr, sz, k) in &self.pinch[self.pstart[b] as usize..self.pstart[b + 1] as usize] {
+            let (dc, dr) = (sc.abs_diff(col as u32), sr.abs_diff(row as u32));
+            if dc <= 1
+                && dr <= 1
+                && (dc, dr) != (0, 0)
+                && v > sz
+                && !self.peak_cells.contains(&(col as u32, row as u32))
+                && !self.on_other_crest(b, x, y, k)
+            {
+                v = sz;
+                keep = true;
+            }
+        }
+        let mut noise = 0.0;
         if let Some((fbm, amp)) = &self.noise {
             let t = ((dmin - self.band) / (4.0 * c)).clamp(0.0, 1.0);
             let wgt = t * t * (3.0 - 2.0 * t);
             if wgt > 0.0 {
-                v += amp * wgt * fbm.sample(col as f64 + 0.5, row as f64 + 0.5);
+                noise = amp * wgt * fbm.sample(col as f64 + 0.5, row as f64 + 0.5);
             }
         }
-        v
+        (v, keep, noise)
+    }
+
+    /// Whether (x, y) lies in the crest band of a ridge other than saddle
+    /// `k`'s (a pinch must not cut another ridge passing by).
+    fn on_other_crest(&self, b: usize, x: f64, y: f64, k: u32) -> bool {
+        self.lids[self.lstart[b] as usize..self.lstart[b + 1] as usize]
+            .iter()
+            .map(|&i| &self.lines[i as usize])
+            .any(|l| l.kind == LineKind::Ridge && l.saddle != k && l.probe(x, y).0 <= self.band)
     }
 
     /// The window (x0, y0, w, h) in cells (inside the raster), row-major.
@@ -1167,7 +1273,8 @@ impl TinTerrain {
                 for r in ra..rb {
                     let o = (r - y0) * w;
                     for col in ca..cb {
-                        out[o + col - x0] = self.cell_value(&st, col, r) as f32;
+                        let (v, _, n) = self.cell_value(&st, col, r);
+                        out[o + col - x0] = (v + n) as f32;
                     }
                 }
             }
