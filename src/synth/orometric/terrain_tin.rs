@@ -58,9 +58,16 @@
 //! crest); the 8 cells around a saddle's cell read at most the saddle
 //! (a *pinch*: where a ridge bends at its saddle the crest cells on either
 //! side touch diagonally, and the raster's pass would bypass the saddle
-//! cell; cells on another ridge's crest and tree peaks are left alone);
-//! multifractal noise below the prominence threshold fades in over 4 cells
-//! away from both. Every cell is a pure function of its position.
+//! cell; cells on another ridge's crest and tree peaks are left alone).
+//! Then, block by block of a fixed 512-cell grid with a 32-cell halo, a
+//! grey-scale reconstruction from the crest and pinch cells cuts every
+//! knoll that no path joins to a ridge above its col down to that col
+//! ([`TinTerrain::build_block`]): the TIN leaves such knolls between river
+//! channels and samples closer than a cell or two apart, and they would be
+//! peaks the tree does not have. Last, multifractal noise below the
+//! prominence threshold fades in over 4 cells away from ridges and rivers.
+//! Every cell is a pure function of its position (and of the fixed block
+//! grid, which does not depend on the super-tile size or the window).
 
 use super::rivers::{cdt, dedup, RiverNetwork, RiverOptions};
 use super::terrain::TerrainOptions;
@@ -71,7 +78,8 @@ use crate::raster::{AnyGrid, Crs, DType, GeoRef, Grid, RasterInfo, RasterSource,
 use crate::synth::Fbm;
 use rayon::prelude::*;
 use spade::Triangulation;
-use std::collections::HashMap;
+use std::cmp::Reverse;
+use std::collections::{BinaryHeap, HashMap};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, OnceLock};
 /// Points in a uniform bucket grid, for nearest-point queries.
@@ -240,6 +248,14 @@ impl Line {
 /// a pass higher than the tree's saddle).
 const CHANNEL_BAND: f64 = 0.71;
 
+/// Side of the reconstruction blocks, cells: a fixed grid (part of the
+/// model, unlike the super-tiles, so the terrain does not depend on the
+/// super-tile size; see [`TinTerrain::build_block`]).
+const BLOCK_SIDE: usize = 512;
+
+/// Halo of the reconstruction blocks, cells.
+const BLOCK_HALO: usize = 32;
+
 /// Bucket side of the raster indices, cells.
 const BUCKET_CELLS: f64 = 8.0;
 
@@ -287,12 +303,96 @@ struct Super {
     bytes: usize,
 }
 
-type Slot = Arc<OnceLock<std::result::Result<Arc<Super>, String>>>;
+/// The finished cells of one super-tile (see [`TinTerrain::build_block`]).
+struct Block {
+    cells: Vec<f32>,
+}
 
-/// LRU cache of super-tiles: (key, last use, slot).
-struct Cache {
+/// Something kept in a [`Cache`], with its heap size.
+trait Cached {
+    fn bytes(&self) -> usize;
+}
+
+impl Cached for Super {
+    fn bytes(&self) -> usize {
+        self.bytes
+    }
+}
+
+impl Cached for Block {
+    fn bytes(&self) -> usize {
+        self.cells.len() * 4 + std::mem::size_of::<Block>()
+    }
+}
+
+type Slot<T> = Arc<OnceLock<std::result::Result<Arc<T>, String>>>;
+
+/// LRU cache of super-tiles or blocks: (key, last use, slot).
+struct Cache<T> {
     tick: u64,
-    slots: Vec<(u64, u64, Slot)>,
+    slots: Vec<(u64, u64, Slot<T>)>,
+}
+
+impl<T: Cached> Cache<T> {
+    fn new() -> Mutex<Cache<T>> {
+        Mutex::new(Cache {
+            tick: 0,
+            slots: Vec::new(),
+        })
+    }
+}
+
+/// The value cached under `key` in `cache`, built by `build` if absent
+/// (one builder per key, other threads wait); least recently used entries
+/// are dropped beyond [`CACHE_BYTES`] (an entry in use elsewhere lives on
+/// through its Arc).
+fn cached<T: Cached>(
+    cache: &Mutex<Cache<T>>,
+    key: u64,
+    build: impl FnOnce() -> Result<T>,
+) -> Result<Arc<T>> {
+    let slot = {
+        let mut c = cache.lock().unwrap_or_else(|e| e.into_inner());
+        c.tick += 1;
+        let tick = c.tick;
+        if let Some(s) = c.slots.iter_mut().find(|s| s.0 == key) {
+            s.1 = tick;
+            s.2.clone()
+        } else {
+            let s: Slot<T> = Arc::new(OnceLock::new());
+            c.slots.push((key, tick, s.clone()));
+            let min_keep = 8 + 4 * rayon::current_num_threads();
+            loop {
+                let bytes: usize = c
+                    .slots
+                    .iter()
+                    .filter_map(|s| match s.2.get() {
+                        Some(Ok(t)) => Some(t.bytes()),
+                        _ => None,
+                    })
+                    .sum();
+                if bytes <= CACHE_BYTES || c.slots.len() <= min_keep {
+                    break;
+                }
+                let Some(old) = c
+                    .slots
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, s)| s.0 != key)
+                    .min_by_key(|(_, s)| s.1)
+                    .map(|(i, _)| i)
+                else {
+                    break;
+                };
+                c.slots.swap_remove(old);
+            }
+            s
+        }
+    };
+    match slot.get_or_init(|| build().map(Arc::new).map_err(|e| e.to_string())) {
+        Ok(t) => Ok(t.clone()),
+        Err(m) => Err(Error::invalid(m.clone())),
+    }
 }
 
 /// Counters of the super-tiles built so far.
@@ -349,7 +449,8 @@ pub struct TinTerrain {
     noise: Option<(Fbm, f64)>,
     side: usize,
     nsx: usize,
-    cache: Mutex<Cache>,
+    cache: Mutex<Cache<Super>>,
+    blocks: Mutex<Cache<Block>>,
     built: AtomicUsize,
     retried: AtomicUsize,
     samples: AtomicUsize,
@@ -732,10 +833,8 @@ impl TinTerrain {
             noise,
             side,
             nsx,
-            cache: Mutex::new(Cache {
-                tick: 0,
-                slots: Vec::new(),
-            }),
+            cache: Cache::new(),
+            blocks: Cache::new(),
             built: AtomicUsize::new(0),
             retried: AtomicUsize::new(0),
             samples: AtomicUsize::new(0),
@@ -868,55 +967,9 @@ impl TinTerrain {
 
     /// The super-tile (sx, sy), from the cache or built.
     fn supertile(&self, sx: usize, sy: usize) -> Result<Arc<Super>> {
-        let key = (sy * self.nsx + sx) as u64;
-        let slot = {
-            let mut c = self.cache.lock().unwrap_or_else(|e| e.into_inner());
-            c.tick += 1;
-            let tick = c.tick;
-            if let Some(s) = c.slots.iter_mut().find(|s| s.0 == key) {
-                s.1 = tick;
-                s.2.clone()
-            } else {
-                let s: Slot = Arc::new(OnceLock::new());
-                c.slots.push((key, tick, s.clone()));
-                // Evict the least recently used while over the byte bound
-                // (a super-tile in use elsewhere lives on through its Arc).
-                let min_keep = 8 + 4 * rayon::current_num_threads();
-                loop {
-                    let bytes: usize = c
-                        .slots
-                        .iter()
-                        .filter_map(|s| match s.2.get() {
-                            Some(Ok(t)) => Some(t.bytes),
-                            _ => None,
-                        })
-                        .sum();
-                    if bytes <= CACHE_BYTES || c.slots.len() <= min_keep {
-                        break;
-                    }
-                    let Some(old) = c
-                        .slots
-                        .iter()
-                        .enumerate()
-                        .filter(|(_, s)| s.0 != key)
-                        .min_by_key(|(_, s)| s.1)
-                        .map(|(i, _)| i)
-                    else {
-                        break;
-                    };
-                    c.slots.swap_remove(old);
-                }
-                s
-            }
-        };
-        match slot.get_or_init(|| {
+        cached(&self.cache, (sy * self.nsx + sx) as u64, || {
             self.build_supertile(sx, sy)
-                .map(Arc::new)
-                .map_err(|e| e.to_string())
-        }) {
-            Ok(t) => Ok(t.clone()),
-            Err(m) => Err(Error::invalid(m.clone())),
-        }
+        })
     }
 
     fn build_supertile(&self, sx: usize, sy: usize) -> Result<Super> {
@@ -1264,22 +1317,134 @@ impl TinTerrain {
         if x0 + w > self.info.width || y0 + h > self.info.height {
             return Err(Error::invalid("terrain: window outside the raster"));
         }
-        let s = self.side;
+        let s = BLOCK_SIDE;
+        let nbx = self.info.width.div_ceil(s);
         for sy in y0 / s..=(y0 + h - 1) / s {
             for sx in x0 / s..=(x0 + w - 1) / s {
-                let st = self.supertile(sx, sy)?;
+                let bl = cached(&self.blocks, (sy * nbx + sx) as u64, || {
+                    self.build_block(sx, sy)
+                })?;
+                let bw = s.min(self.info.width - sx * s);
                 let (ca, cb) = ((sx * s).max(x0), ((sx + 1) * s).min(x0 + w));
                 let (ra, rb) = ((sy * s).max(y0), ((sy + 1) * s).min(y0 + h));
                 for r in ra..rb {
                     let o = (r - y0) * w;
-                    for col in ca..cb {
-                        let (v, _, n) = self.cell_value(&st, col, r);
-                        out[o + col - x0] = (v + n) as f32;
-                    }
+                    let bo = (r - sy * s) * bw;
+                    out[o + ca - x0..o + cb - x0]
+                        .copy_from_slice(&bl.cells[bo + ca - sx * s..bo + cb - sx * s]);
                 }
             }
         }
         Ok(out)
+    }
+
+    /// The finished cells of block (bx, by) of the fixed [`BLOCK_SIDE`]
+    /// grid: the cell values of the block grown by [`BLOCK_HALO`] cells,
+    /// reconstructed from the crest and pinch cells, then the noise.
+    ///
+    /// Grey-scale reconstruction by dilation (Vincent 1993, "Morphological
+    /// grayscale reconstruction in image analysis", IEEE TIP 2(2)) under the
+    /// surface from the marker "crest and pinch cells, and the halo's outer
+    /// ring where the raster goes on": each cell becomes min(its value, the
+    /// highest level at which an 8-path joins it to a marker), computed by
+    /// a priority flood from the markers, highest first (Barnes, Lehman &
+    /// Mulla 2014, turned upside down). Knolls the TIN leaves between river
+    /// channels, which no path joins to a ridge above their col, are cut to
+    /// that col: the raster's peaks are the tree's. Cells joined to a ridge
+    /// (or to the ring) at their own height keep it, so only such knolls
+    /// change. A knoll that reaches the ring stays (the halo bounds what a
+    /// block sees); every cell depends only on its position and the fixed
+    /// block grid, so windows equal the whole render.
+    fn build_block(&self, bx: usize, by: usize) -> Result<Block> {
+        let s = self.side;
+        let (w, h) = (self.info.width, self.info.height);
+        let (c0, r0) = (bx * BLOCK_SIDE, by * BLOCK_SIDE);
+        let (c1, r1) = ((c0 + BLOCK_SIDE).min(w), (r0 + BLOCK_SIDE).min(h));
+        let (ex0, ey0) = (c0.saturating_sub(BLOCK_HALO), r0.saturating_sub(BLOCK_HALO));
+        let (ex1, ey1) = ((c1 + BLOCK_HALO).min(w), (r1 + BLOCK_HALO).min(h));
+        let (ew, eh) = (ex1 - ex0, ey1 - ey0);
+        let n = ew * eh;
+        let mut val = vec![0f64; n];
+        let mut marker = vec![false; n];
+        let mut noise = vec![0f64; n];
+        for ty in ey0 / s..=(ey1 - 1) / s {
+            for tx in ex0 / s..=(ex1 - 1) / s {
+                let st = self.supertile(tx, ty)?;
+                let (ca, cb) = ((tx * s).max(ex0), ((tx + 1) * s).min(ex1));
+                let (ra, rb) = ((ty * s).max(ey0), ((ty + 1) * s).min(ey1));
+                for r in ra..rb {
+                    let o = (r - ey0) * ew;
+                    for col in ca..cb {
+                        let (v, k, z) = self.cell_value(&st, col, r);
+                        val[o + col - ex0] = v;
+                        marker[o + col - ex0] = k;
+                        noise[o + col - ex0] = z;
+                    }
+                }
+            }
+        }
+        // The outer ring, where the raster goes on beyond the halo.
+        for r in 0..eh {
+            for c in 0..ew {
+                let (gc, gr) = (c + ex0, r + ey0);
+                if (c == 0 && gc > 0)
+                    || (r == 0 && gr > 0)
+                    || (c + 1 == ew && gc + 1 < w)
+                    || (r + 1 == eh && gr + 1 < h)
+                {
+                    marker[r * ew + c] = true;
+                }
+            }
+        }
+        let mut level = vec![f64::NAN; n];
+        let mut heap: BinaryHeap<(u64, Reverse<u32>)> = BinaryHeap::new();
+        // Order key of an elevation (monotone in the value, finite or not).
+        let ord = |v: f64| {
+            let b = v.to_bits();
+            if b >> 63 == 1 {
+                !b
+            } else {
+                b | (1 << 63)
+            }
+        };
+        for i in 0..n {
+            if marker[i] {
+                level[i] = val[i];
+                heap.push((ord(val[i]), Reverse(i as u32)));
+            }
+        }
+        let mut done = vec![false; n];
+        while let Some((_, Reverse(i))) = heap.pop() {
+            let i = i as usize;
+            if done[i] {
+                continue;
+            }
+            done[i] = true;
+            let (c, r) = (i % ew, i / ew);
+            for rr in r.saturating_sub(1)..(r + 2).min(eh) {
+                for cc in c.saturating_sub(1)..(c + 2).min(ew) {
+                    let j = rr * ew + cc;
+                    if done[j] || marker[j] {
+                        continue;
+                    }
+                    let l = val[j].min(level[i]);
+                    if level[j].is_nan() || l > level[j] {
+                        level[j] = l;
+                        heap.push((ord(l), Reverse(j as u32)));
+                    }
+                }
+            }
+        }
+        let bw = c1 - c0;
+        let mut cells = vec![0f32; bw * (r1 - r0)];
+        for r in r0..r1 {
+            for c in c0..c1 {
+                let i = (r - ey0) * ew + c - ex0;
+                let v = if level[i].is_nan() { val[i] } else { level[i] };
+                cells[(r - r0) * bw + c - c0] = (v + noise[i]) as f32;
+            }
+        }
+        Ok(Block { cells })
     }
 
     /// The whole terrain in memory (super-tiles computed in parallel).

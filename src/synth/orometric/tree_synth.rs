@@ -108,11 +108,12 @@ pub struct TreeOptions {
     pub coherent: bool,
     /// Isolation proposals are made at this multiple of the target distance
     /// (the terrain's nearest higher ground lies on the higher peak's ridges,
-    /// closer than its summit). Default 1.3 ([`DEFAULT_ISOLATION_STRETCH`]),
+    /// closer than its summit). Default 1.2 ([`DEFAULT_ISOLATION_STRETCH`]),
     /// calibrated on the TIN terrain of the Mont Blanc and Dallas profiles
-    /// over six seeds each (1.2 before, calibrated on the tents model; 1.35
-    /// matched isolation better but lost up to 8 % of the Dallas peaks in
-    /// the render; see docs/notes/oro_dist.md).
+    /// over six seeds each once the render kept exactly the tree's peaks
+    /// (session 7: 1.1 suits the Alps best, 1.3 Dallas; 1.3 before, when
+    /// knolls of the render stood near many peaks; see docs/notes/oro7.md
+    /// and oro_dist.md).
     pub isolation_stretch: f64,
     /// Placement passes by prominence bins (§5): the most prominent bin
     /// first, each next bin about twice as many peaks, earlier peaks fixed.
@@ -209,7 +210,7 @@ pub const DEFAULT_RIDGE_BASE: f64 = 0.72;
 /// instead of a step; wider bands ramp more slowly.
 pub const DEFAULT_TYPE_BLEND_M: f64 = 0.0;
 /// Default isolation stretch ([`TreeOptions::isolation_stretch`]).
-pub const DEFAULT_ISOLATION_STRETCH: f64 = 1.3;
+pub const DEFAULT_ISOLATION_STRETCH: f64 = 1.2;
 /// Default number of placement passes (see `docs/notes/oro_author.md`).
 pub const DEFAULT_PASSES: usize = 4;
 /// Default ridge attraction of the multi-pass placement.
