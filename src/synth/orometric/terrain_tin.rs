@@ -253,6 +253,10 @@ const CHANNEL_BAND: f64 = 0.71;
 /// super-tile size; see [`TinTerrain::build_block`]).
 const BLOCK_SIDE: usize = 512;
 
+/// Cells around a tree peak (Chebyshev) where the noise cannot lift a cell
+/// to within half the threshold of the summit.
+const PEAK_CALM: usize = 16;
+
 /// Halo of the reconstruction blocks, cells.
 const BLOCK_HALO: usize = 32;
 
@@ -280,6 +284,127 @@ const CACHE_BYTES: usize = 128 << 20;
 /// Background cells around a region sampled with it: 8 earlier phases, each
 /// reaching 2 cells, plus one.
 const SAMPLE_PAD: i64 = 17;
+
+/// Items at cells (`pos`), listed per bucket (side `b` cells, `lnx` x `lny`
+/// buckets) for every bucket within Chebyshev distance `radius` of their
+/// cell: (start per bucket, items).
+fn bucket_cells<T: Copy>(
+    items: &[T],
+    pos: impl Fn(&T) -> (u32, u32),
+    radius: u32,
+    b: usize,
+    lnx: usize,
+    lny: usize,
+) -> (Vec<u32>, Vec<T>) {
+    let span = |v: u32, n: usize| {
+        let lo = (v.saturating_sub(radius) as usize / b).min(n - 1);
+        (lo, ((v + radius) as usize / b).min(n - 1))
+    };
+    let mut start = vec![0u32; lnx * lny + 1];
+    for it in items {
+        let (c, r) = pos(it);
+        let ((x0, x1), (y0, y1)) = (span(c, lnx), span(r, lny));
+        for by in y0..=y1 {
+            for bx in x0..=x1 {
+                start[by * lnx + bx + 1] += 1;
+            }
+        }
+    }
+    for i in 1..start.len() {
+        start[i] += start[i - 1];
+    }
+    let mut fill = start.clone();
+    let mut out = Vec::with_capacity(start[lnx * lny] as usize);
+    // Placed by bucket: fill positions in a second pass.
+    let mut slots: Vec<Option<T>> = vec![None; start[lnx * lny] as usize];
+    for it in items {
+        let (c, r) = pos(it);
+        let ((x0, x1), (y0, y1)) = (span(c, lnx), span(r, lny));
+        for by in y0..=y1 {
+            for bx in x0..=x1 {
+                let k = by * lnx + bx;
+                slots[fill[k] as usize] = Some(*it);
+                fill[k] += 1;
+            }
+        }
+    }
+    out.extend(slots.into_iter().flatten());
+    (start, out)
+}
+
+/// Grey-scale reconstruction on the skeleton triangulation (Vincent 1993,
+/// on a graph): every river or frame vertex becomes min(its elevation, the
+/// highest level at which a path of triangle edges joins it to a ridge
+/// vertex), by a priority flood from the ridge vertices (`kind` 0 or 1),
+/// highest first. Rivers far from the ridges can otherwise stand as hills
+/// of the skeleton (a stretch of river above every river around it), too
+/// wide for the per-block reconstruction of the raster. A river stays
+/// non-increasing downstream: a node joined to the ridges at level L passes
+/// at least min(z, L) to its downstream node, which was at most z.
+fn reconstruct_skeleton(sk: &mut [[f64; 3]], kind: &[u8], tris: &[[u32; 3]]) {
+    let n = sk.len();
+    let mut start = vec![0u32; n + 1];
+    for t in tris {
+        for &v in t {
+            start[v as usize + 1] += 2;
+        }
+    }
+    for i in 1..=n {
+        start[i] += start[i - 1];
+    }
+    let mut fill = start.clone();
+    let mut adj = vec![0u32; start[n] as usize];
+    for t in tris {
+        for k in 0..3 {
+            let (a, b, c) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
+            for u in [b, c] {
+                adj[fill[a as usize] as usize] = u;
+                fill[a as usize] += 1;
+            }
+        }
+    }
+    drop(fill);
+    let ord = |v: f64| {
+        let b = v.to_bits();
+        if b >> 63 == 1 {
+            !b
+        } else {
+            b | (1 << 63)
+        }
+    };
+    let mut level = vec![f64::NAN; n];
+    let mut heap: BinaryHeap<(u64, Reverse<u32>)> = BinaryHeap::new();
+    for v in 0..n {
+        if kind[v] <= 1 {
+            level[v] = sk[v][2];
+            heap.push((ord(level[v]), Reverse(v as u32)));
+        }
+    }
+    let mut done = vec![false; n];
+    while let Some((_, Reverse(v))) = heap.pop() {
+        let v = v as usize;
+        if done[v] {
+            continue;
+        }
+        done[v] = true;
+        for &u in &adj[start[v] as usize..start[v + 1] as usize] {
+            let u = u as usize;
+            if done[u] || kind[u] <= 1 {
+                continue;
+            }
+            let l = sk[u][2].min(level[v]);
+            if level[u].is_nan() || l > level[u] {
+                level[u] = l;
+                heap.push((ord(l), Reverse(u as u32)));
+            }
+        }
+    }
+    for v in 0..n {
+        if kind[v] > 1 && level[v] < sk[v][2] {
+            sk[v][2] = level[v];
+        }
+    }
+}
 
 /// SplitMix64 finaliser (Steele, Lea & Flood 2014, "Fast splittable
 /// pseudorandom number generators", OOPSLA): a hash of a 64-bit word.
@@ -445,6 +570,10 @@ pub struct TinTerrain {
     pinch: Vec<(u32, u32, f64, u32)>,
     /// Cells holding a tree peak (never pinched).
     peak_cells: std::collections::HashSet<(u32, u32)>,
+    /// Tree peaks (col, row, elevation) per bucket of the line index, for
+    /// the buckets within [`PEAK_CALM`] cells of them.
+    kstart: Vec<u32>,
+    calm: Vec<(u32, u32, f64)>,
     band: f64,
     noise: Option<(Fbm, f64)>,
     side: usize,
@@ -522,7 +651,7 @@ impl TinTerrain {
                 "terrain: a noise amplitude of {amp} m could make peaks of prominence ≥ the threshold {thr} m; keep it below half the threshold"
             )));
         }
-        let rivers = RiverNetwork::new(
+        let mut rivers = RiverNetwork::new(
             tree,
             &RiverOptions {
                 spacing_m: lambda,
@@ -532,17 +661,18 @@ impl TinTerrain {
                 river_slope: opts.river_slope,
             },
         )?;
+        let mut nodes = std::mem::take(&mut rivers.nodes);
         let ridges = &rivers.ridges;
         let np = tree.peaks.len();
-        let nn = rivers.nodes.len();
+        let nn = nodes.len();
 
         // Skeleton: ridges (peaks first), river nodes, frame; deduplicated.
         let n_ridge = ridges.pts.len();
         let mut all: Vec<[f64; 3]> = ridges.pts.clone();
-        all.extend(rivers.nodes.iter().map(|n| [n.x, n.y, n.z]));
+        all.extend(nodes.iter().map(|n| [n.x, n.y, n.z]));
         let s0 = all.len();
         all.extend_from_slice(&rivers.frame);
-        let (sk, map) = dedup(&all);
+        let (mut sk, map) = dedup(&all);
         drop(all);
         let mut first = vec![u32::MAX; sk.len()];
         for (i, &m) in map.iter().enumerate() {
@@ -551,13 +681,14 @@ impl TinTerrain {
             }
         }
         let mut has_up = vec![false; nn];
-        for n in &rivers.nodes {
+        for n in &nodes {
             if let Some(d) = n.down {
                 has_up[d as usize] = true;
             }
         }
         let mut sk_kind = vec![2u8; sk.len()];
-        let mut sk_down = vec![f64::NAN; sk.len()];
+        // River sources: (skeleton vertex, downstream node).
+        let mut sources: Vec<(usize, usize)> = Vec::new();
         for (v, &f) in first.iter().enumerate() {
             let f = f as usize;
             sk_kind[v] = if f < np {
@@ -569,8 +700,8 @@ impl TinTerrain {
             };
             if (n_ridge..s0).contains(&f) {
                 let i = f - n_ridge;
-                if let (false, Some(d)) = (has_up[i], rivers.nodes[i].down) {
-                    sk_down[v] = rivers.nodes[d as usize].z;
+                if let (false, Some(d)) = (has_up[i], nodes[i].down) {
+                    sources.push((v, d as usize));
                 }
             }
         }
@@ -580,12 +711,13 @@ impl TinTerrain {
             .iter()
             .map(|s| [map[s[0] as usize], map[s[1] as usize]])
             .collect();
-        for (i, n) in rivers.nodes.iter().enumerate() {
+        for (i, n) in nodes.iter().enumerate() {
             if let Some(d) = n.down {
                 sk_edges.push([map[n_ridge + i], map[n_ridge + d as usize]]);
             }
         }
         sk_edges.retain(|e| e[0] != e[1]);
+        let node_sk: Vec<u32> = map[n_ridge..s0].to_vec();
         drop(map);
         let mut sk_adj_start = vec![0u32; sk.len() + 1];
         for e in &sk_edges {
@@ -614,6 +746,10 @@ impl TinTerrain {
                 .map(|f| f.vertices().map(|v| v.fix().index() as u32))
                 .collect();
             drop(t);
+            reconstruct_skeleton(&mut sk, &sk_kind, &tris);
+            for (n, &v) in nodes.iter_mut().zip(&node_sk) {
+                n.z = sk[v as usize][2];
+            }
             let tin = Tin::new(
                 sk.iter().map(|p| [p[0], p[1]]).collect(),
                 sk.iter().map(|p| p[2]).collect(),
@@ -623,6 +759,11 @@ impl TinTerrain {
             )?;
             (tin, dropped)
         };
+        let mut sk_down = vec![f64::NAN; sk.len()];
+        for &(v, d) in &sources {
+            sk_down[v] = nodes[d].z;
+        }
+        drop(sources);
         let sk_grid = PointGrid::new(
             sk.iter().map(|p| [p[0], p[1]]).collect(),
             2.0 * lambda,
@@ -634,14 +775,14 @@ impl TinTerrain {
                 .pts
                 .iter()
                 .map(|p| [p[0], p[1]])
-                .chain(rivers.nodes.iter().map(|n| [n.x, n.y]))
+                .chain(nodes.iter().map(|n| [n.x, n.y]))
                 .collect(),
             2.0 * lambda,
             wm,
             hm,
         );
         let river_grid = PointGrid::new(
-            rivers.nodes.iter().map(|n| [n.x, n.y]).collect(),
+            nodes.iter().map(|n| [n.x, n.y]).collect(),
             4.0 * lambda,
             wm,
             hm,
@@ -659,9 +800,9 @@ impl TinTerrain {
                 saddle: k,
             })
             .collect();
-        for n in &rivers.nodes {
+        for n in &nodes {
             if let Some(d) = n.down {
-                let m = &rivers.nodes[d as usize];
+                let m = &nodes[d as usize];
                 lines.push(Line {
                     a: [n.x, n.y, n.z],
                     b: [m.x, m.y, m.z],
@@ -759,39 +900,18 @@ impl TinTerrain {
                 (c, r, s.elevation, k as u32)
             })
             .collect();
-        // Buckets (x0..=x1, y0..=y1) touched by the 3 x 3 block of a cell.
-        let pbucket = |c: u32, r: u32| {
-            let span = |v: u32, n: usize| {
-                let lo = (v.saturating_sub(1) as usize / b).min(n - 1);
-                (lo, ((v as usize + 1) / b).min(n - 1))
-            };
-            (span(c, lnx), span(r, lny))
-        };
-        let mut pstart = vec![0u32; lnx * lny + 1];
-        for &(c, r, _, _) in &saddle_cells {
-            let ((x0, x1), (y0, y1)) = pbucket(c, r);
-            for by in y0..=y1 {
-                for bx in x0..=x1 {
-                    pstart[by * lnx + bx + 1] += 1;
-                }
-            }
-        }
-        for i in 1..pstart.len() {
-            pstart[i] += pstart[i - 1];
-        }
-        let mut fill = pstart.clone();
-        let mut pinch = vec![(0u32, 0u32, 0f64, 0u32); pstart[lnx * lny] as usize];
-        for &sc in &saddle_cells {
-            let ((x0, x1), (y0, y1)) = pbucket(sc.0, sc.1);
-            for by in y0..=y1 {
-                for bx in x0..=x1 {
-                    let k = by * lnx + bx;
-                    pinch[fill[k] as usize] = sc;
-                    fill[k] += 1;
-                }
-            }
-        }
-        drop(fill);
+        let (pstart, pinch) = bucket_cells(&saddle_cells, |p| (p.0, p.1), 1, b, lnx, lny);
+        let peak_list: Vec<(u32, u32, f64)> = tree
+            .peaks
+            .iter()
+            .map(|p| {
+                let (c, r) = cell_of(p.x, p.y);
+                (c, r, p.elevation)
+            })
+            .collect();
+        let (kstart, calm) =
+            bucket_cells(&peak_list, |p| (p.0, p.1), PEAK_CALM as u32, b, lnx, lny);
+        rivers.nodes = nodes;
         Ok(TinTerrain {
             info: RasterInfo {
                 width: tree.width,
@@ -829,6 +949,8 @@ impl TinTerrain {
             pstart,
             pinch,
             peak_cells,
+            kstart,
+            calm,
             band,
             noise,
             side,
@@ -1295,6 +1417,19 @@ impl TinTerrain {
             if wgt > 0.0 {
                 noise = amp * wgt * fbm.sample(col as f64 + 0.5, row as f64 + 0.5);
             }
+            // Near a tree peak, noise lifts no cell above half the
+            // threshold under the summit: on a broad summit it could
+            // otherwise make a higher cell a few cells off the peak.
+            if noise > 0.0 {
+                let k = &self.calm[self.kstart[b] as usize..self.kstart[b + 1] as usize];
+                for &(pc, pr, pz) in k {
+                    if pc.abs_diff(col as u32) <= PEAK_CALM as u32
+                        && pr.abs_diff(row as u32) <= PEAK_CALM as u32
+                    {
+                        noise = noise.min((pz - 0.5 * self.thr - v).max(0.0));
+                    }
+                }
+            }
         }
         (v, keep, noise)
     }
@@ -1440,8 +1575,15 @@ impl TinTerrain {
         for r in r0..r1 {
             for c in c0..c1 {
                 let i = (r - ey0) * ew + c - ex0;
-                let v = if level[i].is_nan() { val[i] } else { level[i] };
-                cells[(r - r0) * bw + c - c0] = (v + noise[i]) as f32;
+                // A cut knoll is flat at its col: noise only roughens it
+                // downwards, so it cannot rise above the col (next to a
+                // summit, the col can be within the noise of the peak).
+                let (v, z) = if level[i] < val[i] {
+                    (level[i], noise[i].min(0.0))
+                } else {
+                    (val[i], noise[i])
+                };
+                cells[(r - r0) * bw + c - c0] = (v + z) as f32;
             }
         }
         Ok(Block { cells })
