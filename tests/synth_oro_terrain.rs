@@ -488,3 +488,87 @@ fn cli_terrain_models_and_erosion() {
         .unwrap();
     assert!(!st.status.success());
 }
+
+/// The knoll reconstruction runs per block of a fixed 512-cell grid: across
+/// block borders, any window equals the whole render bit for bit, whatever
+/// the super-tile size; and the render of a tree spanning 3 x 2 blocks has
+/// no peak the tree does not have (measured: 90 tree peaks, 1 lost, 0
+/// spurious).
+#[test]
+fn blocks_tile_exactly_across_their_borders() {
+    let tree = toy_tree(1100, 600, 90, 21);
+    let whole = TinTerrain::new(&tree, &tin_opts(6.0)).unwrap();
+    let g = whole.render().unwrap();
+    let other = TinTerrain::with_supertile(&tree, &tin_opts(6.0), 200).unwrap();
+    let h = other.render().unwrap();
+    let diff = g
+        .data()
+        .iter()
+        .zip(h.data())
+        .filter(|(a, b)| a.to_bits() != b.to_bits())
+        .count();
+    assert_eq!(diff, 0, "super-tiles of 200 cells: {diff} cells differ");
+    // Windows straddling the block borders at 512 and 1024 (columns) and
+    // 512 (rows), and a one-cell window on a border.
+    for (x, y, w, hh) in [
+        (480usize, 470usize, 70usize, 90usize),
+        (1000, 0, 100, 600),
+        (511, 511, 2, 2),
+        (0, 500, 1100, 30),
+    ] {
+        let win = whole.fill_window(x, y, w, hh).unwrap();
+        for r in 0..hh {
+            for c in 0..w {
+                assert_eq!(
+                    win[r * w + c].to_bits(),
+                    g.get(x + c, y + r).to_bits(),
+                    "window ({x}, {y}, {w}, {hh}) cell ({c}, {r})"
+                );
+            }
+        }
+    }
+    // The tree's peaks and no others (toy profile, 50 m cells).
+    let found = orogen::oro::peaks(
+        &g,
+        whole.georef(),
+        &PeakOptions {
+            min_prominence: tree.min_prominence,
+            convention: EdgeConvention::SeaLevel,
+            isolation: false,
+        },
+    )
+    .unwrap()
+    .tree;
+    let prom = tree.prominences();
+    let tc: Vec<(i64, i64)> = tree
+        .peaks
+        .iter()
+        .zip(&prom)
+        .filter(|(_, &p)| p >= tree.min_prominence)
+        .map(|(p, _)| ((p.x / tree.cell) as i64, (p.y / tree.cell) as i64))
+        .collect();
+    let near = |a: (i64, i64), b: (i64, i64)| (a.0 - b.0).abs() <= 1 && (a.1 - b.1).abs() <= 1;
+    let spurious = found
+        .peaks
+        .iter()
+        .filter(|q| !tc.iter().any(|&p| near(p, (q.col as i64, q.row as i64))))
+        .count();
+    let lost = tc
+        .iter()
+        .filter(|&&p| {
+            !found
+                .peaks
+                .iter()
+                .any(|q| near(p, (q.col as i64, q.row as i64)))
+        })
+        .count();
+    println!(
+        "{} tree peaks, {} found, {lost} lost, {spurious} spurious",
+        tc.len(),
+        found.peaks.len()
+    );
+    assert!(
+        lost <= 1 && spurious == 0,
+        "{lost} lost, {spurious} spurious"
+    );
+}
