@@ -18,6 +18,15 @@ fn toy_tree(w: usize, h: usize, peaks: usize, seed: u64) -> SynthTree {
     synthesize_tree(&toy_profile(), &o).unwrap()
 }
 
+/// Cells whose bits differ between two renders of one size.
+fn differing_cells(a: &Grid<f32>, b: &Grid<f32>) -> usize {
+    a.data()
+        .iter()
+        .zip(b.data())
+        .filter(|(x, y)| x.to_bits() != y.to_bits())
+        .count()
+}
+
 fn tin_opts(noise: f64) -> TerrainOptions {
     TerrainOptions {
         noise_amplitude: Some(noise),
@@ -294,12 +303,7 @@ fn supertiles_equal_the_global_tin() {
             println!("side {side}: {st:?}");
             assert_eq!(st.side, side);
             assert_eq!(st.built, 203usize.div_ceil(side) * 171usize.div_ceil(side));
-            let diff = g
-                .data()
-                .iter()
-                .zip(h.data())
-                .filter(|(a, b)| a.to_bits() != b.to_bits())
-                .count();
+            let diff = differing_cells(&g, &h);
             assert_eq!(diff, 0, "side {side}, noise {noise}: {diff} cells differ");
             // Same number of samples in the cores as in the whole raster.
             assert_eq!(st.samples, whole.supertile_stats().samples);
@@ -501,12 +505,7 @@ fn blocks_tile_exactly_across_their_borders() {
     let g = whole.render().unwrap();
     let other = TinTerrain::with_supertile(&tree, &tin_opts(6.0), 200).unwrap();
     let h = other.render().unwrap();
-    let diff = g
-        .data()
-        .iter()
-        .zip(h.data())
-        .filter(|(a, b)| a.to_bits() != b.to_bits())
-        .count();
+    let diff = differing_cells(&g, &h);
     assert_eq!(diff, 0, "super-tiles of 200 cells: {diff} cells differ");
     // Windows straddling the block borders at 512 and 1024 (columns) and
     // 512 (rows), and a one-cell window on a border.

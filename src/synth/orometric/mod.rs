@@ -22,6 +22,7 @@ pub mod edit;
 pub mod fragment;
 pub mod minimax;
 pub mod profile;
+pub mod reconstruct;
 pub mod rivers;
 pub mod terrain;
 pub mod terrain_tin;

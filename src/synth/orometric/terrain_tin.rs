@@ -69,6 +69,7 @@
 //! Every cell is a pure function of its position (and of the fixed block
 //! grid, which does not depend on the super-tile size or the window).
 
+use super::reconstruct::reconstruct;
 use super::rivers::{cdt, dedup, RiverNetwork, RiverOptions};
 use super::terrain::TerrainOptions;
 use super::tin::Tin;
@@ -78,8 +79,7 @@ use crate::raster::{AnyGrid, Crs, DType, GeoRef, Grid, RasterInfo, RasterSource,
 use crate::synth::Fbm;
 use rayon::prelude::*;
 use spade::Triangulation;
-use std::cmp::Reverse;
-use std::collections::{BinaryHeap, HashMap};
+use std::collections::HashMap;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, OnceLock};
 /// Points in a uniform bucket grid, for nearest-point queries.
@@ -364,45 +364,17 @@ fn reconstruct_skeleton(sk: &mut [[f64; 3]], kind: &[u8], tris: &[[u32; 3]]) {
         }
     }
     drop(fill);
-    let ord = |v: f64| {
-        let b = v.to_bits();
-        if b >> 63 == 1 {
-            !b
-        } else {
-            b | (1 << 63)
-        }
-    };
-    let mut level = vec![f64::NAN; n];
-    let mut heap: BinaryHeap<(u64, Reverse<u32>)> = BinaryHeap::new();
-    for v in 0..n {
-        if kind[v] <= 1 {
-            level[v] = sk[v][2];
-            heap.push((ord(level[v]), Reverse(v as u32)));
-        }
-    }
-    let mut done = vec![false; n];
-    while let Some((_, Reverse(v))) = heap.pop() {
-        let v = v as usize;
-        if done[v] {
-            continue;
-        }
-        done[v] = true;
-        for &u in &adj[start[v] as usize..start[v + 1] as usize] {
-            let u = u as usize;
-            if done[u] || kind[u] <= 1 {
-                continue;
-            }
-            let l = sk[u][2].min(level[v]);
-            if level[u].is_nan() || l > level[u] {
-                level[u] = l;
-                heap.push((ord(l), Reverse(u as u32)));
-            }
-        }
-    }
-    for v in 0..n {
-        if kind[v] > 1 && level[v] < sk[v][2] {
-            sk[v][2] = level[v];
-        }
+    let val: Vec<f64> = sk.iter().map(|p| p[2]).collect();
+    let marker: Vec<bool> = kind.iter().map(|&k| k <= 1).collect();
+    let level = reconstruct(&val, &marker, |v, buf| {
+        buf.extend(
+            adj[start[v] as usize..start[v + 1] as usize]
+                .iter()
+                .map(|&u| u as usize),
+        )
+    });
+    for (p, l) in sk.iter_mut().zip(level) {
+        p[2] = l;
     }
 }
 
@@ -1531,45 +1503,16 @@ impl TinTerrain {
                 }
             }
         }
-        let mut level = vec![f64::NAN; n];
-        let mut heap: BinaryHeap<(u64, Reverse<u32>)> = BinaryHeap::new();
-        // Order key of an elevation (monotone in the value, finite or not).
-        let ord = |v: f64| {
-            let b = v.to_bits();
-            if b >> 63 == 1 {
-                !b
-            } else {
-                b | (1 << 63)
-            }
-        };
-        for i in 0..n {
-            if marker[i] {
-                level[i] = val[i];
-                heap.push((ord(val[i]), Reverse(i as u32)));
-            }
-        }
-        let mut done = vec![false; n];
-        while let Some((_, Reverse(i))) = heap.pop() {
-            let i = i as usize;
-            if done[i] {
-                continue;
-            }
-            done[i] = true;
+        let level = reconstruct(&val, &marker, |i, buf| {
             let (c, r) = (i % ew, i / ew);
             for rr in r.saturating_sub(1)..(r + 2).min(eh) {
                 for cc in c.saturating_sub(1)..(c + 2).min(ew) {
-                    let j = rr * ew + cc;
-                    if done[j] || marker[j] {
-                        continue;
-                    }
-                    let l = val[j].min(level[i]);
-                    if level[j].is_nan() || l > level[j] {
-                        level[j] = l;
-                        heap.push((ord(l), Reverse(j as u32)));
+                    if (cc, rr) != (c, r) {
+                        buf.push(rr * ew + cc);
                     }
                 }
             }
-        }
+        });
         let bw = c1 - c0;
         let mut cells = vec![0f32; bw * (r1 - r0)];
         for r in r0..r1 {
