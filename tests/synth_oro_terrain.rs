@@ -571,3 +571,26 @@ fn blocks_tile_exactly_across_their_borders() {
         "{lost} lost, {spurious} spurious"
     );
 }
+
+/// A tree whose ridges cross (three crossings: made by moving peaks, as a
+/// hand edit can; `tests/data/oro/crossing_ridges_tree.json`). The ridge
+/// triangulation drops the crossing segments; they must then be left out of
+/// every later triangulation, else the constrained Delaunay triangulation
+/// depends on insertion order and super-tiles stop matching the global TIN
+/// (before the fix: 3 to 6 cells differed for sides 24, 40 and 64).
+#[test]
+fn crossing_ridges_keep_supertiles_exact() {
+    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/oro/crossing_ridges_tree.json");
+    let tree: SynthTree = serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap();
+    let whole = TinTerrain::with_supertile(&tree, &tin_opts(0.0), 1 << 12).unwrap();
+    assert_eq!(whole.rivers().dropped_ridges, 3);
+    // No further drop in the skeleton: the same non-crossing constraints.
+    assert_eq!(whole.dropped_constraints(), 3);
+    let g = whole.render().unwrap();
+    for side in [24usize, 40, 64] {
+        let cut = TinTerrain::with_supertile(&tree, &tin_opts(0.0), side).unwrap();
+        let diff = differing_cells(&g, &cut.render().unwrap());
+        assert_eq!(diff, 0, "side {side}: {diff} cells differ");
+    }
+}

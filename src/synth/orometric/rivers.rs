@@ -90,6 +90,11 @@ pub struct RiverNetwork {
     pub frame: Vec<[f64; 3]>,
     /// Ridge segments the triangulation could not keep (they crossed another).
     pub dropped_ridges: usize,
+    /// Whether each ridge segment is a constraint of the triangulations
+    /// (parallel to `ridges.segs`; false for the dropped ones, so every
+    /// triangulation of the terrain, global or per super-tile, sees the same
+    /// non-crossing constraints and does not depend on insertion order).
+    pub ridge_constrained: Vec<bool>,
     /// Triangles that could not reach the border (should be 0).
     pub sinks: usize,
 }
@@ -225,15 +230,24 @@ pub fn cdt(
     pts: &[[f64; 3]],
     edges: &[[u32; 2]],
 ) -> Result<(ConstrainedDelaunayTriangulation<Point2<f64>>, usize)> {
+    let (t, dropped) = cdt_dropping(pts, edges)?;
+    Ok((t, dropped.len()))
+}
+
+/// The constrained Delaunay triangulation of the terrain's points.
+pub type Cdt = ConstrainedDelaunayTriangulation<Point2<f64>>;
+
+/// As [`cdt`], returning the edges dropped (index pairs into `pts`).
+pub fn cdt_dropping(pts: &[[f64; 3]], edges: &[[u32; 2]]) -> Result<(Cdt, Vec<[usize; 2]>)> {
     let verts: Vec<Point2<f64>> = pts.iter().map(|p| Point2::new(p[0], p[1])).collect();
     let e: Vec<[usize; 2]> = edges
         .iter()
         .filter(|e| e[0] != e[1])
         .map(|e| [e[0] as usize, e[1] as usize])
         .collect();
-    let mut dropped = 0usize;
-    let t = ConstrainedDelaunayTriangulation::<Point2<f64>>::try_bulk_load_cdt(verts, e, |_| {
-        dropped += 1
+    let mut dropped = Vec::new();
+    let t = ConstrainedDelaunayTriangulation::<Point2<f64>>::try_bulk_load_cdt(verts, e, |d| {
+        dropped.push(d)
     })
     .map_err(|e| Error::invalid(format!("terrain: triangulation failed ({e:?})")))?;
     if t.num_vertices() != pts.len() {
@@ -297,7 +311,26 @@ impl RiverNetwork {
             .iter()
             .map(|s| [map[s[0] as usize], map[s[1] as usize]])
             .collect();
-        let (t, dropped) = cdt(&uniq, &edges)?;
+        let (t, dropped_edges) = cdt_dropping(&uniq, &edges)?;
+        let dropped = dropped_edges.len();
+        let mut ridge_constrained = vec![true; edges.len()];
+        if dropped > 0 {
+            let mut of_pair: HashMap<(u32, u32), Vec<usize>> = HashMap::new();
+            for (k, e) in edges.iter().enumerate() {
+                of_pair
+                    .entry((e[0].min(e[1]), e[0].max(e[1])))
+                    .or_default()
+                    .push(k);
+            }
+            for d in &dropped_edges {
+                let (a, b) = (d[0] as u32, d[1] as u32);
+                if let Some(ks) = of_pair.get(&(a.min(b), a.max(b))) {
+                    for &k in ks {
+                        ridge_constrained[k] = false;
+                    }
+                }
+            }
+        }
         // Where each unique ridge vertex lies on the tree (None: frame).
         let mut anchor: Vec<Option<RidgeAnchor>> = vec![None; uniq.len()];
         for (i, &m) in map[..n_ridge].iter().enumerate().rev() {
@@ -531,6 +564,7 @@ impl RiverNetwork {
             nodes,
             frame,
             dropped_ridges: dropped,
+            ridge_constrained,
             sinks,
         })
     }

@@ -681,7 +681,9 @@ impl TinTerrain {
         let mut sk_edges: Vec<[u32; 2]> = ridges
             .segs
             .iter()
-            .map(|s| [map[s[0] as usize], map[s[1] as usize]])
+            .zip(&rivers.ridge_constrained)
+            .filter(|(_, &c)| c)
+            .map(|(s, _)| [map[s[0] as usize], map[s[1] as usize]])
             .collect();
         for (i, n) in nodes.iter().enumerate() {
             if let Some(d) = n.down {
