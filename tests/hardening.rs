@@ -11,19 +11,13 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+mod common;
+use common::cli::run_env as run;
+
 const BIN: &str = env!("CARGO_BIN_EXE_orogen");
 
 fn dem() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/whitebox_DEM.tif")
-}
-
-fn run(args: &[&str], env: &[(&str, &str)]) -> Output {
-    let mut c = Command::new(BIN);
-    c.args(args);
-    for (k, v) in env {
-        c.env(k, v);
-    }
-    c.output().unwrap()
 }
 
 fn stderr(o: &Output) -> String {

@@ -6,24 +6,9 @@
 use orogen::exec::EngineConfig;
 use orogen::raster::{read_window, GeoRef, Grid, MemRaster, Window};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
-const BIN: &str = env!("CARGO_BIN_EXE_orogen");
-
-fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data")
-        .join(name)
-}
-
-fn run(args: &[&str], env: &[(&str, &str)]) -> Output {
-    let mut c = Command::new(BIN);
-    c.args(args);
-    for (k, v) in env {
-        c.env(k, v);
-    }
-    c.output().unwrap()
-}
+mod common;
+use common::cli::{data, run_env as run};
 
 fn ok(args: &[&str]) {
     let o = run(args, &[]);

@@ -40,6 +40,15 @@ pub fn fails(cmd: &mut Command) -> String {
     err
 }
 
+/// `orogen ARGS` with extra environment variables, run to completion.
+pub fn run_env(args: &[&str], env: &[(&str, &str)]) -> Output {
+    orogen()
+        .args(args)
+        .envs(env.iter().copied())
+        .output()
+        .expect("run orogen")
+}
+
 /// `orogen ARGS`, run to completion.
 pub fn run_args(args: &[&str]) -> Output {
     orogen().args(args).output().expect("run orogen")
