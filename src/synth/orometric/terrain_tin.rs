@@ -540,10 +540,9 @@ pub struct TinTerrain {
     /// of the saddle cells whose 3 x 3 block touches the bucket.
     pstart: Vec<u32>,
     pinch: Vec<(u32, u32, f64, u32)>,
-    /// Cells holding a tree peak (never pinched).
-    peak_cells: std::collections::HashSet<(u32, u32)>,
     /// Tree peaks (col, row, elevation) per bucket of the line index, for
-    /// the buckets within [`PEAK_CALM`] cells of them.
+    /// the buckets within [`PEAK_CALM`] cells of them (also: the cells a
+    /// pinch leaves alone).
     kstart: Vec<u32>,
     calm: Vec<(u32, u32, f64)>,
     band: f64,
@@ -863,8 +862,6 @@ impl TinTerrain {
                 ((y / cell).floor().clamp(0.0, (tree.height - 1) as f64)) as u32,
             )
         };
-        let peak_cells: std::collections::HashSet<(u32, u32)> =
-            tree.peaks.iter().map(|p| cell_of(p.x, p.y)).collect();
         let saddle_cells: Vec<(u32, u32, f64, u32)> = tree
             .saddles
             .iter()
@@ -922,7 +919,6 @@ impl TinTerrain {
             lids,
             pstart,
             pinch,
-            peak_cells,
             kstart,
             calm,
             band,
@@ -1377,7 +1373,9 @@ impl TinTerrain {
                 && dr <= 1
                 && (dc, dr) != (0, 0)
                 && v > sz
-                && !self.peak_cells.contains(&(col as u32, row as u32))
+                && !self.calm[self.kstart[b] as usize..self.kstart[b + 1] as usize]
+                    .iter()
+                    .any(|p| (p.0, p.1) == (col as u32, row as u32))
                 && !self.on_other_crest(b, x, y, k)
             {
                 v = sz;
