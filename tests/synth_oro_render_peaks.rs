@@ -22,6 +22,82 @@ struct Tally {
     lost: usize,
     lost_edge: usize,
     spurious: [usize; 4],
+    /// Recovered peaks whose key saddle is more than one cell (Chebyshev)
+    /// from the tree's, or off its elevation by more than the noise bound.
+    saddles_off: usize,
+    /// Largest key-saddle offset of the recovered peaks (cells) and
+    /// elevation difference (m).
+    saddle_cells: i64,
+    saddle_dz: f64,
+}
+
+/// Cells 8-connected to (c, r) within `tol` of its elevation (at most
+/// `max` of them).
+fn flat_region(
+    dem: &orogen::raster::Grid<f32>,
+    c: usize,
+    r: usize,
+    tol: f32,
+    max: usize,
+) -> Vec<(i64, i64)> {
+    let z = dem.get(c, r);
+    let (w, h) = (dem.width() as i64, dem.height() as i64);
+    let mut out = vec![(c as i64, r as i64)];
+    let mut k = 0;
+    while k < out.len() && out.len() < max {
+        let (x, y) = out[k];
+        k += 1;
+        for dy in -1..=1 {
+            for dx in -1..=1 {
+                let (nx, ny) = (x + dx, y + dy);
+                if nx < 0 || ny < 0 || nx >= w || ny >= h || out.contains(&(nx, ny)) {
+                    continue;
+                }
+                if (dem.get(nx as usize, ny as usize) - z).abs() <= tol {
+                    out.push((nx, ny));
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Key saddle of each tree peak (None for the highest): the highest saddle
+/// on the way to any higher peak, by depth-first search from each peak.
+fn tree_key_saddles(t: &SynthTree) -> Vec<Option<usize>> {
+    let n = t.peaks.len();
+    let mut adj = vec![Vec::new(); n];
+    for (k, s) in t.saddles.iter().enumerate() {
+        adj[s.peaks[0]].push((s.peaks[1], k));
+        adj[s.peaks[1]].push((s.peaks[0], k));
+    }
+    (0..n)
+        .map(|i| {
+            let h = t.peaks[i].elevation;
+            let mut best: Option<(f64, usize)> = None;
+            let mut seen = vec![false; n];
+            seen[i] = true;
+            let mut stack: Vec<(usize, Option<(f64, usize)>)> = vec![(i, None)];
+            while let Some((v, low)) = stack.pop() {
+                for &(u, k) in &adj[v] {
+                    if seen[u] {
+                        continue;
+                    }
+                    seen[u] = true;
+                    let z = t.saddles[k].elevation;
+                    let m = match low {
+                        Some((lz, lk)) if lz <= z => (lz, lk),
+                        _ => (z, k),
+                    };
+                    if t.peaks[u].elevation > h && best.is_none_or(|b| m.0 > b.0) {
+                        best = Some(m);
+                    }
+                    stack.push((u, Some(m)));
+                }
+            }
+            best.map(|b| b.1)
+        })
+        .collect()
 }
 
 fn tally(name: &str, thr: f64, seed: u64) -> Option<Tally> {
@@ -52,6 +128,7 @@ fn tally(name: &str, thr: f64, seed: u64) -> Option<Tally> {
         .collect();
     let near = |a: (i64, i64), b: (i64, i64)| (a.0 - b.0).abs() <= 1 && (a.1 - b.1).abs() <= 1;
     let prom = t.prominences();
+    let keys = tree_key_saddles(&t);
     let mut out = Tally {
         tree: t.peaks.len(),
         found: found.peaks.len(),
@@ -71,6 +148,45 @@ fn tally(name: &str, thr: f64, seed: u64) -> Option<Tally> {
                 dz <= amp + 0.01,
                 "{name} seed {seed}: peak {i} found {dz} m off the tree's elevation"
             );
+            // Its key saddle: the tree's, within a cell and the noise bound.
+            if let (Some(k), Some(fk)) = (keys[i], q.key_saddle) {
+                let (ts, fs) = (&t.saddles[k], &found.saddles[fk]);
+                // A raster saddle is a flat region (its representative is
+                // its first cell in row-major order): distance from any of
+                // its cells. Saddles of equal elevation on the key path tie
+                // (profiles of integer DEMs give many): any tree saddle at
+                // the key saddle's elevation counts.
+                let flat = flat_region(&dem, fs.col as usize, fs.row as usize, 1e-3, 400);
+                let d = t
+                    .saddles
+                    .iter()
+                    .filter(|s| (s.elevation - ts.elevation).abs() <= 1e-3)
+                    .flat_map(|s| {
+                        let c = ((s.x / cell) as i64, (s.y / cell) as i64);
+                        flat.iter()
+                            .map(move |&(fc, fr)| (c.0 - fc).abs().max((c.1 - fr).abs()))
+                    })
+                    .min()
+                    .unwrap_or(i64::MAX);
+                let e = (fs.elevation as f64 - ts.elevation).abs();
+                // A key saddle at the floor (0 m: the tree's islands) is the
+                // sea under the SeaLevel convention, anywhere along it.
+                let sea = ts.elevation <= 0.0 && (fs.elevation as f64) <= amp;
+                let d = if sea { 0 } else { d };
+                out.saddle_cells = out.saddle_cells.max(d);
+                out.saddle_dz = out.saddle_dz.max(e);
+                if d > 1 || e > amp + 0.01 {
+                    out.saddles_off += 1;
+                    println!(
+                        "  {name} s{seed} peak {i}: key saddle {k} at {:?} {:.2} m, found at ({}, {}) {:.2} m",
+                        ((ts.x / cell) as i64, (ts.y / cell) as i64),
+                        ts.elevation,
+                        fs.col,
+                        fs.row,
+                        fs.elevation
+                    );
+                }
+            }
         }
     }
     for (i, &c) in tc.iter().enumerate() {
@@ -211,20 +327,33 @@ fn tally(name: &str, thr: f64, seed: u64) -> Option<Tally> {
     Some(out)
 }
 
-/// Seeds 1-6 on both real profiles. No spurious peak on either; the few
-/// tree peaks lost (1 of ~1000 on the low-relief profile, 7 of ~3500 on
-/// the Alps) stand within one or two cells of another peak's ridge or
-/// flank, or their raster pass reads above the tree's saddle (see
-/// docs/notes/oro7.md). The bounds are the figures measured (session 7,
-/// default TIN render), asserted per seed and in total so that a change
-/// which adds or loses peaks fails here.
+/// Seeds 1-6 on both real profiles (~1000 and ~3500 tree peaks). Session
+/// 8, with the tree keeping peaks and saddles clear of ridges joined to them
+/// lower down (`clearance`): no tree peak lost (session 7: 1 and 7), no
+/// spurious peak, and every recovered peak's key saddle within one cell of
+/// the tree's and within the noise bound of its elevation, but for 3 of the
+/// Alps: two cells off, 6.9 m, 36.3 m and 1.7 m above the tree's saddle. The
+/// one examined (seed 3, peak 566) has a half-ridge falling 670 m in two
+/// cells, where a crest cell touches the next peak's flank diagonally across
+/// a river channel (docs/notes/oro8.md). The bounds are the figures
+/// measured (default TIN render), asserted per seed and in total so that a
+/// change which adds or loses peaks or moves saddles fails here.
 #[test]
 fn render_peaks_match_the_tree() {
     // (name, threshold, most lost per seed, total lost, most spurious per
-    // seed, total spurious)
-    for (name, thr, lost_seed, lost_all, sp_seed, sp_all) in [
-        ("pysheds_dem.tif", 5.0, 1, 1, 0, 0),
-        ("terraindescriptors_alps_montblanc.tif", 30.0, 2, 7, 0, 0),
+    // seed, total spurious, most key saddles off per seed, total off)
+    for (name, thr, lost_seed, lost_all, sp_seed, sp_all, off_seed, off_all) in [
+        ("pysheds_dem.tif", 5.0, 0, 0, 0, 0, 0, 0),
+        (
+            "terraindescriptors_alps_montblanc.tif",
+            30.0,
+            0,
+            0,
+            0,
+            0,
+            1,
+            3,
+        ),
     ] {
         let mut all = Vec::new();
         for seed in 1..=6u64 {
@@ -248,10 +377,13 @@ fn render_peaks_match_the_tree() {
             let s: usize = t.spurious.iter().sum();
             assert!(t.lost <= lost_seed, "{name} seed {}: {t:?}", k + 1);
             assert!(s <= sp_seed, "{name} seed {}: {t:?}", k + 1);
+            assert!(t.saddles_off <= off_seed, "{name} seed {}: {t:?}", k + 1);
             // The tree's peaks are nearly all there: ≥ 99.4 % recovered.
             assert!(t.lost * 1000 <= 6 * t.tree, "{name} seed {}: {t:?}", k + 1);
         }
         assert!(lost <= lost_all, "{name}: lost {lost}");
+        let off: usize = all.iter().map(|t| t.saddles_off).sum();
+        assert!(off <= off_all, "{name}: {off} key saddles off");
         assert!(
             sp.iter().sum::<usize>() <= sp_all,
             "{name}: spurious {sp:?}"

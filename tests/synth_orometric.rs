@@ -389,8 +389,21 @@ fn split_errors(
     refine: bool,
     render: bool,
 ) -> ([f64; 3], Option<[f64; 3]>) {
-    let (w, h) = (g.width(), g.height());
-    let (sx, sy) = geo.cell_size_m(h as i64 / 2);
+    split_errors_scaled(g, geo, prof, seed, refine, render, 1)
+}
+
+/// [`split_errors`] on a domain `scale` times the DEM's side (same cell).
+fn split_errors_scaled(
+    g: &Grid<f32>,
+    geo: &GeoRef,
+    prof: &SynthProfile,
+    seed: u64,
+    refine: bool,
+    render: bool,
+    scale: usize,
+) -> ([f64; 3], Option<[f64; 3]>) {
+    let (w, h) = (g.width() * scale, g.height() * scale);
+    let (sx, sy) = geo.cell_size_m(g.height() as i64 / 2);
     let cell = (sx * sy).sqrt();
     let mut o = TreeOptions::new(w, h, cell, seed);
     o.refine = refine;
@@ -445,10 +458,14 @@ const SEEDS: [u64; 6] = [1, 2, 3, 4, 5, 6];
 /// Terrain errors over [`SEEDS`]: (worst, mean) per [isolation,
 /// prominence, dominance].
 fn terrain_errors(name: &str, thr: f64) -> Option<([f64; 3], [f64; 3])> {
+    terrain_errors_scaled(name, thr, 1)
+}
+
+fn terrain_errors_scaled(name: &str, thr: f64, scale: usize) -> Option<([f64; 3], [f64; 3])> {
     let (g, geo, prof) = real_profile(name, thr)?;
     let (mut worst, mut mean) = ([0.0f64; 3], [0.0f64; 3]);
     for seed in SEEDS {
-        let (tree, ter) = split_errors(&g, &geo, &prof, seed, true, true);
+        let (tree, ter) = split_errors_scaled(&g, &geo, &prof, seed, true, true, scale);
         let ter = ter.unwrap();
         println!("{name} seed {seed}: tree {tree:.4?} terrain {ter:.4?}");
         for k in 0..3 {
@@ -466,15 +483,14 @@ fn distributions_match_the_alps_profile() {
         return;
     };
     // The paper's figures (isolation ≤ 8 %, prominence and dominance
-    // ≤ 3 %): prominence and dominance on every seed (worst = the largest
-    // of seeds 1-6), isolation on the mean, and within 9 % on every seed.
-    // Measured (session 7: the render keeps the tree's peaks, isolation
-    // stretch 1.2): isolation 5.1-8.3 %, 7.1 % mean; prominence 0.9-1.4 %;
-    // dominance 0.3-0.6 % (session 6, before the render was exact:
-    // isolation 5.2-7.9 %, prominence 1.4-2.6 %, dominance 0.6-1.5 %;
-    // docs/notes/oro7.md).
+    // ≤ 3 %) on every seed (worst = the largest of seeds 1-6). Measured
+    // (session 8: the tree keeps peaks and saddles clear of ridges,
+    // `clearance`): isolation 4.9-7.9 %, 6.9 % mean; prominence
+    // 0.8-1.4 %; dominance 0.1-0.6 % (session 7: isolation 5.1-8.3 %;
+    // session 6, before the render was exact: isolation 5.2-7.9 %,
+    // prominence 1.4-2.6 %, dominance 0.6-1.5 %; docs/notes/oro8.md).
     assert!(
-        worst[0] <= 0.09 && mean[0] <= 0.08,
+        worst[0] <= 0.08 && mean[0] <= 0.075,
         "isolation {mean:?} {worst:?}"
     );
     assert!(worst[1] <= 0.03, "prominence {worst:?}");
@@ -490,14 +506,19 @@ fn distributions_match_the_low_relief_profile() {
     // Measured with the ridge contrast 5 (session 5, seeds 1-6,
     // docs/notes/oro_dallas.md): isolation 3.4-7.7 %, 5.3 % mean; prominence
     // 0.1-0.5 %; dominance 0.9-3.0 %, 1.8 % mean (the paper: isolation ≤ 8 %,
-    // prominence and dominance ≤ 3 %). With the paper's ridge weights:
-    // isolation up to 8.4 %, dominance 4.1 % mean, 5.1 % worst.
-    // Session 7 (the render keeps the tree's peaks, isolation stretch
-    // 1.2): isolation 3.4-9.5 %, 6.6 % mean; prominence ≤ 0.6 %; dominance
-    // ≤ 1.2 %, 0.6 % mean (docs/notes/oro7.md). Isolation on 169 peaks is
-    // noisy: the tree alone, unstretched, is 3-7 % off its own profile.
+    // prominence and dominance ≤ 3 %). Session 8 (the tree keeps peaks and
+    // saddles clear of ridges, `clearance`): isolation 4.2-10.1 %, 6.9 %
+    // mean; prominence ≤ 0.6 %; dominance ≤ 1.2 %.
+    //
+    // Isolation on ~168 peaks is at the noise floor of the measure: 168
+    // values drawn from the profile's own histogram are 6.3 % off it on
+    // average, over 8 % in about 20 % of draws and over 10.1 % in 5 %
+    // (docs/notes/oro8.md, 2000 draws). So at the DEM's size the paper's
+    // 8 % holds on the mean, and each seed is held to 10.5 %; the per-seed
+    // 8 % is checked on a domain twice the side
+    // (`low_relief_isolation_holds_per_seed_on_a_larger_domain`).
     assert!(
-        worst[0] <= 0.10 && mean[0] <= 0.08,
+        worst[0] <= 0.105 && mean[0] <= 0.08,
         "isolation {mean:?} {worst:?}"
     );
     assert!(
@@ -508,6 +529,23 @@ fn distributions_match_the_low_relief_profile() {
         worst[2] <= 0.03 && mean[2] <= 0.021,
         "dominance {mean:?} {worst:?}"
     );
+}
+
+/// The low-relief profile on a domain twice the DEM's side (~670 peaks,
+/// where drawing from the profile itself is 3 % off on average and over 8 %
+/// in none of 2000 draws): the paper's figures on every seed. Measured
+/// (session 8): isolation 4.0-8.0 %, 5.6 % mean; prominence ≤ 0.2 %;
+/// dominance ≤ 0.4 %.
+#[test]
+fn low_relief_isolation_holds_per_seed_on_a_larger_domain() {
+    let Some((worst, mean)) = terrain_errors_scaled(DALLAS.0, DALLAS.1, 2) else {
+        return;
+    };
+    assert!(
+        worst[0] <= 0.08 && mean[0] <= 0.065,
+        "isolation {mean:?} {worst:?}"
+    );
+    assert!(worst[1] <= 0.01 && worst[2] <= 0.01, "{worst:?}");
 }
 
 /// The local search on the saddle heights never leaves the tree's
@@ -546,7 +584,7 @@ fn ridge_bases_change_the_trees_they_were_made_for() {
             return;
         };
         let (w, h) = (g.width(), g.height());
-        let (sx, sy) = geo.cell_size_m(h as i64 / 2);
+        let (sx, sy) = geo.cell_size_m(g.height() as i64 / 2);
         let mut o = TreeOptions::new(w, h, (sx * sy).sqrt(), 3);
         let def = synthesize_tree(&prof, &o).unwrap();
         o.ridge_base = 0.0;

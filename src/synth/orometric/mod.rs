@@ -18,6 +18,7 @@
 //! ([`fragment`]) and a type map C_T mixing several profiles ([`typemap`]).
 
 pub mod assign;
+pub mod clearance;
 pub mod edit;
 pub mod fragment;
 pub mod minimax;
