@@ -381,19 +381,8 @@ fn tree_isolation_km(t: &SynthTree) -> Vec<f64> {
 /// tree's isolation is its nearest-higher-peak distance (no stretch, so it is
 /// only printed); the terrain is the default model (TIN), measured by
 /// `oro::peaks` through `PeakSamples::of_dem`. `render` false: tree only.
+/// The domain is `scale` times the DEM's side (same cell).
 fn split_errors(
-    g: &Grid<f32>,
-    geo: &GeoRef,
-    prof: &SynthProfile,
-    seed: u64,
-    refine: bool,
-    render: bool,
-) -> ([f64; 3], Option<[f64; 3]>) {
-    split_errors_scaled(g, geo, prof, seed, refine, render, 1)
-}
-
-/// [`split_errors`] on a domain `scale` times the DEM's side (same cell).
-fn split_errors_scaled(
     g: &Grid<f32>,
     geo: &GeoRef,
     prof: &SynthProfile,
@@ -465,7 +454,7 @@ fn terrain_errors_scaled(name: &str, thr: f64, scale: usize) -> Option<([f64; 3]
     let (g, geo, prof) = real_profile(name, thr)?;
     let (mut worst, mut mean) = ([0.0f64; 3], [0.0f64; 3]);
     for seed in SEEDS {
-        let (tree, ter) = split_errors_scaled(&g, &geo, &prof, seed, true, true, scale);
+        let (tree, ter) = split_errors(&g, &geo, &prof, seed, true, true, scale);
         let ter = ter.unwrap();
         println!("{name} seed {seed}: tree {tree:.4?} terrain {ter:.4?}");
         for k in 0..3 {
@@ -559,8 +548,8 @@ fn saddle_refinement_lowers_the_tree_errors() {
             return;
         };
         for seed in [1, 2, 3] {
-            let (a, _) = split_errors(&g, &geo, &prof, seed, false, false);
-            let (b, _) = split_errors(&g, &geo, &prof, seed, true, false);
+            let (a, _) = split_errors(&g, &geo, &prof, seed, false, false, 1);
+            let (b, _) = split_errors(&g, &geo, &prof, seed, true, false, 1);
             println!("{name} seed {seed}: assignment {a:.3?} refined {b:.3?}");
             assert!(b[1] + b[2] <= a[1] + a[2] + 1e-12, "{a:?} {b:?}");
             if name == ALPS.0 {

@@ -559,6 +559,26 @@ mod tests {
     use crate::oro::stats::SplitMix64;
     use crate::synth::orometric::tree_synth::{ridge_tree, SynthPeak, SynthSaddle};
 
+    /// A free peak at the centre of cell (x, y) of 30 m cells.
+    fn pk(x: f64, y: f64, e: f64) -> SynthPeak {
+        SynthPeak {
+            x: (x + 0.5) * 30.0,
+            y: (y + 0.5) * 30.0,
+            elevation: e,
+            fixed: false,
+        }
+    }
+
+    /// A saddle at the centre of cell (x, y) of 30 m cells, joining a, b.
+    fn sd(x: f64, y: f64, e: f64, a: usize, b: usize) -> SynthSaddle {
+        SynthSaddle {
+            x: (x + 0.5) * 30.0,
+            y: (y + 0.5) * 30.0,
+            elevation: e,
+            peaks: [a, b],
+        }
+    }
+
     /// Random peaks at cell centres two cells apart, ridges the Delaunay
     /// minimum spanning tree, each saddle at its ridge's midpoint below both
     /// ends.
@@ -804,18 +824,6 @@ mod tests {
     /// (3.2 m above the saddle, the crest is 4 cells from that ridge).
     #[test]
     fn near_threshold_peaks_shrink_the_tolerance() {
-        let pk = |x: f64, y: f64, e: f64| SynthPeak {
-            x: (x + 0.5) * 30.0,
-            y: (y + 0.5) * 30.0,
-            elevation: e,
-            fixed: false,
-        };
-        let sd = |x: f64, y: f64, e: f64, a: usize, b: usize| SynthSaddle {
-            x: (x + 0.5) * 30.0,
-            y: (y + 0.5) * 30.0,
-            elevation: e,
-            peaks: [a, b],
-        };
         // Peak 0 (210 m) with two ridges leaving east, 3° apart: to peak 1
         // (a low peak, saddle 0 at 178.5 m) and to peak 2 (saddle 1 at
         // 204 m). Threshold 5 m.
@@ -898,18 +906,6 @@ mod tests {
     /// to only through a deep saddle moves to `clear` from that ridge.
     #[test]
     fn a_peak_beside_a_foreign_ridge_moves_away() {
-        let pk = |x: f64, y: f64, e: f64| SynthPeak {
-            x: (x + 0.5) * 30.0,
-            y: (y + 0.5) * 30.0,
-            elevation: e,
-            fixed: false,
-        };
-        let sd = |x: f64, y: f64, e: f64, a: usize, b: usize| SynthSaddle {
-            x: (x + 0.5) * 30.0,
-            y: (y + 0.5) * 30.0,
-            elevation: e,
-            peaks: [a, b],
-        };
         // 0: high peak with a ridge east to peak 1 over saddle 0 (1800 m);
         // 2: low peak just south of that ridge, joined to peak 0 from the
         // west through a 900 m saddle.
