@@ -105,7 +105,18 @@ fn check_preserved(noise: f64) -> (usize, usize, usize, usize) {
             if let (Some(k), true) = (q.key_saddle, key_of[i] != usize::MAX) {
                 let (fs, ts) = (&found.saddles[k], &tree.saddles[key_of[i]]);
                 let (sc, sr) = ((ts.x / tree.cell) as i64, (ts.y / tree.cell) as i64);
-                let dc = (fs.col as i64 - sc).abs().max((fs.row as i64 - sr).abs());
+                // Saddles of equal elevation on the key path tie: any tree
+                // saddle at the key saddle's elevation counts.
+                let dc = tree
+                    .saddles
+                    .iter()
+                    .filter(|s| (s.elevation - ts.elevation).abs() <= 1e-6)
+                    .map(|s| {
+                        let (c, r) = ((s.x / tree.cell) as i64, (s.y / tree.cell) as i64);
+                        (fs.col as i64 - c).abs().max((fs.row as i64 - r).abs())
+                    })
+                    .min()
+                    .unwrap_or(i64::MAX);
                 let dz = (fs.elevation as f64 - ts.elevation).abs();
                 if dc <= 1 && dz <= 2.0 * noise + sbound[i] + 0.01 {
                     sad_ok += 1;

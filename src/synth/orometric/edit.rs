@@ -32,7 +32,7 @@
 //! peak whose prominence fell below the tree's threshold gets its key saddle
 //! lowered to the threshold (not a saddle the user set).
 
-use super::assign::owners;
+use super::assign::{owners, PROMINENCE_MARGIN};
 use super::tree_synth::{ridge_tree_with, SynthPeak, SynthSaddle, SynthTree};
 use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};
@@ -325,8 +325,8 @@ pub fn apply_edits(tree: &SynthTree, edits: &TreeEdits) -> Result<SynthTree> {
         let own = owners(&hp, &edges, &hs);
         let mut changed = false;
         for (e, &o) in own.iter().enumerate() {
-            if !pinned[e] && hp[o] - hs[e] < thr && hs[e] > 0.0 {
-                hs[e] = (hp[o] - thr * 1.001).max(0.0);
+            if !pinned[e] && hp[o] - hs[e] < thr * PROMINENCE_MARGIN * (1.0 - 1e-9) && hs[e] > 0.0 {
+                hs[e] = (hp[o] - thr * PROMINENCE_MARGIN).max(0.0);
                 changed = true;
             }
         }

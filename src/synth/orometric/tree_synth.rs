@@ -32,6 +32,7 @@
 
 use super::assign::{
     assign_saddles_grouped, prominences, refine_histograms, GroupTargets, SaddleProblem,
+    PROMINENCE_MARGIN,
 };
 use super::clearance::{clear_ridges, Node};
 use super::profile::SynthProfile;
@@ -1151,8 +1152,11 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
             let mut changed = false;
             for (e, &o) in own.iter().enumerate() {
                 let thr = thr_of[group_of_peak[o]];
-                if !pinned[e] && hp[o] - hs[e] < thr && hs[e] > 0.0 {
-                    hs[e] = (hp[o] - thr * 1.001).max(0.0);
+                if !pinned[e]
+                    && hp[o] - hs[e] < thr * PROMINENCE_MARGIN * (1.0 - 1e-9)
+                    && hs[e] > 0.0
+                {
+                    hs[e] = (hp[o] - thr * PROMINENCE_MARGIN).max(0.0);
                     changed = true;
                 }
             }
