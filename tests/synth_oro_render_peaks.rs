@@ -328,16 +328,16 @@ fn tally(name: &str, thr: f64, seed: u64) -> Option<Tally> {
 }
 
 /// Seeds 1-6 on both real profiles (~1000 and ~3500 tree peaks). Session
-/// 8, with the tree keeping peaks and saddles clear of ridges joined to them
-/// lower down (`clearance`): no tree peak lost (session 7: 1 and 7), no
-/// spurious peak, and every recovered peak's key saddle within one cell of
-/// the tree's and within the noise bound of its elevation, but for 3 of the
-/// Alps: two cells off, 6.9 m, 36.3 m and 1.7 m above the tree's saddle. The
-/// one examined (seed 3, peak 566) has a half-ridge falling 670 m in two
-/// cells, where a crest cell touches the next peak's flank diagonally across
-/// a river channel (docs/notes/oro8.md). The bounds are the figures
-/// measured (default TIN render), asserted per seed and in total so that a
-/// change which adds or loses peaks or moves saddles fails here.
+/// 8: no tree peak lost (session 7: 1 and 7), no spurious peak, and every
+/// recovered peak's key saddle within one cell of the tree's and within the
+/// noise bound of its elevation. That took the tree keeping peaks and
+/// saddles clear of ridges joined to them lower down (`clearance`), saddles
+/// kept between their peaks, and the raster blocking a step across a river
+/// beside a crest (`TinTerrain::across_crest`; before it, 3 Alps key
+/// saddles read two cells off, one 36 m high; docs/notes/oro8.md). The
+/// bounds are the figures measured (default TIN render), asserted per seed
+/// and in total so that a change which adds or loses peaks or moves
+/// saddles fails here.
 #[test]
 fn render_peaks_match_the_tree() {
     // (name, threshold, most lost per seed, total lost, most spurious per

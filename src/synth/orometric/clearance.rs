@@ -184,6 +184,25 @@ fn touch(p: (f64, f64), q: (f64, f64), r: (f64, f64), s: (f64, f64)) -> bool {
     o1 * o2 <= 0.0 && o3 * o4 <= 0.0
 }
 
+/// Whether (x, y) lies between saddle `j`'s peaks: projected on the line
+/// joining them within its middle 70 %, and at most 30 % of their distance
+/// off it (the synthesis places saddles within the middle 30 % and 10 %
+/// off). Without it, repeated moves walked a saddle past its peak into a
+/// hairpin ridge whose two halves the raster then joined (Dallas seed 2 at
+/// 600², docs/notes/oro8.md).
+fn between_its_peaks(tree: &SynthTree, j: usize, x: f64, y: f64) -> bool {
+    let [p, q] = tree.saddles[j].peaks;
+    let (a, b) = (&tree.peaks[p], &tree.peaks[q]);
+    let (dx, dy) = (b.x - a.x, b.y - a.y);
+    let l2 = dx * dx + dy * dy;
+    if l2 == 0.0 {
+        return false;
+    }
+    let t = ((x - a.x) * dx + (y - a.y) * dy) / l2;
+    let off = ((x - a.x) * dy - (y - a.y) * dx).abs() / l2;
+    (0.15..=0.85).contains(&t) && off <= 0.3
+}
+
 /// A point of the tree that may move: a peak or a saddle (index).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Node {
@@ -363,6 +382,9 @@ impl Clearer<'_> {
                 }
             }
         });
+        if let Node::Saddle(j) = node {
+            ok &= between_its_peaks(tree, j, x, y);
+        }
         ok
     }
 

@@ -248,14 +248,36 @@ impl Line {
 /// a pass higher than the tree's saddle).
 const CHANNEL_BAND: f64 = 0.71;
 
+/// The 8 neighbour offsets (column, row).
+const NEIGHBOURS_8: [(i32, i32); 8] = [
+    (-1, -1),
+    (0, -1),
+    (1, -1),
+    (-1, 0),
+    (1, 0),
+    (-1, 1),
+    (0, 1),
+    (1, 1),
+];
+
+/// Whether segments p–q and a–b cross or touch.
+fn crosses(p: [f64; 2], q: [f64; 2], a: [f64; 2], b: [f64; 2]) -> bool {
+    let side = |u: [f64; 2], v: [f64; 2], w: [f64; 2]| {
+        ((v[0] - u[0]) * (w[1] - u[1]) - (v[1] - u[1]) * (w[0] - u[0])).signum()
+    };
+    side(p, q, a) * side(p, q, b) <= 0.0 && side(a, b, p) * side(a, b, q) <= 0.0
+}
+
 /// Side of the reconstruction blocks, cells: a fixed grid (part of the
 /// model, unlike the super-tiles, so the terrain does not depend on the
 /// super-tile size; see [`TinTerrain::build_block`]).
 const BLOCK_SIDE: usize = 512;
 
 /// Cells around a tree peak (Chebyshev) where the noise cannot lift a cell
-/// to within half the threshold of the summit.
-const PEAK_CALM: usize = 16;
+/// to within half the threshold of the summit. 16 let the noise make a
+/// higher point 17 cells along a gentle Dallas ridge (600² round trip, seed
+/// 10; docs/notes/oro8.md).
+const PEAK_CALM: usize = 24;
 
 /// Halo of the reconstruction blocks, cells.
 const BLOCK_HALO: usize = 32;
@@ -1353,19 +1375,29 @@ impl TinTerrain {
         let by = ((y / self.lb) as usize).min(self.lny - 1);
         let b = by * self.lnx + bx;
         let (mut crest, mut chan, mut dmin) = (f64::NEG_INFINITY, f64::INFINITY, f64::INFINITY);
+        let (mut dridge, mut dchan) = (f64::INFINITY, f64::INFINITY);
         for &i in &self.lids[self.lstart[b] as usize..self.lstart[b + 1] as usize] {
             let l = &self.lines[i as usize];
             let (d, zl) = l.probe(x, y);
             dmin = dmin.min(d);
             if l.kind == LineKind::Ridge {
+                dridge = dridge.min(d);
                 if d <= self.band {
                     crest = crest.max(zl);
                 }
-            } else if d <= CHANNEL_BAND * c {
-                chan = chan.min(zl);
+            } else {
+                dchan = dchan.min(d);
+                if d <= CHANNEL_BAND * c {
+                    chan = chan.min(zl);
+                }
             }
         }
         v = v.min(chan).max(crest);
+        // A crest cell among the 8 neighbours needs a ridge within the
+        // band of a neighbour's centre, √2 cells away at most.
+        if crest == f64::NEG_INFINITY && dchan <= 1.5 * c && dridge <= self.band + 1.5 * c {
+            v = v.min(self.across_crest(b, x, y));
+        }
         let mut keep = crest.is_finite();
         for &(sc, sr, sz, k) in &self.pinch[self.pstart[b] as usize..self.pstart[b + 1] as usize] {
             let (dc, dr) = (sc.abs_diff(col as u32), sr.abs_diff(row as u32));
@@ -1404,6 +1436,45 @@ impl TinTerrain {
             }
         }
         (v, keep, noise)
+    }
+
+    /// The lowest river level across which a crest cell is an 8-neighbour
+    /// of the cell at (x, y) (+∞ if none). The channel band blocks every
+    /// 8-step across a river by a cell within √2/2 cell of it, unless that
+    /// cell is a crest cell: the crest band wins there (a ridge running
+    /// beside a river), and a diagonal step from the crest to the flank
+    /// across the river would join two hills above the tree's pass (Alps
+    /// seed 3, Dallas seed 2 at 600²; docs/notes/oro8.md). So the cell on
+    /// the far side takes the block: it reads at most the river.
+    fn across_crest(&self, b: usize, x: f64, y: f64) -> f64 {
+        let c = self.cell;
+        let lines = &self.lids[self.lstart[b] as usize..self.lstart[b + 1] as usize];
+        let mut level = f64::INFINITY;
+        for &i in lines {
+            let l = &self.lines[i as usize];
+            if l.kind != LineKind::Channel {
+                continue;
+            }
+            let (d, zl) = l.probe(x, y);
+            if d > 1.5 * c || zl >= level {
+                continue;
+            }
+            for (dx, dy) in NEIGHBOURS_8 {
+                let (nx, ny) = (x + dx as f64 * c, y + dy as f64 * c);
+                if !crosses([x, y], [nx, ny], [l.a[0], l.a[1]], [l.b[0], l.b[1]]) {
+                    continue;
+                }
+                let crest = lines.iter().any(|&j| {
+                    let r = &self.lines[j as usize];
+                    r.kind == LineKind::Ridge && r.probe(nx, ny).0 <= self.band
+                });
+                if crest {
+                    level = zl;
+                    break;
+                }
+            }
+        }
+        level
     }
 
     /// Whether (x, y) lies in the crest band of a ridge other than saddle
