@@ -22,7 +22,7 @@ pub mod classify;
 mod isolation;
 mod links;
 pub mod metrics;
-mod regions;
+pub(crate) mod regions;
 pub mod ridges;
 pub mod stats;
 pub mod tiled;

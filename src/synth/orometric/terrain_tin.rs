@@ -75,6 +75,7 @@ use super::terrain::TerrainOptions;
 use super::tin::Tin;
 use super::tree_synth::SynthTree;
 use crate::error::{Error, Result};
+use crate::oro::regions::N8;
 use crate::raster::{AnyGrid, Crs, DType, GeoRef, Grid, RasterInfo, RasterSource, Window};
 use crate::synth::Fbm;
 use rayon::prelude::*;
@@ -247,18 +248,6 @@ impl Line {
 /// is only 8-connected: a diagonal step could hop over the river and make
 /// a pass higher than the tree's saddle).
 const CHANNEL_BAND: f64 = 0.71;
-
-/// The 8 neighbour offsets (column, row).
-const NEIGHBOURS_8: [(i32, i32); 8] = [
-    (-1, -1),
-    (0, -1),
-    (1, -1),
-    (-1, 0),
-    (1, 0),
-    (-1, 1),
-    (0, 1),
-    (1, 1),
-];
 
 /// Whether segments p–q and a–b cross or touch.
 fn crosses(p: [f64; 2], q: [f64; 2], a: [f64; 2], b: [f64; 2]) -> bool {
@@ -1459,7 +1448,7 @@ impl TinTerrain {
             if d > 1.5 * c || zl >= level {
                 continue;
             }
-            for (dx, dy) in NEIGHBOURS_8 {
+            for (dx, dy) in N8 {
                 let (nx, ny) = (x + dx as f64 * c, y + dy as f64 * c);
                 if !crosses([x, y], [nx, ny], [l.a[0], l.a[1]], [l.b[0], l.b[1]]) {
                     continue;
