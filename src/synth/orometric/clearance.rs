@@ -1,29 +1,39 @@
-//! Ridge clearance of a synthesised divide tree: no peak stands within a few
-//! cells of a ridge that the tree joins to it only lower down.
+//! Ridge clearance of a synthesised divide tree: no peak or saddle stands
+//! within a few cells of a ridge that the tree joins to it only lower down.
 //!
 //! A raster joins two crest points a cell or two apart at about the lower of
 //! their elevations. When that is above the tree's pass height between them
 //! ([`PassHeights`]: the lowest saddle on their tree path), the terrain's
 //! divide tree is not the synthesised one: a peak's key saddle rises and its
 //! prominence falls (docs/notes/oro7.md: 7 of the 8 tree peaks the session-7
-//! render lost stood within 2.6 cells of such a ridge). The paper's dart
-//! throwing keeps peaks apart from each other (Argudo et al. 2019, §5.1) but
-//! not from ridges; this pass adds that, after the saddle elevations are
-//! known (they decide which ridges offend).
+//! render lost stood within 2.6 cells of such a ridge; docs/notes/oro8.md).
+//! The paper's dart throwing keeps peaks apart from each other (Argudo et
+//! al. 2019, §5.1) but not from ridges; this pass adds that, after the
+//! saddle elevations are known (they decide which ridges offend).
 //!
-//! Each offending peak that is not fixed moves straight away from the
-//! nearest offending ridge point (or, failing that, at ±45° or ±90° to that
-//! direction) to `clear` metres from it, snapped to its cell centre. A move
-//! is taken only if it brings the peak farther from every offending ridge,
-//! keeps two cells from every other peak and off every saddle's cell, is
-//! allowed by the caller (region of a type map, density map), and keeps the
-//! ridges planar: no moved ridge segment touches another one except at a
-//! shared end (crossing ridges make the constrained triangulation of the
-//! terrain drop a segment, see `rivers::cdt_dropping`). Elevations and the
-//! tree's topology are unchanged, so prominence and dominance are too.
+//! An *offence* of a node against a half-ridge (peak → saddle): the parts of
+//! both standing more than a tolerance above their pass height come closer
+//! than `clear`. A peak's part is the peak; a saddle's, the half-ridges on
+//! either side of it, each with its own pass height. The tolerance is the
+//! caller's (the noise bound), at most half the margin by which the peak
+//! owning the pass's saddle clears the threshold.
 //!
-//! Cost: a bucket grid of the ridge segments; each round is O(P · k) with k
-//! the segments near a peak, and pass heights in O(log P) each.
+//! Each offending peak that is not fixed, then each offending saddle, moves
+//! straight away from the nearest offending ridge point (or, failing that,
+//! at ±45° or ±90° to that direction) to `clear` metres from it, snapped to
+//! its cell centre. A move is taken only if it brings the node farther from
+//! every offending ridge, keeps a peak two cells from every other peak and
+//! off every saddle's cell (a saddle off every peak's cell, and between its
+//! peaks), is allowed by the caller (type-map region, density map, pasted
+//! saddles), and keeps the ridges planar: no moved ridge segment touches
+//! another one except at a shared end (crossing ridges make the constrained
+//! triangulation of the terrain drop a segment, see `rivers::cdt_dropping`).
+//! Elevations and the tree's topology are unchanged, so prominence and
+//! dominance are too.
+//!
+//! Cost: a bucket grid of the ridge segments; each round is O((P + S) · k)
+//! with k the segments near a node, a geometric test first and pass heights
+//! in O(log P) each.
 
 use super::assign::owners;
 use super::minimax::{PassHeights, RidgeAnchor};
