@@ -541,6 +541,24 @@ fn low_relief_isolation_holds_per_seed_on_a_larger_domain() {
     assert!(worst[1] <= 0.01 && worst[2] <= 0.01, "{worst:?}");
 }
 
+/// The Alps profile on a domain twice the DEM's side (~2300 peaks, where
+/// drawing from the profile itself is 1.8 % off on average): the paper's
+/// figures on every seed. At the DEM's size the measure's sampling noise
+/// (3.7 % mean, 6.0 % p95 for 578 peaks) on top of the isolation model's
+/// bias puts one seed of six at 8.1 %. Measured (session 8): isolation
+/// 5.9-6.8 %, 6.2 % mean; prominence ≤ 1.3 %; dominance ≤ 0.5 %.
+#[test]
+fn alps_isolation_holds_per_seed_on_a_larger_domain() {
+    let Some((worst, mean)) = terrain_errors_scaled(ALPS.0, ALPS.1, 2) else {
+        return;
+    };
+    assert!(
+        worst[0] <= 0.08 && mean[0] <= 0.075,
+        "isolation {mean:?} {worst:?}"
+    );
+    assert!(worst[1] <= 0.03 && worst[2] <= 0.03, "{worst:?}");
+}
+
 /// The local search on the saddle heights never leaves the tree's
 /// prominence + dominance distance worse than the assignment alone, and
 /// brings the Alps tree near the paper's figures before rendering
