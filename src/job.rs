@@ -39,7 +39,7 @@
 
 use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// Largest job file (and job state file) read, in bytes.
@@ -200,13 +200,15 @@ pub fn plan(
     if file.steps.is_empty() {
         return Err(bad(path, "the job has no [[step]]; add at least one"));
     }
-    // Names: inputs and steps share one namespace.
-    let mut paths: HashMap<String, PathBuf> = HashMap::new();
+    // Names: inputs and steps share one namespace. Ordered maps, not hash
+    // maps: a hash map's per-process random seed made the fuzzer's coverage
+    // of this parser differ from run to run (docs/RELIABILITY.md, session 9).
+    let mut paths: BTreeMap<String, PathBuf> = BTreeMap::new();
     for (k, v) in &file.inputs {
         check_name(path, k)?;
         paths.insert(k.clone(), base.join(v));
     }
-    let mut step_of: HashMap<String, usize> = HashMap::new();
+    let mut step_of: BTreeMap<String, usize> = BTreeMap::new();
     for (i, s) in file.steps.iter().enumerate() {
         check_name(path, &s.name)?;
         if paths.contains_key(&s.name) || step_of.contains_key(&s.name) {

@@ -10,6 +10,7 @@ use orogen::oro::DivideTree;
 use orogen::synth::orometric::tree_synth::SynthTree;
 
 fuzz_target!(|data: &[u8]| {
+    fuzz_common::serial_rayon();
     if let Some(rest) = data.strip_prefix(b"S") {
         let p = fuzz_common::file("tree.json", rest);
         if let Ok(t) = SynthTree::load(&p) {
@@ -22,7 +23,8 @@ fuzz_target!(|data: &[u8]| {
         let p = fuzz_common::file("divide_tree.json", data);
         if let Ok(t) = DivideTree::load_json(&p) {
             let _ = t.pruned(10.0);
-            let back = DivideTree::from_json(&t.to_json()).expect("a loaded tree serialises and loads back");
+            let back = DivideTree::from_json(&t.to_json())
+                .expect("a loaded tree serialises and loads back");
             assert_eq!(back, t, "JSON round trip changed the tree");
         }
     }

@@ -8,6 +8,7 @@ use libfuzzer_sys::fuzz_target;
 const SIZE3: usize = 1201 * 1201 * 2;
 
 fuzz_target!(|data: &[u8]| {
+    fuzz_common::serial_rayon();
     let bytes: Vec<u8> = match data.first() {
         Some(b) if b & 1 == 1 => {
             // Whole-slice copies: an iterator chain is too slow unoptimised.

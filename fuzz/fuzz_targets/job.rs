@@ -29,6 +29,7 @@ impl CommandTable for Table {
 }
 
 fuzz_target!(|data: &[u8]| {
+    fuzz_common::serial_rayon();
     let p = fuzz_common::file("job.toml", data);
     let _ = orogen::job::load(&p, &Table, None, None);
 });

@@ -3,6 +3,7 @@
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
+    fuzz_common::serial_rayon();
     let p = fuzz_common::file("height.png", data);
     let opts = orogen::io::OpenOptions {
         png_scale: 0.5,

@@ -7,6 +7,7 @@ use libfuzzer_sys::fuzz_target;
 const SEP: &[u8] = b"\n--TILE--\n";
 
 fuzz_target!(|data: &[u8]| {
+    fuzz_common::serial_rayon();
     let (manifest, tile) = match data.windows(SEP.len()).position(|w| w == SEP) {
         Some(i) => (&data[..i], &data[i + SEP.len()..]),
         None => (data, &[][..]),

@@ -10,6 +10,7 @@ use orogen::store::{tile_file, Manifest, TileStore, MANIFEST};
 const SEP: &[u8] = b"\n--TILE--\n";
 
 fuzz_target!(|data: &[u8]| {
+    fuzz_common::serial_rayon();
     let mut parts = Vec::new();
     let mut rest = data;
     while let Some(i) = rest.windows(SEP.len()).position(|w| w == SEP) {

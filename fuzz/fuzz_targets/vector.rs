@@ -5,6 +5,7 @@ use libfuzzer_sys::fuzz_target;
 use orogen::synth::vector::{ring_self_intersection, RingMask, VectorMap};
 
 fuzz_target!(|data: &[u8]| {
+    fuzz_common::serial_rayon();
     let p = fuzz_common::file("map.geojson", data);
     if let Ok(m) = VectorMap::read(&p) {
         let _ = m.bbox();

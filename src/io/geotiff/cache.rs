@@ -3,9 +3,11 @@
 //! Tile-by-tile reads with halos, and tile reads of striped files, decode the
 //! same strips or tiles several times; keeping recently decoded blocks avoids
 //! that. Eviction is least-recently-used by a logical clock (O(n) scan on
-//! eviction, n = blocks held: a few hundred at most).
+//! eviction, n = blocks held: a few hundred at most). An ordered map, not a
+//! hash map: a hash map's per-process random seed made the fuzzer's coverage
+//! of the reader differ between runs (docs/RELIABILITY.md, session 9).
 
-use std::collections::HashMap;
+use std::collections::BTreeMap;
 use std::sync::Arc;
 
 /// Byte-bounded LRU map from block index to decoded bytes.
@@ -13,7 +15,7 @@ pub(crate) struct BlockCache {
     capacity: usize,
     used: usize,
     clock: u64,
-    map: HashMap<u32, (Arc<Vec<u8>>, u64)>,
+    map: BTreeMap<u32, (Arc<Vec<u8>>, u64)>,
 }
 
 impl BlockCache {
@@ -23,7 +25,7 @@ impl BlockCache {
             capacity,
             used: 0,
             clock: 0,
-            map: HashMap::new(),
+            map: BTreeMap::new(),
         }
     }
 
