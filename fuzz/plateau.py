@@ -11,7 +11,7 @@ size, and whether it ended on a plateau. A crash/timeout/OOM ends the run
 with the reproducer in fuzz/artifacts/<target>/ and a non-zero exit.
 
   fuzz/plateau.py geotiff --min 180 --max 1200 [--bin PATH] [--work DIR]
-                 [--seeds DIR] [--state FILE]
+                 [--seeds DIR ...] [--state FILE] [--build-id ID]
 
 Resumed runs (session 6): with --state FILE the run continues the counts
 of earlier runs of the target on the same working corpus: cumulative
@@ -51,8 +51,11 @@ def main():
     ap.add_argument("--bin")
     ap.add_argument("--work", default="/tmp/orogen-fuzz-plateau")
     ap.add_argument("--timeout", type=int, default=10)
-    ap.add_argument("--seeds", help="extra read-only seed folder")
+    ap.add_argument(
+        "--seeds", action="append", help="read-only seed folder (repeatable)"
+    )
     ap.add_argument("--state", help="JSON file carrying counts across resumed runs")
+    ap.add_argument("--build-id", default="", help="identity of the build the counts are for")
     ap.add_argument("extra", nargs="*", help="extra libFuzzer flags")
     a = ap.parse_args()
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -61,10 +64,27 @@ def main():
     )
     corpus = os.path.join(a.work, "corpus", a.target)
     os.makedirs(corpus, exist_ok=True)
-    seeds = a.seeds or os.path.join(root, "fuzz/corpus", a.target)
-    st = {"seconds": 0.0, "executions": 0, "best_cov": -1, "last_new_cov_cum": 0.0, "runs": 0}
+    seeds = [d for d in (a.seeds or [os.path.join(root, "fuzz/corpus", a.target)]) if os.path.isdir(d)]
+    st = {
+        "seconds": 0.0,
+        "executions": 0,
+        "best_cov": -1,
+        "last_new_cov_cum": 0.0,
+        "runs": 0,
+        "build": a.build_id,
+    }
     if a.state and os.path.exists(a.state):
-        st.update(json.load(open(a.state)))
+        old = json.load(open(a.state))
+        if old.get("build", "") == a.build_id:
+            st.update(old)
+        else:
+            keep = f"{a.state}.{old.get('build', '') or 'unknown'}"
+            os.replace(a.state, keep)
+            print(
+                f"plateau.py: {a.state} counts another build ({old.get('build')!r}, "
+                f"now {a.build_id!r}): fresh counts, old state kept as {keep}",
+                file=sys.stderr,
+            )
     base_t = st["seconds"]
     art = os.path.join(root, "fuzz/artifacts", a.target) + "/"
     os.makedirs(art, exist_ok=True)
@@ -72,7 +92,7 @@ def main():
     cmd = [
         binary,
         corpus,
-        seeds,
+    ] + seeds + [
         f"-artifact_prefix={art}",
         f"-timeout={a.timeout}",
         "-rss_limit_mb=2048",
@@ -141,6 +161,8 @@ def main():
     )
     out = {
         "target": a.target,
+        "build": a.build_id,
+        "ended": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
         "seconds": round(t_end),
         "executions": stats.get("number_of_executed_units", execs),
         "exec_per_s": round(stats.get("number_of_executed_units", execs) / max(t_end, 1e-9)),

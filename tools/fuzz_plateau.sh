@@ -14,6 +14,15 @@
 # Runs under `nice -n 19`, one process (libFuzzer's default: one job, one
 # worker): never more than one core. Every slice appends one JSON line to
 # WORK/runs.jsonl.
+#
+# Campaigns carry over between machines (session 9): the minimised working
+# corpus of each target and its counts are committed in fuzz/campaign/
+# (tools/fuzz_save.sh writes them). A slice also replays
+# fuzz/campaign/corpus/TARGET, and a target without a state in WORK/state
+# starts from fuzz/campaign/state/TARGET.json. Counts are per build:
+# BUILD_ID (default: the commit that last changed the fuzzed code, src/,
+# fuzz/ and the lock files, in this checkout) must name the tree BIN_DIR was
+# built from; a state of another build starts fresh counts (fuzz/plateau.py).
 set -uo pipefail
 cd "$(dirname "$0")/.."
 
@@ -24,6 +33,8 @@ slice="${SLICE:-240}"
 quiet="${QUIET:-300}"
 deadline="${DEADLINE:-$(( $(date +%s) + 3600 ))}"
 mkdir -p "$work/state"
+build_id="${BUILD_ID:-$(git log -1 --format=%h -- src fuzz/common.rs fuzz/fuzz_targets \
+    fuzz/Cargo.toml fuzz/Cargo.lock Cargo.toml Cargo.lock)}"
 # The bundled SQLite has same-named function-local statics that ASan's ODR
 # check reports at start-up (see docs/RELIABILITY.md, session 6).
 export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_odr_violation=0}"
@@ -46,8 +57,12 @@ while :; do
         fi
         left=1
         max=$(( slice < remaining ? slice : remaining ))
+        if [ ! -f "$work/state/$t.json" ] && [ -f "fuzz/campaign/state/$t.json" ]; then
+            cp "fuzz/campaign/state/$t.json" "$work/state/$t.json"
+        fi
         line=$(nice -n 19 python3 fuzz/plateau.py "$t" --bin "$bin_dir/$t" \
-            --work "$work" --seeds "$seeds/$t" --state "$work/state/$t.json" \
+            --work "$work" --seeds "$seeds/$t" --seeds "fuzz/campaign/corpus/$t" \
+            --state "$work/state/$t.json" --build-id "$build_id" \
             --min 30 --max "$max" --quiet "$quiet")
         rc=$?
         echo "$line"
