@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Slower end-to-end checks run by .ci/run after the test suite: the demo as a
-# user runs it, GDAL cross-checks of every GeoTIFF variant, gdaldem agreement.
+# user runs it, GDAL cross-checks of every GeoTIFF variant, gdaldem agreement,
+# crash-anywhere and I/O-error checks, the fuzz smoke, the MPI engine.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash tools/install_gdal.sh
@@ -38,6 +39,18 @@ bash tools/viewer_e2e.sh
 echo "== orometric synthesis keeps its divide tree (CLI: divide-tree, from-tree, peaks)"
 /usr/bin/python3 tools/oro_roundtrip.py --bin "$OROGEN" --seeds 1 2 3 4 5 6 --max-bad 0 --work "$tmp/oro"
 /usr/bin/python3 tools/oro_roundtrip.py --bin "$OROGEN" --seeds 1 2 --store --max-bad 0 --work "$tmp/oro_store"
+
+echo "== crash anywhere: a real job killed at 60 seeded points and rerun (tools/crash_harness.py)"
+/usr/bin/python3 tools/crash_harness.py --trials 60 --seed 2611 --bin "$OROGEN"
+
+echo "== I/O errors: disk full, read-only folder, input deleted mid-run (tools/io_errors.sh)"
+mkdir -p "$tmp/probe"
+if [ "$(id -u)" = 0 ] && mount -t tmpfs -o size=64k tmpfs "$tmp/probe" 2>/dev/null; then
+  umount "$tmp/probe"
+  bash tools/io_errors.sh
+else
+  echo "io_errors: skipped (it mounts tmpfs: needs root and the right to mount)"
+fi
 
 echo "== fuzz smoke: every cargo-fuzz target from its committed seeds (fails on any finding)"
 # Installs cargo-fuzz if missing, builds fuzz/ unoptimised without a
