@@ -17,8 +17,9 @@
 #
 # Campaigns carry over between machines (session 9): the minimised working
 # corpus of each target and its counts are committed in fuzz/campaign/
-# (tools/fuzz_save.sh writes them). A slice also replays
-# fuzz/campaign/corpus/TARGET, and a target without a state in WORK/state
+# (tools/fuzz_save.sh writes them). A slice also replays the saved corpus
+# (fuzz/campaign/corpus/TARGET.tar.gz, unpacked once into WORK/saved/TARGET),
+# and a target without a state in WORK/state
 # starts from fuzz/campaign/state/TARGET.json. Counts are per build:
 # BUILD_ID (default: the commit that last changed the fuzzed code, src/,
 # fuzz/ and the lock files, in this checkout) must name the tree BIN_DIR was
@@ -60,8 +61,12 @@ while :; do
         if [ ! -f "$work/state/$t.json" ] && [ -f "fuzz/campaign/state/$t.json" ]; then
             cp "fuzz/campaign/state/$t.json" "$work/state/$t.json"
         fi
+        if [ ! -d "$work/saved/$t" ]; then
+            mkdir -p "$work/saved/$t"
+            [ -f "fuzz/campaign/corpus/$t.tar.gz" ] && tar -xzf "fuzz/campaign/corpus/$t.tar.gz" -C "$work/saved/$t"
+        fi
         line=$(nice -n 19 python3 fuzz/plateau.py "$t" --bin "$bin_dir/$t" \
-            --work "$work" --seeds "$seeds/$t" --seeds "fuzz/campaign/corpus/$t" \
+            --work "$work" --seeds "$seeds/$t" --seeds "$work/saved/$t" \
             --state "$work/state/$t.json" --build-id "$build_id" \
             --min 30 --max "$max" --quiet "$quiet")
         rc=$?

@@ -4,10 +4,13 @@
 # from the seeds (session 9 lost 388 min of working corpora with the
 # machine). For each target: libFuzzer's `-merge=1` minimises WORK's
 # working corpus together with the saved one into a fresh folder, and the
-# inputs of at most MAX_LEN bytes (default 65536) replace
-# fuzz/campaign/corpus/TARGET/ (larger inputs, mostly grown GeoTIFF and
-# ASCII files, would make the folder tens of MB; the seeds they grew from
-# stay in fuzz/corpus/). The target's counts (WORK/state/TARGET.json) are
+# inputs of at most MAX_LEN bytes (default 65536) replace the archive
+# fuzz/campaign/corpus/TARGET.tar.gz (one per target, names sorted, no
+# owners or times, `gzip -n`: the same corpus gives the same bytes, and
+# thousands of small files stay out of the tree; 6 MB for all targets in
+# session 9, where the uncompressed tars were 25 MB). Larger inputs, mostly
+# grown GeoTIFF and ASCII files, would make it tens of MB; the seeds they
+# grew from stay in fuzz/corpus/. The target's counts (WORK/state/TARGET.json) are
 # copied to fuzz/campaign/state/, and WORK/runs.jsonl's lines are added to
 # fuzz/campaign/runs.jsonl (the record fuzz/table.py prints).
 #
@@ -29,20 +32,23 @@ fi
 mkdir -p fuzz/campaign/corpus fuzz/campaign/state
 for t in "${targets[@]}"; do
     [ -d "$work/corpus/$t" ] || { echo "fuzz_save: no working corpus for $t" >&2; continue; }
-    out="$(mktemp -d)"
-    saved="fuzz/campaign/corpus/$t"
-    mkdir -p "$saved"
+    tmp="$(mktemp -d)"
+    mkdir -p "$tmp/saved" "$tmp/$t"
+    archive="fuzz/campaign/corpus/$t.tar.gz"
+    [ -f "$archive" ] && tar -xzf "$archive" -C "$tmp/saved"
     nice -n 19 "$bin_dir/$t" -merge=1 -timeout=10 -rss_limit_mb=2048 \
-        -malloc_limit_mb=1024 "$out" "$saved" "$work/corpus/$t" 2>"$out.log" || {
-        echo "fuzz_save: merge of $t failed; log: $out.log" >&2
+        -malloc_limit_mb=1024 "$tmp/$t" "$tmp/saved" "$work/corpus/$t" 2>"$tmp/merge.log" || {
+        echo "fuzz_save: merge of $t failed; log: $tmp/merge.log" >&2
         exit 1
     }
-    find "$out" -type f -size +"${max_len}"c -delete
-    rm -rf "$saved"
-    mv "$out" "$saved"
-    chmod 755 "$saved"
+    find "$tmp/$t" -type f -size +"${max_len}"c -delete
+    (cd "$tmp/$t" && find . -type f -printf '%P\n' | LC_ALL=C sort |
+        tar -cf - --no-recursion --owner=0 --group=0 --numeric-owner --mtime=@0 \
+            --mode=644 -T - | gzip -n -9) >"$archive.tmp"
+    mv "$archive.tmp" "$archive"
     [ -f "$work/state/$t.json" ] && cp "$work/state/$t.json" "fuzz/campaign/state/$t.json"
-    echo "fuzz_save: $t: $(ls "$saved" | wc -l) inputs, $(du -sk "$saved" | cut -f1) KB" >&2
+    echo "fuzz_save: $t: $(ls "$tmp/$t" | wc -l) inputs, $(du -k "$archive" | cut -f1) KB" >&2
+    rm -rf "$tmp"
 done
 if [ -f "$work/runs.jsonl" ]; then
     touch fuzz/campaign/runs.jsonl
