@@ -286,10 +286,13 @@ def main():
     if run_job(w2, binary).returncode != 0 or snapshot(os.path.join(w2, "out")) != ref:
         sys.exit("two uninterrupted runs differ: outputs are not deterministic")
 
-    rng = random.Random(a.seed)
     stats = {"time": 0, "point": 0, "killed": 0, "finished-before-kill": 0, "torn": 0, "reruns-with-resume": 0}
     failures = 0
     for i in range(a.trials):
+        # One generator per trial: a trial's kind, point and tear depend on
+        # the seed and its number only, not on how many tiles an earlier
+        # trial's kill left on disk (which varies with timing).
+        rng = random.Random(f"{a.seed}/{i}")
         w = fresh(f"trial{i}")
         out = os.path.join(w, "out")
         kind = "time" if rng.random() < 0.5 else "point"

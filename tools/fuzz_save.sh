@@ -6,7 +6,7 @@
 # working corpus together with the saved one into a fresh folder, and the
 # inputs of at most MAX_LEN bytes (default 65536) replace the archive
 # fuzz/campaign/corpus/TARGET.tar.gz (one per target, names sorted, no
-# owners or times, `gzip -n`: the same corpus gives the same bytes, and
+# owners or times, `gzip -n`: the same inputs give the same bytes, and
 # thousands of small files stay out of the tree; 6 MB for all targets in
 # session 9, where the uncompressed tars were 25 MB). Larger inputs, mostly
 # grown GeoTIFF and ASCII files, would make it tens of MB; the seeds they
