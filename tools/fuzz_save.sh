@@ -7,8 +7,8 @@
 # inputs of at most MAX_LEN bytes (default 65536) replace the archive
 # fuzz/campaign/corpus/TARGET.tar.gz (one per target, names sorted, no
 # owners or times, `gzip -n`: the same inputs give the same bytes, and
-# thousands of small files stay out of the tree; 6 MB for all targets in
-# session 9, where the uncompressed tars were 25 MB). Larger inputs, mostly
+# thousands of small files stay out of the tree; 7.7 MB for all targets
+# after session 9, where uncompressed tars would be about 30 MB). Larger inputs, mostly
 # grown GeoTIFF and ASCII files, would make it tens of MB; the seeds they
 # grew from stay in fuzz/corpus/. The target's counts (WORK/state/TARGET.json) are
 # copied to fuzz/campaign/state/, and WORK/runs.jsonl's lines are added to
