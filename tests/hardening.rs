@@ -2,8 +2,9 @@
 //! tile store, readers of a store being written, crash points inside the
 //! store's creation and lock, a torn tile in a finished job output, and I/O
 //! errors that need no root (missing output folder, truncated input, input
-//! truncated while a command runs). The writer is paused or killed at named
-//! points through `OROGEN_CRASH_AT` (see `src/store/crash.rs`).
+//! truncated while a command runs, an oversized TIFF text tag). The writer
+//! is paused or killed at named points through `OROGEN_CRASH_AT` (see
+//! `src/store/crash.rs`).
 
 use orogen::raster::{DType, GeoRef};
 use orogen::store::{Provenance, StoreOptions, StoreWriter, TileStore};
@@ -376,6 +377,73 @@ fn a_truncated_input_is_one_clear_error_and_no_output() {
         assert!(!out.exists(), "cut at {keep}: output written");
         let left: Vec<_> = std::fs::read_dir(tmp.path()).unwrap().flatten().collect();
         assert_eq!(left.len(), 1, "cut at {keep}: temporaries left");
+    }
+}
+
+/// A 4 x 4 float32 TIFF of `len` bytes (one strip at offset 200) whose
+/// GDAL_NODATA tag (ASCII, 42113) declares `count` bytes at offset 200.
+fn tiff_with_text_tag(count: u32, len: usize) -> Vec<u8> {
+    // (tag, type, count, value); a SHORT value sits in the first two bytes.
+    let entries: [(u16, u16, u32, u32); 10] = [
+        (256, 3, 1, 4),
+        (257, 3, 1, 4),
+        (258, 3, 1, 32),
+        (262, 3, 1, 1),
+        (273, 4, 1, 200),
+        (277, 3, 1, 1),
+        (278, 3, 1, 4),
+        (279, 4, 1, 64),
+        (339, 3, 1, 3),
+        (42113, 2, count, 200),
+    ];
+    let mut b = b"II*\0".to_vec();
+    b.extend(8u32.to_le_bytes());
+    b.extend((entries.len() as u16).to_le_bytes());
+    for (tag, ty, n, v) in entries {
+        b.extend(tag.to_le_bytes());
+        b.extend(ty.to_le_bytes());
+        b.extend(n.to_le_bytes());
+        b.extend(v.to_le_bytes());
+    }
+    b.extend(0u32.to_le_bytes());
+    b.resize(len, 0);
+    b
+}
+
+/// A text tag declaring more bytes than the file has, or more than orogen
+/// reads, is one clear error line: before session 10 the tiff crate also
+/// printed a stray `dbg!` line (with its source path) for the first.
+#[test]
+fn an_oversized_text_tag_is_one_clear_error_line() {
+    let tmp = tempfile::tempdir().unwrap();
+    let input = tmp.path().join("text.tif");
+    let info = |bytes: Vec<u8>| {
+        std::fs::write(&input, bytes).unwrap();
+        run(&["info", input.to_str().unwrap()], &[])
+    };
+    // The same file with a 5-byte tag (all zeros: no nodata) is valid.
+    let o = info(tiff_with_text_tag(5, 300));
+    assert!(o.status.success(), "{}", stderr(&o));
+    for (count, len, says) in [
+        (
+            4_000_000,
+            300,
+            "declares 4000000 values, more than the file's 300 bytes",
+        ),
+        (
+            1_500_000,
+            2 << 20,
+            "declares 1500000 bytes of text; orogen reads at most 1048576",
+        ),
+    ] {
+        let o = info(tiff_with_text_tag(count, len));
+        assert!(!o.status.success(), "count {count}");
+        let e = stderr(&o);
+        assert!(
+            e.contains("text.tif") && e.contains(says),
+            "count {count}: {e}"
+        );
+        assert_eq!(e.trim_end().lines().count(), 1, "count {count}: {e}");
     }
 }
 

@@ -98,6 +98,7 @@ fn open_decoder(path: &Path, limits: &Limits) -> Result<Dec> {
 
 /// Read an optional tag as doubles (any numeric type accepted).
 fn tag_f64s(dec: &mut Dec, path: &Path, tag: u16) -> Result<Option<Vec<f64>>> {
+    check_tag_count(dec, path, Tag::from_u16_exhaustive(tag), u64::MAX)?;
     let v = dec
         .find_tag(Tag::from_u16_exhaustive(tag))
         .map_err(|e| tiff_err(path, e))?;
@@ -113,6 +114,7 @@ fn tag_f64s(dec: &mut Dec, path: &Path, tag: u16) -> Result<Option<Vec<f64>>> {
 /// Read an optional tag as unsigned integers.
 fn tag_u64s(dec: &mut Dec, path: &Path, tag: Tag) -> Result<Option<Vec<u64>>> {
     let num = tag.to_u16();
+    check_tag_count(dec, path, tag, u64::MAX)?;
     match dec.find_tag(tag).map_err(|e| tiff_err(path, e))? {
         None => Ok(None),
         Some(v) => v.into_u64_vec().map(Some).map_err(|_| {
@@ -124,7 +126,43 @@ fn tag_u64s(dec: &mut Dec, path: &Path, tag: Tag) -> Result<Option<Vec<u64>>> {
     }
 }
 
+/// The longest text tag read (GeoAsciiParams, GDAL_NODATA hold a few
+/// dozen bytes in practice). It also keeps tiff 0.11.3 from printing a stray
+/// `dbg!` line to stderr, which it does for an ASCII tag longer than its
+/// buffer limit (at least 1 MiB here; session 10).
+const MAX_TEXT_TAG: u64 = 1 << 20;
+
+/// Refuse a tag of the current IFD whose declared count cannot be right
+/// before the tiff crate reads it: every value takes at least one byte, so
+/// a count beyond the file's length means a truncated or corrupt file (a
+/// clearer error than the decoder's memory limit, which it would otherwise
+/// hit); `max` bounds the count further.
+fn check_tag_count(dec: &mut Dec, path: &Path, tag: Tag, max: u64) -> Result<()> {
+    let Some(count) = dec.image_ifd().find_entry(tag).map(|e| e.count()) else {
+        return Ok(());
+    };
+    let len = dec.inner().get_ref().metadata().at(path)?.len();
+    let num = tag.to_u16();
+    if count > len {
+        return Err(Error::corrupt(
+            path,
+            format!(
+                "TIFF tag {num} declares {count} values, more than the file's {len} bytes \
+                 can hold: the file is truncated or corrupt"
+            ),
+        ));
+    }
+    if count > max {
+        return Err(Error::too_large(
+            path,
+            format!("TIFF tag {num} declares {count} bytes of text; orogen reads at most {max}"),
+        ));
+    }
+    Ok(())
+}
+
 fn tag_ascii(dec: &mut Dec, path: &Path, tag: u16) -> Result<Option<String>> {
+    check_tag_count(dec, path, Tag::from_u16_exhaustive(tag), MAX_TEXT_TAG)?;
     match dec
         .find_tag(Tag::from_u16_exhaustive(tag))
         .map_err(|e| tiff_err(path, e))?
