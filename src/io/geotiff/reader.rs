@@ -98,10 +98,9 @@ fn open_decoder(path: &Path, limits: &Limits) -> Result<Dec> {
 
 /// Read an optional tag as doubles (any numeric type accepted).
 fn tag_f64s(dec: &mut Dec, path: &Path, tag: u16) -> Result<Option<Vec<f64>>> {
-    check_tag_count(dec, path, Tag::from_u16_exhaustive(tag), u64::MAX)?;
-    let v = dec
-        .find_tag(Tag::from_u16_exhaustive(tag))
-        .map_err(|e| tiff_err(path, e))?;
+    let t = Tag::from_u16_exhaustive(tag);
+    tag_count(dec, path, t)?;
+    let v = dec.find_tag(t).map_err(|e| tiff_err(path, e))?;
     match v {
         None => Ok(None),
         Some(v) => v
@@ -114,7 +113,7 @@ fn tag_f64s(dec: &mut Dec, path: &Path, tag: u16) -> Result<Option<Vec<f64>>> {
 /// Read an optional tag as unsigned integers.
 fn tag_u64s(dec: &mut Dec, path: &Path, tag: Tag) -> Result<Option<Vec<u64>>> {
     let num = tag.to_u16();
-    check_tag_count(dec, path, tag, u64::MAX)?;
+    tag_count(dec, path, tag)?;
     match dec.find_tag(tag).map_err(|e| tiff_err(path, e))? {
         None => Ok(None),
         Some(v) => v.into_u64_vec().map(Some).map_err(|_| {
@@ -132,41 +131,40 @@ fn tag_u64s(dec: &mut Dec, path: &Path, tag: Tag) -> Result<Option<Vec<u64>>> {
 /// buffer limit (at least 1 MiB here; session 10).
 const MAX_TEXT_TAG: u64 = 1 << 20;
 
-/// Refuse a tag of the current IFD whose declared count cannot be right
-/// before the tiff crate reads it: every value takes at least one byte, so
-/// a count beyond the file's length means a truncated or corrupt file (a
-/// clearer error than the decoder's memory limit, which it would otherwise
-/// hit); `max` bounds the count further.
-fn check_tag_count(dec: &mut Dec, path: &Path, tag: Tag, max: u64) -> Result<()> {
+/// The declared count of a tag of the current IFD (`None` if absent),
+/// checked before the tiff crate reads the tag: every value takes at least
+/// one byte, so a count beyond the file's length means a truncated or
+/// corrupt file (a clearer error than the decoder's memory limit, which it
+/// would otherwise hit).
+fn tag_count(dec: &mut Dec, path: &Path, tag: Tag) -> Result<Option<u64>> {
     let Some(count) = dec.image_ifd().find_entry(tag).map(|e| e.count()) else {
-        return Ok(());
+        return Ok(None);
     };
     let len = dec.inner().get_ref().metadata().at(path)?.len();
-    let num = tag.to_u16();
     if count > len {
         return Err(Error::corrupt(
             path,
             format!(
-                "TIFF tag {num} declares {count} values, more than the file's {len} bytes \
-                 can hold: the file is truncated or corrupt"
+                "TIFF tag {} declares {count} values, more than the file's {len} bytes \
+                 can hold: the file is truncated or corrupt",
+                tag.to_u16()
             ),
         ));
     }
-    if count > max {
-        return Err(Error::too_large(
-            path,
-            format!("TIFF tag {num} declares {count} bytes of text; orogen reads at most {max}"),
-        ));
-    }
-    Ok(())
+    Ok(Some(count))
 }
 
 fn tag_ascii(dec: &mut Dec, path: &Path, tag: u16) -> Result<Option<String>> {
-    check_tag_count(dec, path, Tag::from_u16_exhaustive(tag), MAX_TEXT_TAG)?;
-    match dec
-        .find_tag(Tag::from_u16_exhaustive(tag))
-        .map_err(|e| tiff_err(path, e))?
-    {
+    let t = Tag::from_u16_exhaustive(tag);
+    if let Some(count) = tag_count(dec, path, t)?.filter(|&c| c > MAX_TEXT_TAG) {
+        return Err(Error::too_large(
+            path,
+            format!(
+                "TIFF tag {tag} declares {count} bytes of text; orogen reads at most {MAX_TEXT_TAG}"
+            ),
+        ));
+    }
+    match dec.find_tag(t).map_err(|e| tiff_err(path, e))? {
         None => Ok(None),
         Some(v) => v
             .into_string()
