@@ -19,9 +19,23 @@ executions and seconds, the highest `cov` ever seen, and the cumulative
 time of the last new `cov` (a resumed run first replays its corpus, which
 only reaches the old coverage; an edge counts as new when `cov` exceeds
 every earlier run's). --quiet then means "seconds of fuzzing, over all
-runs, without a new cov edge": the plateau rule. The state is updated at
-the end of the run and one JSON line per run is appended to
-WORK/runs.jsonl.
+runs, without a new cov edge". The state is updated at the end of the
+run and one JSON line per run is appended to WORK/runs.jsonl.
+
+The plateau rule (session 11; stated before the runs it judges). Coverage
+grows roughly with the logarithm of the fuzzing effort (Böhme and Falk,
+"Fuzzing: on the exponential cost of vulnerability discovery", ESEC/FSE
+2020), so "N seconds without a new edge" is met by every target sooner or
+later and says little: in session 10, hgt gained 13 % after meeting it. A
+resumed target is at its plateau when all three hold, on the counts of
+the current build:
+  1. it has fuzzed at least --min-total seconds (default 1200);
+  2. the last half of its executions (the last doubling of the effort)
+     added at most --max-gain percent of its edges (default 1.0): the
+     state keeps every new best `cov` with the cumulative executions it
+     came at, and the gain is the best cov minus the best cov reached by
+     half the executions;
+  3. --quiet seconds of fuzzing without a new edge.
 
 The binary defaults to the optimised uninstrumented-by-ASan build
 (`cargo fuzz build -s none`): fuzz/target/x86_64-unknown-linux-gnu/release/.
@@ -42,6 +56,15 @@ STATUS = re.compile(
 )
 
 
+def half_gain(st, executions):
+    """Edges gained over the last half of `executions`, in percent of the
+    best `cov`: the best cov minus the best cov reached within the first
+    half (0 before any was seen). Rule 2 of the plateau."""
+    before = [c for x, c in st["curve"] if x <= executions / 2]
+    ref = before[-1] if before else 0
+    return 100.0 * (st["best_cov"] - ref) / max(st["best_cov"], 1)
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("target")
@@ -56,6 +79,11 @@ def main():
     )
     ap.add_argument("--state", help="JSON file carrying counts across resumed runs")
     ap.add_argument("--build-id", default="", help="identity of the build the counts are for")
+    ap.add_argument("--min-total", type=float, default=1200,
+                    help="plateau rule: least cumulative fuzzing seconds")
+    ap.add_argument("--max-gain", type=float, default=1.0,
+                    help="plateau rule: most edges gained over the last half of the "
+                    "executions, in percent of all")
     ap.add_argument("extra", nargs="*", help="extra libFuzzer flags")
     a = ap.parse_args()
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -72,6 +100,7 @@ def main():
         "last_new_cov_cum": 0.0,
         "runs": 0,
         "build": a.build_id,
+        "curve": [],
     }
     if a.state and os.path.exists(a.state):
         old = json.load(open(a.state))
@@ -85,7 +114,7 @@ def main():
                 f"now {a.build_id!r}): fresh counts, old state kept as {keep}",
                 file=sys.stderr,
             )
-    base_t = st["seconds"]
+    base_t, base_x = st["seconds"], st["executions"]
     art = os.path.join(root, "fuzz/artifacts", a.target) + "/"
     os.makedirs(art, exist_ok=True)
     log_path = os.path.join(a.work, f"{a.target}.log")
@@ -137,10 +166,13 @@ def main():
                         last_cov, t_last_cov = cov, t
                     if cov > st["best_cov"]:
                         st["best_cov"], st["last_new_cov_cum"] = cov, base_t + t
+                        st["curve"].append([base_x + execs, cov])
             t = time.time() - t0
             quiet_cum = base_t + t - st["last_new_cov_cum"]
             rule = (
                 quiet_cum >= a.quiet
+                and base_t + t >= a.min_total
+                and half_gain(st, base_x + execs) <= a.max_gain
                 if a.state
                 else (t_last_cov <= t * 2 / 3 or t - t_last_cov >= a.quiet)
             )
@@ -180,12 +212,18 @@ def main():
         st["executions"] += out["executions"]
         st["runs"] += 1
         json.dump(st, open(a.state, "w"))
+        quiet_cum = st["seconds"] - st["last_new_cov_cum"]
+        gain = half_gain(st, st["executions"])
         out.update(
             cum_seconds=round(st["seconds"]),
             cum_executions=st["executions"],
             best_cov=st["best_cov"],
-            quiet_cum_s=round(st["seconds"] - st["last_new_cov_cum"]),
-            plateau=st["seconds"] - st["last_new_cov_cum"] >= a.quiet,
+            quiet_cum_s=round(quiet_cum),
+            half_gain_pct=round(gain, 2),
+            rule=f"{a.min_total:.0f} s, {a.max_gain:g} % per doubling, {a.quiet:.0f} s quiet",
+            plateau=quiet_cum >= a.quiet
+            and st["seconds"] >= a.min_total
+            and gain <= a.max_gain,
         )
         with open(os.path.join(a.work, "runs.jsonl"), "a") as f:
             f.write(json.dumps(out) + "\n")

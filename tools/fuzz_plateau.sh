@@ -3,12 +3,15 @@
 # session 6). Round-robin over the targets in slices of SLICE seconds, each
 # slice resuming the target's working corpus (WORK/corpus/TARGET) and its
 # counts (WORK/state/TARGET.json) through fuzz/plateau.py --state; a target
-# leaves the rotation once it has fuzzed QUIET seconds in total without a
-# new `cov` edge (the plateau rule), or on a finding (reproducer in
-# fuzz/artifacts/TARGET/). Stops at the epoch second DEADLINE.
+# leaves the rotation once it meets the plateau rule, or on a finding
+# (reproducer in fuzz/artifacts/TARGET/). The rule (session 11; see
+# fuzz/plateau.py): at least MIN_TOTAL seconds of fuzzing on the build, the
+# last half of its executions added at most MAX_GAIN percent of its edges,
+# and QUIET seconds without a new edge. Stops at the epoch second DEADLINE.
 #
 #   BIN_DIR=/work/fuzzwork/target/x86_64-unknown-linux-gnu/release \
-#   WORK=/work/fuzzwork SEEDS=/work/fuzzwork/seeds SLICE=240 QUIET=300 \
+#   WORK=/work/fuzzwork SEEDS=/work/fuzzwork/seeds SLICE=600 QUIET=300 \
+#   MIN_TOTAL=1200 MAX_GAIN=1.0 \
 #   DEADLINE=$(date -d 17:45 +%s) tools/fuzz_plateau.sh [TARGET...]
 #
 # Runs under `nice -n 19`, one process (libFuzzer's default: one job, one
@@ -32,6 +35,8 @@ work="${WORK:-/tmp/orogen-fuzz-plateau}"
 seeds="${SEEDS:-fuzz/corpus}"
 slice="${SLICE:-240}"
 quiet="${QUIET:-300}"
+min_total="${MIN_TOTAL:-1200}"
+max_gain="${MAX_GAIN:-1.0}"
 deadline="${DEADLINE:-$(( $(date +%s) + 3600 ))}"
 mkdir -p "$work/state"
 build_id="${BUILD_ID:-$(git log -1 --format=%h -- src fuzz/common.rs fuzz/fuzz_targets \
@@ -68,7 +73,8 @@ while :; do
         line=$(nice -n 19 python3 fuzz/plateau.py "$t" --bin "$bin_dir/$t" \
             --work "$work" --seeds "$seeds/$t" --seeds "$work/saved/$t" \
             --state "$work/state/$t.json" --build-id "$build_id" \
-            --min 30 --max "$max" --quiet "$quiet")
+            --min 30 --max "$max" --quiet "$quiet" \
+            --min-total "$min_total" --max-gain "$max_gain")
         rc=$?
         echo "$line"
         if [ $rc -ne 0 ]; then
