@@ -65,6 +65,15 @@ def half_gain(st, executions):
     return 100.0 * (st["best_cov"] - ref) / max(st["best_cov"], 1)
 
 
+def at_plateau(st, a, seconds, executions):
+    """The plateau rule of the header (rules 1-3) on cumulative counts."""
+    return (
+        seconds - st["last_new_cov_cum"] >= a.quiet
+        and seconds >= a.min_total
+        and half_gain(st, executions) <= a.max_gain
+    )
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("target")
@@ -168,11 +177,8 @@ def main():
                         st["best_cov"], st["last_new_cov_cum"] = cov, base_t + t
                         st["curve"].append([base_x + execs, cov])
             t = time.time() - t0
-            quiet_cum = base_t + t - st["last_new_cov_cum"]
             rule = (
-                quiet_cum >= a.quiet
-                and base_t + t >= a.min_total
-                and half_gain(st, base_x + execs) <= a.max_gain
+                at_plateau(st, a, base_t + t, base_x + execs)
                 if a.state
                 else (t_last_cov <= t * 2 / 3 or t - t_last_cov >= a.quiet)
             )
@@ -212,18 +218,14 @@ def main():
         st["executions"] += out["executions"]
         st["runs"] += 1
         json.dump(st, open(a.state, "w"))
-        quiet_cum = st["seconds"] - st["last_new_cov_cum"]
-        gain = half_gain(st, st["executions"])
         out.update(
             cum_seconds=round(st["seconds"]),
             cum_executions=st["executions"],
             best_cov=st["best_cov"],
-            quiet_cum_s=round(quiet_cum),
-            half_gain_pct=round(gain, 2),
+            quiet_cum_s=round(st["seconds"] - st["last_new_cov_cum"]),
+            half_gain_pct=round(half_gain(st, st["executions"]), 2),
             rule=f"{a.min_total:.0f} s, {a.max_gain:g} % per doubling, {a.quiet:.0f} s quiet",
-            plateau=quiet_cum >= a.quiet
-            and st["seconds"] >= a.min_total
-            and gain <= a.max_gain,
+            plateau=at_plateau(st, a, st["seconds"], st["executions"]),
         )
         with open(os.path.join(a.work, "runs.jsonl"), "a") as f:
             f.write(json.dumps(out) + "\n")
