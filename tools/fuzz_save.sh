@@ -14,6 +14,10 @@
 # copied to fuzz/campaign/state/, and WORK/runs.jsonl's lines are added to
 # fuzz/campaign/runs.jsonl (the record fuzz/table.py prints).
 #
+# Name the targets that were fuzzed: `-merge=1` over an unchanged corpus
+# picks another, equally minimal set, so re-saving an idle target churns its
+# archive (6 MB for geotiff) without adding anything (session 12).
+#
 #   BIN_DIR=/work/fuzzwork/target/x86_64-unknown-linux-gnu/release \
 #   WORK=/work/fuzzwork tools/fuzz_save.sh [TARGET...]
 set -euo pipefail
