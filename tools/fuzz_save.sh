@@ -14,9 +14,10 @@
 # copied to fuzz/campaign/state/, and WORK/runs.jsonl's lines are added to
 # fuzz/campaign/runs.jsonl (the record fuzz/table.py prints).
 #
-# Name the targets that were fuzzed: `-merge=1` over an unchanged corpus
-# picks another, equally minimal set, so re-saving an idle target churns its
-# archive (6 MB for geotiff) without adding anything (session 12).
+# A target whose counts are unchanged since the last save (WORK/state/TARGET.json
+# equal to fuzz/campaign/state/TARGET.json) was not fuzzed since, and is
+# skipped: `-merge=1` over an unchanged corpus picks another, equally minimal
+# set, so re-saving it would only churn its archive (6 MB for geotiff; session 12).
 #
 #   BIN_DIR=/work/fuzzwork/target/x86_64-unknown-linux-gnu/release \
 #   WORK=/work/fuzzwork tools/fuzz_save.sh [TARGET...]
@@ -36,6 +37,10 @@ fi
 mkdir -p fuzz/campaign/corpus fuzz/campaign/state
 for t in "${targets[@]}"; do
     [ -d "$work/corpus/$t" ] || { echo "fuzz_save: no working corpus for $t" >&2; continue; }
+    if cmp -s "$work/state/$t.json" "fuzz/campaign/state/$t.json"; then
+        echo "fuzz_save: $t: not fuzzed since the last save, kept" >&2
+        continue
+    fi
     tmp="$(mktemp -d)"
     mkdir -p "$tmp/saved" "$tmp/$t"
     archive="fuzz/campaign/corpus/$t.tar.gz"
