@@ -9,6 +9,9 @@ cargo build --release
 export OROGEN="$PWD/target/release/orogen"
 tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
 
+echo "== every CLI output byte-identical to its recorded sha256 (tools/cli_golden.py)"
+/usr/bin/python3 tools/cli_golden.py --bin "$OROGEN"
+
 echo "== demo"
 "$OROGEN" demo -o "$tmp/demo" --quiet
 for f in terrain.tif slope.tif aspect.tif hillshade.tif preview.png; do
