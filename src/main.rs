@@ -928,17 +928,17 @@ fn run(cli: Cli) -> Result<()> {
             run: _,
         } => {
             let src = open(&input)?;
-            let opts = orogen::io::render::RenderOptions {
+            let opts = orogen::tiles::render::RenderOptions {
                 max_size,
                 legend,
                 kind: if grey {
-                    orogen::io::render::RenderKind::Grey
+                    orogen::tiles::render::RenderKind::Grey
                 } else {
-                    orogen::io::render::RenderKind::Elevation
+                    orogen::tiles::render::RenderKind::Elevation
                 },
                 ..Default::default()
             };
-            orogen::io::render::render_preview(src.as_ref(), &output, &opts)?;
+            orogen::tiles::render::render_preview(src.as_ref(), &output, &opts)?;
             wrote(&output);
         }
         Cmd::Viewshed(args) => cli::viewshed::run(args)?,

@@ -6,14 +6,14 @@
 //! counts.
 //!
 //! Previews and histograms come from a block-mean downsampling of the raster
-//! ([`crate::io::render::downsample_mean`], at most 512 pixels a side), so
+//! ([`crate::tiles::render::downsample_mean`], at most 512 pixels a side), so
 //! the histogram is that of the preview's cells, not of every cell; the
 //! minimum and maximum are exact.
 
 use crate::error::{Error, Result};
-use crate::io::render::{downsample_mean, render_preview, RenderKind, RenderOptions};
 use crate::io::{open_raster, OpenOptions};
 use crate::raster::{AnyGrid, MemRaster};
+use crate::tiles::render::{downsample_mean, render_preview, RenderKind, RenderOptions};
 use base64::Engine as _;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -728,7 +728,7 @@ impl Chart {
         for y in mt..=h - mb {
             blend(&mut px, ml as i64, y as i64, [90, 90, 90], 1.0);
         }
-        use crate::io::render::{draw_text, text_width};
+        use crate::tiles::render::{draw_text, text_width};
         let (lx0, lx1, ly1) = (axis_label(x0), axis_label(x1), axis_label(y1));
         draw_text(&mut px, w, ml, h - mb + 5, &lx0);
         draw_text(

@@ -6,10 +6,10 @@
 use orogen::io::hgt::read_hgt;
 use orogen::io::mosaic::Mosaic;
 use orogen::io::png::read_png_heightmap;
-use orogen::io::render::{
+use orogen::raster::{AnyGrid, Crs, GeoRef, Grid, MemRaster, RasterInfo, RasterSource, Window};
+use orogen::tiles::render::{
     downsample_mean, ramp_ends, render_preview, RenderKind, RenderOptions, CHUNK_CELLS,
 };
-use orogen::raster::{AnyGrid, Crs, GeoRef, Grid, MemRaster, RasterInfo, RasterSource, Window};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 

@@ -129,14 +129,14 @@ fn run_stream_power(mut a: ErodeArgs, table: toml::Table, steps: u64) -> Result<
             .with_context(|| format!("{}: cannot create the preview folder", dir.display()))?;
         let src = open(&a.input)?;
         let p = dir.join("before.png");
-        orogen::io::render::render_preview(src.as_ref(), &p, &Default::default())?;
+        orogen::tiles::render::render_preview(src.as_ref(), &p, &Default::default())?;
         wrote(&p);
     }
     crate::cli::erode_sp::run(&a.input, &a.sp, &a.out, &a.run)?;
     if let Some(dir) = &a.preview {
         let out = orogen::io::open_raster(&a.out.output, &orogen::io::OpenOptions::default())?;
         let p = dir.join("after.png");
-        orogen::io::render::render_preview(out.as_ref(), &p, &Default::default())?;
+        orogen::tiles::render::render_preview(out.as_ref(), &p, &Default::default())?;
         wrote(&p);
     }
     Ok(())
@@ -294,7 +294,7 @@ fn execute<M: LocalModel>(
         std::fs::create_dir_all(dir)
             .with_context(|| format!("{}: cannot create the preview folder", dir.display()))?;
         let p = dir.join("before.png");
-        orogen::io::render::render_preview(src, &p, &Default::default())?;
+        orogen::tiles::render::render_preview(src, &p, &Default::default())?;
         wrote(&p);
     }
     let t0 = std::time::Instant::now();
@@ -327,7 +327,7 @@ fn execute<M: LocalModel>(
     if let Some(dir) = &a.preview {
         let out = orogen::io::open_raster(&a.out.output, &orogen::io::OpenOptions::default())?;
         let p = dir.join("after.png");
-        orogen::io::render::render_preview(out.as_ref(), &p, &Default::default())?;
+        orogen::tiles::render::render_preview(out.as_ref(), &p, &Default::default())?;
         wrote(&p);
     }
     Ok(())

@@ -5,13 +5,13 @@
 use crate::{engine, output_options, wrote, Out, Run};
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
-use orogen::io::render::{render_preview, RenderOptions};
 use orogen::io::{open_raster, OpenOptions};
 use orogen::raster::{read_window, GeoRef, Grid, MemRaster, Window};
 use orogen::synth::optimise::{
     depression_stats, synthesise, FinestPits, OptimiseOptions, PitRemoval, SearchSpace, Weighting,
     DEFAULT_DETAIL_DEPTH, MAX_OUTPUT_CELLS, MAX_SOURCE_CELLS,
 };
+use orogen::tiles::render::{render_preview, RenderOptions};
 use std::path::{Path, PathBuf};
 
 #[derive(Copy, Clone, PartialEq, Eq, ValueEnum)]

@@ -465,10 +465,10 @@ fn write_terrain(tree: &SynthTree, t: &TerrainArgs, out: &Out, run: &Run) -> Res
     wrote(&out.output);
     if let Some(p) = &t.preview {
         let written = orogen::io::open_raster(&out.output, &orogen::io::OpenOptions::default())?;
-        orogen::io::render::render_preview(
+        orogen::tiles::render::render_preview(
             written.as_ref(),
             p,
-            &orogen::io::render::RenderOptions::default(),
+            &orogen::tiles::render::RenderOptions::default(),
         )?;
         wrote(p);
     }

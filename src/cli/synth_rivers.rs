@@ -7,10 +7,10 @@ use super::synth_tectonic::{parse_xy, preview};
 use crate::{engine, output_options, wrote, Out, Run};
 use anyhow::{bail, Result};
 use clap::Args;
-use orogen::io::render::RenderKind;
 use orogen::raster::{Crs, GeoRef};
 use orogen::synth::rivers::{network_geojson, LandMask, RiverNetwork, RiverParams, RiverTerrain};
 use orogen::synth::vector::VectorMap;
+use orogen::tiles::render::RenderKind;
 use std::path::PathBuf;
 
 /// Arguments of `orogen synth rivers`.

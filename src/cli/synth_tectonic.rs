@@ -6,12 +6,12 @@ use super::synth_noise::parse_size;
 use crate::{engine, output_options, wrote, Out, Run};
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use orogen::io::render::{render_preview, RenderKind, RenderOptions};
 use orogen::raster::{Crs, GeoRef, RasterSource};
 use orogen::synth::tectonic::{
     map_to_pixels, TectonicLayer, TectonicModel, TectonicParams, TectonicSource,
 };
 use orogen::synth::vector::VectorMap;
+use orogen::tiles::render::{render_preview, RenderKind, RenderOptions};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 

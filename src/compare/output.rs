@@ -5,12 +5,12 @@
 
 use super::{Comparison, PairHistogram, Terrain, LANDFORMS};
 use crate::error::{Error, Result};
-use crate::io::render::{render_preview, RenderKind, RenderOptions};
 use crate::raster::MemRaster;
 use crate::report::{
     chart_key, esc, fmt_num, html_page, png_img, write_html, Chart, Series, Style, COLOUR_A,
     COLOUR_B,
 };
+use crate::tiles::render::{render_preview, RenderKind, RenderOptions};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 

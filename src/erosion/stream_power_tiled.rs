@@ -47,7 +47,7 @@ use super::stream_power::{
     BASE, DX, DY, VALID,
 };
 use crate::error::{Error, IoContext, Result};
-use crate::hydro::tiled::{perimeter_index, perimeter_len};
+use crate::raster::{perimeter_index, perimeter_len};
 use crate::raster::{read_window, Grid, RasterSource, TileId, TileLayout, Window};
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;

@@ -657,7 +657,7 @@ pub fn erode_to_paths<M: LocalModel>(
         .first()
         .ok_or_else(|| Error::invalid("erosion: no output given"))?;
     let paths: Vec<PathBuf> = outputs.iter().map(|(_, p)| p.clone()).collect();
-    let layout = crate::ops::choose_layout(src, &paths, oo, tile);
+    let layout = crate::exec::plan::choose_layout(src, &paths, oo, tile);
     let nodata = info.georef.nodata;
     let georef = info.georef.clone().with_nodata(nodata);
     let mut sinks = Vec::with_capacity(outputs.len());

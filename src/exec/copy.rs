@@ -1,12 +1,11 @@
-//! Native-type copies between sources and sinks (ingest, export) and an
-//! in-memory sink.
+//! Native-type copies between sources and sinks (ingest, export) and runs
+//! of a local step into memory.
 
-use super::{local::LocalEngine, EngineConfig, TileSink};
+use super::{local::LocalEngine, EngineConfig, MemSink, TileSink};
 use crate::error::{Error, Result};
-use crate::raster::{AnyGrid, DType, RasterSource, TileId, TileLayout, Window};
+use crate::raster::{AnyGrid, DType, RasterSource, TileId, TileLayout};
 use crate::store::{Provenance, StoreOptions, StoreWriter};
 use std::path::Path;
-use std::sync::{Arc, Mutex};
 
 /// Copy `src` into `sink` tile by tile in the native type (exact bytes, no
 /// nodata conversion), running on `engine`'s pool under its memory budget.
@@ -95,91 +94,6 @@ pub fn ingest(
     copy(src, sink, layout, &LocalEngine::new(config.clone()))?;
     super::barrier();
     Ok(())
-}
-
-/// A sink that assembles the whole raster in memory (tests, small outputs).
-/// Its result is taken from the [`MemSinkHandle`] after `finish`.
-#[derive(Debug)]
-pub struct MemSink {
-    grid: AnyGrid,
-    nodata: Option<f64>,
-    cells_written: usize,
-    out: Arc<Mutex<Option<AnyGrid>>>,
-}
-
-/// Where a finished [`MemSink`] leaves its grid.
-#[derive(Debug, Clone)]
-pub struct MemSinkHandle(Arc<Mutex<Option<AnyGrid>>>);
-
-impl MemSinkHandle {
-    /// The assembled grid, once the sink finished (`None` before, or if the
-    /// run failed).
-    pub fn take(&self) -> Option<AnyGrid> {
-        self.0.lock().ok()?.take()
-    }
-}
-
-impl MemSink {
-    /// A `width` x `height` sink of `dtype` with `nodata`.
-    pub fn new(
-        width: usize,
-        height: usize,
-        dtype: DType,
-        nodata: Option<f64>,
-    ) -> (MemSink, MemSinkHandle) {
-        let out = Arc::new(Mutex::new(None));
-        let sink = MemSink {
-            grid: AnyGrid::filled(dtype, width, height, nodata.unwrap_or(0.0)),
-            nodata,
-            cells_written: 0,
-            out: out.clone(),
-        };
-        (sink, MemSinkHandle(out))
-    }
-}
-
-impl TileSink for MemSink {
-    fn dtype(&self) -> DType {
-        self.grid.dtype()
-    }
-    fn nodata(&self) -> Option<f64> {
-        self.nodata
-    }
-    fn write(&mut self, _id: TileId, core: Window, data: AnyGrid) -> Result<()> {
-        let full = Window::full(self.grid.width(), self.grid.height());
-        if data.dtype() != self.grid.dtype()
-            || (data.width(), data.height()) != (core.w, core.h)
-            || core.intersect(&full) != Some(core)
-        {
-            return Err(Error::invalid(format!(
-                "memory sink: a {}x{} {} tile at {core:?} does not fit a {}x{} {} raster",
-                data.width(),
-                data.height(),
-                data.dtype(),
-                full.w,
-                full.h,
-                self.grid.dtype()
-            )));
-        }
-        self.grid.paste(&data, core.x, core.y);
-        self.cells_written += core.len();
-        Ok(())
-    }
-    fn finish(self: Box<Self>) -> Result<()> {
-        let total = self.grid.width() * self.grid.height();
-        if self.cells_written != total {
-            return Err(Error::invalid(format!(
-                "memory sink: {} of {total} cells written",
-                self.cells_written
-            )));
-        }
-        let mut slot = self
-            .out
-            .lock()
-            .map_err(|_| Error::invalid("memory sink: result slot poisoned"))?;
-        *slot = Some(self.grid);
-        Ok(())
-    }
 }
 
 /// Run a local step over `layout` and return its outputs assembled in memory,

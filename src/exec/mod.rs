@@ -1,11 +1,11 @@
-//! Tiled execution: the step traits (local and global), tile sinks, and the
-//! `Engine` trait that runs steps over tiles. Steps never know which engine
-//! runs them; an engine never knows what a step computes.
+//! Tiled execution: the step traits (local and global), the `Engine` trait
+//! that runs steps over tiles (tile sinks are `store::sink`'s, re-exported
+//! here), output nodata rules ([`output`]) and runs planned from paths
+//! ([`plan`]). Steps never know which engine runs them; an engine never
+//! knows what a step computes.
 
 use crate::error::Result;
-use crate::raster::{
-    AnyGrid, Cell, DType, Grid, IntoAny, RasterSource, TileId, TileLayout, TileView, Window,
-};
+use crate::raster::{Cell, Grid, IntoAny, RasterSource, TileId, TileLayout, TileView};
 use serde::{de::DeserializeOwned, Serialize};
 
 /// A local step: `tile + halo -> tile`, for every tile independently.
@@ -79,51 +79,6 @@ pub trait GlobalStep: Sync {
     ) -> Result<()>;
 }
 
-/// Where an engine writes output tiles. The engine calls `write` from one
-/// thread, in increasing tile id order, so sinks need no reordering of their
-/// own beyond their own block layout.
-pub trait TileSink: Send {
-    /// Native type of the output.
-    fn dtype(&self) -> DType;
-    /// Nodata value written for NaN cells.
-    fn nodata(&self) -> Option<f64>;
-    /// The tile layout the sink is bound to, if any (a tile store's); the
-    /// engine refuses to run with a different layout.
-    fn layout(&self) -> Option<TileLayout> {
-        None
-    }
-    /// True if the tile is already finished (resume): the engine skips it.
-    fn is_done(&self, _id: TileId) -> bool {
-        false
-    }
-    /// Write one finished tile whose core is `core`.
-    fn write(&mut self, id: TileId, core: Window, data: AnyGrid) -> Result<()>;
-    /// If other processes may write this sink's tiles themselves (a tile
-    /// store on a filesystem they share), what they need to do so; `None`
-    /// (the default) means every tile must come to this sink's `write`.
-    /// Used by the MPI engine: rank 0 owns the sink (and its lock) and
-    /// delegates the tile files of the other ranks' tiles to them.
-    fn delegate(&self) -> Option<crate::store::DelegatedTiles> {
-        None
-    }
-    /// Record tile `id`, written by another process through
-    /// [`TileSink::delegate`] as `entry` (checksum and size): from then on
-    /// the tile counts as finished, exactly as after `write`. Called in the
-    /// same order and from the same thread as `write`.
-    fn record_delegated(&mut self, id: TileId, _entry: crate::store::TileEntry) -> Result<()> {
-        Err(crate::error::Error::invalid(format!(
-            "tile {id}: this output cannot record tiles written by another process"
-        )))
-    }
-    /// Finish the output (flush, write directories/manifest, rename into place).
-    fn finish(self: Box<Self>) -> Result<()>;
-}
-
-/// Convert a step's typed output tile into the sink's native type.
-pub fn to_sink_type<T: Cell>(g: &Grid<T>, sink: &dyn TileSink) -> AnyGrid {
-    AnyGrid::from_typed(g, sink.dtype(), sink.nodata())
-}
-
 /// Engine settings shared by all engines.
 #[derive(Debug, Clone)]
 pub struct EngineConfig {
@@ -182,6 +137,55 @@ pub trait Engine {
         sinks: Vec<Box<dyn TileSink>>,
     ) -> Result<()> {
         self.run_global(step, inputs, layout, sinks).map(|_| ())
+    }
+}
+
+/// Every run of a [`LocalEngine`] goes to the engine this process selected
+/// ([`select_engine`]): in this process, or under `--engine mpi` to the
+/// ranks, so callers and steps stay unchanged.
+impl Engine for LocalEngine {
+    fn run_local<S: LocalStep>(
+        &self,
+        step: &S,
+        inputs: &[&dyn RasterSource],
+        layout: TileLayout,
+        sinks: Vec<Box<dyn TileSink>>,
+    ) -> Result<()> {
+        #[cfg(feature = "mpi")]
+        if mpi::active() {
+            return mpi::MpiEngine::new(self.clone()).run_local(step, inputs, layout, sinks);
+        }
+        self.run_local_here(step, inputs, layout, sinks)
+    }
+
+    fn run_global<S: GlobalStep>(
+        &self,
+        step: &S,
+        inputs: &[&dyn RasterSource],
+        layout: TileLayout,
+        sinks: Vec<Box<dyn TileSink>>,
+    ) -> Result<S::Solution> {
+        #[cfg(feature = "mpi")]
+        if mpi::active() {
+            return mpi::MpiEngine::new(self.clone()).run_global(step, inputs, layout, sinks);
+        }
+        self.run_global_here(step, inputs, layout, sinks)
+    }
+
+    fn run_global_apply<S: GlobalStep>(
+        &self,
+        step: &S,
+        inputs: &[&dyn RasterSource],
+        layout: TileLayout,
+        sinks: Vec<Box<dyn TileSink>>,
+    ) -> Result<()> {
+        // Under MPI: rank 0 reduces and sends each rank its slices.
+        #[cfg(feature = "mpi")]
+        if mpi::active() {
+            return mpi::MpiEngine::new(self.clone()).run_global_apply(step, inputs, layout, sinks);
+        }
+        self.run_global_here(step, inputs, layout, sinks)
+            .map(|_| ())
     }
 }
 
@@ -272,7 +276,12 @@ pub mod mpi_codec;
 pub mod mpi_halo;
 #[cfg(feature = "mpi")]
 mod mpi_queue;
+pub mod output;
+pub mod plan;
 pub mod stats;
+mod tile_io;
 
-pub use copy::{copy, ingest, run_local_to_memory, MemSink, MemSinkHandle};
-pub use local::{local_tile_bytes, roundtrip_summary, tiles_in_flight, LocalEngine};
+pub use crate::store::sink::{to_sink_type, MemSink, MemSinkHandle, TileSink};
+pub use copy::{copy, ingest, run_local_to_memory};
+pub use local::LocalEngine;
+pub use tile_io::{local_tile_bytes, roundtrip_summary, tiles_in_flight};

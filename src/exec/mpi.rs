@@ -44,15 +44,15 @@
 //! ends the others. Nothing is left looking finished: GeoTIFF outputs are
 //! renamed into place only by a successful `finish`.
 
-use super::local::{
-    blank_outputs, check_inputs, check_sinks, convert_outputs, finish_all, read_views, todo,
-    write_outputs,
-};
 use super::mpi_codec::{
     decode_records, decode_tile_written, encode_tile_written, perimeter_cells, push_record, Queue,
     Schedule, TileParts,
 };
 use super::mpi_queue::{self, Work};
+use super::tile_io::{
+    blank_outputs, check_inputs, check_sinks, convert_outputs, finish_all, read_views, todo,
+    write_outputs,
+};
 use super::{Engine, GlobalStep, LocalEngine, LocalStep, TileSink};
 use crate::error::{Error, Result};
 use crate::raster::{AnyGrid, DType, RasterSource, TileId, TileLayout};
@@ -109,6 +109,8 @@ pub fn init() -> Result<()> {
         thread: std::thread::current().id(),
     });
     ACTIVE.store(true, Ordering::Release);
+    let (rank, ranks) = rank_size();
+    crate::store::sink::set_process_rank(rank, ranks);
     Ok(())
 }
 
@@ -123,6 +125,7 @@ pub fn finalize() {
     if !ACTIVE.swap(false, Ordering::AcqRel) {
         return;
     }
+    crate::store::sink::set_process_rank(0, 1);
     if let Ok(mut st) = STATE.lock() {
         if let Some(s) = st.take() {
             s.universe.world().barrier();

@@ -30,10 +30,10 @@
 //! values from its slice. No arithmetic happens across tiles, so the tiled
 //! result equals the in-memory one bit for bit.
 
-use super::tiled::{perimeter_cells, perimeter_index, perimeter_len};
 use super::{code_to_dir, DX, DY, NODATA_DIR, NO_FLOW};
 use crate::error::{Error, Result};
 use crate::exec::GlobalStep;
+use crate::raster::{perimeter_cells, perimeter_index, perimeter_len};
 use crate::raster::{Grid, RasterSource, TileId, TileLayout, TileView, Window};
 use serde::{Deserialize, Serialize};
 use std::path::Path;

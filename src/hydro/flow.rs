@@ -18,18 +18,8 @@
 
 use super::{code_to_dir, valid, D8_CODES, DX, DY, NODATA_DIR, NO_FLOW};
 use crate::error::{Error, Result};
+use crate::raster::neighbours::DIST;
 use crate::raster::Grid;
-
-const DIST: [f64; 8] = [
-    1.0,
-    std::f64::consts::SQRT_2,
-    1.0,
-    std::f64::consts::SQRT_2,
-    1.0,
-    std::f64::consts::SQRT_2,
-    1.0,
-    std::f64::consts::SQRT_2,
-];
 
 /// D8 flow directions of `dem` (normally a filled DEM) with flats resolved.
 /// Valid cells get an ESRI code; cells in pits or in flats with no outlet

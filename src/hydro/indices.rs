@@ -2,9 +2,10 @@
 //!
 //! Local indices from a (filled) DEM and a D8 accumulation in cells, tile by
 //! tile ([`HydroIndex`], a [`LocalStep`] with a halo of 1):
-//! - `tan β`: Horn's (1981) slope (as [`crate::metrics::terrain`]), metric
-//!   cell sizes per row. Nodata neighbours of a valid cell are replaced by
-//!   the cell's own elevation (so edge cells get a one-sided slope).
+//! - `tan β`: Horn's (1981) slope
+//!   ([`crate::raster::neighbours::horn_gradient`]), metric cell sizes per
+//!   row. Nodata neighbours of a valid cell are replaced by the cell's own
+//!   elevation (so edge cells get a one-sided slope).
 //! - Specific catchment area `a = A·Δx·Δy / b` (m²/m) with `A` the
 //!   accumulation in cells and the contour width `b = √(Δx·Δy)` (one cell
 //!   width; Moore, Grayson & Ladson 1991).
@@ -40,7 +41,7 @@ use super::streams::{receivers, row_sizes};
 use super::NODATA_DIR;
 use crate::error::{Error, Result};
 use crate::exec::LocalStep;
-use crate::metrics::terrain::horn_gradient;
+use crate::raster::neighbours::horn_gradient;
 use crate::raster::{GeoRef, Grid, TileView};
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;

@@ -44,21 +44,11 @@
 use super::accum::{fixed_to_f64, weight_to_fixed};
 use super::{code_to_dir, valid, DX, DY, NODATA_DIR};
 use crate::error::{Error, Result};
+use crate::raster::neighbours::DIST;
 use crate::raster::Grid;
 
 /// Fractions marking a nodata cell (never routed, never counted).
 const NODATA_FRAC: [f64; 8] = [f64::NAN; 8];
-/// Distance to each neighbour in cell sizes, order E..NE.
-pub(crate) const DIST: [f64; 8] = [
-    1.0,
-    std::f64::consts::SQRT_2,
-    1.0,
-    std::f64::consts::SQRT_2,
-    1.0,
-    std::f64::consts::SQRT_2,
-    1.0,
-    std::f64::consts::SQRT_2,
-];
 /// Quinn et al. (1991) contour lengths (cell sizes), order E..NE.
 const QUINN_L: [f64; 8] = [
     0.5,

@@ -41,7 +41,6 @@ pub mod fill_zhou;
 pub mod flow;
 pub mod indices;
 pub mod mfd;
-pub mod out_nodata;
 pub mod rho8;
 pub mod streams;
 pub mod tiled;
@@ -57,18 +56,16 @@ pub use fill::{fill, fill_epsilon, watershed_labels};
 pub use flow::d8_directions;
 pub use rho8::rho8_directions;
 
-/// Column offsets of the 8 neighbours in the order E, SE, S, SW, W, NW, N, NE.
-pub const DX: [i64; 8] = [1, 1, 0, -1, -1, -1, 0, 1];
-/// Row offsets of the 8 neighbours (y grows southwards).
-pub const DY: [i64; 8] = [0, 1, 1, 1, 0, -1, -1, -1];
+pub use crate::raster::neighbours::{DX, DY};
 /// ESRI D8 code of each neighbour direction, in the same order.
 pub const D8_CODES: [u8; 8] = [1, 2, 4, 8, 16, 32, 64, 128];
 /// D8 code of a valid cell that does not drain (pit or undrainable flat).
 pub const NO_FLOW: u8 = 0;
 /// D8 code of a nodata cell.
 pub const NODATA_DIR: u8 = 255;
-/// Nodata value written for filled DEMs (f32 outputs): below any real elevation.
-pub const FILL_NODATA: f64 = -9999.0;
+/// The output nodata rule of elevation outputs, now [`crate::exec::output`].
+pub use crate::exec::output as out_nodata;
+pub use crate::exec::output::FILL_NODATA;
 
 /// Neighbour index (0..8, order E..NE) of an ESRI code, or `None` for 0, 255
 /// and any value that is not a single power of two.

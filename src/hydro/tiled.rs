@@ -59,43 +59,7 @@ use serde::{Deserialize, Serialize};
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, HashMap};
 
-/// Number of perimeter cells of a `w` x `h` tile.
-pub fn perimeter_len(w: usize, h: usize) -> usize {
-    if w == 0 || h == 0 {
-        0
-    } else if h == 1 {
-        w
-    } else {
-        2 * w + (h - 2) * if w == 1 { 1 } else { 2 }
-    }
-}
-
-/// Position of (x, y) in the row-major enumeration of a tile's perimeter
-/// cells, or `None` for an interior cell.
-pub fn perimeter_index(w: usize, h: usize, x: usize, y: usize) -> Option<usize> {
-    let k = if w == 1 { 1 } else { 2 };
-    if y == 0 {
-        Some(x)
-    } else if y + 1 == h {
-        Some(w + (h - 2) * k + x)
-    } else if x == 0 {
-        Some(w + (y - 1) * k)
-    } else if x + 1 == w {
-        Some(w + (y - 1) * k + 1)
-    } else {
-        None
-    }
-}
-
-/// The perimeter cells of a `w` x `h` tile in row-major order.
-pub fn perimeter_cells(w: usize, h: usize) -> impl Iterator<Item = (usize, usize)> {
-    (0..h).flat_map(move |y| {
-        let edge_row = y == 0 || y + 1 == h;
-        (0..w)
-            .filter(move |&x| edge_row || x == 0 || x + 1 == w)
-            .map(move |x| (x, y))
-    })
-}
+pub use crate::raster::{perimeter_cells, perimeter_index, perimeter_len};
 
 /// Every `reduce` of this folder first checks that it got one summary per
 /// tile of `layout`; `what` names the reduce in the error.
@@ -770,25 +734,6 @@ impl GlobalStep for TiledAccumulation {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn perimeter_enumeration_matches_index() {
-        for w in 1..6 {
-            for h in 1..6 {
-                let cells: Vec<_> = perimeter_cells(w, h).collect();
-                assert_eq!(cells.len(), perimeter_len(w, h), "{w}x{h}");
-                for (k, &(x, y)) in cells.iter().enumerate() {
-                    assert_eq!(perimeter_index(w, h, x, y), Some(k), "{w}x{h} ({x},{y})");
-                }
-                for y in 0..h {
-                    for x in 0..w {
-                        let on = x == 0 || y == 0 || x + 1 == w || y + 1 == h;
-                        assert_eq!(perimeter_index(w, h, x, y).is_some(), on);
-                    }
-                }
-            }
-        }
-    }
 
     #[test]
     fn summaries_round_trip_through_json() {

@@ -43,10 +43,11 @@
 //! half the tile's cells; map time is linear in the tile's area.
 
 use super::fill::{neighbours, next_up_n};
-use super::tiled::{check_summaries, perimeter_cells, perimeter_index, perimeter_len};
+use super::tiled::check_summaries;
 use super::{valid, D8_CODES, DX, DY, NODATA_DIR, NO_FLOW};
 use crate::error::{Error, Result};
 use crate::exec::GlobalStep;
+use crate::raster::{perimeter_cells, perimeter_index, perimeter_len};
 use crate::raster::{Grid, TileId, TileLayout, TileView};
 use serde::{Deserialize, Serialize};
 use std::cmp::Reverse;

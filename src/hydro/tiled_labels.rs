@@ -17,10 +17,10 @@
 //! cell digital elevation models on desktops or clusters". Environmental
 //! Modelling & Software 92, 202–212.
 
-use super::tiled::{perimeter_cells, perimeter_index, perimeter_len};
 use super::{code_to_dir, DX, DY, NODATA_DIR, NO_FLOW};
 use crate::error::{Error, Result};
 use crate::exec::GlobalStep;
+use crate::raster::{perimeter_cells, perimeter_index, perimeter_len};
 use crate::raster::{Grid, TileId, TileLayout, TileView};
 use serde::{Deserialize, Serialize};
 

@@ -1,9 +1,9 @@
 //! A sink for whole-file formats (PNG, ASCII): tiles are assembled in memory
-//! by [`crate::exec::MemSink`], then written by a finisher at the end.
+//! by [`crate::store::sink::MemSink`], then written by a finisher at the end.
 
 use crate::error::{Error, Result};
-use crate::exec::{MemSink, MemSinkHandle, TileSink};
 use crate::raster::{AnyGrid, DType, GeoRef, TileId, Window};
+use crate::store::sink::{process_rank, MemSink, MemSinkHandle, TileSink};
 
 /// Largest raster written through a whole-file format (cells).
 pub const MAX_MEM_CELLS: usize = 1 << 28;
@@ -94,7 +94,7 @@ impl RemoteRankSink {
     /// True when this process is an MPI rank other than 0 (the outputs are
     /// rank 0's to write).
     pub fn applies() -> bool {
-        crate::exec::distributed() && crate::exec::rank().0 != 0
+        process_rank().0 != 0
     }
 }
 

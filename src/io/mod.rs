@@ -10,7 +10,6 @@ pub mod memsink;
 pub mod mosaic;
 pub mod open;
 pub mod png;
-pub mod render;
 
 pub use open::{
     create_sink, detect, is_store_path, open_inputs, open_raster, Format, OpenOptions,

@@ -3,9 +3,9 @@
 
 use super::memsink::WholeFileSink;
 use crate::error::{Error, IoContext, Result};
-use crate::exec::TileSink;
 use crate::io::geotiff::{GeoTiffReader, GeoTiffWriter, WriteOptions};
 use crate::raster::{DType, GeoRef, RasterSource};
+use crate::store::sink::TileSink;
 use crate::store::{Provenance, StoreOptions, StoreWriter, TileStore};
 use std::io::Read;
 use std::path::{Path, PathBuf};

@@ -1205,7 +1205,7 @@ pub fn compute(
                 )
             })
             .collect();
-        crate::ops::run_local_to_paths(&step, &[src], &lp, &types, oo, tile, cfg)?;
+        crate::exec::plan::run_local_to_paths(&step, &[src], &lp, &types, oo, tile, cfg)?;
     }
     if !whole.is_empty() {
         let ws: Vec<MetricSpec> = whole.iter().map(|&i| specs[i].clone()).collect();
@@ -1220,7 +1220,7 @@ pub fn compute(
 /// valid input cells in `[lo, hi]` (a window mean lies between the extremes;
 /// a difference of two cells is at least `lo − hi`). [`METRIC_NODATA`]
 /// (−9999) unless that bound comes within 1 m of it, then the rule of
-/// [`crate::hydro::out_nodata::below`] (−99 999, ...): bathymetry and other
+/// [`crate::exec::output::below`] (−99 999, ...): bathymetry and other
 /// DEMs below −9999 m would otherwise turn real values into nodata. One read
 /// pass over the input, only when a `z` metric is asked for and the input
 /// type can reach −9999 (u8 and i8 inputs cannot). Other metrics (angles,
@@ -1231,9 +1231,9 @@ pub fn output_nodata(src: &dyn RasterSource, specs: &[MetricSpec]) -> Result<f64
     {
         return Ok(METRIC_NODATA);
     }
-    let bound = crate::hydro::out_nodata::valid_range(src)?
+    let bound = crate::exec::output::valid_range(src)?
         .map(|(lo, hi)| (lo as f64).min(lo as f64 - hi as f64) as f32);
-    Ok(crate::hydro::out_nodata::below(bound).unwrap_or(f64::NAN))
+    Ok(crate::exec::output::below(bound).unwrap_or(f64::NAN))
 }
 
 /// Check that `specs` can run on a raster described by `info` (local or

@@ -665,7 +665,7 @@ pub fn compute_paths(
     if specs.len() != outputs.len() {
         return Err(Error::invalid("peakedness_dw: one output path per metric"));
     }
-    let layout = crate::ops::choose_layout(src, outputs, oo, tile);
+    let layout = crate::exec::plan::choose_layout(src, outputs, oo, tile);
     let mut done = vec![false; specs.len()];
     for i in 0..specs.len() {
         if done[i] {

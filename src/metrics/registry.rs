@@ -1417,7 +1417,7 @@ pub fn resolve(specs: &[MetricSpec], info: &RasterInfo) -> Result<Vec<Resolved>>
                 && info.georef.georeferenced
                 && !info.georef.crs.geographic
             {
-                if let Ok(crs) = crate::tiles::proj::SourceCrs::of(&info.georef, &info.path) {
+                if let Ok(crs) = crate::raster::proj::SourceCrs::of(&info.georef, &info.path) {
                     let t = info.georef.transform;
                     let (c, r) = (info.width as f64 / 2.0, info.height as f64 / 2.0);
                     let (x, y) = (t[0] + c * t[1] + r * t[2], t[3] + c * t[4] + r * t[5]);

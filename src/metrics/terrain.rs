@@ -16,13 +16,7 @@ use crate::raster::{Grid, TileView};
 use serde::{Deserialize, Serialize};
 use serde_json::json;
 
-/// Horn's gradient (dz/dx east, dz/dy north) of a 3x3 window, in z units per metre.
-#[inline]
-pub fn horn_gradient(w: &[f64; 9], ew: f64, ns: f64) -> (f64, f64) {
-    let dzdx = ((w[2] + 2.0 * w[5] + w[8]) - (w[0] + 2.0 * w[3] + w[6])) / (8.0 * ew);
-    let dzdy = ((w[0] + 2.0 * w[1] + w[2]) - (w[6] + 2.0 * w[7] + w[8])) / (8.0 * ns);
-    (dzdx, dzdy)
-}
+pub use crate::raster::neighbours::horn_gradient;
 
 /// Arctangent of `x >= 0` (NaN propagates), max error 7e-9 rad (4e-7°):
 /// an odd degree-17 polynomial fitted by least squares at Chebyshev nodes on

@@ -50,7 +50,7 @@ use super::regions::N8;
 use super::tree::{DivideTree, EdgeConvention, Peak, Saddle};
 use crate::error::{Error, Result};
 use crate::exec::{Engine, GlobalStep};
-use crate::hydro::tiled::{perimeter_cells, perimeter_index, perimeter_len};
+use crate::raster::{perimeter_cells, perimeter_index, perimeter_len};
 use crate::raster::{Grid, RasterSource, TileId, TileLayout, TileView};
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;

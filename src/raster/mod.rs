@@ -4,6 +4,8 @@
 mod dtype;
 mod georef;
 mod grid;
+pub mod neighbours;
+pub mod proj;
 mod source;
 mod tiling;
 mod window;
@@ -12,5 +14,7 @@ pub use dtype::{Cell, DType};
 pub use georef::{Crs, GeoKeys, GeoRef, RasterType};
 pub use grid::{AnyGrid, Grid, IntoAny};
 pub use source::{read_view, read_window, read_window_native, MemRaster, RasterInfo, RasterSource};
-pub use tiling::{cross_tile_pairs, TileId, TileLayout, TileView};
+pub use tiling::{
+    cross_tile_pairs, perimeter_cells, perimeter_index, perimeter_len, TileId, TileLayout, TileView,
+};
 pub use window::Window;

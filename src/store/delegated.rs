@@ -6,7 +6,7 @@
 //! layout, type, compression, fsync); another process writes a tile file
 //! exactly as the writer would (same encoding, written to a temporary,
 //! fsynced, renamed) and returns the tile's [`TileEntry`] (CRC-32 and size);
-//! the writer then records it ([`crate::exec::TileSink::record_delegated`]),
+//! the writer then records it ([`super::sink::TileSink::record_delegated`]),
 //! which appends the journal line. So the crash model is the writer's own: a
 //! tile is finished only once it is journalled; a tile file that was written
 //! but not recorded, or torn, fails the resume check (size and CRC) and is

@@ -14,10 +14,10 @@
 use super::manifest::{
     check_dims, Compression, Manifest, Provenance, TileEntry, TileState, FORMAT, VERSION,
 };
+use super::sink::TileSink;
 use super::tile::{encode, is_intact, sync_dir, tile_file, write_atomic};
 use super::{JOURNAL, LOCK, MANIFEST};
 use crate::error::{Error, IoContext, Result};
-use crate::exec::TileSink;
 use crate::raster::{AnyGrid, DType, GeoRef, TileId, TileLayout, Window};
 use std::fs::{File, OpenOptions};
 use std::io::Write;

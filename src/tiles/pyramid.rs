@@ -23,15 +23,15 @@
 //! `metadata.json` last: a killed run leaves complete tiles, temporaries
 //! (removed by the next run) and no `metadata.json`.
 
-use super::proj::{lonlat_to_merc, merc_to_lonlat, SourceCrs};
 use crate::error::{Error, Result};
+use crate::raster::proj::{lonlat_to_merc, merc_to_lonlat, SourceCrs};
 use crate::raster::{read_window, Grid, RasterSource, Window};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 /// Pixels per tile side.
 pub const TILE: usize = 256;
-const HALF_WORLD: f64 = std::f64::consts::PI * super::proj::A_WGS84;
+const HALF_WORLD: f64 = std::f64::consts::PI * crate::raster::proj::A_WGS84;
 
 /// How tile pixels are encoded.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -493,7 +493,7 @@ pub fn build_pyramid(
     }
     let (lut, range) = match &opts.encoding {
         Encoding::Color { ramp, range } => {
-            let lut = crate::io::render::ramp_lut(ramp)?;
+            let lut = crate::tiles::render::ramp_lut(ramp)?;
             let r = range.or(data_range).ok_or_else(|| {
                 Error::invalid("a colour encoding needs a value range (give one, or the data's)")
             })?;

@@ -35,8 +35,8 @@ use super::writer::{
     check_create, clean_stale_temps, encode_band, encode_ifd, geo_entries, Entry, WriteOptions,
 };
 use crate::error::{Error, IoContext, Result};
-use crate::exec::TileSink;
 use crate::raster::{AnyGrid, DType, GeoRef, Grid, TileId, Window};
+use crate::store::sink::TileSink;
 use std::fs::File;
 use std::io::{BufWriter, Read, Write};
 use std::path::{Path, PathBuf};

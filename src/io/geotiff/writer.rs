@@ -24,8 +24,8 @@
 use super::georef::{format_nodata, half_cell_shift, keys_for_write};
 use super::rows::RowBuffer;
 use crate::error::{Error, IoContext, Result};
-use crate::exec::TileSink;
 use crate::raster::{AnyGrid, DType, GeoRef, RasterType, TileId, Window};
+use crate::store::sink::TileSink;
 use rayon::prelude::*;
 use std::fs::File;
 use std::io::{BufWriter, Seek, SeekFrom, Write};

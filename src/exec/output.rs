@@ -1,7 +1,7 @@
-//! The nodata value of an elevation output (filled or breached DEM) that
-//! cannot collide with a real elevation.
+//! The nodata rule of a step's outputs: for an elevation output (filled or
+//! breached DEM), a nodata value that cannot collide with a real elevation.
 //!
-//! Hydrological steps write f32 DEMs with nodata [`super::FILL_NODATA`]
+//! Hydrological steps write f32 DEMs with nodata [`FILL_NODATA`]
 //! (−9999, gdal's and ESRI's habit). Bathymetry reaches −10 994 m (Challenger
 //! Deep), so a DEM without nodata may hold −9999 as a real value; written
 //! as is, that cell would read back as nodata. Floats could use NaN, but a
@@ -17,9 +17,11 @@
 //! value below the input minimum, with a margin for epsilon gradients,
 //! stays below every output value.
 
-use super::FILL_NODATA;
 use crate::error::Result;
 use crate::raster::{read_window, DType, RasterSource, Window};
+
+/// Nodata value written for filled DEMs (f32 outputs): below any real elevation.
+pub const FILL_NODATA: f64 = -9999.0;
 
 /// Output nodata values tried in order: the first one more than
 /// [`MARGIN`] below every valid input elevation is used.

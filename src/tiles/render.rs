@@ -23,8 +23,8 @@
 //! transparent (alpha 0). Other rasters (slope, hillshade, indices) use
 //! [`RenderKind::Grey`] or a named ramp, without hillshade.
 
-use super::png::{encode_png, write_atomic};
 use crate::error::{Error, Result};
+use crate::io::png::{encode_png, write_atomic};
 use crate::metrics::neighbourhood::EdgeMode;
 use crate::metrics::terrain::{hillshade_grid, Hillshade};
 use crate::raster::{read_window, GeoRef, Grid, RasterSource, Window};

@@ -6,8 +6,8 @@
 //! few nanometers", J. Geodesy 85, eqs. 35-36 and the coefficient series
 //! given there), accurate to well under a millimetre within a UTM zone.
 
+use super::GeoRef;
 use crate::error::{Error, Result};
-use crate::raster::GeoRef;
 
 /// WGS 84 semi-major axis (m).
 pub const A_WGS84: f64 = 6_378_137.0;

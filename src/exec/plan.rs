@@ -1,0 +1,209 @@
+//! Planning a tiled run whose outputs are files: check the inputs, choose
+//! the tile layout (an output or input tile store's tile size wins), create
+//! one sink per output path by its extension, and run a local or global step
+//! on the engine.
+
+use super::{Engine, EngineConfig, GlobalStep, LocalEngine, LocalStep, TileSink};
+use crate::error::{Error, Result};
+use crate::io::{self, OutputOptions};
+use crate::raster::{DType, RasterSource, TileLayout};
+use crate::store::Provenance;
+use std::path::{Path, PathBuf};
+
+/// Default work-tile size when neither input nor output is a tile store.
+pub const DEFAULT_TILE: usize = 1024;
+
+/// The tile layout for a run: an output store's tile size wins, then an input
+/// store's (reads stay aligned), then `tile`.
+pub fn choose_layout(
+    src: &dyn RasterSource,
+    outputs: &[PathBuf],
+    oo: &OutputOptions,
+    tile: Option<usize>,
+) -> TileLayout {
+    let info = src.info();
+    let t = if outputs.iter().any(|p| io::is_store_path(p)) {
+        oo.store.tile
+    } else {
+        choose_tile(src, tile)
+    };
+    TileLayout::new(info.width, info.height, t.max(1))
+}
+
+/// Work-tile size for reading `src`: `tile` if given, an input store's own
+/// tile size (aligned reads), else [`DEFAULT_TILE`].
+pub fn choose_tile(src: &dyn RasterSource, tile: Option<usize>) -> usize {
+    let info = src.info();
+    if let Some(t) = tile {
+        t
+    } else if io::detect(&info.path).ok() == Some(io::Format::Store) {
+        info.block.0
+    } else {
+        DEFAULT_TILE
+    }
+}
+
+/// Check that all inputs have the first one's size.
+pub fn check_inputs<'a>(inputs: &[&'a dyn RasterSource]) -> Result<&'a dyn RasterSource> {
+    let first = *inputs
+        .first()
+        .ok_or_else(|| Error::invalid("a step needs at least one input"))?;
+    let info = first.info();
+    for i in &inputs[1..] {
+        let o = i.info();
+        if (o.width, o.height) != (info.width, info.height) {
+            return Err(Error::invalid(format!(
+                "{} is {}x{} but {} is {}x{}: inputs of one step must have the same size",
+                o.path.display(),
+                o.width,
+                o.height,
+                info.path.display(),
+                info.width,
+                info.height
+            )));
+        }
+    }
+    Ok(first)
+}
+
+/// One sink per output path, with the first input's georeference.
+pub fn make_sinks(
+    name: String,
+    params: serde_json::Value,
+    inputs: &[&dyn RasterSource],
+    outputs: &[PathBuf],
+    out_types: &[(DType, Option<f64>)],
+    oo: &OutputOptions,
+) -> Result<Vec<Box<dyn TileSink>>> {
+    let info = inputs[0].info();
+    if out_types.len() != outputs.len() {
+        return Err(Error::invalid(format!(
+            "{name} writes {} output(s), {} path(s) given",
+            out_types.len(),
+            outputs.len()
+        )));
+    }
+    let mut sinks = Vec::with_capacity(outputs.len());
+    for (p, (dt, nd)) in outputs.iter().zip(out_types) {
+        let georef = info.georef.clone().with_nodata(*nd);
+        let prov = Provenance::new(
+            name.clone(),
+            params.clone(),
+            inputs
+                .iter()
+                .map(|i| i.info().path.display().to_string())
+                .collect(),
+        );
+        sinks.push(io::create_sink(
+            p,
+            info.width,
+            info.height,
+            *dt,
+            &georef,
+            oo,
+            prov,
+        )?);
+    }
+    Ok(sinks)
+}
+
+/// What [`run_local_to_paths`] and [`run_global_to_paths`] share: check the
+/// inputs' sizes and that the step (`name`, with `n_out` outputs) gets one
+/// path per output, then choose the tile layout and make the sinks.
+#[allow(clippy::too_many_arguments)]
+fn prepare(
+    name: String,
+    params: serde_json::Value,
+    n_out: usize,
+    inputs: &[&dyn RasterSource],
+    outputs: &[PathBuf],
+    out_types: &[(DType, Option<f64>)],
+    oo: &OutputOptions,
+    tile: Option<usize>,
+) -> Result<(TileLayout, Vec<Box<dyn TileSink>>)> {
+    let first = check_inputs(inputs)?;
+    if outputs.len() != n_out {
+        return Err(Error::invalid(format!(
+            "{name} writes {n_out} output(s), {} path(s) given",
+            outputs.len()
+        )));
+    }
+    let layout = choose_layout(first, outputs, oo, tile);
+    let sinks = make_sinks(name, params, inputs, outputs, out_types, oo)?;
+    Ok((layout, sinks))
+}
+
+/// Run a local step on `inputs` and write output `k` to `outputs[k]` as
+/// `(dtype, nodata)` of `out_types[k]`.
+pub fn run_local_to_paths<S: LocalStep>(
+    step: &S,
+    inputs: &[&dyn RasterSource],
+    outputs: &[PathBuf],
+    out_types: &[(DType, Option<f64>)],
+    oo: &OutputOptions,
+    tile: Option<usize>,
+    cfg: &EngineConfig,
+) -> Result<()> {
+    let (layout, sinks) = prepare(
+        step.name(),
+        step.params(),
+        step.outputs(),
+        inputs,
+        outputs,
+        out_types,
+        oo,
+        tile,
+    )?;
+    LocalEngine::new(cfg.clone()).run_local(step, inputs, layout, sinks)
+}
+
+/// Run a global step (map, reduce, apply) on `inputs` and write its outputs
+/// (the solution is not kept: under MPI only rank 0 reduces, see
+/// [`Engine::run_global_apply`]).
+pub fn run_global_to_paths<S: GlobalStep>(
+    step: &S,
+    inputs: &[&dyn RasterSource],
+    outputs: &[PathBuf],
+    out_types: &[(DType, Option<f64>)],
+    oo: &OutputOptions,
+    tile: Option<usize>,
+    cfg: &EngineConfig,
+) -> Result<()> {
+    let (layout, sinks) = prepare(
+        step.name(),
+        step.params(),
+        step.outputs(),
+        inputs,
+        outputs,
+        out_types,
+        oo,
+        tile,
+    )?;
+    LocalEngine::new(cfg.clone()).run_global_apply(step, inputs, layout, sinks)
+}
+
+/// [`run_local_to_paths`] for a one-output step on one input.
+pub fn run_local_to<S: LocalStep>(
+    step: &S,
+    src: &dyn RasterSource,
+    out: &Path,
+    ty: (DType, Option<f64>),
+    oo: &OutputOptions,
+    tile: Option<usize>,
+    cfg: &EngineConfig,
+) -> Result<()> {
+    run_local_to_paths(step, &[src], &[out.to_path_buf()], &[ty], oo, tile, cfg)
+}
+
+/// [`run_global_to_paths`] for a one-output step.
+pub fn run_global_to<S: GlobalStep>(
+    step: &S,
+    inputs: &[&dyn RasterSource],
+    out: &Path,
+    ty: (DType, Option<f64>),
+    oo: &OutputOptions,
+    tile: Option<usize>,
+    cfg: &EngineConfig,
+) -> Result<()> {
+    run_global_to_paths(step, inputs, &[out.to_path_buf()], &[ty], oo, tile, cfg)
+}
