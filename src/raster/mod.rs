@@ -6,6 +6,7 @@ mod georef;
 mod grid;
 mod source;
 mod tiling;
+mod union_find;
 mod window;
 
 pub use dtype::{Cell, DType};
@@ -13,4 +14,5 @@ pub use georef::{Crs, GeoKeys, GeoRef, RasterType};
 pub use grid::{AnyGrid, Grid, IntoAny};
 pub use source::{read_view, read_window, read_window_native, MemRaster, RasterInfo, RasterSource};
 pub use tiling::{cross_tile_pairs, TileId, TileLayout, TileView};
+pub use union_find::{SetIndex, UnionFind};
 pub use window::Window;
