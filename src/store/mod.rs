@@ -8,6 +8,7 @@ pub mod crash;
 mod delegated;
 mod manifest;
 mod reader;
+pub mod scratch;
 mod tile;
 mod writer;
 
