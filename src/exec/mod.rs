@@ -266,6 +266,7 @@ pub fn abort_engine(msg: &str) -> ! {
 
 mod copy;
 mod local;
+mod memory_fit;
 #[cfg(feature = "mpi")]
 pub mod mpi;
 pub mod mpi_codec;
@@ -276,3 +277,4 @@ pub mod stats;
 
 pub use copy::{copy, ingest, run_local_to_memory, MemSink, MemSinkHandle};
 pub use local::{local_tile_bytes, roundtrip_summary, tiles_in_flight, LocalEngine};
+pub use memory_fit::MemoryFit;
