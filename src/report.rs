@@ -14,6 +14,7 @@ use crate::error::{Error, Result};
 use crate::io::{open_raster, OpenOptions};
 use crate::raster::{AnyGrid, MemRaster};
 use crate::tiles::render::{downsample_mean, render_preview, RenderKind, RenderOptions};
+use crate::store::scratch::ScratchDir;
 use base64::Engine as _;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -538,7 +539,7 @@ pub fn write_report(title: &str, steps: &[StepOutcome], path: &Path) -> Result<(
                 .unwrap_or("")
                 .to_ascii_lowercase();
             let part = if is_raster(&f) {
-                raster_section(&f, s.elevation, &tmpdir)
+                raster_section(&f, s.elevation, tmpdir.path())
             } else if ext == "csv" {
                 special_csv_section(&f).and_then(|o| match o {
                     Some(html) => Ok(html),
@@ -566,7 +567,7 @@ pub fn write_report(title: &str, steps: &[StepOutcome], path: &Path) -> Result<(
             }
         }
     }
-    let _ = std::fs::remove_dir_all(&tmpdir);
+    drop(tmpdir);
     write_html(path, &html_page(title, &body))
 }
 
@@ -762,12 +763,11 @@ pub fn chart_key(series: &[Series]) -> String {
 }
 
 /// A private scratch folder next to `path` for preview PNGs.
-fn tempfile_dir(path: &Path) -> Result<PathBuf> {
+fn tempfile_dir(path: &Path) -> Result<ScratchDir> {
     let dir = path
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
         .unwrap_or(Path::new("."))
         .join(format!(".orogen-report-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
-    Ok(dir)
+    ScratchDir::new(dir).create()
 }

@@ -41,7 +41,7 @@ pub mod emd;
 pub mod output;
 
 use crate::error::{Error, Result};
-use crate::exec::{run_local_to_memory, EngineConfig, LocalEngine};
+use crate::exec::{run_local_to_memory, EngineConfig, LocalEngine, MemoryFit};
 use crate::hydro::streams::{self, ChannelRule, Horton, NetworkOptions};
 use crate::metrics::{parse_specs, MultiMetric};
 use crate::oro::stats::{orostats, OroProfile, StatsOptions, FEATURES};
@@ -234,20 +234,18 @@ pub fn histogram(v: &[f32], edges: &[f64]) -> Vec<f64> {
 /// rasters whose analysis would not fit in `memory_budget` bytes.
 pub fn load_terrain(src: &dyn RasterSource, name: &str, memory_budget: u64) -> Result<Terrain> {
     let info = src.info();
-    let cells = info.width as u64 * info.height as u64;
-    let need = cells.saturating_mul(BYTES_PER_CELL);
-    if need > memory_budget {
-        return Err(Error::too_large(
+    MemoryFit::cells(info.width, info.height, BYTES_PER_CELL, memory_budget).check(|fit| {
+        Error::too_large(
             &info.path,
             format!(
                 "comparing a {} x {} raster needs about {} MiB in memory, over the budget of {} MiB; crop or downsample it (orogen export), or raise --memory",
                 info.width,
                 info.height,
-                need >> 20,
-                memory_budget >> 20
+                fit.need_mib(),
+                fit.budget_mib()
             ),
-        ));
-    }
+        )
+    })?;
     let dem = crate::raster::read_window::<f32>(
         src,
         crate::raster::Window::full(info.width, info.height),

@@ -47,7 +47,7 @@
 //! [`super::stream_power_tiled`] (fill and no routing; not the basin graph).
 
 use crate::error::{Error, Result};
-use crate::raster::Grid;
+use crate::raster::{Grid, UnionFind};
 
 /// Column offsets of the 8 neighbours (E, SE, S, SW, W, NW, N, NE), as in `hydro`.
 pub(crate) const DX: [isize; 8] = [1, 1, 0, -1, -1, -1, 0, 1];
@@ -688,24 +688,16 @@ impl StreamPower {
         }
         edges.sort_unstable();
         // Kruskal with a union-find over basins.
-        let mut uf: Vec<u32> = (0..nb).collect();
-        fn find(uf: &mut [u32], mut a: u32) -> u32 {
-            while uf[a as usize] != a {
-                let p = uf[uf[a as usize] as usize];
-                uf[a as usize] = p;
-                a = p;
-            }
-            a
-        }
+        let mut uf = UnionFind::<u32>::new(nb as usize);
         // Tree adjacency per basin: (other basin, cell in this basin, cell in other).
         let mut tree: Vec<(u32, u32, u32)> = Vec::new();
         for &(_, i, j) in &edges {
             let (bi, bj) = (self.basin[i as usize], self.basin[j as usize]);
-            let (ri, rj) = (find(&mut uf, bi), find(&mut uf, bj));
+            let (ri, rj) = (uf.find(bi), uf.find(bj));
             if ri == rj {
                 continue;
             }
-            uf[ri.max(rj) as usize] = ri.min(rj);
+            uf.union_min(ri, rj);
             tree.push((bi, i, j));
             tree.push((bj, j, i));
             if tree.len() / 2 + 1 == nb as usize {

@@ -32,8 +32,9 @@ use crate::error::{Error, Result};
 use crate::exec::mpi_halo::{
     extract, partition, paste, patch_window, HaloPlan, HaloTransport, Single,
 };
-use crate::exec::{to_sink_type, EngineConfig, TileSink};
+use crate::exec::{to_sink_type, EngineConfig, MemoryFit, TileSink};
 use crate::raster::{read_window, DType, Grid, RasterSource, TileId, TileLayout, Window};
+use crate::store::scratch::{hidden_beside, ScratchDir};
 use rayon::prelude::*;
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};
@@ -223,14 +224,14 @@ pub fn run_ranked<M: LocalModel, X: HaloTransport>(
     let patch_bytes = side(info.width)
         .saturating_mul(side(info.height))
         .saturating_mul((nf + 9) as u64 * 8);
-    if patch_bytes > cfg.memory_budget {
-        return Err(Error::invalid(format!(
+    MemoryFit::bytes(patch_bytes, cfg.memory_budget).check(|fit| {
+        Error::invalid(format!(
             "erosion: one {}-cell tile with a {ghost}-cell ghost zone needs {} MiB, more than the memory budget ({} MiB); use a smaller --tile or --exchange, or a larger --memory",
             layout.tile,
-            patch_bytes >> 20,
-            cfg.memory_budget >> 20
-        )));
-    }
+            fit.need_mib(),
+            fit.budget_mib()
+        ))
+    })?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(cfg.threads)
         .build()
@@ -687,7 +688,11 @@ pub fn erode_to_paths<M: LocalModel>(
         .map(|id| layout.window(id).len() as u64)
         .sum();
     let in_memory = scratch.is_none()
-        && my_cells.saturating_mul(nf as u64 * 8).saturating_mul(2) <= cfg.memory_budget / 2;
+        && MemoryFit::bytes(
+            my_cells.saturating_mul(nf as u64 * 8).saturating_mul(2),
+            cfg.memory_budget / 2,
+        )
+        .fits();
     if in_memory {
         let stats = dispatch(model, src, layout, exchange, &Backend::Memory, cfg, sinks)?;
         return Ok((stats, layout));
@@ -698,35 +703,22 @@ pub fn erode_to_paths<M: LocalModel>(
     } else {
         String::new()
     };
-    let dir = match scratch {
+    let dir = ScratchDir::new(match scratch {
         Some(d) => d.join(format!("orogen-erosion-scratch{rank_tag}")),
-        None => {
-            let name = first
-                .1
-                .file_name()
-                .map(|n| n.to_string_lossy().into_owned())
-                .unwrap_or_else(|| "erosion".into());
-            first
-                .1
-                .with_file_name(format!(".{name}.erosion-scratch{rank_tag}"))
-        }
-    };
+        None => hidden_beside(&first.1, &format!("erosion-scratch{rank_tag}"), "erosion"),
+    });
     let result = dispatch(
         model,
         src,
         layout,
         exchange,
-        &Backend::Disk(dir.clone()),
+        &Backend::Disk(dir.path().to_path_buf()),
         cfg,
         sinks,
     );
-    let cleanup = std::fs::remove_dir_all(&dir);
+    let cleanup = dir.remove();
     let stats = result?;
-    if let Err(e) = cleanup {
-        if e.kind() != std::io::ErrorKind::NotFound {
-            return Err(Error::io(&dir, e));
-        }
-    }
+    cleanup?;
     Ok((stats, layout))
 }
 

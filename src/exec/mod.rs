@@ -270,6 +270,7 @@ pub fn abort_engine(msg: &str) -> ! {
 
 mod copy;
 mod local;
+mod memory_fit;
 #[cfg(feature = "mpi")]
 pub mod mpi;
 pub mod mpi_codec;
@@ -285,3 +286,4 @@ pub use crate::store::sink::{to_sink_type, MemSink, MemSinkHandle, TileSink};
 pub use copy::{copy, ingest, run_local_to_memory};
 pub use local::LocalEngine;
 pub use tile_io::{local_tile_bytes, roundtrip_summary, tiles_in_flight};
+pub use memory_fit::MemoryFit;

@@ -34,6 +34,7 @@ use super::{code_to_dir, DX, DY, NODATA_DIR, NO_FLOW};
 use crate::error::{Error, Result};
 use crate::exec::GlobalStep;
 use crate::raster::{perimeter_cells, perimeter_index, perimeter_len};
+use crate::io::vector::PointNoun;
 use crate::raster::{Grid, RasterSource, TileId, TileLayout, TileView, Window};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -630,143 +631,22 @@ impl GlobalStep for TiledDownstream {
 // -------------------------------------------------------- pour points ----
 
 /// A pour point read from a CSV or GeoJSON file, in map coordinates.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PourPoint {
-    pub x: f64,
-    pub y: f64,
-    /// Name or id from the file (`id`/`name` column or property), if any.
-    pub name: Option<String>,
-}
-
+pub use crate::io::vector::MapPoint as PourPoint;
 /// Upper bound on pour points read from a file (they are held in memory).
-pub const MAX_POINTS: usize = 10_000_000;
+pub use crate::io::vector::MAX_POINTS;
+
+/// What the pour points are, in the reader's messages.
+const POUR_POINTS: PointNoun = PointNoun {
+    one: "pour point",
+    many: "pour points",
+};
 
 /// Read pour points: a `.geojson`/`.json` FeatureCollection of Points, or a
 /// CSV with a header naming `x` and `y` (or `lon`/`lat`, `lng`/`lat`,
-/// `longitude`/`latitude`) columns and optionally `id` or `name`.
+/// `longitude`/`latitude`) columns and optionally `id` or `name`
+/// ([`crate::io::vector::read_points`]).
 pub fn read_points(path: &Path) -> Result<Vec<PourPoint>> {
-    let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
-    if meta.len() > 1 << 30 {
-        return Err(Error::too_large(
-            path,
-            "pour-point file larger than 1 GiB; give fewer points",
-        ));
-    }
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or("")
-        .to_ascii_lowercase();
-    let pts = if ext == "geojson" || ext == "json" {
-        points_geojson(path, &text)?
-    } else {
-        points_csv(path, &text)?
-    };
-    if pts.is_empty() {
-        return Err(Error::invalid(format!(
-            "{}: no pour points found",
-            path.display()
-        )));
-    }
-    Ok(pts)
-}
-
-fn points_geojson(path: &Path, text: &str) -> Result<Vec<PourPoint>> {
-    let v: serde_json::Value = serde_json::from_str(text)
-        .map_err(|e| Error::corrupt(path, format!("not valid GeoJSON: {e}")))?;
-    let feats: Vec<&serde_json::Value> = match v.get("features").and_then(|f| f.as_array()) {
-        Some(a) => a.iter().collect(),
-        None => vec![&v],
-    };
-    let mut out = Vec::new();
-    for (i, f) in feats.iter().enumerate() {
-        let geom = f.get("geometry").unwrap_or(f);
-        if geom.get("type").and_then(|t| t.as_str()) != Some("Point") {
-            return Err(Error::corrupt(
-                path,
-                format!("feature {i} is not a Point; pour points must be GeoJSON Points"),
-            ));
-        }
-        let c = geom
-            .get("coordinates")
-            .and_then(|c| c.as_array())
-            .filter(|c| c.len() >= 2)
-            .ok_or_else(|| Error::corrupt(path, format!("feature {i} has no coordinates")))?;
-        let (x, y) = (c[0].as_f64(), c[1].as_f64());
-        let (Some(x), Some(y)) = (x, y) else {
-            return Err(Error::corrupt(
-                path,
-                format!("feature {i}: coordinates are not numbers"),
-            ));
-        };
-        let props = f.get("properties");
-        let name = props
-            .and_then(|p| p.get("id").or_else(|| p.get("name")))
-            .map(|n| match n {
-                serde_json::Value::String(s) => s.clone(),
-                o => o.to_string(),
-            });
-        out.push(PourPoint { x, y, name });
-        if out.len() > MAX_POINTS {
-            return Err(Error::too_large(path, "more than 10 million pour points"));
-        }
-    }
-    Ok(out)
-}
-
-fn points_csv(path: &Path, text: &str) -> Result<Vec<PourPoint>> {
-    let mut lines = text.lines().filter(|l| !l.trim().is_empty());
-    let header = lines
-        .next()
-        .ok_or_else(|| Error::corrupt(path, "empty CSV file"))?;
-    let sep = if header.contains(';') && !header.contains(',') {
-        ';'
-    } else {
-        ','
-    };
-    let cols: Vec<String> = header
-        .split(sep)
-        .map(|c| c.trim().trim_matches('"').to_ascii_lowercase())
-        .collect();
-    let find = |names: &[&str]| cols.iter().position(|c| names.contains(&c.as_str()));
-    let (Some(ix), Some(iy)) = (
-        find(&["x", "lon", "lng", "longitude", "easting"]),
-        find(&["y", "lat", "latitude", "northing"]),
-    ) else {
-        return Err(Error::corrupt(
-            path,
-            "the CSV header must name x and y (or lon and lat) columns",
-        ));
-    };
-    let iname = find(&["id", "name"]);
-    let mut out = Vec::new();
-    for (ln, line) in lines.enumerate() {
-        let f: Vec<&str> = line
-            .split(sep)
-            .map(|s| s.trim().trim_matches('"'))
-            .collect();
-        let num = |i: usize| -> Result<f64> {
-            f.get(i)
-                .and_then(|s| s.parse::<f64>().ok())
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| {
-                    Error::corrupt(
-                        path,
-                        format!("line {}: column {} is not a number", ln + 2, i + 1),
-                    )
-                })
-        };
-        out.push(PourPoint {
-            x: num(ix)?,
-            y: num(iy)?,
-            name: iname.and_then(|i| f.get(i)).map(|s| s.to_string()),
-        });
-        if out.len() > MAX_POINTS {
-            return Err(Error::too_large(path, "more than 10 million pour points"));
-        }
-    }
-    Ok(out)
+    crate::io::vector::read_points(path, POUR_POINTS)
 }
 
 /// Cell (col, row) of each map point in a raster of `src`'s georeference;

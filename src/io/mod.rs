@@ -1,6 +1,6 @@
 //! Readers and writers: GeoTIFF (streamed, no GDAL), SRTM .hgt, ESRI ASCII,
-//! PNG heightmaps, mosaics of several files, previews; plus opening any of
-//! them by path.
+//! PNG heightmaps, mosaics of several files, previews, points from CSV and
+//! GeoJSON files (`vector`); plus opening any of them by path.
 
 pub mod ascii;
 pub mod atomic;
@@ -10,6 +10,7 @@ pub mod memsink;
 pub mod mosaic;
 pub mod open;
 pub mod png;
+pub mod vector;
 
 pub use open::{
     create_sink, detect, is_store_path, open_inputs, open_raster, Format, OpenOptions,

@@ -21,7 +21,7 @@
 
 use super::regions::{Regions, N8, NONE};
 use crate::error::Result;
-use crate::raster::Grid;
+use crate::raster::{Grid, UnionFind};
 
 /// One merge at a saddle: a losing component (top peak `loser_top`) meets
 /// the winning one. A k-way saddle gives k − 1 events.
@@ -44,19 +44,6 @@ pub(crate) struct Links {
     /// never lost, i.e. it is the top of its connected area).
     pub lost_at: Vec<u32>,
     pub events: Vec<MergeEvent>,
-}
-
-struct Uf(Vec<u32>);
-
-impl Uf {
-    fn find(&mut self, mut x: u32) -> u32 {
-        while self.0[x as usize] != x {
-            let p = self.0[self.0[x as usize] as usize];
-            self.0[x as usize] = p;
-            x = p;
-        }
-        x
-    }
 }
 
 impl Links {
@@ -104,7 +91,7 @@ impl Links {
         for (i, &r) in order.iter().enumerate() {
             pos[r as usize] = i as u32;
         }
-        let mut uf = Uf((0..nreg as u32).collect());
+        let mut uf = UnionFind::<u32>::new(nreg);
         let mut top = vec![NONE; nreg];
         let mut lost_at = vec![NONE; nreg];
         let mut events = Vec::new();
@@ -157,9 +144,9 @@ impl Links {
                     loser_entry: entry,
                     winner_entry: wentry,
                 });
-                uf.0[root as usize] = wroot;
+                uf.union_into(wroot, root);
             }
-            uf.0[r as usize] = wroot;
+            uf.union_into(wroot, r);
             top[wroot as usize] = wtop;
         }
         Ok(Links {

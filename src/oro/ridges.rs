@@ -41,7 +41,7 @@ use super::metrics::{check_dims, tree_index, PlanarFrame};
 use super::regions::NONE;
 use super::tree::DivideTree;
 use crate::error::{Error, Result};
-use crate::raster::{GeoRef, Grid};
+use crate::raster::{GeoRef, Grid, UnionFind};
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Value};
 use std::collections::HashMap;
@@ -187,14 +187,7 @@ pub fn divide_tree_ridges(
 /// Adjacency lists of an undirected graph; errors if it has a cycle.
 fn forest(n: usize, edges: &[(usize, usize, f64)]) -> Result<Vec<Vec<(usize, usize)>>> {
     let mut adj = vec![Vec::new(); n];
-    let mut uf: Vec<usize> = (0..n).collect();
-    fn find(uf: &mut [usize], mut x: usize) -> usize {
-        while uf[x] != x {
-            uf[x] = uf[uf[x]];
-            x = uf[x];
-        }
-        x
-    }
+    let mut uf = UnionFind::<usize>::new(n);
     for (i, &(a, b, _)) in edges.iter().enumerate() {
         if a >= n || b >= n {
             return Err(Error::invalid(format!(
@@ -202,13 +195,11 @@ fn forest(n: usize, edges: &[(usize, usize, f64)]) -> Result<Vec<Vec<(usize, usi
                 a.max(b)
             )));
         }
-        let (ra, rb) = (find(&mut uf, a), find(&mut uf, b));
-        if ra == rb {
+        if !uf.join(a, b) {
             return Err(Error::invalid(format!(
                 "ridge edges form a cycle at edge {i}"
             )));
         }
-        uf[ra] = rb;
         adj[a].push((b, i));
         adj[b].push((a, i));
     }
@@ -552,24 +543,15 @@ pub fn ppa_ridges(dem: &Grid<f32>, opts: &PpaOptions) -> Result<Grid<u8>> {
     }
     segs.sort_by(|p, q| q.0.total_cmp(&p.0).then(p.1.cmp(&q.1)).then(p.2.cmp(&q.2)));
     // 3. Polygon breaking = maximum spanning forest.
-    let mut uf: Vec<u32> = (0..n as u32).collect();
-    fn find(uf: &mut [u32], mut x: u32) -> u32 {
-        while uf[x as usize] != x {
-            uf[x as usize] = uf[uf[x as usize] as usize];
-            x = uf[x as usize];
-        }
-        x
-    }
+    let mut uf = UnionFind::<u32>::new(n);
     let mut tree_edges: Vec<(usize, usize, f64)> = Vec::new();
     // Node id of each candidate cell in the forest (u32::MAX: not in it).
     let mut id: Vec<u32> = vec![u32::MAX; n];
     let mut cells: Vec<u32> = Vec::new();
     for &(_, a, b) in &segs {
-        let (ra, rb) = (find(&mut uf, a), find(&mut uf, b));
-        if ra == rb {
+        if !uf.join(a, b) {
             continue;
         }
-        uf[ra as usize] = rb;
         for c in [a, b] {
             if id[c as usize] == u32::MAX {
                 id[c as usize] = cells.len() as u32;

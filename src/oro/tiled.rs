@@ -51,7 +51,7 @@ use super::tree::{DivideTree, EdgeConvention, Peak, Saddle};
 use crate::error::{Error, Result};
 use crate::exec::{Engine, GlobalStep};
 use crate::raster::{perimeter_cells, perimeter_index, perimeter_len};
-use crate::raster::{Grid, RasterSource, TileId, TileLayout, TileView};
+use crate::raster::{Grid, RasterSource, TileId, TileLayout, TileView, UnionFind};
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 
@@ -273,14 +273,7 @@ impl GlobalStep for PlateauStep {
             offset.push(total);
             total += s.first.len();
         }
-        let mut uf: Vec<usize> = (0..total).collect();
-        fn find(uf: &mut [usize], mut x: usize) -> usize {
-            while uf[x] != x {
-                uf[x] = uf[uf[x]];
-                x = uf[x];
-            }
-            x
-        }
+        let mut uf = UnionFind::<usize>::new(total);
         crate::raster::cross_tile_pairs(layout, |ta, (xa, ya), tb, (xb, yb)| {
             let sa = &summaries[ta];
             let sb = &summaries[tb];
@@ -294,17 +287,14 @@ impl GlobalStep for PlateauStep {
             if pa == NONE || pb == NONE || sa.z[ka] != sb.z[kb] {
                 return;
             }
-            let a = find(&mut uf, offset[ta] + pa as usize);
-            let b = find(&mut uf, offset[tb] + pb as usize);
-            if a != b {
-                let (lo, hi) = if a < b { (a, b) } else { (b, a) };
-                uf[hi] = lo;
-            }
+            let a = uf.find(offset[ta] + pa as usize);
+            let b = uf.find(offset[tb] + pb as usize);
+            uf.union_min(a, b);
         });
         let mut rep = vec![u64::MAX; total];
         for (t, s) in summaries.iter().enumerate() {
             for (p, &f) in s.first.iter().enumerate() {
-                let r = find(&mut uf, offset[t] + p);
+                let r = uf.find(offset[t] + p);
                 rep[r] = rep[r].min(f);
             }
         }
@@ -317,7 +307,7 @@ impl GlobalStep for PlateauStep {
                     if p == NONE {
                         u64::MAX
                     } else {
-                        rep[find(&mut uf, offset[t] + p as usize)]
+                        rep[uf.find(offset[t] + p as usize)]
                     }
                 })
                 .collect();
@@ -410,15 +400,6 @@ struct Comp {
     last: u32,
     /// Highest sweep key in the component (the sea's is above all).
     hi: (u32, u64),
-}
-
-fn uf_find(parent: &mut [u32], mut x: u32) -> u32 {
-    while parent[x as usize] != x {
-        let p = parent[x as usize];
-        parent[x as usize] = parent[p as usize];
-        x = p;
-    }
-    x
 }
 
 struct Piece {
@@ -588,7 +569,7 @@ impl GlobalStep for TreeStep<'_> {
             std::cmp::Reverse(key(p.z, p.id))
         });
         let sea = np as u32;
-        let mut parent: Vec<u32> = (0..=np as u32).collect();
+        let mut uf = UnionFind::<u32>::new(np + 1);
         let mut comp: Vec<Comp> = (0..=np)
             .map(|_| Comp {
                 closed: true,
@@ -632,7 +613,7 @@ impl GlobalStep for TreeStep<'_> {
 
         // The sea node joins (SeaLevel): every processed piece touching the
         // outside (exactly those above 0) joins its component.
-        let sea_event = |parent: &mut Vec<u32>,
+        let sea_event = |uf: &mut UnionFind<u32>,
                          comp: &mut Vec<Comp>,
                          out: &mut TreeSummary,
                          local_peaks: &[u32]| {
@@ -647,7 +628,7 @@ impl GlobalStep for TreeStep<'_> {
             let mut rs: Vec<u32> = Vec::new();
             for (i, p) in pieces.iter().enumerate() {
                 if p.z > 0.0 && p.outside {
-                    let r = uf_find(parent, i as u32);
+                    let r = uf.find(i as u32);
                     if !rs.contains(&r) {
                         rs.push(r);
                     }
@@ -665,7 +646,7 @@ impl GlobalStep for TreeStep<'_> {
                 } else {
                     out.edges.push((SEA_ID, out.nodes[c.last as usize].id));
                 }
-                parent[r as usize] = sea;
+                uf.union_into(sea, r);
             }
             comp[sea as usize] = Comp {
                 closed: false,
@@ -682,7 +663,7 @@ impl GlobalStep for TreeStep<'_> {
             let z = px.z;
             if !sea_done && z <= 0.0 {
                 sea_done = true;
-                sea_event(&mut parent, &mut comp, &mut out, &local_peaks);
+                sea_event(&mut uf, &mut comp, &mut out, &local_peaks);
             }
             roots.clear();
             for &c in &cells[off[xi] as usize..off[xi + 1] as usize] {
@@ -697,7 +678,7 @@ impl GlobalStep for TreeStep<'_> {
                         continue;
                     }
                     if v.at(nx, ny) > z {
-                        let r = uf_find(&mut parent, label[nb]);
+                        let r = uf.find(label[nb]);
                         if !roots.contains(&r) {
                             roots.push(r);
                         }
@@ -705,7 +686,7 @@ impl GlobalStep for TreeStep<'_> {
                 }
             }
             if sea_done && conv == EdgeConvention::SeaLevel && px.outside {
-                let s = uf_find(&mut parent, sea);
+                let s = uf.find(sea);
                 if !roots.contains(&s) {
                     roots.push(s);
                 }
@@ -816,7 +797,7 @@ impl GlobalStep for TreeStep<'_> {
             // Union: x (fresh) becomes the root; `find(sea)` names the
             // sea's component wherever its root is.
             for &r in &roots {
-                parent[r as usize] = x;
+                uf.union_into(x, r);
             }
             comp[xi] = Comp {
                 closed,
@@ -827,11 +808,11 @@ impl GlobalStep for TreeStep<'_> {
             };
         }
         if !sea_done {
-            sea_event(&mut parent, &mut comp, &mut out, &local_peaks);
+            sea_event(&mut uf, &mut comp, &mut out, &local_peaks);
         }
         // Components still alive at the end.
         for r in 0..=np as u32 {
-            if uf_find(&mut parent, r) != r {
+            if uf.find(r) != r {
                 continue;
             }
             if r == sea && conv == EdgeConvention::Unknown {
@@ -948,7 +929,7 @@ impl GlobalStep for TreeStep<'_> {
         });
         let conv = self.convention;
         // Global sweep over the joined graph: the rules of `tree::build`.
-        let mut parent: Vec<u32> = (0..n as u32).collect();
+        let mut uf = UnionFind::<u32>::new(n);
         let mut top = vec![NO_TOP; n];
         let mut lowest = vec![f32::INFINITY; n];
         let mut done = vec![false; n];
@@ -967,7 +948,7 @@ impl GlobalStep for TreeStep<'_> {
             roots.clear();
             for &nb in &adj[start[xi] as usize..start[xi + 1] as usize] {
                 if done[nb as usize] {
-                    let r = uf_find(&mut parent, nb);
+                    let r = uf.find(nb);
                     if !roots.contains(&r) {
                         roots.push(r);
                     }
@@ -1031,13 +1012,13 @@ impl GlobalStep for TreeStep<'_> {
                 }
             }
             for &r in &roots {
-                parent[r as usize] = x;
+                uf.union_into(x, r);
             }
             top[xi] = wtop;
             lowest[xi] = low;
         }
         for r in 0..n {
-            if uf_find(&mut parent, r as u32) != r as u32 {
+            if uf.find(r as u32) != r as u32 {
                 continue;
             }
             let t = top[r];

@@ -29,7 +29,7 @@
 
 use super::regions::{Regions, N8};
 use crate::error::{Error, Result};
-use crate::raster::Grid;
+use crate::raster::{Grid, UnionFind};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -133,19 +133,14 @@ pub struct CriticalPoints {
 
 /// Union-find over regions plus one virtual sea node.
 struct Uf {
-    parent: Vec<u32>,
+    sets: UnionFind<u32>,
     /// Union by rank (Tarjan 1975) keeps finds short on huge flats.
     rank: Vec<u8>,
 }
 
 impl Uf {
-    fn find(&mut self, mut x: u32) -> u32 {
-        while self.parent[x as usize] != x {
-            let p = self.parent[x as usize];
-            self.parent[x as usize] = self.parent[p as usize];
-            x = p;
-        }
-        x
+    fn find(&mut self, x: u32) -> u32 {
+        self.sets.find(x)
     }
 }
 
@@ -177,7 +172,7 @@ pub fn build(dem: &Grid<f32>, convention: EdgeConvention) -> Result<(DivideTree,
     drop(keys);
     let sea = nreg as u32;
     let mut uf = Uf {
-        parent: (0..=nreg as u32).collect(),
+        sets: UnionFind::new(nreg + 1),
         rank: vec![0; nreg + 1],
     };
     // Per component root: top peak index (or SEA_TOP), lowest elevation seen.
@@ -230,7 +225,7 @@ pub fn build(dem: &Grid<f32>, convention: EdgeConvention) -> Result<(DivideTree,
         for &r in roots {
             low = low.min(lowest[r as usize]);
             if r != root {
-                uf.parent[r as usize] = root;
+                uf.sets.union_into(root, r);
             }
         }
         // Losers in the order of their top peaks (highest first), so the
@@ -394,7 +389,7 @@ pub fn build(dem: &Grid<f32>, convention: EdgeConvention) -> Result<(DivideTree,
                 Some(s),
                 z,
             );
-            uf.parent[r] = win;
+            uf.sets.union_into(win, r as u32);
         }
     }
     if convention == EdgeConvention::SeaLevel && !sea_active {

@@ -8,6 +8,7 @@ pub mod neighbours;
 pub mod proj;
 mod source;
 mod tiling;
+mod union_find;
 mod window;
 
 pub use dtype::{Cell, DType};
@@ -17,4 +18,5 @@ pub use source::{read_view, read_window, read_window_native, MemRaster, RasterIn
 pub use tiling::{
     cross_tile_pairs, perimeter_cells, perimeter_index, perimeter_len, TileId, TileLayout, TileView,
 };
+pub use union_find::{SetIndex, UnionFind};
 pub use window::Window;

@@ -9,6 +9,7 @@ mod delegated;
 mod manifest;
 mod reader;
 pub mod sink;
+pub mod scratch;
 mod tile;
 mod writer;
 

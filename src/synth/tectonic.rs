@@ -47,7 +47,7 @@
 use super::noise::Fbm;
 use super::vector::{RingMask, VectorMap};
 use crate::error::{Error, Result};
-use crate::raster::{AnyGrid, DType, GeoRef, Grid, RasterInfo, RasterSource, Window};
+use crate::raster::{AnyGrid, DType, GeoRef, Grid, RasterInfo, RasterSource, UnionFind, Window};
 use serde::{Deserialize, Serialize};
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
@@ -176,19 +176,11 @@ pub fn merge_plates(
     t2: f64,
 ) -> (Vec<u32>, Vec<[f64; 2]>) {
     let n = area.len();
-    let mut root: Vec<u32> = (0..n as u32).collect();
+    let mut root = UnionFind::<u32>::new(n);
     let mut a: Vec<f64> = area.to_vec();
     let mut mom: Vec<[f64; 2]> = (0..n)
         .map(|i| [vel[i][0] * area[i], vel[i][1] * area[i]])
         .collect();
-    fn find(root: &mut [u32], mut i: u32) -> u32 {
-        while root[i as usize] != i {
-            let p = root[root[i as usize] as usize];
-            root[i as usize] = p;
-            i = p;
-        }
-        i
-    }
     let unit = |m: [f64; 2], a: f64| -> Option<[f64; 2]> {
         if a <= 0.0 {
             return None;
@@ -204,7 +196,7 @@ pub fn merge_plates(
         .collect();
     loop {
         for p in pairs.iter_mut() {
-            let (i, j) = (find(&mut root, p.0), find(&mut root, p.1));
+            let (i, j) = (root.find(p.0), root.find(p.1));
             *p = (i.min(j), i.max(j));
         }
         pairs.retain(|p| p.0 != p.1);
@@ -225,7 +217,7 @@ pub fn merge_plates(
         }
         let Some((_, (i, j))) = best else { break };
         // Merge j into i (i < j: the group keeps its smallest id as root).
-        root[j as usize] = i;
+        root.union_into(i, j);
         a[i as usize] += a[j as usize];
         mom[i as usize][0] += mom[j as usize][0];
         mom[i as usize][1] += mom[j as usize][1];
@@ -234,7 +226,7 @@ pub fn merge_plates(
     let mut out_vel = Vec::new();
     let mut group = vec![0u32; n];
     for (i, gi) in group.iter_mut().enumerate() {
-        let r = find(&mut root, i as u32) as usize;
+        let r = root.find(i as u32) as usize;
         if label[r] == u32::MAX {
             label[r] = out_vel.len() as u32;
             out_vel.push(if a[r] > 0.0 {

@@ -19,6 +19,7 @@
 //! rank (both sorted), so the cost stays O(n · BLOCK²).
 
 use crate::error::{Error, Result};
+use crate::raster::UnionFind;
 
 /// Saddles per assignment block.
 pub const BLOCK: usize = 128;
@@ -46,24 +47,17 @@ fn sweep_cmp(hs: &[f64], a: usize, b: usize) -> std::cmp::Ordering {
 
 /// [`owners`] with the saddles already in sweep order.
 fn owners_in_order(h: &[f64], edges: &[(usize, usize)], order: &[usize]) -> Vec<usize> {
-    let mut parent: Vec<usize> = (0..h.len()).collect();
+    let mut uf = UnionFind::<usize>::new(h.len());
     let mut top: Vec<usize> = (0..h.len()).collect();
-    fn find(p: &mut [usize], mut x: usize) -> usize {
-        while p[x] != x {
-            p[x] = p[p[x]];
-            x = p[x];
-        }
-        x
-    }
     let higher = |a: usize, b: usize| h[a] > h[b] || (h[a] == h[b] && a < b);
     let mut own = vec![0usize; edges.len()];
     for &e in order {
         let (a, b) = edges[e];
-        let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
+        let (ra, rb) = (uf.find(a), uf.find(b));
         let (ta, tb) = (top[ra], top[rb]);
         let (win, lose) = if higher(ta, tb) { (ta, tb) } else { (tb, ta) };
         own[e] = lose;
-        parent[rb] = ra;
+        uf.union_into(ra, rb);
         top[ra] = win;
     }
     own

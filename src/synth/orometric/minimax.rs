@@ -17,6 +17,7 @@
 //! lifting: O(P log P) memory and time to build, O(log P) per query.
 
 use super::tree_synth::SynthTree;
+use crate::raster::UnionFind;
 
 /// Where a refined ridge point lies: a peak, a saddle, or the half-ridge
 /// from a peak to one of its saddles.
@@ -39,15 +40,6 @@ pub struct PassHeights {
     saddle_peaks: Vec<[u32; 2]>,
 }
 
-fn find(p: &mut [u32], mut v: u32) -> u32 {
-    while p[v as usize] != v {
-        let g = p[p[v as usize] as usize];
-        p[v as usize] = g;
-        v = g;
-    }
-    v
-}
-
 impl PassHeights {
     /// The merge tree of `tree` (validated: connected, one saddle per ridge).
     pub fn new(tree: &SynthTree) -> PassHeights {
@@ -57,7 +49,7 @@ impl PassHeights {
         let mut parent = vec![u32::MAX; n];
         let mut elev = vec![f64::INFINITY; n];
         // Union-find over peaks; `top[root]` is the merge-tree node of the set.
-        let mut uf: Vec<u32> = (0..np as u32).collect();
+        let mut uf = UnionFind::<u32>::new(np);
         let mut top: Vec<u32> = (0..np as u32).collect();
         let mut order: Vec<usize> = (0..ns).collect();
         order.sort_by(|&a, &b| {
@@ -69,14 +61,14 @@ impl PassHeights {
         let mut next = np;
         for k in order {
             let [a, b] = tree.saddles[k].peaks;
-            let (ra, rb) = (find(&mut uf, a as u32), find(&mut uf, b as u32));
+            let (ra, rb) = (uf.find(a as u32), uf.find(b as u32));
             if ra == rb {
                 continue;
             }
             elev[next] = tree.saddles[k].elevation;
             parent[top[ra as usize] as usize] = next as u32;
             parent[top[rb as usize] as usize] = next as u32;
-            uf[rb as usize] = ra;
+            uf.union_into(ra, rb);
             top[ra as usize] = next as u32;
             next += 1;
         }

@@ -39,7 +39,7 @@ use super::profile::SynthProfile;
 use super::typemap::TypeMap;
 use crate::error::{Error, Result};
 use crate::oro::stats::SplitMix64;
-use crate::raster::Grid;
+use crate::raster::{Grid, UnionFind};
 use serde::{Deserialize, Serialize};
 use spade::{DelaunayTriangulation, HasPosition, Point2, Triangulation};
 use std::path::Path;
@@ -410,14 +410,7 @@ pub fn ridge_tree_with(
         })
         .collect();
     edges.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
-    let mut parent: Vec<usize> = (0..peaks.len()).collect();
-    fn find(p: &mut [usize], mut x: usize) -> usize {
-        while p[x] != x {
-            p[x] = p[p[x]];
-            x = p[x];
-        }
-        x
-    }
+    let mut uf = UnionFind::<usize>::new(peaks.len());
     let mut out = Vec::with_capacity(peaks.len() - 1);
     for &(i, j) in forced {
         if i >= peaks.len() || j >= peaks.len() || i == j {
@@ -425,13 +418,11 @@ pub fn ridge_tree_with(
                 "a kept ridge joins peaks {i} and {j}; it needs two different existing peaks"
             )));
         }
-        let (ri, rj) = (find(&mut parent, i), find(&mut parent, j));
-        if ri == rj {
+        if !uf.join(i, j) {
             return Err(Error::invalid(format!(
                 "the kept ridges close a loop at peaks {i} and {j}; a divide tree has none"
             )));
         }
-        parent[ri] = rj;
         out.push((i, j));
     }
     let banned = |i: usize, j: usize| {
@@ -443,9 +434,7 @@ pub fn ridge_tree_with(
         if !forbidden.is_empty() && banned(i, j) {
             continue;
         }
-        let (ri, rj) = (find(&mut parent, i), find(&mut parent, j));
-        if ri != rj {
-            parent[ri] = rj;
+        if uf.join(i, j) {
             out.push((i, j));
         }
     }
@@ -1271,14 +1260,7 @@ impl SynthTree {
                 self.saddles.len()
             )));
         }
-        let mut parent: Vec<usize> = (0..self.peaks.len()).collect();
-        fn find(p: &mut [usize], mut x: usize) -> usize {
-            while p[x] != x {
-                p[x] = p[p[x]];
-                x = p[x];
-            }
-            x
-        }
+        let mut uf = UnionFind::<usize>::new(self.peaks.len());
         for (k, s) in self.saddles.iter().enumerate() {
             let [a, b] = s.peaks;
             if a >= self.peaks.len() || b >= self.peaks.len() || a == b {
@@ -1298,13 +1280,11 @@ impl SynthTree {
                     s.elevation
                 )));
             }
-            let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
-            if ra == rb {
+            if !uf.join(a, b) {
                 return Err(Error::invalid(format!(
                     "divide tree: saddle {k} closes a loop (peaks {a} and {b} are already joined); the edit disconnected the tree elsewhere"
                 )));
             }
-            parent[ra] = rb;
         }
         Ok(())
     }
