@@ -38,17 +38,7 @@ pub struct CostRow {
 /// (a Pearson coefficient of class codes or of angles that wrap at 360° is
 /// not meaningful).
 pub fn is_categorical(k: MetricKind) -> bool {
-    use MetricKind::*;
-    matches!(
-        k,
-        Aspect
-            | Geomorphon
-            | GeomorphonPattern
-            | GeomorphonCanonical
-            | WeissLandform
-            | DikauForm
-            | SharyLandform
-    )
+    super::registry::def(k).output != super::registry::OutputKind::Continuous
 }
 
 /// True if the metric takes a `radius` parameter.
