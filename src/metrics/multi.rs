@@ -37,7 +37,7 @@ impl MultiMetric {
     /// Bind `specs` to the raster described by `info` (radii to cells).
     pub fn new(specs: &[MetricSpec], info: &RasterInfo) -> Result<MultiMetric> {
         let metrics = resolve(specs, info)?;
-        // descr4: whole-raster metrics run their own global passes.
+        // Whole-raster metrics run their own global passes.
         if let Some(m) = metrics
             .iter()
             .find(|m| super::peak_dw::is_whole_raster(m.spec.kind))
@@ -157,7 +157,7 @@ pub fn compute(
     }
     // Validate every spec (radii, ranges) before any pass runs.
     resolve(specs, src.info())?;
-    // descr4: local metrics in one tiled pass, whole-raster ones in their
+    // Local metrics in one tiled pass, whole-raster ones in their
     // own global passes.
     let (whole, local): (Vec<usize>, Vec<usize>) =
         (0..specs.len()).partition(|&i| super::peak_dw::is_whole_raster(specs[i].kind));

@@ -113,7 +113,7 @@ pub fn parse_value(name: &str, value: &str) -> std::result::Result<Option<f64>, 
     if value == "day" && name == "hour" {
         return Ok(None);
     }
-    // descr4: Xu's measures are planar unless a planet radius is given.
+    // Xu's measures are planar unless a planet radius is given.
     if matches!(value, "none" | "flat") && name == "planet" {
         return Ok(None);
     }
