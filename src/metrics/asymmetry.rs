@@ -14,8 +14,13 @@
 //! untiled ones.
 
 use super::directional::gradient_region;
+use super::param::{AZIMUTH, RADIUS, TOLERANCE};
+use super::registry::{metric_def, Metric, MetricDef, MetricKind, ScratchClass};
+use super::spec::Resolved;
+use super::tile::{region_cells, Tile};
 use super::windowed::{i128_to_f64, pow2, to_fixed, FRAC_BITS, MAX_ABS_VALUE};
 use crate::error::{Error, Result};
+use crate::raster::RasterInfo;
 use crate::raster::{Grid, TileView};
 
 /// Gradient (rise over run) below which a cell is treated as flat and left out.
@@ -353,3 +358,72 @@ impl Fenwick {
         }
     }
 }
+
+/// Hillslope asymmetry (means) or the asymmetry index (medians).
+pub struct Asymmetry(MetricDef);
+
+impl Metric for Asymmetry {
+    fn def(&self) -> &MetricDef {
+        &self.0
+    }
+    fn halo(&self, m: &Resolved) -> usize {
+        m.radius_cells + 1
+    }
+    fn scratch(&self, m: &Resolved, tile: usize) -> Option<(ScratchClass, u64)> {
+        if self.0.kind == MetricKind::HillslopeAsymmetry {
+            return Some(super::directional::gradient_window_scratch(
+                m.radius_cells,
+                tile,
+            ));
+        }
+        // gradients, side, rank, value, order and two Fenwick trees
+        Some((
+            ("asymmetry_index", 0),
+            region_cells(tile, m.radius_cells) * (2 * 8 + 1 + 4 + 8 + 8 + 4 + 2 * 4),
+        ))
+    }
+    fn bind(&self, r: &mut Resolved, _info: &RasterInfo) -> Result<()> {
+        let t = r.spec.threshold.unwrap_or(45.0);
+        if !(t > 0.0 && t <= 90.0) {
+            return Err(Error::invalid(format!(
+                "{}:tolerance={t} is out of range: use 0 < tolerance <= 90 (degrees)",
+                self.0.name
+            )));
+        }
+        Ok(())
+    }
+    fn run(&self, t: &mut Tile<'_>, m: &Resolved, o: &mut Grid<f32>) -> Result<()> {
+        let azimuth = m.spec.azimuth.unwrap_or(0.0);
+        let tolerance = m.spec.threshold.unwrap_or(45.0);
+        if self.0.kind == MetricKind::HillslopeAsymmetry {
+            hillslope_asymmetry(t.view, m.radius_cells, azimuth, tolerance, t.path, o)
+        } else {
+            asymmetry_index(t.view, m.radius_cells, azimuth, tolerance, o);
+            Ok(())
+        }
+    }
+}
+
+/// `hillslope_asymmetry`: log10(mean gradient of cells facing azimuth / mean gradient of cells facing azimuth+180) in the square window; cells under 5% gradient left out.
+///
+/// Source: Poulos, Pierce, Flores & Benner 2012, GRL 39 L06406 (medians there; means as in the Argudo et al. survey code).
+pub static HILLSLOPE_ASYMMETRY: Asymmetry = Asymmetry(metric_def!(
+        HillslopeAsymmetry,
+        "hillslope_asymmetry",
+        &[RADIUS, AZIMUTH, TOLERANCE],
+        "log10 ratio",
+        "log10(mean gradient of cells facing azimuth / mean gradient of cells facing azimuth+180) in the square window; cells under 5% gradient left out",
+        "Poulos, Pierce, Flores & Benner 2012, GRL 39 L06406 (medians there; means as in the Argudo et al. survey code)"
+    ));
+
+/// `asymmetry_index`: log10(median gradient of cells facing azimuth / median gradient of cells facing azimuth+180) in the square window; cells under 5% gradient left out.
+///
+/// Source: Poulos, Pierce, Flores & Benner 2012, GRL 39 L06406, sec. 2 (medians, as published; hillslope_asymmetry uses means).
+pub static ASYMMETRY_INDEX: Asymmetry = Asymmetry(metric_def!(
+        AsymmetryIndex,
+        "asymmetry_index",
+        &[RADIUS, AZIMUTH, TOLERANCE],
+        "log10 ratio",
+        "log10(median gradient of cells facing azimuth / median gradient of cells facing azimuth+180) in the square window; cells under 5% gradient left out",
+        "Poulos, Pierce, Flores & Benner 2012, GRL 39 L06406, sec. 2 (medians, as published; hillslope_asymmetry uses means)"
+    ));

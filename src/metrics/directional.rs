@@ -7,7 +7,12 @@
 //! Also the gradient field over a tile's core plus a margin, shared with the
 //! hillslope asymmetry (`asymmetry`).
 
+use super::neighbourhood::{walk_3x3, EdgeMode};
+use super::param::{AZIMUTH, RADIUS};
+use super::registry::{metric_def, Metric, MetricDef, ScratchClass};
+use super::spec::Resolved;
 use super::terrain::horn_gradient;
+use super::tile::{region_cells, Tile};
 use super::windowed::Sat;
 use crate::error::Result;
 use crate::raster::{Grid, TileView};
@@ -85,3 +90,71 @@ pub fn average_slope(view: &TileView<f32>, r: usize, path: &str, o: &mut Grid<f3
     }
     Ok(())
 }
+
+/// The slope along an azimuth (3x3 window).
+pub struct DirectionalSlope(MetricDef);
+
+impl Metric for DirectionalSlope {
+    fn def(&self) -> &MetricDef {
+        &self.0
+    }
+    fn run(&self, t: &mut Tile<'_>, m: &Resolved, o: &mut Grid<f32>) -> Result<()> {
+        let a = m.spec.azimuth.unwrap_or(0.0);
+        walk_3x3(t.view, o, EdgeMode::Nodata, f32::NAN, |w, ew, ns| {
+            let (p, q) = horn_gradient(w, ew, ns);
+            directional_slope(p, q, a) as f32
+        });
+        Ok(())
+    }
+}
+
+/// The mean slope angle in the square window.
+pub struct AverageSlope(MetricDef);
+
+/// Scratch of the windows of gradients: gradients, slopes and two tables
+/// (shared with `hillslope_asymmetry`).
+pub fn gradient_window_scratch(r: usize, tile: usize) -> (ScratchClass, u64) {
+    (
+        ("gradient_window", 0),
+        region_cells(tile, r) * (4 * 8 + 2 * (4 + 16)),
+    )
+}
+
+impl Metric for AverageSlope {
+    fn def(&self) -> &MetricDef {
+        &self.0
+    }
+    fn halo(&self, m: &Resolved) -> usize {
+        m.radius_cells + 1
+    }
+    fn scratch(&self, m: &Resolved, tile: usize) -> Option<(ScratchClass, u64)> {
+        Some(gradient_window_scratch(m.radius_cells, tile))
+    }
+    fn run(&self, t: &mut Tile<'_>, m: &Resolved, o: &mut Grid<f32>) -> Result<()> {
+        average_slope(t.view, m.radius_cells, t.path, o)
+    }
+}
+
+/// `directional_slope`: slope along an azimuth: grad z . (sin a, cos a), positive uphill (Horn gradient).
+///
+/// Source: directional derivative (Argudo et al. survey sec. 3.1); Horn 1981 gradient.
+pub static DIRECTIONAL_SLOPE: DirectionalSlope = DirectionalSlope(metric_def!(
+    DirectionalSlope,
+    "directional_slope",
+    &[AZIMUTH],
+    "z/m",
+    "slope along an azimuth: grad z . (sin a, cos a), positive uphill (Horn gradient)",
+    "directional derivative (Argudo et al. survey sec. 3.1); Horn 1981 gradient"
+));
+
+/// `average_slope`: mean Horn slope angle of the valid cells of the square window (exact SAT).
+///
+/// Source: average slope (Argudo et al. survey sec. 3.1); summed-area tables, Crow 1984.
+pub static AVERAGE_SLOPE: AverageSlope = AverageSlope(metric_def!(
+    AverageSlope,
+    "average_slope",
+    &[RADIUS],
+    "degrees",
+    "mean Horn slope angle of the valid cells of the square window (exact SAT)",
+    "average slope (Argudo et al. survey sec. 3.1); summed-area tables, Crow 1984"
+));

@@ -28,6 +28,11 @@
 //! neighbourhoods. O(r²) per cell.
 
 use super::fractional::disk_offsets;
+use super::param::{PLANET, RADIUS_CUTOFF};
+use super::registry::{metric_def, Metric, MetricDef, MetricKind};
+use super::spec::Resolved;
+use super::tile::Tile;
+use crate::error::Result;
 use crate::raster::{Grid, TileView};
 
 /// The disk of [`disk_offsets`] as contiguous row spans `(offset of the
@@ -152,3 +157,95 @@ pub fn position(
         }
     }
 }
+
+/// Dominance, submission, peakedness or domination in a disk (dominance
+/// and submission on a sphere with `planet`).
+pub struct PositionMetric(MetricDef);
+
+impl Metric for PositionMetric {
+    fn def(&self) -> &MetricDef {
+        &self.0
+    }
+    fn halo(&self, m: &Resolved) -> usize {
+        m.radius_cells
+    }
+    fn run(&self, t: &mut Tile<'_>, m: &Resolved, o: &mut Grid<f32>) -> Result<()> {
+        let kind = self.0.kind;
+        if let (Some(planet), MetricKind::Dominance | MetricKind::Submission) =
+            (m.spec.value("planet"), kind)
+        {
+            // Xu's spherical forms when a planet radius is given.
+            use super::xu::{spherical, Xu};
+            let which = if kind == MetricKind::Dominance {
+                Xu::Dominance
+            } else {
+                Xu::Submission
+            };
+            spherical(
+                t.view,
+                m.radius_cells,
+                m.radius_m,
+                planet * 1000.0,
+                which,
+                o,
+            );
+            return Ok(());
+        }
+        let which = match kind {
+            MetricKind::Dominance => Position::Dominance,
+            MetricKind::Submission => Position::Submission,
+            MetricKind::Peakedness => Position::Peakedness,
+            _ => Position::Domination,
+        };
+        position(t.view, m.radius_cells, m.radius_m, which, o);
+        Ok(())
+    }
+}
+
+/// `dominance`: how far the cell rises above the lowest valid cell of the disk: max(0, max (z - z_q)) (planar; planet=R km: height above the horizon plane of q on a sphere); 0 = submissive.
+///
+/// Source: Xu 2022, Beyond elevation / datumless topography (arXiv 2208.01600); planar, or spherical with planet=R km; disk cutoff.
+pub static DOMINANCE: PositionMetric = PositionMetric(metric_def!(
+        Dominance,
+        "dominance",
+        &[RADIUS_CUTOFF, PLANET],
+        "z",
+        "how far the cell rises above the lowest valid cell of the disk: max(0, max (z - z_q)) (planar; planet=R km: height above the horizon plane of q on a sphere); 0 = submissive",
+        "Xu 2022, Beyond elevation / datumless topography (arXiv 2208.01600); planar, or spherical with planet=R km; disk cutoff"
+    ));
+
+/// `submission`: how far the cell dips below the highest valid cell of the disk: max(0, max (z_q - z)) (planar; planet=R km: height of q above the horizon plane of the cell); 0 = dominant.
+///
+/// Source: Xu 2022, Beyond elevation / datumless topography (arXiv 2208.01600); planar, or spherical with planet=R km; disk cutoff.
+pub static SUBMISSION: PositionMetric = PositionMetric(metric_def!(
+        Submission,
+        "submission",
+        &[RADIUS_CUTOFF, PLANET],
+        "z",
+        "how far the cell dips below the highest valid cell of the disk: max(0, max (z_q - z)) (planar; planet=R km: height of q above the horizon plane of the cell); 0 = dominant",
+        "Xu 2022, Beyond elevation / datumless topography (arXiv 2208.01600); planar, or spherical with planet=R km; disk cutoff"
+    ));
+
+/// `peakedness`: share of the other valid cells of the disk strictly lower than the cell.
+///
+/// Source: Deng & Wilson 2008, IJGIS 22(1-2) (elevation-percentile criterion at one scale); Llobera 2001 as the survey code; disk cutoff.
+pub static PEAKEDNESS: PositionMetric = PositionMetric(metric_def!(
+        Peakedness,
+        "peakedness",
+        &[RADIUS_CUTOFF],
+        "0..1",
+        "share of the other valid cells of the disk strictly lower than the cell",
+        "Deng & Wilson 2008, IJGIS 22(1-2) (elevation-percentile criterion at one scale); Llobera 2001 as the survey code; disk cutoff"
+    ));
+
+/// `domination`: geographical domination: distance to the nearest strictly higher valid cell; the cutoff if none within it.
+///
+/// Source: 'Dominanz' of German orometry (isolation of a point); disk cutoff.
+pub static DOMINATION: PositionMetric = PositionMetric(metric_def!(
+        Domination,
+        "domination",
+        &[RADIUS_CUTOFF],
+        "m",
+        "geographical domination: distance to the nearest strictly higher valid cell; the cutoff if none within it",
+        "'Dominanz' of German orometry (isolation of a point); disk cutoff"
+    ));

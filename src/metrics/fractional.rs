@@ -19,6 +19,11 @@
 //! singular part near `y = 0` that a grid does not sample. Use s well inside
 //! (0, 1); s → 0 weights all distances alike (`C → 0` too).
 
+use super::param::{EXPONENT, RADIUS_CUTOFF};
+use super::registry::{metric_def, Metric, MetricDef};
+use super::spec::Resolved;
+use super::tile::Tile;
+use crate::error::Result;
 use crate::raster::{Grid, TileView};
 
 /// Γ(x) for x > 0 by Lanczos' approximation (Lanczos 1964, "A precision
@@ -122,3 +127,37 @@ pub fn fractional_laplacian(
         }
     }
 }
+
+/// The fractional Laplacian with a disk cutoff.
+pub struct FractionalLaplacian(MetricDef);
+
+impl Metric for FractionalLaplacian {
+    fn def(&self) -> &MetricDef {
+        &self.0
+    }
+    fn halo(&self, m: &Resolved) -> usize {
+        m.radius_cells
+    }
+    fn run(&self, t: &mut Tile<'_>, m: &Resolved, o: &mut Grid<f32>) -> Result<()> {
+        fractional_laplacian(
+            t.view,
+            m.radius_cells,
+            m.radius_m,
+            m.spec.exponent.unwrap_or(0.5),
+            o,
+        );
+        Ok(())
+    }
+}
+
+/// `fractional_laplacian`: (-Laplacian)^s z = C(s) sum over 0<|y|<=R of (z(x)-z(x+y))/|y|^(2+2s) * cell area (disk cutoff).
+///
+/// Source: integral form, Di Nezza, Palatucci & Valdinoci 2012, Bull. Sci. Math. 136(5), eq. 3.1; C(s) of their eq. 3.2 for n = 2.
+pub static FRACTIONAL_LAPLACIAN: FractionalLaplacian = FractionalLaplacian(metric_def!(
+        FractionalLaplacian,
+        "fractional_laplacian",
+        &[RADIUS_CUTOFF, EXPONENT],
+        "z/m^2s",
+        "(-Laplacian)^s z = C(s) sum over 0<|y|<=R of (z(x)-z(x+y))/|y|^(2+2s) * cell area (disk cutoff)",
+        "integral form, Di Nezza, Palatucci & Valdinoci 2012, Bull. Sci. Math. 136(5), eq. 3.1; C(s) of their eq. 3.2 for n = 2"
+    ));

@@ -17,7 +17,12 @@
 //!   kmax > t → ridge, kmin < −t → channel, else planar.
 
 use super::neighbourhood::{walk_3x3, EdgeMode};
+use super::param::{FEATURE, FUZZY_T, SCALES};
 use super::quadric::{wood_fit, Quadric};
+use super::registry::{metric_def, Metric, MetricDef};
+use super::spec::Resolved;
+use super::tile::Tile;
+use crate::error::Result;
 use crate::raster::{Grid, TileView};
 
 /// Feature names, in class-code order 0..6.
@@ -95,3 +100,41 @@ pub fn fuzzy_membership(
         };
     }
 }
+
+/// The share of scales at which Wood's classification gives a feature.
+pub struct FuzzyLandform(MetricDef);
+
+impl Metric for FuzzyLandform {
+    fn def(&self) -> &MetricDef {
+        &self.0
+    }
+    fn halo(&self, m: &Resolved) -> usize {
+        m.spec
+            .scales
+            .as_ref()
+            .and_then(|v| v.iter().max().copied())
+            .unwrap_or(1)
+    }
+    fn run(&self, t: &mut Tile<'_>, m: &Resolved, o: &mut Grid<f32>) -> Result<()> {
+        fuzzy_membership(
+            t.view,
+            m.spec.scales.as_deref().unwrap_or(&[1, 2, 4]),
+            m.spec.feature.unwrap_or(0),
+            m.spec.threshold.unwrap_or(1e-4),
+            o,
+        );
+        Ok(())
+    }
+}
+
+/// `fuzzy_landform`: share of the window radii (scales) at which Wood's feature classification gives the class.
+///
+/// Source: Fisher, Wood & Cheng 2004, Trans. IBG 29(1); features of Wood 1996 (PhD thesis, Leicester), as r.param.scale.
+pub static FUZZY_LANDFORM: FuzzyLandform = FuzzyLandform(metric_def!(
+        FuzzyLandform,
+        "fuzzy_landform",
+        &[FEATURE, SCALES, FUZZY_T],
+        "0..1",
+        "share of the window radii (scales) at which Wood's feature classification gives the class",
+        "Fisher, Wood & Cheng 2004, Trans. IBG 29(1); features of Wood 1996 (PhD thesis, Leicester), as r.param.scale"
+    ));

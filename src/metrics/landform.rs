@@ -9,6 +9,15 @@
 //!
 //! Class outputs are small integers stored in f32 (NaN = nodata).
 
+use super::local_stats::windowed_stat;
+use super::param::{
+    CURV_T, FLAT_T, RADIUS_GEOMORPHON, RADIUS_LARGE, RADIUS_QUADRIC, RADIUS_SMALL, SLOPE_T,
+};
+use super::registry::{metric_def, Metric, MetricDef, MetricKind, Needs, ScratchClass};
+use super::spec::Resolved;
+use super::tile::{region_cells, Tile};
+use crate::error::Result;
+use crate::exec::LocalStep;
 use crate::raster::{Grid, TileView};
 
 /// The 8 geomorphon directions (dx east, dy south in rows), clockwise from
@@ -274,3 +283,219 @@ pub fn dikau_class(profile: f64, plan: f64, t: f64) -> f32 {
     };
     (3 * s(profile) + s(plan) + 1) as f32
 }
+
+/// Geomorphon class or ternary pattern (one scan for both when the pass
+/// asks for both with the same lookup distance and flatness).
+pub struct Geomorphon(MetricDef);
+
+/// The rays and flatness of a geomorphon metric.
+fn geomorphon_key(m: &Resolved) -> (usize, u64, u64) {
+    (
+        m.radius_cells,
+        m.radius_m.to_bits(),
+        m.spec.threshold.unwrap_or(1.0).to_bits(),
+    )
+}
+
+impl Metric for Geomorphon {
+    fn def(&self) -> &MetricDef {
+        &self.0
+    }
+    fn halo(&self, m: &Resolved) -> usize {
+        m.radius_cells
+    }
+    fn run(&self, t: &mut Tile<'_>, m: &Resolved, o: &mut Grid<f32>) -> Result<()> {
+        let key = geomorphon_key(m);
+        let (r, rm) = (m.radius_cells, m.radius_m);
+        let flat = m.spec.threshold.unwrap_or(1.0);
+        t.grouped(
+            ("geomorphon", key.0, key.1, key.2),
+            m,
+            |n| {
+                matches!(
+                    n.spec.kind,
+                    MetricKind::Geomorphon | MetricKind::GeomorphonPattern
+                ) && geomorphon_key(n) == key
+            },
+            |view, kinds| {
+                let (cw, ch) = (view.core.w, view.core.h);
+                let mut grids: Vec<Grid<f32>> =
+                    kinds.iter().map(|_| Grid::new(cw, ch, f32::NAN)).collect();
+                let (mut c, mut p) = (None, None);
+                for (kind, g) in kinds.iter().zip(grids.iter_mut()) {
+                    match kind {
+                        MetricKind::Geomorphon => c = Some(g),
+                        _ => p = Some(g),
+                    }
+                }
+                geomorphon(view, r, rm, flat, c, p);
+                grids
+            },
+            o,
+        );
+        Ok(())
+    }
+}
+
+/// The geomorphon pattern reduced to its canonical code.
+pub struct GeomorphonCanonical(MetricDef);
+
+impl Metric for GeomorphonCanonical {
+    fn def(&self) -> &MetricDef {
+        &self.0
+    }
+    fn halo(&self, m: &Resolved) -> usize {
+        m.radius_cells
+    }
+    fn run(&self, t: &mut Tile<'_>, m: &Resolved, o: &mut Grid<f32>) -> Result<()> {
+        let flat = m.spec.threshold.unwrap_or(1.0);
+        geomorphon(t.view, m.radius_cells, m.radius_m, flat, None, Some(o));
+        for v in o.data_mut() {
+            if !v.is_nan() {
+                *v = canonical_code(*v as u32) as f32;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Weiss's TPI landforms.
+pub struct WeissLandform(MetricDef);
+
+impl Metric for WeissLandform {
+    fn def(&self) -> &MetricDef {
+        &self.0
+    }
+    fn halo(&self, m: &Resolved) -> usize {
+        m.radius_cells.max(m.radius2_cells)
+    }
+    fn needs(&self, m: &Resolved) -> Needs {
+        Needs {
+            sat: Some((m.radius_cells.max(m.radius2_cells), true)),
+            ..Needs::default()
+        }
+    }
+    fn scratch(&self, m: &Resolved, tile: usize) -> Option<(ScratchClass, u64)> {
+        // summed-area tables as the window statistics plus two NTPI grids
+        let core = (tile * tile) as u64;
+        let r = m.radius_cells.max(m.radius2_cells);
+        Some((
+            ("weiss", 0),
+            region_cells(tile, r) * (8 + 4 + 16 + 16) + 2 * core * 4,
+        ))
+    }
+    fn run(&self, t: &mut Tile<'_>, m: &Resolved, o: &mut Grid<f32>) -> Result<()> {
+        let (big, sat) = t.sat()?;
+        let view = t.view;
+        let (cw, ch) = (view.core.w, view.core.h);
+        let mut sn = Grid::new(cw, ch, f32::NAN);
+        let mut ln = Grid::new(cw, ch, f32::NAN);
+        let ntpi = MetricKind::Ntpi;
+        windowed_stat(view, sat, big, m.radius_cells, false, ntpi, &mut sn);
+        windowed_stat(view, sat, big, m.radius2_cells, false, ntpi, &mut ln);
+        super::terrain::Slope::default().run(t.inputs, std::slice::from_mut(o))?;
+        let th = m.spec.threshold.unwrap_or(5.0);
+        for ((o, a), b) in o.data_mut().iter_mut().zip(sn.data()).zip(ln.data()) {
+            *o = weiss_class(*a as f64, *b as f64, *o as f64, th);
+        }
+        Ok(())
+    }
+}
+
+/// Dikau's form classes from the quadric's profile and plan curvatures.
+pub struct DikauForm(MetricDef);
+
+impl Metric for DikauForm {
+    fn def(&self) -> &MetricDef {
+        &self.0
+    }
+    fn halo(&self, m: &Resolved) -> usize {
+        m.radius_cells.max(1)
+    }
+    fn needs(&self, m: &Resolved) -> Needs {
+        Needs {
+            quadric: Some(m.radius_cells.max(1)),
+            ..Needs::default()
+        }
+    }
+    fn plain_at_one_cell(&self) -> bool {
+        true
+    }
+    fn run(&self, t: &mut Tile<'_>, m: &Resolved, o: &mut Grid<f32>) -> Result<()> {
+        let qg = t.quadric(m.radius_cells.max(1))?;
+        let th = m.spec.threshold.unwrap_or(0.0);
+        for (o, c) in o.data_mut().iter_mut().zip(qg.data()) {
+            *o = if c.p.is_nan() {
+                f32::NAN
+            } else {
+                dikau_class(c.profile(), c.plan(), th)
+            };
+        }
+        Ok(())
+    }
+}
+
+/// `geomorphon`: geomorphon landform: 1 flat, 2 peak, 3 ridge, 4 shoulder, 5 spur, 6 slope, 7 hollow, 8 footslope, 9 valley, 10 pit.
+///
+/// Source: Jasiewicz & Stepinski 2013, Geomorphology 182 (classes numbered as GRASS r.geomorphon).
+pub static GEOMORPHON: Geomorphon = Geomorphon(metric_def!(
+        Geomorphon,
+        "geomorphon",
+        &[RADIUS_GEOMORPHON, FLAT_T],
+        "class 1..10",
+        "geomorphon landform: 1 flat, 2 peak, 3 ridge, 4 shoulder, 5 spur, 6 slope, 7 hollow, 8 footslope, 9 valley, 10 pit",
+        "Jasiewicz & Stepinski 2013, Geomorphology 182 (classes numbered as GRASS r.geomorphon)";
+    Categorical
+));
+
+/// `geomorphon_pattern`: geomorphon ternary pattern sum d_i 3^i, i = N,NE,..,NW clockwise; d = 0 flat, 1 '+', 2 '-' (not canonicalised).
+///
+/// Source: Jasiewicz & Stepinski 2013, Geomorphology 182.
+pub static GEOMORPHON_PATTERN: Geomorphon = Geomorphon(metric_def!(
+        GeomorphonPattern,
+        "geomorphon_pattern",
+        &[RADIUS_GEOMORPHON, FLAT_T],
+        "0..6560",
+        "geomorphon ternary pattern sum d_i 3^i, i = N,NE,..,NW clockwise; d = 0 flat, 1 '+', 2 '-' (not canonicalised)",
+        "Jasiewicz & Stepinski 2013, Geomorphology 182";
+    Categorical
+));
+
+/// `geomorphon_canonical`: geomorphon_pattern reduced to its smallest code over 8 rotations and their mirrors (498 values).
+///
+/// Source: Jasiewicz & Stepinski 2013, Geomorphology 182, sec. 2.2.
+pub static GEOMORPHON_CANONICAL: GeomorphonCanonical = GeomorphonCanonical(metric_def!(
+        GeomorphonCanonical,
+        "geomorphon_canonical",
+        &[RADIUS_GEOMORPHON, FLAT_T],
+        "0..6560",
+        "geomorphon_pattern reduced to its smallest code over 8 rotations and their mirrors (498 values)",
+        "Jasiewicz & Stepinski 2013, Geomorphology 182, sec. 2.2";
+    Categorical
+));
+
+/// `weiss_landform`: Weiss TPI landforms from NTPI at two scales (thresholds +-1) and Horn slope: 1 canyon .. 5 plain, 6 open slope .. 10 mountain top.
+///
+/// Source: Weiss 2001 (TPI poster, ESRI UC); standardised locally (NTPI) instead of over the whole raster.
+pub static WEISS_LANDFORM: WeissLandform = WeissLandform(metric_def!(
+        WeissLandform,
+        "weiss_landform",
+        &[RADIUS_SMALL, RADIUS_LARGE, SLOPE_T],
+        "class 1..10",
+        "Weiss TPI landforms from NTPI at two scales (thresholds +-1) and Horn slope: 1 canyon .. 5 plain, 6 open slope .. 10 mountain top",
+        "Weiss 2001 (TPI poster, ESRI UC); standardised locally (NTPI) instead of over the whole raster";
+    Categorical
+));
+
+/// `dikau_form`: Dikau form 3p+q+1 from profile (p) and plan (q) curvature: 0 concave, 1 straight, 2 convex.
+///
+/// Source: Dikau 1989 (in Raper, 3D applications in GIS); curvatures of Evans/Wood as profile_curvature/plan_curvature.
+pub static DIKAU_FORM: DikauForm = DikauForm(metric_def!(
+        DikauForm,
+        "dikau_form",
+        &[RADIUS_QUADRIC, CURV_T],
+        "class 1..9",
+        "Dikau form 3p+q+1 from profile (p) and plan (q) curvature: 0 concave, 1 straight, 2 convex",
+        "Dikau 1989 (in Raper, 3D applications in GIS); curvatures of Evans/Wood as profile_curvature/plan_curvature";
+    Categorical
+));

@@ -51,10 +51,14 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::directional::gradient_region;
+use super::param::TOP;
+use super::registry::{metric_def, Metric, MetricDef};
 use super::registry::{MetricKind, Resolved};
+use super::tile::Tile;
 use super::windowed::{box_max, Sat};
 use crate::error::{Error, Result};
 use crate::exec::{Engine, EngineConfig, GlobalStep, LocalEngine, MemSink, TileSink};
+use crate::raster::RasterInfo;
 use crate::raster::{DType, Grid, RasterSource, TileId, TileLayout, TileView};
 use serde::{Deserialize, Serialize};
 use serde_json::json;
@@ -80,10 +84,7 @@ const NF: usize = 4;
 /// True for the metrics computed here (whole-raster statistics: they do not
 /// run in [`super::MultiMetric`]'s local pass).
 pub fn is_whole_raster(k: MetricKind) -> bool {
-    matches!(
-        k,
-        MetricKind::PeakednessDw | MetricKind::PeakPrototypicality
-    )
+    super::registry::metric(k).whole_raster()
 }
 
 /// The four factors of every core cell at one scale (NaN = no value) and
@@ -723,3 +724,59 @@ pub fn has_peaks(src: &dyn RasterSource) -> bool {
         .map(|st| st.iter().any(|s| s.centroid.is_some()))
         .unwrap_or(false)
 }
+
+/// Multi-scale peakedness or peak prototypicality: whole-raster metrics
+/// (their own global passes, [`compute_paths`]), refused by the local pass.
+pub struct PeakDw(MetricDef);
+
+impl Metric for PeakDw {
+    fn def(&self) -> &MetricDef {
+        &self.0
+    }
+    fn halo(&self, _m: &Resolved) -> usize {
+        HALO
+    }
+    fn whole_raster(&self) -> bool {
+        true
+    }
+    fn bind(&self, r: &mut Resolved, _info: &RasterInfo) -> Result<()> {
+        let t = r.spec.threshold.unwrap_or(DEFAULT_TOP);
+        if !(t > 0.0 && t <= 1.0) {
+            return Err(Error::invalid(format!(
+                "{}:top={t} is out of range: use 0 < top <= 1 (share of the peaks in the centroid)",
+                self.0.name
+            )));
+        }
+        Ok(())
+    }
+    fn run(&self, _t: &mut Tile<'_>, _m: &Resolved, _o: &mut Grid<f32>) -> Result<()> {
+        Err(Error::invalid(format!(
+            "{} is a whole-raster metric: use metrics::compute",
+            self.0.name
+        )))
+    }
+}
+
+/// `peakedness_dw`: multi-scale peakedness: weighted similarity to the centroid of the top peaks of relief, mean slope, relative elevation and isolation at 5/20/50-cell windows, normalised over the WHOLE raster (two tiled global passes).
+///
+/// Source: Deng & Wilson 2008, IJGIS 22(2); factors, scales and weights of the survey code (Argudo et al., HeightField::Peakness).
+pub static PEAKEDNESS_DW: PeakDw = PeakDw(metric_def!(
+        PeakednessDw,
+        "peakedness_dw",
+        &[TOP],
+        "0..1",
+        "multi-scale peakedness: weighted similarity to the centroid of the top peaks of relief, mean slope, relative elevation and isolation at 5/20/50-cell windows, normalised over the WHOLE raster (two tiled global passes)",
+        "Deng & Wilson 2008, IJGIS 22(2); factors, scales and weights of the survey code (Argudo et al., HeightField::Peakness)"
+    ));
+
+/// `peak_prototypicality`: weighted mean over 5/20/50-cell windows of relief, mean slope, relative elevation and isolation, each min-max normalised over the WHOLE raster (one tiled global pass).
+///
+/// Source: Deng & Wilson 2008, IJGIS 22(2); as the survey code's peak prototypicality (HeightField::Peakness).
+pub static PEAK_PROTOTYPICALITY: PeakDw = PeakDw(metric_def!(
+        PeakPrototypicality,
+        "peak_prototypicality",
+        &[TOP],
+        "0..1",
+        "weighted mean over 5/20/50-cell windows of relief, mean slope, relative elevation and isolation, each min-max normalised over the WHOLE raster (one tiled global pass)",
+        "Deng & Wilson 2008, IJGIS 22(2); as the survey code's peak prototypicality (HeightField::Peakness)"
+    ));

@@ -18,6 +18,11 @@
 //! Halo = cutoff, so the values within the cutoff are exact in tiles.
 
 use super::fractional::disk_offsets;
+use super::param::{PLANET, RADIUS_CUTOFF};
+use super::registry::{metric_def, Metric, MetricDef, MetricKind};
+use super::spec::Resolved;
+use super::tile::Tile;
+use crate::error::Result;
 use crate::raster::{Grid, TileView};
 
 /// Earl & Metzler's ORS kernel `f(u)`, clamped at 0 against rounding.
@@ -93,3 +98,79 @@ pub fn relief_shape(
         }
     }
 }
+
+/// ORS, jut or rut in a disk (jut and rut on a sphere with `planet`).
+pub struct ReliefShapeMetric(MetricDef);
+
+impl Metric for ReliefShapeMetric {
+    fn def(&self) -> &MetricDef {
+        &self.0
+    }
+    fn halo(&self, m: &Resolved) -> usize {
+        m.radius_cells
+    }
+    fn run(&self, t: &mut Tile<'_>, m: &Resolved, o: &mut Grid<f32>) -> Result<()> {
+        let kind = self.0.kind;
+        if let (Some(planet), MetricKind::Jut | MetricKind::Rut) = (m.spec.value("planet"), kind) {
+            // Xu's spherical forms when a planet radius is given.
+            use super::xu::{spherical, Xu};
+            let which = if kind == MetricKind::Jut {
+                Xu::Jut
+            } else {
+                Xu::Rut
+            };
+            spherical(
+                t.view,
+                m.radius_cells,
+                m.radius_m,
+                planet * 1000.0,
+                which,
+                o,
+            );
+            return Ok(());
+        }
+        let which = match kind {
+            MetricKind::Ors => ReliefShape::Ors,
+            MetricKind::Jut => ReliefShape::Jut,
+            _ => ReliefShape::Rut,
+        };
+        relief_shape(t.view, m.radius_cells, m.radius_m, which, o);
+        Ok(())
+    }
+}
+
+/// `ors`: omni-directional relief and steepness sqrt(sum over lower cells in the disk of f(drop/distance) * cell area).
+///
+/// Source: Earl & Metzler 2015, Quaestiones Geographicae 34(4) (ORS); disk cutoff.
+pub static ORS: ReliefShapeMetric = ReliefShapeMetric(metric_def!(
+        Ors,
+        "ors",
+        &[RADIUS_CUTOFF],
+        "z",
+        "omni-directional relief and steepness sqrt(sum over lower cells in the disk of f(drop/distance) * cell area)",
+        "Earl & Metzler 2015, Quaestiones Geographicae 34(4) (ORS); disk cutoff"
+    ));
+
+/// `jut`: max over the disk of the angle-reduced height dz*|dz|/d3 of the cell above others (planar; with planet=R km heights above the base horizon on a sphere; >= 0).
+///
+/// Source: Xu 2022, Beyond elevation / datumless topography (arXiv 2208.01600); planar, or spherical with planet=R km; disk cutoff.
+pub static JUT: ReliefShapeMetric = ReliefShapeMetric(metric_def!(
+        Jut,
+        "jut",
+        &[RADIUS_CUTOFF, PLANET],
+        "z",
+        "max over the disk of the angle-reduced height dz*|dz|/d3 of the cell above others (planar; with planet=R km heights above the base horizon on a sphere; >= 0)",
+        "Xu 2022, Beyond elevation / datumless topography (arXiv 2208.01600); planar, or spherical with planet=R km; disk cutoff"
+    ));
+
+/// `rut`: max over the disk of the angle-reduced height dz*|dz|/d3 of others above the cell (planar; with planet=R km heights above the base horizon on a sphere; >= 0).
+///
+/// Source: Xu 2022, Beyond elevation / datumless topography (arXiv 2208.01600); planar, or spherical with planet=R km; disk cutoff.
+pub static RUT: ReliefShapeMetric = ReliefShapeMetric(metric_def!(
+        Rut,
+        "rut",
+        &[RADIUS_CUTOFF, PLANET],
+        "z",
+        "max over the disk of the angle-reduced height dz*|dz|/d3 of others above the cell (planar; with planet=R km heights above the base horizon on a sphere; >= 0)",
+        "Xu 2022, Beyond elevation / datumless topography (arXiv 2208.01600); planar, or spherical with planet=R km; disk cutoff"
+    ));

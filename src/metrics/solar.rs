@@ -49,8 +49,11 @@
 #![allow(clippy::needless_range_loop)] // index loops over parallel per-cell arrays
 
 use super::horizon::{scan, step_azimuth, HorizonMethod, DIRS};
+use super::neighbourhood::{walk_3x3, EdgeMode};
+use super::registry::{metric_def, Metric, MetricDef, ScratchClass};
 use super::registry::{MetricKind, ParamDef, ParamKind, Resolved};
 use super::terrain::horn_gradient;
+use super::tile::Tile;
 use crate::error::{Error, Result};
 use crate::raster::{Grid, RasterInfo, TileView};
 use std::f64::consts::PI;
@@ -474,3 +477,102 @@ pub fn heat_index(w: &[f64; 9], ew: f64, ns: f64, alpha_max_deg: f64) -> f64 {
     let am = alpha_max_deg.to_radians();
     ((-q) * am.cos() + (-p) * am.sin()) / g * slope.atan()
 }
+
+/// Clear-sky irradiation (direct, global, annual).
+pub struct Solar(MetricDef);
+
+impl Metric for Solar {
+    fn def(&self) -> &MetricDef {
+        &self.0
+    }
+    fn halo(&self, m: &Resolved) -> usize {
+        m.radius_cells.max(1)
+    }
+    fn scratch(&self, _m: &Resolved, tile: usize) -> Option<(ScratchClass, u64)> {
+        Some(super::openness::horizon_scratch(tile))
+    }
+    fn bind(&self, r: &mut Resolved, info: &RasterInfo) -> Result<()> {
+        // On a projected raster whose CRS orogen can invert (UTM, Web
+        // Mercator) the latitude defaults to that of the raster's centre.
+        let spec = &mut r.spec;
+        if spec.value("lat").is_none() && info.georef.georeferenced && !info.georef.crs.geographic {
+            if let Ok(crs) = crate::raster::proj::SourceCrs::of(&info.georef, &info.path) {
+                let t = info.georef.transform;
+                let (c, r) = (info.width as f64 / 2.0, info.height as f64 / 2.0);
+                let (x, y) = (t[0] + c * t[1] + r * t[2], t[3] + c * t[4] + r * t[5]);
+                let (_, lat) = crs.to_lonlat(x, y);
+                if lat.is_finite() {
+                    spec.values.insert("lat".to_string(), lat);
+                }
+            }
+        }
+        check_resolved(r, info)
+    }
+    fn run(&self, t: &mut Tile<'_>, m: &Resolved, o: &mut Grid<f32>) -> Result<()> {
+        solar(t.view, m, o)
+    }
+}
+
+/// Böhner & Antonić's diurnal anisotropic heating on the 3x3 window.
+pub struct HeatIndex(MetricDef);
+
+impl Metric for HeatIndex {
+    fn def(&self) -> &MetricDef {
+        &self.0
+    }
+    fn run(&self, t: &mut Tile<'_>, m: &Resolved, o: &mut Grid<f32>) -> Result<()> {
+        let amax = m.spec.value("alpha_max").unwrap_or(202.5);
+        walk_3x3(t.view, o, EdgeMode::Nodata, f32::NAN, |w, ew, ns| {
+            heat_index(w, ew, ns, amax) as f32
+        });
+        Ok(())
+    }
+}
+
+/// `solar_direct`: clear-sky direct (beam) irradiation on the slope with cast shadows, for one solar hour or the whole day.
+///
+/// Source: [`SOLAR_CITE`].
+pub static SOLAR_DIRECT: Solar = Solar(metric_def!(
+        SolarDirect,
+        "solar_direct",
+        super::solar::SOLAR_PARAMS,
+        "Wh/m2 (day), W/m2 (hour)",
+        "clear-sky direct (beam) irradiation on the slope with cast shadows, for one solar hour or the whole day",
+        super::solar::SOLAR_CITE
+    ));
+
+/// `solar_global`: clear-sky direct + isotropic diffuse (x sky-view factor) irradiation, one solar hour or the whole day.
+///
+/// Source: [`SOLAR_CITE`].
+pub static SOLAR_GLOBAL: Solar = Solar(metric_def!(
+        SolarGlobal,
+        "solar_global",
+        super::solar::SOLAR_PARAMS,
+        "Wh/m2 (day), W/m2 (hour)",
+        "clear-sky direct + isotropic diffuse (x sky-view factor) irradiation, one solar hour or the whole day",
+        super::solar::SOLAR_CITE
+    ));
+
+/// `solar_annual`: clear-sky direct + isotropic diffuse irradiation over a year (sampled days, scaled to 365).
+///
+/// Source: [`SOLAR_CITE`].
+pub static SOLAR_ANNUAL: Solar = Solar(metric_def!(
+    SolarAnnual,
+    "solar_annual",
+    super::solar::ANNUAL_PARAMS,
+    "kWh/m2",
+    "clear-sky direct + isotropic diffuse irradiation over a year (sampled days, scaled to 365)",
+    super::solar::SOLAR_CITE
+));
+
+/// `heat_index`: diurnal anisotropic heating cos(alpha_max - aspect) * atan(slope in radians); flat = 0.
+///
+/// Source: Böhner & Antonić 2009 (in Hengl & Reuter, Geomorphometry, ch. 8), as SAGA.
+pub static HEAT_INDEX: HeatIndex = HeatIndex(metric_def!(
+    HeatIndex,
+    "heat_index",
+    &[super::solar::ALPHA_MAX],
+    "-1.57..1.57",
+    "diurnal anisotropic heating cos(alpha_max - aspect) * atan(slope in radians); flat = 0",
+    "Böhner & Antonić 2009 (in Hengl & Reuter, Geomorphometry, ch. 8), as SAGA"
+));

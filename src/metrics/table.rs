@@ -38,17 +38,7 @@ pub struct CostRow {
 /// (a Pearson coefficient of class codes or of angles that wrap at 360° is
 /// not meaningful).
 pub fn is_categorical(k: MetricKind) -> bool {
-    use MetricKind::*;
-    matches!(
-        k,
-        Aspect
-            | Geomorphon
-            | GeomorphonPattern
-            | GeomorphonCanonical
-            | WeissLandform
-            | DikauForm
-            | SharyLandform
-    )
+    super::registry::def(k).output != super::registry::OutputKind::Continuous
 }
 
 /// True if the metric takes a `radius` parameter.
@@ -84,7 +74,7 @@ pub fn run_whole(
 ) -> Result<(Vec<Grid<f32>>, f64)> {
     let info = src.info();
     let (w, h) = (info.width, info.height);
-    // descr4: whole-raster metrics run their global passes on one tile.
+    // Whole-raster metrics run their global passes on one tile.
     if specs
         .iter()
         .any(|s| super::peak_dw::is_whole_raster(s.kind))
@@ -225,7 +215,7 @@ pub fn cost_table(
                             row.seconds = t;
                             row.relative = t / slope_t;
                         }
-                        // descr4: a whole-raster metric can be undefined on a
+                        // A whole-raster metric can be undefined on a
                         // raster (peakedness_dw without any peak): skipped, said why.
                         Err(e) if super::peak_dw::is_whole_raster(d.kind) => {
                             row.skipped = Some(e.to_string())

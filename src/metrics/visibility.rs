@@ -39,8 +39,13 @@
 #![allow(clippy::needless_range_loop)] // index loops over parallel per-cell arrays
 
 use super::horizon::{step_azimuth, DIRS};
+use super::param::{DIRECTIONS, RADIUS_HORIZON};
+use super::registry::{metric_def, Metric, MetricDef, MetricKind};
 use super::registry::{ParamDef, ParamKind};
+use super::spec::Resolved;
+use super::tile::Tile;
 use crate::error::{Error, Result};
+use crate::raster::RasterInfo;
 use crate::raster::{Grid, TileView};
 use rayon::prelude::*;
 
@@ -108,7 +113,7 @@ pub fn parse_value(name: &str, value: &str) -> std::result::Result<Option<f64>, 
     if value == "day" && name == "hour" {
         return Ok(None);
     }
-    // descr4: Xu's measures are planar unless a planet radius is given.
+    // Xu's measures are planar unless a planet radius is given.
     if matches!(value, "none" | "flat") && name == "planet" {
         return Ok(None);
     }
@@ -514,3 +519,70 @@ pub fn visibility_index_exact(
         }
     }
 }
+
+/// The visibility index along the lattice rays, or over the whole disk
+/// (R3 line of sight).
+pub struct VisibilityIndex(MetricDef);
+
+impl Metric for VisibilityIndex {
+    fn def(&self) -> &MetricDef {
+        &self.0
+    }
+    fn halo(&self, m: &Resolved) -> usize {
+        m.radius_cells.max(1)
+    }
+    fn bind(&self, r: &mut Resolved, info: &RasterInfo) -> Result<()> {
+        super::solar::check_resolved(r, info)
+    }
+    fn run(&self, t: &mut Tile<'_>, m: &Resolved, o: &mut Grid<f32>) -> Result<()> {
+        let height = m.spec.value("height").unwrap_or(1.7);
+        let target = m.spec.value("target").unwrap_or(0.0);
+        if self.0.kind == MetricKind::VisibilityIndexExact {
+            visibility_index_exact(t.view, m.radius_cells, m.radius_m, height, target, o);
+        } else {
+            visibility_index(
+                t.view,
+                m.radius_cells,
+                m.radius_m,
+                m.spec.directions,
+                height,
+                target,
+                o,
+            );
+        }
+        Ok(())
+    }
+}
+
+/// `visibility_index`: share of the cells on the lattice rays within the cutoff that the observer (height above the cell) sees.
+///
+/// Source: Franklin & Ray 1994 (Proc. Spatial Data Handling) visibility index, targets sampled along 8/16 exact rays.
+pub static VISIBILITY_INDEX: VisibilityIndex = VisibilityIndex(metric_def!(
+        VisibilityIndex,
+        "visibility_index",
+        &[
+            RADIUS_HORIZON,
+            DIRECTIONS,
+            super::visibility::HEIGHT,
+            super::visibility::TARGET
+        ],
+        "0..1",
+        "share of the cells on the lattice rays within the cutoff that the observer (height above the cell) sees",
+        "Franklin & Ray 1994 (Proc. Spatial Data Handling) visibility index, targets sampled along 8/16 exact rays"
+    ));
+
+/// `visibility_index_exact`: share of all cells within the cutoff disk visible (R3 line of sight) from the observer; O(r^3) per cell.
+///
+/// Source: Franklin & Ray 1994 (Proc. Spatial Data Handling) visibility index, R3 line of sight to every target.
+pub static VISIBILITY_INDEX_EXACT: VisibilityIndex = VisibilityIndex(metric_def!(
+        VisibilityIndexExact,
+        "visibility_index_exact",
+        &[
+            super::visibility::RADIUS_EXACT,
+            super::visibility::HEIGHT,
+            super::visibility::TARGET
+        ],
+        "0..1",
+        "share of all cells within the cutoff disk visible (R3 line of sight) from the observer; O(r^3) per cell",
+        "Franklin & Ray 1994 (Proc. Spatial Data Handling) visibility index, R3 line of sight to every target"
+    ));

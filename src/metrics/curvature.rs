@@ -1,0 +1,197 @@
+//! Curvatures: the 5-point Laplacian, and the seven curvatures of the local
+//! quadric (Evans 3x3 at radius 1, Wood's least-squares fit over larger
+//! windows; the fit is in [`super::quadric`], computed once per tile and
+//! radius for every curvature of the pass).
+//!
+//! Sources: Evans 1979 (3x3 quadric); Wood 1996, PhD thesis (Leicester),
+//! ch. 4 (n x n windows); the curvature formulas of Florinsky 2016, *Digital
+//! Terrain Analysis in Soil Science and Geology*, 2nd ed., ch. 2.
+
+use super::neighbourhood::{walk_3x3, EdgeMode};
+use super::param::RADIUS_QUADRIC;
+use super::quadric::{laplacian, Quadric};
+use super::registry::{metric_def, Metric, MetricDef, MetricKind, Needs, ScratchClass};
+use super::spec::Resolved;
+use super::tile::Tile;
+use crate::error::Result;
+use crate::raster::Grid;
+
+/// Citation of the quadric curvatures.
+pub const EVANS: &str =
+    "Evans 1979 3x3 quadric (radius 1c), Wood 1996 PhD thesis (Leicester) ch. 4 for larger windows; formulas of Florinsky 2016, Digital Terrain Analysis in Soil Science and Geology, 2nd ed., ch. 2";
+
+/// True for the quadric curvatures (Evans 3x3 or Wood n x n).
+pub fn is_curvature(k: MetricKind) -> bool {
+    use MetricKind::*;
+    matches!(
+        k,
+        ProfileCurvature
+            | PlanCurvature
+            | TangentialCurvature
+            | MeanCurvature
+            | GaussianCurvature
+            | MinCurvature
+            | MaxCurvature
+    )
+}
+
+/// The 5-point Laplacian on the 3x3 window.
+pub struct Laplacian(MetricDef);
+
+impl Metric for Laplacian {
+    fn def(&self) -> &MetricDef {
+        &self.0
+    }
+    fn run(&self, t: &mut Tile<'_>, _m: &Resolved, o: &mut Grid<f32>) -> Result<()> {
+        walk_3x3(t.view, o, EdgeMode::Nodata, f32::NAN, |w, ew, ns| {
+            laplacian(w, ew, ns) as f32
+        });
+        Ok(())
+    }
+}
+
+/// A curvature of the local quadric.
+pub struct Curvature(MetricDef);
+
+impl Metric for Curvature {
+    fn def(&self) -> &MetricDef {
+        &self.0
+    }
+    fn halo(&self, m: &Resolved) -> usize {
+        m.radius_cells.max(1)
+    }
+    fn needs(&self, m: &Resolved) -> Needs {
+        Needs {
+            quadric: Some(m.radius_cells.max(1)),
+            ..Needs::default()
+        }
+    }
+    fn scratch(&self, m: &Resolved, tile: usize) -> Option<(ScratchClass, u64)> {
+        let core = (tile * tile) as u64;
+        Some((
+            ("quadric", m.radius_cells.max(1)),
+            core * std::mem::size_of::<Quadric>() as u64,
+        ))
+    }
+    fn plain_at_one_cell(&self) -> bool {
+        true
+    }
+    fn run(&self, t: &mut Tile<'_>, m: &Resolved, o: &mut Grid<f32>) -> Result<()> {
+        let qg = t.quadric(m.radius_cells.max(1))?;
+        let kind = self.0.kind;
+        let nan = f32::NAN;
+        use MetricKind::*;
+        for (o, c) in o.data_mut().iter_mut().zip(qg.data()) {
+            *o = if c.p.is_nan() {
+                nan
+            } else {
+                (match kind {
+                    ProfileCurvature => c.profile(),
+                    PlanCurvature => c.plan(),
+                    TangentialCurvature => c.tangential(),
+                    MeanCurvature => c.mean(),
+                    GaussianCurvature => c.gaussian(),
+                    MinCurvature => c.min_max().0,
+                    _ => c.min_max().1,
+                }) as f32
+            };
+        }
+        Ok(())
+    }
+}
+
+/// `laplacian`: 5-point Laplacian d2z/dx2 + d2z/dy2.
+///
+/// Source: finite differences (Argudo et al. survey sec. 3).
+pub static LAPLACIAN: Laplacian = Laplacian(metric_def!(
+    Laplacian,
+    "laplacian",
+    &[],
+    "z/m^2",
+    "5-point Laplacian d2z/dx2 + d2z/dy2",
+    "finite differences (Argudo et al. survey sec. 3)"
+));
+
+/// `profile_curvature`: vertical (profile) curvature kv; convex positive; 0 where flat.
+///
+/// Source: [`EVANS`].
+pub static PROFILE_CURVATURE: Curvature = Curvature(metric_def!(
+    ProfileCurvature,
+    "profile_curvature",
+    &[RADIUS_QUADRIC],
+    "1/m",
+    "vertical (profile) curvature kv; convex positive; 0 where flat",
+    EVANS
+));
+
+/// `plan_curvature`: plan (contour) curvature kp; convex positive; 0 where flat.
+///
+/// Source: [`EVANS`].
+pub static PLAN_CURVATURE: Curvature = Curvature(metric_def!(
+    PlanCurvature,
+    "plan_curvature",
+    &[RADIUS_QUADRIC],
+    "1/m",
+    "plan (contour) curvature kp; convex positive; 0 where flat",
+    EVANS
+));
+
+/// `tangential_curvature`: horizontal (tangential) curvature kh; convex positive; 0 where flat.
+///
+/// Source: [`EVANS`].
+pub static TANGENTIAL_CURVATURE: Curvature = Curvature(metric_def!(
+    TangentialCurvature,
+    "tangential_curvature",
+    &[RADIUS_QUADRIC],
+    "1/m",
+    "horizontal (tangential) curvature kh; convex positive; 0 where flat",
+    EVANS
+));
+
+/// `mean_curvature`: mean curvature H; convex positive.
+///
+/// Source: [`EVANS`].
+pub static MEAN_CURVATURE: Curvature = Curvature(metric_def!(
+    MeanCurvature,
+    "mean_curvature",
+    &[RADIUS_QUADRIC],
+    "1/m",
+    "mean curvature H; convex positive",
+    EVANS
+));
+
+/// `gaussian_curvature`: Gaussian curvature K.
+///
+/// Source: [`EVANS`].
+pub static GAUSSIAN_CURVATURE: Curvature = Curvature(metric_def!(
+    GaussianCurvature,
+    "gaussian_curvature",
+    &[RADIUS_QUADRIC],
+    "1/m^2",
+    "Gaussian curvature K",
+    EVANS
+));
+
+/// `min_curvature`: minimal curvature H - sqrt(H^2-K).
+///
+/// Source: [`EVANS`].
+pub static MIN_CURVATURE: Curvature = Curvature(metric_def!(
+    MinCurvature,
+    "min_curvature",
+    &[RADIUS_QUADRIC],
+    "1/m",
+    "minimal curvature H - sqrt(H^2-K)",
+    EVANS
+));
+
+/// `max_curvature`: maximal curvature H + sqrt(H^2-K).
+///
+/// Source: [`EVANS`].
+pub static MAX_CURVATURE: Curvature = Curvature(metric_def!(
+    MaxCurvature,
+    "max_curvature",
+    &[RADIUS_QUADRIC],
+    "1/m",
+    "maximal curvature H + sqrt(H^2-K)",
+    EVANS
+));
