@@ -1,9 +1,12 @@
 //! Tile-server outputs: web-map pyramids in Web Mercator ([`pyramid`]),
 //! packed as MBTiles and PMTiles ([`archive`]), with the projections they
-//! need ([`proj`]). Cloud-Optimized GeoTIFFs are in `io::geotiff::CogWriter`.
+//! need ([`proj`]), and read back ([`reader`]: folders, MBTiles, PMTiles
+//! metadata). Cloud-Optimized GeoTIFFs are in `io::geotiff::CogWriter`.
 
 pub mod archive;
 pub mod proj;
 pub mod pyramid;
+pub mod reader;
 
 pub use pyramid::{build_pyramid, Encoding, PyramidInfo, PyramidOptions, Resampling};
+pub use reader::TileSource;
