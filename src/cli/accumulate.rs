@@ -28,6 +28,9 @@ pub fn run(a: AccumulateArgs) -> Result<()> {
 
 /// Arguments of `orogen accumulate`.
 #[derive(Args)]
+#[command(
+    after_help = "Examples:\n  orogen accumulate d8.tif -o acc.tif\n  orogen accumulate d8.tif --weights rain.tif -o acc.tif\n  orogen accumulate filled.tif --method dinf -o acc_dinf.tif\n  orogen accumulate filled.tif --method holmgren --exponent 4 -o acc_mfd.tif\nMethods: d8 (input: D8 directions), dinf (Tarboton 1997), quinn (Quinn et al. 1991),\nholmgren (Holmgren 1994, --exponent), freeman (Freeman 1991): input a filled DEM."
+)]
 pub struct AccumulateArgs {
     /// D8 directions from `orogen flow` (method d8), or a filled DEM (other methods).
     #[command(flatten)]

@@ -248,17 +248,3 @@ pub(crate) fn target(out: &Out, run: &Run) -> Result<orogen::ops::Target> {
         tile: run.tile,
     })
 }
-
-/// Run a one-output global step on `inputs` and write it as `ty`.
-pub(crate) fn global1<S: orogen::exec::GlobalStep>(
-    step: &S,
-    inputs: &[&dyn RasterSource],
-    out: &Out,
-    run: &Run,
-    ty: (orogen::raster::DType, Option<f64>),
-) -> Result<()> {
-    let oo = output_options(&out.fmt)?;
-    orogen::ops::run_global_to(step, inputs, &out.output, ty, &oo, run.tile, &engine(run)?)?;
-    wrote(&out.output);
-    Ok(())
-}

@@ -28,6 +28,7 @@ pub fn run(a: DemoArgs) -> Result<()> {
 
 /// Arguments of `orogen demo`.
 #[derive(Args)]
+#[command(after_help = "Example:\n  orogen demo\n  orogen demo --size 4096 --seed 7 -o /tmp/demo")]
 pub struct DemoArgs {
     /// Output folder.
     #[arg(short, long, default_value = "orogen-demo")]

@@ -16,6 +16,9 @@ pub fn run(a: FillArgs) -> Result<()> {
 
 /// Arguments of `orogen fill`.
 #[derive(Args)]
+#[command(
+    after_help = "Example:\n  orogen fill dem.tif -o filled.tif\n  orogen fill poland.tiles -o filled.tiles --memory 512MiB\nNodata cells and the DEM's edge are outlets."
+)]
 pub struct FillArgs {
     #[command(flatten)]
     pub input: In,

@@ -21,6 +21,9 @@ pub fn run(a: FlowArgs) -> Result<()> {
 
 /// Arguments of `orogen flow`.
 #[derive(Args)]
+#[command(
+    after_help = "Example:\n  orogen fill dem.tif -o filled.tif && orogen flow filled.tif -o d8.tif\n  orogen flow filled.tif --method rho8 --seed 7 -o rho8.tif\nFlats (sea, lakes) are drained exactly across tiles (Barnes, Lehman & Mulla 2014)."
+)]
 pub struct FlowArgs {
     #[command(flatten)]
     pub input: In,

@@ -20,6 +20,9 @@ pub fn run(a: InfoArgs) -> Result<()> {
 
 /// Arguments of `orogen info`.
 #[derive(Args)]
+#[command(
+    after_help = "Example:\n  orogen info ../shared/data/srtm3_N46E008.tif\n  orogen info dem.tiles --json"
+)]
 pub struct InfoArgs {
     #[command(flatten)]
     pub input: In,

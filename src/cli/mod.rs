@@ -3,8 +3,8 @@
 //! (`Name(cli::file::NameArgs)`) and one match arm per command. Each `run`
 //! converts its arguments into the library's options, calls `orogen::ops`
 //! and prints what was written. Shared arguments and helpers (`In`, `Out`,
-//! `OutFmt`, `Run`, `engine`, `open`, `output_options`, `target`, `global1`,
-//! `wrote`) live in `args.rs` and are reachable as `crate::...`.
+//! `OutFmt`, `Run`, `engine`, `open`, `output_options`, `target`, `wrote`)
+//! live in `args.rs` and are reachable as `crate::...`.
 
 pub mod accumulate;
 pub mod args;

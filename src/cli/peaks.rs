@@ -44,6 +44,9 @@ pub fn run(a: PeaksArgs) -> Result<()> {
 
 /// Arguments of `orogen peaks`.
 #[derive(Args)]
+#[command(
+    after_help = "Example:\n  orogen peaks ../shared/data/srtm3_S33W071.tif --min-prominence 30 -o out/\nWrites peaks.csv, peaks.geojson, saddles.geojson, divide_tree.geojson and divide_tree.json.\nConventions (Kirmse & de Ferranti 2017): with --edge sea-level (default) the DEM's edge and\nnodata are sea level 0; with --edge unknown the outside is ignored.\nRuns in memory (about 28 bytes per cell) when --memory allows it, else tile by tile with the\nsame results (--tiled forces it):\n  orogen peaks poland.tif --memory 512MiB -o out/"
+)]
 pub struct PeaksArgs {
     #[command(flatten)]
     pub input: In,

@@ -21,6 +21,9 @@ pub fn run(a: RenderArgs) -> Result<()> {
 
 /// Arguments of `orogen render`.
 #[derive(Args)]
+#[command(
+    after_help = "Example:\n  orogen render dem.tiles -o preview.png --legend\n  orogen render slope.tif -o slope.png --grey"
+)]
 pub struct RenderArgs {
     #[command(flatten)]
     pub input: In,

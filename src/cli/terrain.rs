@@ -63,6 +63,9 @@ pub fn run_hillshade(a: HillshadeArgs) -> Result<()> {
 
 /// Arguments of `orogen slope`.
 #[derive(Args)]
+#[command(
+    after_help = "Example:\n  orogen slope dem.tif -o slope.tif\n  orogen slope dem.tiles -o slope.tiles --units percent"
+)]
 pub struct SlopeArgs {
     #[command(flatten)]
     pub input: In,
@@ -82,6 +85,7 @@ pub struct SlopeArgs {
 
 /// Arguments of `orogen aspect`.
 #[derive(Args)]
+#[command(after_help = "Example:\n  orogen aspect dem.tif -o aspect.tif --zero-for-flat")]
 pub struct AspectArgs {
     #[command(flatten)]
     pub input: In,
@@ -98,6 +102,9 @@ pub struct AspectArgs {
 
 /// Arguments of `orogen hillshade`.
 #[derive(Args)]
+#[command(
+    after_help = "Example:\n  orogen hillshade dem.tif -o shade.tif --azimuth 315 --altitude 45"
+)]
 pub struct HillshadeArgs {
     #[command(flatten)]
     pub input: In,

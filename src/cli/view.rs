@@ -17,6 +17,9 @@ use std::sync::Arc;
 
 /// Arguments of `orogen view`.
 #[derive(Args, Clone)]
+#[command(
+    after_help = "Examples:\n  orogen tiles dem.tif -o dem.pmtiles && orogen view dem.pmtiles\n  orogen view tiles/ --port 8080\nNeeds MapLibre GL JS from npm: bash tools/viewer_setup.sh (once)."
+)]
 pub struct ViewArgs {
     /// A pyramid from `orogen tiles`: folder, .mbtiles or .pmtiles.
     pub tiles: PathBuf,

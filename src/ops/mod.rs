@@ -9,17 +9,31 @@
 
 pub mod accumulate;
 pub mod aspect;
+pub mod basins;
+pub mod breach;
+pub mod classify;
+pub mod compare;
 pub mod convert;
 pub mod demo;
 pub mod fill;
+pub mod fill_epsilon;
 pub mod flow;
 pub mod hillshade;
+pub mod hydro_index;
+mod hydro_io;
 pub mod info;
 pub mod metric;
+pub mod metric_table;
+pub mod orostats;
 pub mod peaks;
 pub mod render;
+pub mod ridges;
 pub mod slope;
+pub mod streams;
 mod target;
+pub mod tiles;
+pub mod viewshed;
+pub mod watersheds;
 
 pub use accumulate::{accumulate_multi, FlowMethod, MULTI_FLOW_BYTES_PER_CELL};
 pub use convert::convert;
