@@ -1,14 +1,16 @@
 //! `orogen compare A B -o DIR`: realism report of two terrains (see
-//! `orogen::compare`).
+//! `orogen::ops::compare`).
 
-use anyhow::{bail, Context, Result};
+use anyhow::Result;
 use clap::Args;
-use orogen::compare::{self, CompareOptions};
-use orogen::io::{open_raster, OpenOptions};
+use orogen::ops::compare::{self, CompareOptions};
 use std::path::PathBuf;
 
 /// Arguments of `orogen compare`.
 #[derive(Args)]
+#[command(
+    after_help = "Examples:\n  orogen compare synth.tif ../shared/data/srtm3_S33W071.tif -o cmp/\n  orogen compare a.tif b.tif -o cmp/ --min-prominence 50 --radius 5km --channel-area 0.5\nBoth terrains are read into memory (limit: --memory). Densities are per km²,\ndistributions are fractions on common bins; every distance is 0 for identical terrains."
+)]
 pub struct CompareArgs {
     /// First terrain (e.g. the synthetic one): any raster orogen reads.
     pub a: PathBuf,
@@ -41,59 +43,23 @@ pub struct CompareArgs {
 }
 
 /// A distance such as `5km`, `5000m` or `5000` (metres).
-fn parse_distance(s: &str) -> Result<f64> {
-    let t = s.trim();
-    let (num, mul) = if let Some(n) = t.strip_suffix("km") {
-        (n, 1000.0)
-    } else if let Some(n) = t.strip_suffix('m') {
-        (n, 1.0)
-    } else {
-        (t, 1.0)
-    };
-    let v: f64 = num
-        .trim()
-        .parse()
-        .with_context(|| format!("--radius {s}: give a distance such as 5km or 2000m"))?;
-    if !(v.is_finite() && v > 0.0) {
-        bail!("--radius {s}: give a positive distance");
-    }
-    Ok(v * mul)
-}
-
+/// Compare the two terrains into the output folder (`ops::compare`).
 pub fn run(a: CompareArgs) -> Result<()> {
     let cfg = crate::engine(&a.run)?;
-    let radius_m = a.radius.as_deref().map(parse_distance).transpose()?;
-    if !(a.channel_area.is_finite() && a.channel_area > 0.0) {
-        bail!(
-            "--channel-area {}: give a positive drainage area in km²",
-            a.channel_area
-        );
-    }
-    let name = |p: &PathBuf, l: &Option<String>| {
-        l.clone().unwrap_or_else(|| {
-            p.file_name()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_else(|| p.display().to_string())
-        })
-    };
-    let (na, nb) = (name(&a.a, &a.label_a), name(&a.b, &a.label_b));
-    // Both terrains are held at once; each gets half the budget.
-    let half = cfg.memory_budget / 2;
-    let sa = open_raster(&a.a, &OpenOptions::default())?;
-    let ta = compare::load_terrain(sa.as_ref(), &na, half)?;
-    drop(sa);
-    let sb = open_raster(&a.b, &OpenOptions::default())?;
-    let tb = compare::load_terrain(sb.as_ref(), &nb, half)?;
-    drop(sb);
     let opts = CompareOptions {
         min_prominence: a.min_prominence,
-        radius_m,
-        channel_area_m2: a.channel_area * 1e6,
+        radius: a
+            .radius
+            .as_deref()
+            .map(compare::parse_distance)
+            .transpose()?,
+        channel_area: a.channel_area,
         seed: a.seed,
-        engine: cfg,
+        label_a: a.label_a.clone(),
+        label_b: a.label_b.clone(),
     };
-    let cmp = compare::compare(&ta, &tb, &opts)?;
-    let files = compare::output::write_outputs(&cmp, &ta, &tb, &a.output)?;
+    let done = compare::run(&a.a, &a.b, &a.output, &opts, &cfg)?;
+    let (cmp, files) = (&done.comparison, &done.files);
     for f in files
         .iter()
         .filter(|f| f.extension().is_some_and(|e| e != "png"))

@@ -1,11 +1,10 @@
 //! `orogen metric table [DEM] -o DIR`: the survey's cost table (time of
 //! every metric relative to slope at several radii) and correlation matrix
-//! (CSV + PNG heat map), see `orogen::metrics::table`.
+//! (CSV + PNG heat map), see `orogen::ops::metric_table`.
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use clap::Parser;
-use orogen::metrics::registry::{parse_length, Length, METRICS};
-use orogen::metrics::table;
+use orogen::ops::metric_table::{self, MetricTableOptions};
 use std::path::PathBuf;
 
 /// Default DEM: the survey's own terrain (Mont Blanc, 647 x 647 cells of ~92.7 m).
@@ -48,100 +47,44 @@ pub struct MetricTableArgs {
     pub quiet: bool,
 }
 
-fn metres(s: &str, cell: f64) -> Result<f64> {
-    match parse_length(s).map_err(anyhow::Error::msg)? {
-        Length::Metres(m) => Ok(m),
-        Length::Cells(c) => Ok(c as f64 * cell),
-    }
-}
-
-/// Run `orogen metric table`.
+/// Write the cost table and correlation matrix (`ops::metric_table`).
 pub fn run(a: MetricTableArgs) -> Result<()> {
     let src = orogen::io::open_raster(&a.input, &Default::default())
         .with_context(|| format!("{}: cannot open the DEM", a.input.display()))?;
-    table::check_size(src.as_ref(), a.max_cells)?;
-    let cell = orogen::metrics::registry::min_cell_size_m(src.info());
-    let radii: Vec<f64> = a
-        .radii
-        .split(',')
-        .map(|r| metres(r, cell))
-        .collect::<Result<_>>()
-        .with_context(|| format!("--radii {:?}", a.radii))?;
-    let corr_r = metres(&a.corr_radius, cell).with_context(|| "--corr-radius")?;
-    let only = match &a.only {
-        None => None,
-        Some(list) => {
-            let mut v = Vec::new();
-            for n in list.split(',') {
-                let n = n.trim();
-                match METRICS.iter().find(|d| d.name == n) {
-                    Some(d) => v.push(d.kind),
-                    None => bail!(
-                        "--only: unknown metric '{n}'; known metrics: {}",
-                        METRICS
-                            .iter()
-                            .map(|d| d.name)
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    ),
+    let opts = MetricTableOptions {
+        radii: a.radii.clone(),
+        corr_radius: a.corr_radius.clone(),
+        repeats: a.repeats,
+        only: a.only.clone(),
+        no_cost: a.no_cost,
+        max_cells: a.max_cells,
+    };
+    let quiet = a.quiet;
+    let done = metric_table::run(src.as_ref(), &a.output, &opts, |r| {
+        if !quiet {
+            eprintln!(
+                "{:<22} r={:>8} {:>8.4} s  x{:.2}{}",
+                r.name,
+                r.radius_m
+                    .map(|m| format!("{m}m"))
+                    .unwrap_or_else(|| "-".into()),
+                r.seconds,
+                r.relative,
+                if r.skipped.is_some() {
+                    "  (skipped)"
+                } else {
+                    ""
                 }
-            }
-            Some(v)
+            );
         }
-    };
-    std::fs::create_dir_all(&a.output)
-        .with_context(|| format!("{}: cannot create the output folder", a.output.display()))?;
-    let write = |name: &str, text: &str| -> Result<()> {
-        let p = a.output.join(name);
-        orogen::io::atomic::write_file_atomic(&p, text.as_bytes())?;
-        if !a.quiet {
-            eprintln!("wrote {}", p.display());
+    })?;
+    if !quiet {
+        for f in &done.files {
+            eprintln!("wrote {}", f.display());
         }
-        Ok(())
-    };
-    if !a.no_cost {
-        let quiet = a.quiet;
-        let rows = table::cost_table(src.as_ref(), &radii, a.repeats, only.as_deref(), |r| {
-            if !quiet {
-                eprintln!(
-                    "{:<22} r={:>8} {:>8.4} s  x{:.2}{}",
-                    r.name,
-                    r.radius_m
-                        .map(|m| format!("{m}m"))
-                        .unwrap_or_else(|| "-".into()),
-                    r.seconds,
-                    r.relative,
-                    if r.skipped.is_some() {
-                        "  (skipped)"
-                    } else {
-                        ""
-                    }
-                );
-            }
-        })?;
-        write("cost.csv", &table::cost_csv(&rows))?;
-        let md = table::cost_markdown(&rows, &radii);
-        write("cost.md", &md)?;
-        if !a.quiet {
+        if let Some(md) = &done.cost_markdown {
             print!("{md}");
         }
-    }
-    let specs = table::correlation_specs(src.as_ref(), corr_r);
-    let (labels, m) = table::correlation(src.as_ref(), &specs)?;
-    write("correlation.csv", &table::correlation_csv(&labels, &m))?;
-    let legend: String = std::iter::once("index,metric\n".to_string())
-        .chain(
-            labels
-                .iter()
-                .enumerate()
-                .map(|(i, l)| format!("{},{l}\n", i + 1)),
-        )
-        .collect();
-    write("correlation_legend.csv", &legend)?;
-    let png = a.output.join("correlation.png");
-    table::write_heatmap(&png, &m, labels.len())?;
-    if !a.quiet {
-        eprintln!("wrote {}", png.display());
     }
     Ok(())
 }

@@ -1,69 +1,19 @@
 //! Orometric analysis commands: `orostats` (feature vectors and a region
-//! profile), `classify` (random forest over feature vectors) and `ridges`.
+//! profile), `classify` (random forest over feature vectors) and `ridges`
+//! (`orogen::ops::orostats`, `ops::classify`, `ops::ridges`).
 
-use anyhow::{bail, Context, Result};
+use anyhow::Result;
 use clap::{Args, Subcommand};
-use orogen::oro::classify::{self, Dataset, ForestParams, Model};
-use orogen::oro::stats::{self, StatsOptions};
-use orogen::oro::EdgeConvention;
-use orogen::raster::{GeoRef, Grid, Window};
-use std::path::{Path, PathBuf};
-
-/// A distance like `10km`, `500m` or `2500` (metres).
-pub fn parse_distance(s: &str) -> Result<f64> {
-    let t = s.trim().to_ascii_lowercase();
-    let (num, mult) = if let Some(v) = t.strip_suffix("km") {
-        (v, 1000.0)
-    } else if let Some(v) = t.strip_suffix('m') {
-        (v, 1.0)
-    } else {
-        (t.as_str(), 1.0)
-    };
-    let v: f64 = num
-        .trim()
-        .parse()
-        .with_context(|| format!("{s:?}: expected a distance like 10km or 500m"))?;
-    let d = v * mult;
-    if !(d.is_finite() && d > 0.0) {
-        bail!("{s:?}: give a positive distance");
-    }
-    Ok(d)
-}
-
-fn convention(edge: &str) -> Result<EdgeConvention> {
-    Ok(match edge {
-        "sea-level" => EdgeConvention::SeaLevel,
-        "unknown" => EdgeConvention::Unknown,
-        e => bail!("--edge {e:?}: use sea-level or unknown"),
-    })
-}
-
-/// Read a whole DEM as f32 (NaN = nodata), refusing what the memory budget cannot hold.
-pub(crate) fn read_dem(
-    input: &crate::In,
-    run: &crate::Run,
-    bytes_per_cell: u64,
-) -> Result<(Grid<f32>, GeoRef)> {
-    let cfg = crate::engine(run)?;
-    let src = crate::open(input)?;
-    let info = src.info().clone();
-    let need = (info.width as u64) * (info.height as u64) * bytes_per_cell;
-    if need > cfg.memory_budget {
-        bail!(
-            "{}: this step runs in memory and needs about {:.1} GiB for {}x{} cells; raise --memory (e.g. --memory {}GiB)",
-            input.input.display(),
-            need as f64 / (1u64 << 30) as f64,
-            info.width,
-            info.height,
-            need.div_ceil(1 << 30)
-        );
-    }
-    let dem =
-        orogen::raster::read_window::<f32>(src.as_ref(), Window::full(info.width, info.height))?;
-    Ok((dem, info.georef))
-}
+use orogen::ops::classify::{self, EvaluateOptions, ForestOptions};
+use orogen::ops::orostats::{self, OrostatsOptions};
+use orogen::ops::peaks;
+use orogen::ops::ridges::{self, RidgesOptions};
+use std::path::PathBuf;
 
 #[derive(Args)]
+#[command(
+    after_help = "Example:\n  orogen orostats ../shared/data/srtm3_N46E008.tif -R 10km --label alps -o alps.csv --profile alps.json\nOne feature vector per disk: histograms of normalised elevation, prominence, relative prominence,\ndominance, Jurgalski dominance groups, isolation and key-saddle distance and direction, relevance;\npeak density and nearest-neighbour index. Runs in memory (about 40 bytes per cell)."
+)]
 pub struct OrostatsArgs {
     #[command(flatten)]
     input: crate::In,
@@ -98,45 +48,27 @@ pub struct OrostatsArgs {
     run: crate::Run,
 }
 
+/// Feature vectors (and the profile) of the input.
 pub fn run_orostats(a: OrostatsArgs) -> Result<()> {
-    let r = parse_distance(&a.radius)?;
-    let mut opts = StatsOptions::new(r);
-    if let Some(s) = &a.separation {
-        opts.separation_m = parse_distance(s)?;
-    }
-    if !(a.min_prominence.is_finite() && a.min_prominence >= 0.0) {
-        bail!(
-            "--min-prominence {}: give a prominence of 0 or more",
-            a.min_prominence
-        );
-    }
-    if !(0.0..=1.0).contains(&a.min_valid) {
-        bail!(
-            "--min-valid {}: give a fraction between 0 and 1",
-            a.min_valid
-        );
-    }
-    opts.seed = a.seed;
-    opts.min_prominence = a.min_prominence;
-    opts.convention = convention(&a.edge)?;
-    opts.min_valid_fraction = a.min_valid;
-    let ext = a
-        .output
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or("")
-        .to_ascii_lowercase();
-    if ext != "csv" && ext != "json" {
-        bail!("-o {}: name the output .csv or .json", a.output.display());
-    }
-    let (dem, georef) = read_dem(&a.input, &a.run, 40)?;
-    let source = a
-        .input
-        .input
-        .file_name()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let st = stats::orostats(&dem, &georef, &opts, &a.label, &source)?;
+    let opts = OrostatsOptions {
+        radius: orostats::parse_distance(&a.radius)?,
+        separation: a
+            .separation
+            .as_deref()
+            .map(orostats::parse_distance)
+            .transpose()?,
+        label: a.label.clone(),
+        seed: a.seed,
+        min_prominence: a.min_prominence,
+        edge: peaks::parse_edge(&a.edge)?,
+        min_valid: a.min_valid,
+        profile: a.profile.clone(),
+    };
+    opts.stats_options()?;
+    orostats::check_output(&a.output)?;
+    let cfg = crate::engine(&a.run)?;
+    let src = crate::open(&a.input)?;
+    let st = orostats::compute(src.as_ref(), &opts, &cfg)?;
     if st.profile.n_peaks == 0 && !a.run.quiet {
         eprintln!(
             "warning: {}: no peaks with prominence >= {} (flat or all-nodata DEM?); the histograms are all zero",
@@ -144,37 +76,26 @@ pub fn run_orostats(a: OrostatsArgs) -> Result<()> {
             a.min_prominence
         );
     }
-    if st.disks.is_empty() {
-        bail!(
-            "{}: no disk of radius {} m with at least {:.0}% valid cells fits in the DEM; give a smaller -R or --min-valid",
-            a.input.input.display(),
-            r,
-            a.min_valid * 100.0
-        );
-    }
-    if ext == "csv" {
-        stats::write_features_csv(&a.output, &st.disks)?;
-    } else {
-        stats::write_features_json(&a.output, &st.disks)?;
-    }
+    let files = orostats::write(&st, src.as_ref(), &a.output, &opts)?;
     if !a.run.quiet {
         eprintln!(
             "{} disks of radius {} m, {} peaks (prominence >= {})",
             st.disks.len(),
-            r,
+            opts.radius,
             st.profile.n_peaks,
             a.min_prominence
         );
     }
-    crate::wrote(&a.output);
-    if let Some(p) = &a.profile {
-        st.profile.save(p)?;
-        crate::wrote(p);
+    for f in &files {
+        crate::wrote(f);
     }
     Ok(())
 }
 
 #[derive(Args)]
+#[command(
+    after_help = "Examples:\n  orogen classify evaluate alps.csv andes.csv poland.csv --repeats 10 -o confusion.csv\n  orogen classify train alps.csv andes.csv -o model.json\n  orogen classify predict model.json unknown.csv"
+)]
 pub struct ClassifyArgs {
     #[command(subcommand)]
     cmd: ClassifyCmd,
@@ -197,11 +118,11 @@ struct ForestArgs {
 }
 
 impl ForestArgs {
-    fn params(&self) -> ForestParams {
-        ForestParams {
-            n_trees: self.trees,
+    fn options(&self) -> ForestOptions {
+        ForestOptions {
+            trees: self.trees,
             seed: self.seed,
-            m: self.mtry,
+            mtry: self.mtry,
             max_depth: self.max_depth,
         }
     }
@@ -250,15 +171,7 @@ enum ClassifyCmd {
     },
 }
 
-fn load_all(files: &[PathBuf]) -> Result<Dataset> {
-    let mut ds = Dataset::default();
-    for f in files {
-        ds.extend(Dataset::read_csv(f)?)
-            .with_context(|| format!("{}", f.display()))?;
-    }
-    Ok(ds)
-}
-
+/// Train, predict or evaluate (`ops::classify`).
 pub fn run_classify(a: ClassifyArgs) -> Result<()> {
     match a.cmd {
         ClassifyCmd::Train {
@@ -266,9 +179,7 @@ pub fn run_classify(a: ClassifyArgs) -> Result<()> {
             forest,
             output,
         } => {
-            let ds = load_all(&features)?;
-            let m = classify::train(&ds, &forest.params())?;
-            m.save(&output)?;
+            let (m, ds) = classify::train(&features, &forest.options(), &output)?;
             eprintln!(
                 "trained {} trees on {} vectors of {} classes: {}",
                 forest.trees,
@@ -283,19 +194,11 @@ pub fn run_classify(a: ClassifyArgs) -> Result<()> {
             features,
             output,
         } => {
-            let m = Model::load(&model)?;
-            let ds = load_all(&features)?;
-            if ds.names != m.names {
-                bail!("the feature files do not have the columns the model was trained on");
-            }
-            let pred = m.predict(&ds.rows)?;
+            let (m, ds, pred) = classify::predict(&model, &features)?;
             match &output {
                 Some(p) => {
-                    let mut s = String::from("label,predicted\n");
-                    for (l, q) in ds.labels.iter().zip(&pred) {
-                        s.push_str(&format!("{l},{q}\n"));
-                    }
-                    write(p, &s)?;
+                    let s = classify::predictions_csv(&ds.labels, &pred);
+                    orogen::io::atomic::write_file_atomic(p, s.as_bytes())?;
                     crate::wrote(p);
                 }
                 None => {
@@ -313,12 +216,15 @@ pub fn run_classify(a: ClassifyArgs) -> Result<()> {
             test_fraction,
             output,
         } => {
-            let ds = load_all(&features)?;
-            let ev =
-                classify::evaluate(&ds, &forest.params(), repeats, test_fraction, forest.seed)?;
+            let opts = EvaluateOptions {
+                forest: forest.options(),
+                repeats,
+                test_fraction,
+            };
+            let ev = classify::evaluate(&features, &opts)?;
             print!("{}", ev.summary());
             if let Some(p) = &output {
-                write(p, &ev.confusion_csv())?;
+                orogen::io::atomic::write_file_atomic(p, ev.confusion_csv().as_bytes())?;
                 crate::wrote(p);
             }
         }
@@ -326,11 +232,10 @@ pub fn run_classify(a: ClassifyArgs) -> Result<()> {
     Ok(())
 }
 
-fn write(p: &Path, s: &str) -> Result<()> {
-    Ok(orogen::io::atomic::write_file_atomic(p, s.as_bytes())?)
-}
-
 #[derive(Args)]
+#[command(
+    after_help = "Example:\n  orogen ridges ../shared/data/srtm3_S33W071.tif --min-prominence 100 -o ridges/\nWrites ridges.geojson (steepest-ascent paths saddle -> peak, with longest-path level and\nStrahler order), ridge_levels.tif, ridge_orders.tif (0 = no ridge) and ppa_ridges.tif\n(Chang et al. 1998 profile recognition + maximum spanning tree, 1 = ridge). Runs in memory."
+)]
 pub struct RidgesArgs {
     #[command(flatten)]
     input: crate::In,
@@ -358,70 +263,27 @@ pub struct RidgesArgs {
     run: crate::Run,
 }
 
-fn write_u8(grid: Grid<u8>, georef: &GeoRef, path: &Path, a: &RidgesArgs) -> Result<()> {
-    let g = georef.clone().with_nodata(None);
-    let mem = orogen::raster::MemRaster::new(orogen::raster::AnyGrid::U8(grid), g, path);
-    let oo = crate::output_options(&a.fmt)?;
-    orogen::ops::convert(&mem, path, &oo, None, &crate::engine(&a.run)?)?;
-    crate::wrote(path);
-    Ok(())
-}
-
+/// Ridge networks of the input into the output folder.
 pub fn run_ridges(a: RidgesArgs) -> Result<()> {
-    if !(a.min_prominence.is_finite() && a.min_prominence >= 0.0) {
-        bail!(
-            "--min-prominence {}: give a prominence of 0 or more",
-            a.min_prominence
-        );
-    }
-    let conv = convention(&a.edge)?;
-    let per_cell = if a.no_ppa {
-        40
-    } else {
-        40 + orogen::oro::ridges::PPA_BYTES_PER_CELL
-    };
-    let (dem, georef) = read_dem(&a.input, &a.run, per_cell)?;
-    std::fs::create_dir_all(&a.output)
-        .with_context(|| format!("{}: cannot create the output folder", a.output.display()))?;
-    let opts = orogen::oro::PeakOptions {
+    let opts = RidgesOptions {
         min_prominence: a.min_prominence,
-        convention: conv,
-        isolation: false,
+        edge: peaks::parse_edge(&a.edge)?,
+        half_window: a.half_window,
+        min_branch: a.min_branch,
+        no_ppa: a.no_ppa,
     };
-    let list = orogen::oro::peaks(&dem, &georef, &opts)?;
-    let net = orogen::oro::ridges::divide_tree_ridges(&list.tree, &dem, &georef)?;
-    let gj = a.output.join("ridges.geojson");
-    net.write_geojson(&gj, &georef)?;
-    crate::wrote(&gj);
-    write_u8(
-        net.rasterise_levels(),
-        &georef,
-        &a.output.join("ridge_levels.tif"),
-        &a,
-    )?;
-    write_u8(
-        net.rasterise_orders(),
-        &georef,
-        &a.output.join("ridge_orders.tif"),
-        &a,
-    )?;
-    if !a.no_ppa {
-        let ppa = orogen::oro::ridges::ppa_ridges(
-            &dem,
-            &orogen::oro::ridges::PpaOptions {
-                half_window: a.half_window,
-                min_branch: a.min_branch,
-            },
-        )?;
-        write_u8(ppa, &georef, &a.output.join("ppa_ridges.tif"), &a)?;
+    opts.validate()?;
+    let cfg = crate::engine(&a.run)?;
+    let src = crate::open(&a.input)?;
+    let oo = crate::output_options(&a.fmt)?;
+    let done = ridges::run(src.as_ref(), &a.output, &opts, &oo, &cfg)?;
+    for f in &done.files {
+        crate::wrote(f);
     }
     if !a.run.quiet {
         eprintln!(
             "{} peaks (prominence >= {}), {} ridge segments, {} levels",
-            list.tree.peaks.len(),
-            a.min_prominence,
-            net.edges.len(),
-            net.edges.iter().map(|e| e.level).max().unwrap_or(0)
+            done.peaks, a.min_prominence, done.segments, done.levels
         );
     }
     Ok(())

@@ -4,16 +4,22 @@
 //! terrain with hillshade in MapLibre GL JS. MapLibre and pmtiles.js come
 //! from the npm registry, installed by `tools/viewer_setup.sh` into
 //! `tools/node_modules`; nothing is fetched from the internet at view time.
+//! The pyramid readers are `orogen::tiles::reader`; the small HTTP server
+//! stays here (it serves files, it computes nothing).
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
+use orogen::tiles::TileSource;
 use std::io::{BufRead, BufReader, Read, Seek, SeekFrom, Write};
 use std::net::{TcpListener, TcpStream};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::Arc;
 
 /// Arguments of `orogen view`.
 #[derive(Args, Clone)]
+#[command(
+    after_help = "Examples:\n  orogen tiles dem.tif -o dem.pmtiles && orogen view dem.pmtiles\n  orogen view tiles/ --port 8080\nNeeds MapLibre GL JS from npm: bash tools/viewer_setup.sh (once)."
+)]
 pub struct ViewArgs {
     /// A pyramid from `orogen tiles`: folder, .mbtiles or .pmtiles.
     pub tiles: PathBuf,
@@ -26,14 +32,8 @@ pub struct ViewArgs {
     pub assets: Option<PathBuf>,
 }
 
-enum Source {
-    Dir(PathBuf),
-    Mbtiles(PathBuf),
-    Pmtiles(PathBuf),
-}
-
 struct Site {
-    source: Source,
+    source: TileSource,
     assets: PathBuf,
     page: String,
 }
@@ -132,50 +132,9 @@ window.map = map;
 
 pub fn run(a: ViewArgs) -> Result<()> {
     let assets = find_assets(a.assets.clone())?;
-    let ext = a.tiles.extension().and_then(|e| e.to_str()).unwrap_or("");
-    let (source, meta) = match ext {
-        "pmtiles" => {
-            let meta = pmtiles_metadata(&a.tiles)?;
-            (Source::Pmtiles(a.tiles.clone()), meta)
-        }
-        "mbtiles" => {
-            let db = rusqlite::Connection::open_with_flags(
-                &a.tiles,
-                rusqlite::OpenFlags::SQLITE_OPEN_READ_ONLY,
-            )
-            .with_context(|| format!("opening {}", a.tiles.display()))?;
-            let json: String = db
-                .query_row("SELECT value FROM metadata WHERE name='json'", [], |r| {
-                    r.get(0)
-                })
-                .with_context(|| {
-                    format!(
-                        "{}: not an orogen MBTiles file (no json metadata)",
-                        a.tiles.display()
-                    )
-                })?;
-            (
-                Source::Mbtiles(a.tiles.clone()),
-                serde_json::from_str(&json)?,
-            )
-        }
-        _ => {
-            let m = a.tiles.join("metadata.json");
-            let text = std::fs::read_to_string(&m).with_context(|| {
-                format!("{}: not a pyramid folder from `orogen tiles`", m.display())
-            })?;
-            (Source::Dir(a.tiles.clone()), serde_json::from_str(&text)?)
-        }
-    };
-    // Folder pyramids write min_zoom/max_zoom; archives minzoom/maxzoom.
-    let mut meta = meta;
-    for (from, to) in [("minzoom", "min_zoom"), ("maxzoom", "max_zoom")] {
-        if let Some(v) = meta.get(from).cloned() {
-            meta[to] = v;
-        }
-    }
+    let (source, meta) = TileSource::open(&a.tiles)?;
     let source_js = match source {
-        Source::Pmtiles(_) => "url:'pmtiles://'+location.origin+'/data.pmtiles'".to_string(),
+        TileSource::Pmtiles(_) => "url:'pmtiles://'+location.origin+'/data.pmtiles'".to_string(),
         _ => "tiles:[location.origin+'/tiles/{z}/{x}/{y}.png']".to_string(),
     };
     let site = Arc::new(Site {
@@ -199,34 +158,6 @@ pub fn run(a: ViewArgs) -> Result<()> {
         });
     }
     Ok(())
-}
-
-/// The JSON metadata of a PMTiles v3 archive (header fields at fixed
-/// offsets of the 127-byte header; metadata possibly gzip-compressed).
-fn pmtiles_metadata(p: &Path) -> Result<serde_json::Value> {
-    let mut f = std::fs::File::open(p).with_context(|| format!("opening {}", p.display()))?;
-    let mut h = [0u8; 127];
-    f.read_exact(&mut h)
-        .with_context(|| format!("{}: too short for a PMTiles archive", p.display()))?;
-    if &h[0..7] != b"PMTiles" || h[7] != 3 {
-        bail!("{}: not a PMTiles v3 archive", p.display());
-    }
-    let u64at = |o: usize| u64::from_le_bytes(h[o..o + 8].try_into().unwrap_or([0; 8]));
-    let (off, len) = (u64at(24), u64at(32));
-    if len > 64 << 20 {
-        bail!("{}: metadata of {len} bytes is implausible", p.display());
-    }
-    f.seek(SeekFrom::Start(off))?;
-    let mut raw = vec![0u8; len as usize];
-    f.read_exact(&mut raw)?;
-    let text = if h[97] == 2 {
-        let mut s = String::new();
-        flate2::read::GzDecoder::new(&raw[..]).read_to_string(&mut s)?;
-        s
-    } else {
-        String::from_utf8(raw)?
-    };
-    Ok(serde_json::from_str(&text)?)
 }
 
 fn respond(
@@ -293,7 +224,7 @@ fn serve(mut stream: TcpStream, site: &Site) -> std::io::Result<()> {
         return respond(&mut stream, "404 Not Found", "text/plain", b"not found", "");
     }
     if path == "/data.pmtiles" {
-        if let Source::Pmtiles(p) = &site.source {
+        if let TileSource::Pmtiles(p) = &site.source {
             let mut f = std::fs::File::open(p)?;
             let size = f.metadata()?.len();
             let (a, b) = range.unwrap_or((0, None));
@@ -328,21 +259,7 @@ fn serve(mut stream: TcpStream, site: &Site) -> std::io::Result<()> {
         let parts: Vec<&str> = rest.trim_end_matches(".png").split('/').collect();
         if let [z, x, y] = parts[..] {
             if let (Ok(z), Ok(x), Ok(y)) = (z.parse::<u8>(), x.parse::<u32>(), y.parse::<u32>()) {
-                let data = match &site.source {
-                    Source::Dir(d) => std::fs::read(d.join(format!("{z}/{x}/{y}.png"))).ok(),
-                    Source::Mbtiles(p) => rusqlite::Connection::open_with_flags(p, rusqlite::OpenFlags::SQLITE_OPEN_READ_ONLY)
-                        .ok()
-                        .and_then(|db| {
-                            let row = (1i64 << z) - 1 - y as i64;
-                            db.query_row(
-                                "SELECT tile_data FROM tiles WHERE zoom_level=?1 AND tile_column=?2 AND tile_row=?3",
-                                rusqlite::params![z as i64, x as i64, row],
-                                |r| r.get::<_, Vec<u8>>(0),
-                            )
-                            .ok()
-                        }),
-                    Source::Pmtiles(_) => None,
-                };
+                let data = site.source.tile(z, x, y);
                 if let Some(d) = data {
                     return respond(&mut stream, "200 OK", "image/png", &d, "");
                 }

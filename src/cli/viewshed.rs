@@ -3,18 +3,18 @@
 //! (u16 count of observers seeing each cell), or Fisher's fuzzy viewshed
 //! (f32 sum of distance-decay memberships); see `orogen::metrics::visibility`.
 //!
-//! Only the window around the observers (their radius, clipped to the DEM)
-//! is read and written, so the output covers that window, georeferenced.
+//! See `orogen::ops::viewshed`.
 
-use anyhow::{bail, Context, Result};
+use anyhow::Result;
 use clap::Args;
-use orogen::metrics::registry::{parse_length, Length};
-use orogen::metrics::visibility::{accumulate_viewshed, viewshed, ViewshedOptions};
-use orogen::raster::{read_window, DType, Grid, MemRaster, RasterInfo, Window};
-use std::path::{Path, PathBuf};
+use orogen::ops::viewshed::{self, ViewshedOptions};
+use std::path::PathBuf;
 
 /// Arguments of `orogen viewshed`.
 #[derive(Args)]
+#[command(
+    after_help = "Examples:\n  orogen viewshed dem.tif --at 352000,4590000 --observer-height 1.7 --radius 10km -o vis.tif\n  orogen viewshed srtm.tif --at=-105.2,39.7 --curvature -o vis.tif\n  orogen viewshed dem.tif --points towers.csv --radius 5km -o count.tif\n  orogen viewshed dem.tif --at 352000,4590000 --fuzzy 1000,2000 -o fuzzy.tif\nOne observer: u8, 1 visible, 0 hidden, 255 beyond the radius or nodata. Several: u16 count\nof observers seeing each cell. --fuzzy: f32 sum of memberships. The output covers the\nobservers' radius, clipped to the DEM. Coordinates are in the DEM's CRS (--pixel: col,row)."
+)]
 pub struct ViewshedArgs {
     #[command(flatten)]
     input: crate::In,
@@ -54,246 +54,31 @@ pub struct ViewshedArgs {
     run: crate::Run,
 }
 
-fn pair(s: &str, what: &str) -> Result<(f64, f64)> {
-    let mut it = s.split(',').map(|v| v.trim().parse::<f64>());
-    match (it.next(), it.next(), it.next()) {
-        (Some(Ok(a)), Some(Ok(b)), None) if a.is_finite() && b.is_finite() => Ok((a, b)),
-        _ => bail!("{what} {s:?}: expected two numbers separated by a comma, e.g. 350120,4590210"),
-    }
-}
-
-/// Observer points (map coordinates) from a CSV or GeoJSON file.
-fn read_points(path: &Path) -> Result<Vec<(f64, f64)>> {
-    let meta =
-        std::fs::metadata(path).with_context(|| format!("{}: cannot read", path.display()))?;
-    if meta.len() > 256 << 20 {
-        bail!(
-            "{}: {} bytes is too large for a point file (limit 256 MiB)",
-            path.display(),
-            meta.len()
-        );
-    }
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("{}: cannot read", path.display()))?;
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or("")
-        .to_ascii_lowercase();
-    let mut pts = Vec::new();
-    if ext == "geojson" || ext == "json" {
-        let v: serde_json::Value = serde_json::from_str(&text)
-            .with_context(|| format!("{}: not valid JSON", path.display()))?;
-        let feats = v
-            .get("features")
-            .and_then(|f| f.as_array())
-            .with_context(|| format!("{}: expected a GeoJSON FeatureCollection", path.display()))?;
-        for (i, f) in feats.iter().enumerate() {
-            let g = f.get("geometry");
-            let is_point = g.and_then(|g| g.get("type")).and_then(|t| t.as_str()) == Some("Point");
-            let c = g
-                .and_then(|g| g.get("coordinates"))
-                .and_then(|c| c.as_array());
-            match (is_point, c) {
-                (true, Some(c)) if c.len() >= 2 => {
-                    let (x, y) = (c[0].as_f64(), c[1].as_f64());
-                    match (x, y) {
-                        (Some(x), Some(y)) if x.is_finite() && y.is_finite() => pts.push((x, y)),
-                        _ => bail!(
-                            "{}: feature {i} has non-numeric coordinates",
-                            path.display()
-                        ),
-                    }
-                }
-                _ => bail!("{}: feature {i} is not a Point", path.display()),
-            }
-        }
-    } else {
-        let mut lines = text.lines().filter(|l| !l.trim().is_empty());
-        let header: Vec<String> = lines
-            .next()
-            .with_context(|| format!("{}: empty CSV", path.display()))?
-            .split(',')
-            .map(|h| h.trim().trim_matches('"').to_ascii_lowercase())
-            .collect();
-        let col = |names: &[&str]| header.iter().position(|h| names.contains(&h.as_str()));
-        let (Some(cx), Some(cy)) = (
-            col(&["x", "lon", "longitude", "easting"]),
-            col(&["y", "lat", "latitude", "northing"]),
-        ) else {
-            bail!(
-                "{}: the CSV header needs x,y or lon,lat columns (found {:?})",
-                path.display(),
-                header
-            );
-        };
-        for (i, l) in lines.enumerate() {
-            let f: Vec<&str> = l.split(',').collect();
-            let get = |c: usize| {
-                f.get(c)
-                    .and_then(|v| v.trim().parse::<f64>().ok())
-                    .filter(|v| v.is_finite())
-            };
-            match (get(cx), get(cy)) {
-                (Some(x), Some(y)) => pts.push((x, y)),
-                _ => bail!("{}: line {} has no numeric x,y", path.display(), i + 2),
-            }
-        }
-    }
-    if pts.is_empty() {
-        bail!("{}: no points", path.display());
-    }
-    Ok(pts)
-}
-
-/// Cell of a point, or an error naming the point and the DEM's extent.
-fn to_cell(info: &RasterInfo, p: (f64, f64), pixel: bool) -> Result<(usize, usize)> {
-    let (c, r) = if pixel {
-        p
-    } else {
-        info.georef
-            .map_to_pixel(p.0, p.1)
-            .with_context(|| format!("{}: singular geotransform", info.path.display()))?
-    };
-    let (c, r) = (c.floor(), r.floor());
-    if !(c >= 0.0 && r >= 0.0 && c < info.width as f64 && r < info.height as f64) {
-        let (x0, y0) = info.georef.pixel_to_map(0.0, 0.0);
-        let (x1, y1) = info
-            .georef
-            .pixel_to_map(info.width as f64, info.height as f64);
-        bail!(
-            "observer {},{} is outside {} (cell {c},{r} of {}x{}; the DEM spans x {x0}..{x1}, y {y1}..{y0}): give a point inside the DEM",
-            p.0,
-            p.1,
-            info.path.display(),
-            info.width,
-            info.height
-        );
-    }
-    Ok((c as usize, r as usize))
-}
-
-/// Run `orogen viewshed`.
+/// The viewshed of the observers into the output (`ops::viewshed`).
 pub fn run(a: ViewshedArgs) -> Result<()> {
     let src = crate::open(&a.input)?;
     let cfg = crate::engine(&a.run)?;
-    let info = src.info().clone();
-    let mut pts: Vec<(f64, f64)> = Vec::new();
+    let mut at = Vec::with_capacity(a.at.len());
     for s in &a.at {
-        pts.push(pair(s, "--at")?);
+        at.push(viewshed::parse_pair(s, "--at")?);
     }
-    let n_at = pts.len();
-    if let Some(p) = &a.points {
-        pts.extend(read_points(p)?);
-    }
-    if pts.is_empty() {
-        bail!("give an observer with --at X,Y (or --points FILE)");
-    }
-    // --pixel applies to --at only; point files hold coordinates.
-    let cells: Vec<(usize, usize)> = pts
-        .iter()
-        .enumerate()
-        .map(|(i, &p)| to_cell(&info, p, a.pixel && i < n_at))
-        .collect::<Result<_>>()?;
-    let min_cell = orogen::metrics::registry::min_cell_size_m(&info);
-    let radius_m = match parse_length(&a.radius).map_err(|e| anyhow::anyhow!("--radius: {e}"))? {
-        Length::Metres(m) => m,
-        Length::Cells(c) => c as f64 * min_cell,
-    };
     let fuzzy = match &a.fuzzy {
-        Some(s) => Some(pair(s, "--fuzzy")?),
+        Some(s) => Some(viewshed::parse_pair(s, "--fuzzy")?),
         None => None,
     };
     let opts = ViewshedOptions {
+        at,
+        points: a.points.clone(),
+        pixel: a.pixel,
         observer_height: a.observer_height,
         target_height: a.target_height,
-        radius_m,
-        curvature: a.curvature.then_some(a.refraction),
+        radius: a.radius.clone(),
+        curvature: a.curvature,
+        refraction: a.refraction,
+        fuzzy,
     };
-    orogen::metrics::visibility::check_options(&opts)?;
-    // The window: every observer's radius, clipped to the DEM.
-    let reach = (radius_m / min_cell).ceil();
-    if !(reach.is_finite()) {
-        bail!("--radius {}: not a usable distance", a.radius);
-    }
-    let reach = reach.min(1e9) as i64;
-    let (mut x0, mut y0, mut x1, mut y1) = (i64::MAX, i64::MAX, i64::MIN, i64::MIN);
-    for &(c, r) in &cells {
-        x0 = x0.min(c as i64 - reach);
-        y0 = y0.min(r as i64 - reach);
-        x1 = x1.max(c as i64 + reach + 1);
-        y1 = y1.max(r as i64 + reach + 1);
-    }
-    let (x0, y0) = (x0.max(0), y0.max(0));
-    let (x1, y1) = (x1.min(info.width as i64), y1.min(info.height as i64));
-    let win = Window::new(x0, y0, (x1 - x0) as usize, (y1 - y0) as usize);
-    let need = win.w as u64 * win.h as u64 * 8;
-    if need > cfg.memory_budget {
-        bail!(
-            "{}: the viewshed window is {}x{} cells ({:.1} GiB in memory); use a smaller --radius or raise --memory",
-            a.input.input.display(),
-            win.w,
-            win.h,
-            need as f64 / (1u64 << 30) as f64
-        );
-    }
-    let dem = read_window::<f32>(src.as_ref(), win)?;
-    let georef = info.georef.shifted(win.x, win.y);
-    let local: Vec<(usize, usize)> = cells
-        .iter()
-        .map(|&(c, r)| (c - win.x as usize, r - win.y as usize))
-        .collect();
-    let cell_m = |row: usize| info.georef.cell_size_m(row as i64);
-    let oo = crate::output_options(&a.out.fmt)?;
-    let mem = if local.len() == 1 && fuzzy.is_none() {
-        let (c, r) = local[0];
-        let v = viewshed(&dem, cell_m(r + win.y as usize), (c, r), &opts)
-            .with_context(|| format!("observer {},{}", pts[0].0, pts[0].1))?;
-        MemRaster::from_grid(v, georef.with_nodata(Some(255.0)))
-    } else {
-        let mut acc = Grid::new(win.w, win.h, 0f32);
-        for (k, &(c, r)) in local.iter().enumerate() {
-            accumulate_viewshed(
-                &dem,
-                cell_m(r + win.y as usize),
-                (c, r),
-                &opts,
-                fuzzy,
-                &mut acc,
-            )
-            .with_context(|| format!("observer {},{}", pts[k].0, pts[k].1))?;
-        }
-        if fuzzy.is_some() {
-            for (a, z) in acc.data_mut().iter_mut().zip(dem.data()) {
-                if z.is_nan() {
-                    *a = orogen::metrics::METRIC_NODATA as f32;
-                }
-            }
-            MemRaster::from_grid(
-                acc,
-                georef.with_nodata(Some(orogen::metrics::METRIC_NODATA)),
-            )
-        } else {
-            if local.len() > 65_534 {
-                bail!("{} observers: at most 65534 for a u16 count", local.len());
-            }
-            let counts: Vec<u16> = acc
-                .data()
-                .iter()
-                .zip(dem.data())
-                .map(|(&n, z)| if z.is_nan() { u16::MAX } else { n as u16 })
-                .collect();
-            MemRaster::from_grid(
-                Grid::from_vec(win.w, win.h, counts)?,
-                georef.with_nodata(Some(u16::MAX as f64)),
-            )
-        }
-    };
-    debug_assert!(matches!(
-        mem.grid().dtype(),
-        DType::U8 | DType::U16 | DType::F32
-    ));
-    orogen::ops::convert(&mem, &a.out.output, &oo, a.run.tile, &cfg)?;
+    let t = crate::target(&a.out, &a.run)?;
+    viewshed::run(src.as_ref(), &opts, &t, &cfg)?;
     crate::wrote(&a.out.output);
     Ok(())
 }

@@ -1,13 +1,16 @@
 //! `orogen watersheds`: watershed labels from D8 directions, exact across
-//! tiles (`hydro::tiled::TiledLabels`).
+//! tiles (`orogen::ops::watersheds`).
 
-use crate::{global1, open, In, Out, Run};
+use crate::{engine, open, target, wrote, In, Out, Run};
 use anyhow::Result;
 use clap::Args;
-use orogen::raster::DType;
+use orogen::ops::watersheds::{self, WatershedsOptions};
 
 /// Arguments of `orogen watersheds`.
 #[derive(Args)]
+#[command(
+    after_help = "Example:\n  orogen fill dem.tif -o f.tif && orogen flow f.tif -o d8.tif\n  orogen watersheds d8.tif -o basins.tif"
+)]
 pub struct WatershedsArgs {
     /// D8 directions from `orogen flow`.
     #[command(flatten)]
@@ -18,15 +21,16 @@ pub struct WatershedsArgs {
     pub run: Run,
 }
 
-/// Label every cell with the row-major index + 1 of the cell where its D8
-/// path leaves the DEM (u32, 0 = nodata).
+/// Watershed labels of the input's D8 directions into the output (`ops::watersheds`).
 pub fn run(a: WatershedsArgs) -> Result<()> {
     let src = open(&a.input)?;
-    global1(
-        &orogen::hydro::tiled::TiledLabels,
-        &[src.as_ref()],
-        &a.out,
-        &a.run,
-        (DType::U32, Some(0.0)),
-    )
+    let t = target(&a.out, &a.run)?;
+    watersheds::run(
+        src.as_ref(),
+        &WatershedsOptions::default(),
+        &t,
+        &engine(&a.run)?,
+    )?;
+    wrote(&a.out.output);
+    Ok(())
 }

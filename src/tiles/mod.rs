@@ -1,13 +1,15 @@
 //! Tile-server outputs: web-map pyramids in Web Mercator ([`pyramid`]),
 //! packed as MBTiles and PMTiles ([`archive`]), with the projections they
-//! need ([`proj`], which lives in `raster::proj`), and previews of a raster
-//! as a PNG ([`render`]). Cloud-Optimized GeoTIFFs are in
-//! `io::geotiff::CogWriter`.
+//! need ([`proj`], which lives in `raster::proj`), previews of a raster
+//! as a PNG ([`render`]), and read back ([`reader`]: folders, MBTiles,
+//! PMTiles metadata). Cloud-Optimized GeoTIFFs are in `io::geotiff::CogWriter`.
 
 pub mod archive;
 pub mod pyramid;
+pub mod reader;
 pub mod render;
 
 pub use crate::raster::proj;
 
 pub use pyramid::{build_pyramid, Encoding, PyramidInfo, PyramidOptions, Resampling};
+pub use reader::TileSource;

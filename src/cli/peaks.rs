@@ -1,0 +1,74 @@
+//! `orogen peaks`: peaks, saddles and the divide tree (`ops::peaks`).
+
+use crate::{engine, open, wrote, In, Run};
+use anyhow::Result;
+use clap::Args;
+use orogen::ops::peaks::{self, PeaksMode, PeaksOptions};
+use std::path::PathBuf;
+
+/// Find the peaks of the input and write them into the output folder.
+pub fn run(a: PeaksArgs) -> Result<()> {
+    let opts = PeaksOptions {
+        min_prominence: a.min_prominence,
+        edge: peaks::parse_edge(&a.edge)?,
+        no_isolation: a.no_isolation,
+        tiled: a.tiled,
+        line_parents: a.line_parents,
+        tile: a.run.tile,
+    };
+    opts.validate()?;
+    let cfg = engine(&a.run)?;
+    let src = open(&a.input)?;
+    let mode = peaks::mode(src.as_ref(), &opts, &cfg)?;
+    if let PeaksMode::Tiled { tile } = mode {
+        if !a.run.quiet {
+            let info = src.info();
+            eprintln!(
+                "peaks: {}x{} cells, tile by tile ({tile}-cell tiles)",
+                info.width, info.height
+            );
+        }
+    }
+    let found = peaks::run_in(src.as_ref(), &a.output, &opts, mode, &cfg)?;
+    if !a.run.quiet {
+        eprintln!(
+            "{} peaks with prominence >= {}",
+            found.peaks, a.min_prominence
+        );
+    }
+    for f in &found.files {
+        wrote(f);
+    }
+    Ok(())
+}
+
+/// Arguments of `orogen peaks`.
+#[derive(Args)]
+#[command(
+    after_help = "Example:\n  orogen peaks ../shared/data/srtm3_S33W071.tif --min-prominence 30 -o out/\nWrites peaks.csv, peaks.geojson, saddles.geojson, divide_tree.geojson and divide_tree.json.\nConventions (Kirmse & de Ferranti 2017): with --edge sea-level (default) the DEM's edge and\nnodata are sea level 0; with --edge unknown the outside is ignored.\nRuns in memory (about 28 bytes per cell) when --memory allows it, else tile by tile with the\nsame results (--tiled forces it):\n  orogen peaks poland.tif --memory 512MiB -o out/"
+)]
+pub struct PeaksArgs {
+    #[command(flatten)]
+    pub input: In,
+    /// Keep peaks with at least this prominence (DEM units, usually metres).
+    #[arg(long, default_value_t = 30.0)]
+    pub min_prominence: f64,
+    /// Edge and nodata convention: sea-level or unknown.
+    #[arg(long, default_value = "sea-level")]
+    pub edge: String,
+    /// Skip isolation (distance to higher ground).
+    #[arg(long)]
+    pub no_isolation: bool,
+    /// Work tile by tile even if the DEM fits the memory budget.
+    #[arg(long)]
+    pub tiled: bool,
+    /// Also write line parents, relevance and normalised elevation (needs the
+    /// whole DEM in memory; not with --tiled).
+    #[arg(long)]
+    pub line_parents: bool,
+    /// Output folder.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    #[command(flatten)]
+    pub run: Run,
+}

@@ -1,0 +1,123 @@
+//! `orogen slope`, `orogen aspect` and `orogen hillshade` (Horn 1981, as
+//! gdaldem): `ops::slope`, `ops::aspect`, `ops::hillshade`.
+
+use crate::{engine, open, target, wrote, In, Out, Run};
+use anyhow::Result;
+use clap::{Args, ValueEnum};
+use orogen::metrics::SlopeUnits;
+use orogen::ops::{aspect, hillshade, slope};
+
+/// `--units` of `orogen slope`.
+#[derive(Copy, Clone, ValueEnum)]
+pub enum UnitsArg {
+    Degrees,
+    Percent,
+}
+
+/// Slope of the input.
+pub fn run_slope(a: SlopeArgs) -> Result<()> {
+    let src = open(&a.input)?;
+    let opts = slope::SlopeOptions {
+        units: match a.units {
+            UnitsArg::Degrees => SlopeUnits::Degrees,
+            UnitsArg::Percent => SlopeUnits::Percent,
+        },
+        z_factor: a.z_factor,
+        compute_edges: a.compute_edges,
+    };
+    let t = target(&a.out, &a.run)?;
+    slope::run(src.as_ref(), &opts, &t, &engine(&a.run)?)?;
+    wrote(&a.out.output);
+    Ok(())
+}
+
+/// Aspect of the input.
+pub fn run_aspect(a: AspectArgs) -> Result<()> {
+    let src = open(&a.input)?;
+    let opts = aspect::AspectOptions {
+        zero_for_flat: a.zero_for_flat,
+        compute_edges: a.compute_edges,
+    };
+    let t = target(&a.out, &a.run)?;
+    aspect::run(src.as_ref(), &opts, &t, &engine(&a.run)?)?;
+    wrote(&a.out.output);
+    Ok(())
+}
+
+/// Hillshade of the input.
+pub fn run_hillshade(a: HillshadeArgs) -> Result<()> {
+    let opts = hillshade::HillshadeOptions {
+        azimuth: a.azimuth,
+        altitude: a.altitude,
+        z_factor: a.z_factor,
+        compute_edges: a.compute_edges,
+    };
+    // Checked before the input is opened (no georeference warning first).
+    opts.validate()?;
+    let src = open(&a.input)?;
+    let t = target(&a.out, &a.run)?;
+    hillshade::run(src.as_ref(), &opts, &t, &engine(&a.run)?)?;
+    wrote(&a.out.output);
+    Ok(())
+}
+
+/// Arguments of `orogen slope`.
+#[derive(Args)]
+#[command(
+    after_help = "Example:\n  orogen slope dem.tif -o slope.tif\n  orogen slope dem.tiles -o slope.tiles --units percent"
+)]
+pub struct SlopeArgs {
+    #[command(flatten)]
+    pub input: In,
+    #[arg(long, value_enum, default_value_t = UnitsArg::Degrees)]
+    pub units: UnitsArg,
+    /// Vertical exaggeration.
+    #[arg(long, default_value_t = 1.0)]
+    pub z_factor: f64,
+    /// Compute edge cells with missing neighbours (gdaldem -compute_edges).
+    #[arg(long)]
+    pub compute_edges: bool,
+    #[command(flatten)]
+    pub out: Out,
+    #[command(flatten)]
+    pub run: Run,
+}
+
+/// Arguments of `orogen aspect`.
+#[derive(Args)]
+#[command(after_help = "Example:\n  orogen aspect dem.tif -o aspect.tif --zero-for-flat")]
+pub struct AspectArgs {
+    #[command(flatten)]
+    pub input: In,
+    /// Flat cells get 0 instead of nodata.
+    #[arg(long)]
+    pub zero_for_flat: bool,
+    #[arg(long)]
+    pub compute_edges: bool,
+    #[command(flatten)]
+    pub out: Out,
+    #[command(flatten)]
+    pub run: Run,
+}
+
+/// Arguments of `orogen hillshade`.
+#[derive(Args)]
+#[command(
+    after_help = "Example:\n  orogen hillshade dem.tif -o shade.tif --azimuth 315 --altitude 45"
+)]
+pub struct HillshadeArgs {
+    #[command(flatten)]
+    pub input: In,
+    #[arg(long, default_value_t = 315.0)]
+    pub azimuth: f64,
+    #[arg(long, default_value_t = 45.0)]
+    pub altitude: f64,
+    #[arg(long, default_value_t = 1.0)]
+    pub z_factor: f64,
+    #[arg(long)]
+    pub compute_edges: bool,
+    #[command(flatten)]
+    pub out: Out,
+    #[command(flatten)]
+    pub run: Run,
+}

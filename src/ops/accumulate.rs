@@ -1,0 +1,276 @@
+//! `orogen accumulate`: flow accumulation, D8 from flow directions (exact
+//! across tiles, Barnes 2017) or D-infinity / MFD from a filled DEM.
+
+use super::{choose_layout, convert, run_global_to, Target};
+use crate::exec::plan::{check_inputs, make_sinks};
+use crate::error::{Error, Result};
+use crate::exec::{Engine, EngineConfig, GlobalStep, LocalEngine};
+use crate::io::{self, OutputOptions};
+use crate::raster::{DType, RasterSource};
+use std::path::{Path, PathBuf};
+
+/// Routing of `orogen accumulate --method`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AccumulateMethod {
+    /// D8 directions from `orogen flow`, exact across tiles.
+    #[default]
+    D8,
+    /// D-infinity (Tarboton 1997) from a filled DEM.
+    Dinf,
+    /// MFD, Quinn et al. 1991.
+    Quinn,
+    /// MFD, Holmgren 1994 (with [`AccumulateOptions::exponent`]).
+    Holmgren,
+    /// MFD, Freeman 1991.
+    Freeman,
+}
+
+impl std::str::FromStr for AccumulateMethod {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        Ok(match s {
+            "d8" => AccumulateMethod::D8,
+            "dinf" => AccumulateMethod::Dinf,
+            "quinn" => AccumulateMethod::Quinn,
+            "holmgren" => AccumulateMethod::Holmgren,
+            "freeman" => AccumulateMethod::Freeman,
+            m => {
+                return Err(Error::invalid(format!(
+                    "--method {m:?}: use d8, dinf, quinn, holmgren or freeman"
+                )))
+            }
+        })
+    }
+}
+
+/// Options of `orogen accumulate`.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct AccumulateOptions {
+    /// Routing.
+    pub method: AccumulateMethod,
+    /// Holmgren's exponent.
+    pub exponent: f64,
+    /// Weights raster (same size): accumulate its values instead of cells.
+    pub weights: Option<PathBuf>,
+}
+
+impl Default for AccumulateOptions {
+    fn default() -> Self {
+        AccumulateOptions {
+            method: AccumulateMethod::D8,
+            exponent: 4.0,
+            weights: None,
+        }
+    }
+}
+
+impl AccumulateOptions {
+    /// The multiple-flow routing, `None` for D8.
+    pub fn flow_method(&self) -> Option<FlowMethod> {
+        use crate::hydro::mfd::MfdMethod;
+        match self.method {
+            AccumulateMethod::D8 => None,
+            AccumulateMethod::Dinf => Some(FlowMethod::Dinf),
+            AccumulateMethod::Quinn => Some(FlowMethod::Mfd(MfdMethod::Quinn)),
+            AccumulateMethod::Holmgren => Some(FlowMethod::Mfd(MfdMethod::Holmgren(self.exponent))),
+            AccumulateMethod::Freeman => Some(FlowMethod::Mfd(MfdMethod::Freeman)),
+        }
+    }
+}
+
+/// What [`run`] did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct AccumulateOutcome {
+    /// Map rounds over tiles of a D∞/MFD accumulation (0: in memory, or D8).
+    pub rounds: usize,
+}
+
+/// Accumulate flow over `src` (D8 directions for [`AccumulateMethod::D8`],
+/// else a filled DEM) into `target` (f64, nodata -1).
+pub fn run(
+    src: &dyn RasterSource,
+    opts: &AccumulateOptions,
+    target: &Target,
+    cfg: &EngineConfig,
+) -> Result<AccumulateOutcome> {
+    let open_weights = || -> Result<Option<Box<dyn RasterSource>>> {
+        Ok(match &opts.weights {
+            Some(p) => Some(io::open_raster(p, &io::OpenOptions::default())?),
+            None => None,
+        })
+    };
+    if let Some(m) = opts.flow_method() {
+        let w = open_weights()?;
+        let rounds = accumulate_multi(
+            src,
+            w.as_deref(),
+            m,
+            &target.path,
+            &target.options,
+            target.tile,
+            cfg,
+        )?;
+        return Ok(AccumulateOutcome { rounds });
+    }
+    if src.info().dtype != DType::U8 {
+        return Err(Error::invalid(format!(
+            "{}: expected D8 directions (a byte raster from `orogen flow`), found {} cells",
+            src.info().path.display(),
+            src.info().dtype
+        )));
+    }
+    let w = open_weights()?;
+    let mut inputs: Vec<&dyn RasterSource> = vec![src];
+    if let Some(w) = &w {
+        inputs.push(w.as_ref());
+    }
+    let step = crate::hydro::tiled::TiledAccumulation {
+        weighted: opts.weights.is_some(),
+    };
+    run_global_to(
+        &step,
+        &inputs,
+        &target.path,
+        (DType::F64, Some(-1.0)),
+        &target.options,
+        target.tile,
+        cfg,
+    )?;
+    Ok(AccumulateOutcome { rounds: 0 })
+}
+/// Multiple-flow routing for `orogen accumulate --method`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum FlowMethod {
+    /// D-infinity (Tarboton 1997).
+    Dinf,
+    /// MFD (Quinn et al. 1991, Holmgren 1994, Freeman 1991).
+    Mfd(crate::hydro::mfd::MfdMethod),
+}
+
+/// Bytes per cell the in-memory D∞/MFD accumulation needs (fractions, DEM,
+/// D8 codes, weights, fixed-point result, f64 result).
+pub const MULTI_FLOW_BYTES_PER_CELL: u64 = 104;
+
+/// D∞ or MFD accumulation of a (filled) DEM. When the whole raster's working
+/// set ([`MULTI_FLOW_BYTES_PER_CELL`]) fits `cfg.memory_budget` it runs in
+/// memory in one pass (returns 0 rounds); otherwise across tiles. Both give
+/// the same bytes (exact fixed point, see [`crate::hydro::tiled_mfd`]).
+/// Across tiles: D8 directions of the DEM (for cells without a
+/// lower neighbour, [`crate::hydro::tiled::TiledD8`]) go to a temporary tile
+/// store next to `out` (removed afterwards), then
+/// [`crate::hydro::tiled_mfd::run_multi_accumulation`] accumulates cells, or
+/// the weights' values, and writes `out` (f64, nodata -1). Memory is
+/// O(tile × workers + total perimeter), independent of the raster size.
+/// Returns the number of map rounds the accumulation needed.
+pub fn accumulate_multi(
+    dem: &dyn RasterSource,
+    weights: Option<&dyn RasterSource>,
+    method: FlowMethod,
+    out: &Path,
+    oo: &OutputOptions,
+    tile: Option<usize>,
+    cfg: &EngineConfig,
+) -> Result<usize> {
+    use crate::hydro::tiled_mfd::{run_multi_accumulation, Router};
+    let mut inputs: Vec<&dyn RasterSource> = vec![dem];
+    if let Some(w) = weights {
+        inputs.push(w);
+    }
+    check_inputs(&inputs)?;
+    let info = dem.info();
+    let need = (info.width as u64)
+        .saturating_mul(info.height as u64)
+        .saturating_mul(MULTI_FLOW_BYTES_PER_CELL);
+    if need <= cfg.memory_budget && (info.width as u64) * (info.height as u64) <= u32::MAX as u64 {
+        let full = crate::raster::Window::full(info.width, info.height);
+        let z = crate::raster::read_window::<f32>(dem, full)?;
+        let flow = match method {
+            FlowMethod::Dinf => crate::hydro::dinf::dinf(&z)?.flow,
+            FlowMethod::Mfd(m) => crate::hydro::mfd::mfd_flow(&z, m)?,
+        };
+        drop(z);
+        let acc = match weights {
+            Some(w) => {
+                let wg = crate::raster::read_window::<f32>(w, full)?;
+                crate::hydro::mfd::accumulate_fractions(&flow, &wg)?
+            }
+            None => crate::hydro::mfd::accumulate_cells(&flow)?,
+        };
+        drop(flow);
+        let acc = acc.map(|v| if v.is_nan() { -1.0 } else { v });
+        let georef = info.georef.clone().with_nodata(Some(-1.0));
+        let mem = crate::raster::MemRaster::new(
+            crate::raster::AnyGrid::F64(acc),
+            georef,
+            info.path.clone(),
+        );
+        convert(&mem, out, oo, None, cfg)?;
+        return Ok(0);
+    }
+    let layout = choose_layout(dem, &[out.to_path_buf()], oo, tile);
+    let engine = LocalEngine::new(cfg.clone());
+    let name = out
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "accumulation".into());
+    let tmp = out.with_file_name(format!(".{name}.d8-tmp.tiles"));
+    let mut tmp_oo = oo.clone();
+    tmp_oo.store.tile = layout.tile;
+    tmp_oo.store.overwrite = true;
+    tmp_oo.store.sync = false;
+    let d8_step = crate::hydro::tiled::TiledD8;
+    let result = (|| -> Result<usize> {
+        let sinks = make_sinks(
+            d8_step.name(),
+            d8_step.params(),
+            &[dem],
+            std::slice::from_ref(&tmp),
+            &[(DType::U8, Some(crate::hydro::NODATA_DIR as f64))],
+            &tmp_oo,
+        )?;
+        engine.run_global_apply(&d8_step, &[dem], layout, sinks)?;
+        let d8 = io::open_raster(&tmp, &io::OpenOptions::default())?;
+        let mut acc_inputs: Vec<&dyn RasterSource> = vec![dem, d8.as_ref()];
+        if let Some(w) = weights {
+            acc_inputs.push(w);
+        }
+        let router = match method {
+            FlowMethod::Dinf => Router::Dinf,
+            FlowMethod::Mfd(m) => Router::Mfd(m),
+        };
+        let probe = crate::hydro::tiled_mfd::TiledMultiAccumulation::new(router, weights.is_some());
+        let sinks = make_sinks(
+            probe.name(),
+            probe.params(),
+            &acc_inputs,
+            &[out.to_path_buf()],
+            &[(DType::F64, Some(-1.0))],
+            oo,
+        )?;
+        let run = run_multi_accumulation(
+            &engine,
+            router,
+            weights.is_some(),
+            &acc_inputs,
+            layout,
+            sinks,
+        )?;
+        Ok(run.rounds)
+    })();
+    // Under MPI only rank 0 created the store (and every rank is past the
+    // engine's closing barrier): several ranks removing it would race.
+    let cleanup = if crate::exec::rank().0 == 0 {
+        std::fs::remove_dir_all(&tmp)
+    } else {
+        Ok(())
+    };
+    let rounds = result?;
+    if let Err(e) = cleanup {
+        if e.kind() != std::io::ErrorKind::NotFound {
+            return Err(Error::io(&tmp, e));
+        }
+    }
+    Ok(rounds)
+}

@@ -1,0 +1,46 @@
+//! `orogen fill`: fill depressions (Priority-Flood, Barnes, Lehman & Mulla
+//! 2014; exact across tiles after Barnes 2016). Nodata cells and the DEM's
+//! edge are outlets.
+
+use super::{run_global_to, Target};
+use crate::error::Result;
+use crate::exec::EngineConfig;
+use crate::raster::{DType, RasterSource};
+
+/// Options of `orogen fill` (none yet: the fill is parameter-free).
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FillOptions {}
+
+/// Fill the depressions of `dem` into `target` (f32; nodata from
+/// [`crate::hydro::out_nodata::elevation_nodata`]), exact across tiles.
+///
+/// ```
+/// use orogen::ops::{fill, Target};
+/// use orogen::raster::{read_window, GeoRef, Grid, MemRaster, Window};
+/// // A 5 x 5 plateau at 10 with a pit of 2 in the middle: the pit fills to 10.
+/// let dem = MemRaster::from_grid(Grid::from_fn(5, 5, |x, y| if (x, y) == (2, 2) { 2.0f32 } else { 10.0 }), GeoRef::pixel());
+/// let out = std::env::temp_dir().join(format!("orogen-doc-fill-{}.tif", std::process::id()));
+/// fill::run(&dem, &fill::FillOptions::default(), &Target::new(&out), &Default::default())?;
+/// let f = orogen::io::open_raster(&out, &Default::default())?;
+/// assert_eq!(read_window::<f32>(f.as_ref(), Window::new(2, 2, 1, 1))?.get(0, 0), 10.0);
+/// # std::fs::remove_file(&out)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn run(
+    dem: &dyn RasterSource,
+    _opts: &FillOptions,
+    target: &Target,
+    cfg: &EngineConfig,
+) -> Result<()> {
+    let nd = crate::hydro::out_nodata::elevation_nodata(dem)?;
+    run_global_to(
+        &crate::hydro::tiled::TiledFill,
+        &[dem],
+        &target.path,
+        (DType::F32, Some(nd)),
+        &target.options,
+        target.tile,
+        cfg,
+    )
+}

@@ -1,0 +1,71 @@
+//! `orogen fill-epsilon`: depression filling to a strictly draining epsilon
+//! surface, exact across tiles: each flat cell rises k ULPs above its fill
+//! level, k = its distance to the flat's exit (two global passes:
+//! `TiledFill` into a temporary tile store next to the output, then
+//! `TiledEpsilon`; see [`crate::hydro::tiled`]).
+
+use super::{choose_tile, run_global_to, Target};
+use crate::error::{Error, Result};
+use crate::exec::EngineConfig;
+use crate::raster::{DType, RasterSource};
+
+/// Options of `orogen fill-epsilon` (none yet: the surface is parameter-free).
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FillEpsilonOptions {}
+
+/// Fill, then raise every flat cell of `dem` by k ULPs (k = its distance to
+/// the flat's exit) into `target`; the temporary filled store is removed
+/// afterwards. Errors (instead of raising terrain) where a flat is too wide
+/// for f32 steps.
+pub fn run(
+    dem: &dyn RasterSource,
+    _opts: &FillEpsilonOptions,
+    target: &Target,
+    cfg: &EngineConfig,
+) -> Result<()> {
+    let out = &target.path;
+    let mut name = out.file_name().unwrap_or_default().to_os_string();
+    name.push(".fill-tmp.tiles");
+    let tmp = out.with_file_name(name);
+    let mut too = crate::io::OutputOptions::default();
+    too.store.overwrite = true;
+    too.store.sync = false;
+    too.store.tile = choose_tile(dem, target.tile);
+    let ty = (
+        DType::F32,
+        Some(crate::hydro::out_nodata::elevation_nodata(dem)?),
+    );
+    let result = (|| -> Result<()> {
+        run_global_to(
+            &crate::hydro::tiled::TiledFill,
+            &[dem],
+            &tmp,
+            ty,
+            &too,
+            target.tile,
+            cfg,
+        )?;
+        let filled = crate::io::open_raster(&tmp, &crate::io::OpenOptions::default())?;
+        run_global_to(
+            &crate::hydro::tiled::TiledEpsilon,
+            &[filled.as_ref()],
+            out,
+            ty,
+            &target.options,
+            target.tile,
+            cfg,
+        )?;
+        Ok(())
+    })();
+    // Under MPI only rank 0 created the store; the others removing it too would race.
+    if crate::exec::rank().0 == 0 && tmp.exists() {
+        std::fs::remove_dir_all(&tmp).map_err(|e| {
+            Error::invalid(format!(
+                "removing the temporary store {}: {e}",
+                tmp.display()
+            ))
+        })?;
+    }
+    result
+}

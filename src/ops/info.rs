@@ -1,0 +1,133 @@
+//! `orogen info`: describe a raster (size, type, georeference, nodata and,
+//! if asked, statistics from a global pass).
+
+use super::choose_tile;
+use crate::error::Result;
+use crate::exec::{Engine, EngineConfig, LocalEngine};
+use crate::io;
+use crate::raster::{DType, RasterSource, TileLayout};
+
+/// Options of `orogen info`.
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct InfoOptions {
+    /// Also compute min/max/mean (reads every cell).
+    pub stats: bool,
+}
+
+/// Describe `src` ([`describe`] with the options of `orogen info`).
+pub fn run(src: &dyn RasterSource, opts: &InfoOptions, cfg: &EngineConfig) -> Result<Description> {
+    describe(src, opts.stats, cfg)
+}
+
+/// What `orogen info` reports.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Description {
+    pub path: String,
+    pub format: String,
+    pub width: usize,
+    pub height: usize,
+    pub dtype: DType,
+    pub transform: [f64; 6],
+    pub epsg: Option<u32>,
+    pub geographic: bool,
+    pub nodata: Option<f64>,
+    pub raster_type: crate::raster::RasterType,
+    pub georeferenced: bool,
+    pub block: (usize, usize),
+    /// Cell size in metres at the middle row (east-west, north-south).
+    pub cell_size_m: (f64, f64),
+    pub stats: Option<crate::exec::stats::StatsSummary>,
+}
+
+/// Describe a raster (and compute its statistics with a global pass if asked).
+pub fn describe(src: &dyn RasterSource, stats: bool, cfg: &EngineConfig) -> Result<Description> {
+    let info = src.info();
+    let g = &info.georef;
+    let stats = if stats {
+        let step = crate::exec::stats::Stats::new(-1e300, 1e300, 1)?;
+        let info = src.info();
+        let layout = TileLayout::new(info.width, info.height, choose_tile(src, None));
+        Some(LocalEngine::new(cfg.clone()).run_global(&step, &[src], layout, Vec::new())?)
+    } else {
+        None
+    };
+    Ok(Description {
+        path: info.path.display().to_string(),
+        format: format!("{:?}", io::detect(&info.path).ok()),
+        width: info.width,
+        height: info.height,
+        dtype: info.dtype,
+        transform: g.transform,
+        epsg: g.crs.epsg,
+        geographic: g.crs.geographic,
+        nodata: g.nodata,
+        raster_type: g.raster_type,
+        georeferenced: g.georeferenced,
+        block: info.block,
+        cell_size_m: g.cell_size_m(info.height as i64 / 2),
+        stats,
+    })
+}
+
+/// Human-readable form of a [`Description`].
+pub fn describe_text(d: &Description) -> String {
+    use std::fmt::Write;
+    let mut s = String::new();
+    let _ = writeln!(s, "{}", d.path);
+    let _ = writeln!(
+        s,
+        "  size        {} x {} cells, {}",
+        d.width, d.height, d.dtype
+    );
+    let _ = writeln!(s, "  block       {} x {}", d.block.0, d.block.1);
+    if d.georeferenced {
+        let crs = match d.epsg {
+            Some(e) => format!("EPSG:{e}"),
+            None => "unknown CRS".into(),
+        };
+        let _ = writeln!(
+            s,
+            "  crs         {crs}{}",
+            if d.geographic { " (geographic)" } else { "" }
+        );
+        let t = d.transform;
+        let _ = writeln!(s, "  origin      ({}, {})", t[0], t[3]);
+        let _ = writeln!(
+            s,
+            "  pixel size  ({}, {}), rotation ({}, {})",
+            t[1], t[5], t[2], t[4]
+        );
+        let _ = writeln!(
+            s,
+            "  cell (m)    {:.3} x {:.3} at the middle row",
+            d.cell_size_m.0, d.cell_size_m.1
+        );
+        let _ = writeln!(s, "  raster type {:?}", d.raster_type);
+    } else {
+        let _ = writeln!(s, "  no georeferencing (pixel coordinates)");
+    }
+    match d.nodata {
+        Some(v) => {
+            let _ = writeln!(s, "  nodata      {v}");
+        }
+        None => {
+            let _ = writeln!(s, "  nodata      none");
+        }
+    }
+    if let Some(st) = &d.stats {
+        match (st.min, st.max, st.mean()) {
+            (Some(lo), Some(hi), Some(m)) => {
+                let _ = writeln!(
+                    s,
+                    "  stats       min {lo}, max {hi}, mean {m:.6}, {} valid cells, {} nodata",
+                    st.count, st.nodata
+                );
+            }
+            _ => {
+                let _ = writeln!(s, "  stats       no valid cells ({} nodata)", st.nodata);
+            }
+        }
+    }
+    s
+}

@@ -1,0 +1,202 @@
+//! `orogen orostats`: orometric feature vectors over blue-noise disks and a
+//! region profile (Argudo et al. 2019, Table 1; see [`crate::oro::stats`]),
+//! in memory.
+
+use crate::error::{Error, Result};
+use crate::exec::EngineConfig;
+use crate::oro::stats::{self, OroStats, StatsOptions};
+use crate::oro::EdgeConvention;
+use crate::raster::{GeoRef, Grid, RasterSource, Window};
+use std::path::{Path, PathBuf};
+
+/// A distance like `10km`, `500m` or `2500` (metres).
+pub fn parse_distance(s: &str) -> Result<f64> {
+    let t = s.trim().to_ascii_lowercase();
+    let (num, mult) = if let Some(v) = t.strip_suffix("km") {
+        (v, 1000.0)
+    } else if let Some(v) = t.strip_suffix('m') {
+        (v, 1.0)
+    } else {
+        (t.as_str(), 1.0)
+    };
+    let v: f64 = num.trim().parse().map_err(|e| {
+        Error::invalid(format!("{s:?}: expected a distance like 10km or 500m: {e}"))
+    })?;
+    let d = v * mult;
+    if !(d.is_finite() && d > 0.0) {
+        return Err(Error::invalid(format!("{s:?}: give a positive distance")));
+    }
+    Ok(d)
+}
+
+/// Read a whole DEM as f32 (NaN = nodata), refusing what the memory budget
+/// cannot hold (`bytes_per_cell` of working set).
+pub fn read_dem(
+    src: &dyn RasterSource,
+    bytes_per_cell: u64,
+    cfg: &EngineConfig,
+) -> Result<(Grid<f32>, GeoRef)> {
+    let info = src.info().clone();
+    let need = (info.width as u64) * (info.height as u64) * bytes_per_cell;
+    if need > cfg.memory_budget {
+        return Err(Error::invalid(format!(
+            "{}: this step runs in memory and needs about {:.1} GiB for {}x{} cells; raise --memory (e.g. --memory {}GiB)",
+            info.path.display(),
+            need as f64 / (1u64 << 30) as f64,
+            info.width,
+            info.height,
+            need.div_ceil(1 << 30)
+        )));
+    }
+    let dem = crate::raster::read_window::<f32>(src, Window::full(info.width, info.height))?;
+    Ok((dem, info.georef))
+}
+
+/// Bytes per cell of the in-memory orometric statistics.
+pub const OROSTATS_BYTES_PER_CELL: u64 = 40;
+
+/// Options of `orogen orostats`.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct OrostatsOptions {
+    /// Disk radius in metres.
+    pub radius: f64,
+    /// Minimum distance between disk centres in metres (at least R/2; `None`: R/2).
+    pub separation: Option<f64>,
+    /// Region label stored with every feature vector (for `orogen classify`).
+    pub label: String,
+    /// Seed of the blue-noise disk placement.
+    pub seed: u64,
+    /// Peaks with at least this prominence.
+    pub min_prominence: f64,
+    /// Edge and nodata convention.
+    pub edge: EdgeConvention,
+    /// Skip disks with a smaller fraction of valid cells.
+    pub min_valid: f64,
+    /// Also write the region profile (pooled distributions, JSON).
+    pub profile: Option<PathBuf>,
+}
+
+impl Default for OrostatsOptions {
+    fn default() -> Self {
+        OrostatsOptions {
+            radius: 10_000.0,
+            separation: None,
+            label: String::new(),
+            seed: 1,
+            min_prominence: 30.0,
+            edge: EdgeConvention::SeaLevel,
+            min_valid: 0.9,
+            profile: None,
+        }
+    }
+}
+
+impl OrostatsOptions {
+    /// Check the parameters and build the statistics' options.
+    pub fn stats_options(&self) -> Result<StatsOptions> {
+        let mut opts = StatsOptions::new(self.radius);
+        if let Some(s) = self.separation {
+            opts.separation_m = s;
+        }
+        if !(self.min_prominence.is_finite() && self.min_prominence >= 0.0) {
+            return Err(Error::invalid(format!(
+                "--min-prominence {}: give a prominence of 0 or more",
+                self.min_prominence
+            )));
+        }
+        if !(0.0..=1.0).contains(&self.min_valid) {
+            return Err(Error::invalid(format!(
+                "--min-valid {}: give a fraction between 0 and 1",
+                self.min_valid
+            )));
+        }
+        opts.seed = self.seed;
+        opts.min_prominence = self.min_prominence;
+        opts.convention = self.edge;
+        opts.min_valid_fraction = self.min_valid;
+        Ok(opts)
+    }
+}
+
+/// Check that `output` is named `.csv` or `.json`.
+pub fn check_output(output: &Path) -> Result<()> {
+    let ext = output
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    if ext != "csv" && ext != "json" {
+        return Err(Error::invalid(format!(
+            "-o {}: name the output .csv or .json",
+            output.display()
+        )));
+    }
+    Ok(())
+}
+
+/// The statistics of `dem` (read in memory), with the DEM's file name as
+/// the source of every vector.
+pub fn compute(
+    dem: &dyn RasterSource,
+    opts: &OrostatsOptions,
+    cfg: &EngineConfig,
+) -> Result<OroStats> {
+    let sopts = opts.stats_options()?;
+    let (grid, georef) = read_dem(dem, OROSTATS_BYTES_PER_CELL, cfg)?;
+    let source = dem
+        .info()
+        .path
+        .file_name()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    stats::orostats(&grid, &georef, &sopts, &opts.label, &source)
+}
+
+/// Write the feature vectors of `st` to `output` (`.csv` or `.json`) and the
+/// profile if `opts.profile` names a file; an error when no disk fits.
+/// Returns the files written.
+pub fn write(
+    st: &OroStats,
+    dem: &dyn RasterSource,
+    output: &Path,
+    opts: &OrostatsOptions,
+) -> Result<Vec<PathBuf>> {
+    check_output(output)?;
+    if st.disks.is_empty() {
+        return Err(Error::invalid(format!(
+            "{}: no disk of radius {} m with at least {:.0}% valid cells fits in the DEM; give a smaller -R or --min-valid",
+            dem.info().path.display(),
+            opts.radius,
+            opts.min_valid * 100.0
+        )));
+    }
+    let csv = output
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("csv"));
+    if csv {
+        stats::write_features_csv(output, &st.disks)?;
+    } else {
+        stats::write_features_json(output, &st.disks)?;
+    }
+    let mut files = vec![output.to_path_buf()];
+    if let Some(p) = &opts.profile {
+        st.profile.save(p)?;
+        files.push(p.clone());
+    }
+    Ok(files)
+}
+
+/// [`compute`], then [`write`].
+pub fn run(
+    dem: &dyn RasterSource,
+    output: &Path,
+    opts: &OrostatsOptions,
+    cfg: &EngineConfig,
+) -> Result<OroStats> {
+    check_output(output)?;
+    let st = compute(dem, opts, cfg)?;
+    write(&st, dem, output, opts)?;
+    Ok(st)
+}

@@ -1,0 +1,329 @@
+//! `orogen viewshed`: the R3 viewshed of one observer (u8: 1 visible, 0 not,
+//! 255 beyond the radius or nodata), the cumulative viewshed of several
+//! (u16 count of observers seeing each cell), or Fisher's fuzzy viewshed
+//! (f32 sum of distance-decay memberships); see [`crate::metrics::visibility`]
+//! (line of sight after Franklin & Ray 1994).
+//!
+//! Only the window around the observers (their radius, clipped to the DEM)
+//! is read and written, so the output covers that window, georeferenced.
+
+use super::{convert, Target};
+use crate::error::{Error, Result};
+use crate::exec::EngineConfig;
+use crate::metrics::registry::{parse_length, Length};
+use crate::metrics::visibility::{self, accumulate_viewshed, viewshed};
+use crate::raster::{read_window, DType, Grid, MemRaster, RasterInfo, RasterSource, Window};
+use std::path::{Path, PathBuf};
+
+/// Options of `orogen viewshed`.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ViewshedOptions {
+    /// Observers in the DEM's CRS (or col,row with `pixel`).
+    pub at: Vec<(f64, f64)>,
+    /// More observers from a CSV (x,y or lon,lat columns) or GeoJSON Points file.
+    pub points: Option<PathBuf>,
+    /// `at` holds pixel coordinates (col,row), not map coordinates.
+    pub pixel: bool,
+    /// Observer height above the ground (DEM units).
+    pub observer_height: f64,
+    /// Target height above the ground (DEM units).
+    pub target_height: f64,
+    /// Radius: a length such as `10km`, `500m` or `200c` (cells).
+    pub radius: String,
+    /// Correct for the earth's curvature and refraction.
+    pub curvature: bool,
+    /// Refraction coefficient (with `curvature`).
+    pub refraction: f64,
+    /// Fisher's fuzzy viewshed with distance-decay breakpoints (B1, B2).
+    pub fuzzy: Option<(f64, f64)>,
+}
+
+impl Default for ViewshedOptions {
+    fn default() -> Self {
+        ViewshedOptions {
+            at: Vec::new(),
+            points: None,
+            pixel: false,
+            observer_height: 1.7,
+            target_height: 0.0,
+            radius: "10km".into(),
+            curvature: false,
+            refraction: 0.13,
+            fuzzy: None,
+        }
+    }
+}
+
+/// `msg: e`, as the CLI prints a context over an error.
+fn ctx(msg: String, e: impl std::fmt::Display) -> Error {
+    Error::invalid(format!("{msg}: {e}"))
+}
+
+/// An `X,Y` pair of `--at` or `--fuzzy` (`what` names the option in errors).
+pub fn parse_pair(s: &str, what: &str) -> Result<(f64, f64)> {
+    let mut it = s.split(',').map(|v| v.trim().parse::<f64>());
+    match (it.next(), it.next(), it.next()) {
+        (Some(Ok(a)), Some(Ok(b)), None) if a.is_finite() && b.is_finite() => Ok((a, b)),
+        _ => Err(Error::invalid(format!(
+            "{what} {s:?}: expected two numbers separated by a comma, e.g. 350120,4590210"
+        ))),
+    }
+}
+
+/// Observer points (map coordinates) from a CSV or GeoJSON file.
+/// The observers of a point file: GeoJSON Points, or a CSV with x,y
+/// (lon,lat, easting,northing) columns.
+pub fn read_points(path: &Path) -> Result<Vec<(f64, f64)>> {
+    let meta =
+        std::fs::metadata(path).map_err(|e| ctx(format!("{}: cannot read", path.display()), e))?;
+    if meta.len() > 256 << 20 {
+        return Err(Error::invalid(format!(
+            "{}: {} bytes is too large for a point file (limit 256 MiB)",
+            path.display(),
+            meta.len()
+        )));
+    }
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| ctx(format!("{}: cannot read", path.display()), e))?;
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    let mut pts = Vec::new();
+    if ext == "geojson" || ext == "json" {
+        let v: serde_json::Value = serde_json::from_str(&text)
+            .map_err(|e| ctx(format!("{}: not valid JSON", path.display()), e))?;
+        let feats = v
+            .get("features")
+            .and_then(|f| f.as_array())
+            .ok_or_else(|| {
+                Error::invalid(format!(
+                    "{}: expected a GeoJSON FeatureCollection",
+                    path.display()
+                ))
+            })?;
+        for (i, f) in feats.iter().enumerate() {
+            let g = f.get("geometry");
+            let is_point = g.and_then(|g| g.get("type")).and_then(|t| t.as_str()) == Some("Point");
+            let c = g
+                .and_then(|g| g.get("coordinates"))
+                .and_then(|c| c.as_array());
+            match (is_point, c) {
+                (true, Some(c)) if c.len() >= 2 => {
+                    let (x, y) = (c[0].as_f64(), c[1].as_f64());
+                    match (x, y) {
+                        (Some(x), Some(y)) if x.is_finite() && y.is_finite() => pts.push((x, y)),
+                        _ => {
+                            return Err(Error::invalid(format!(
+                                "{}: feature {i} has non-numeric coordinates",
+                                path.display()
+                            )))
+                        }
+                    }
+                }
+                _ => {
+                    return Err(Error::invalid(format!(
+                        "{}: feature {i} is not a Point",
+                        path.display()
+                    )))
+                }
+            }
+        }
+    } else {
+        let mut lines = text.lines().filter(|l| !l.trim().is_empty());
+        let header: Vec<String> = lines
+            .next()
+            .ok_or_else(|| Error::invalid(format!("{}: empty CSV", path.display())))?
+            .split(',')
+            .map(|h| h.trim().trim_matches('"').to_ascii_lowercase())
+            .collect();
+        let col = |names: &[&str]| header.iter().position(|h| names.contains(&h.as_str()));
+        let (Some(cx), Some(cy)) = (
+            col(&["x", "lon", "longitude", "easting"]),
+            col(&["y", "lat", "latitude", "northing"]),
+        ) else {
+            return Err(Error::invalid(format!(
+                "{}: the CSV header needs x,y or lon,lat columns (found {:?})",
+                path.display(),
+                header
+            )));
+        };
+        for (i, l) in lines.enumerate() {
+            let f: Vec<&str> = l.split(',').collect();
+            let get = |c: usize| {
+                f.get(c)
+                    .and_then(|v| v.trim().parse::<f64>().ok())
+                    .filter(|v| v.is_finite())
+            };
+            match (get(cx), get(cy)) {
+                (Some(x), Some(y)) => pts.push((x, y)),
+                _ => {
+                    return Err(Error::invalid(format!(
+                        "{}: line {} has no numeric x,y",
+                        path.display(),
+                        i + 2
+                    )))
+                }
+            }
+        }
+    }
+    if pts.is_empty() {
+        return Err(Error::invalid(format!("{}: no points", path.display())));
+    }
+    Ok(pts)
+}
+
+/// Cell of a point, or an error naming the point and the DEM's extent.
+fn to_cell(info: &RasterInfo, p: (f64, f64), pixel: bool) -> Result<(usize, usize)> {
+    let (c, r) = if pixel {
+        p
+    } else {
+        info.georef.map_to_pixel(p.0, p.1).ok_or_else(|| {
+            Error::invalid(format!("{}: singular geotransform", info.path.display()))
+        })?
+    };
+    let (c, r) = (c.floor(), r.floor());
+    if !(c >= 0.0 && r >= 0.0 && c < info.width as f64 && r < info.height as f64) {
+        let (x0, y0) = info.georef.pixel_to_map(0.0, 0.0);
+        let (x1, y1) = info
+            .georef
+            .pixel_to_map(info.width as f64, info.height as f64);
+        return Err(Error::invalid(format!(
+            "observer {},{} is outside {} (cell {c},{r} of {}x{}; the DEM spans x {x0}..{x1}, y {y1}..{y0}): give a point inside the DEM",
+            p.0,
+            p.1,
+            info.path.display(),
+            info.width,
+            info.height
+        )));
+    }
+    Ok((c as usize, r as usize))
+}
+
+/// Run `orogen viewshed`.
+/// The viewshed of the observers of `opts` on `dem` into `target`.
+pub fn run(
+    dem: &dyn RasterSource,
+    opts: &ViewshedOptions,
+    target: &Target,
+    cfg: &EngineConfig,
+) -> Result<()> {
+    let a = opts;
+    let info = dem.info().clone();
+    let mut pts: Vec<(f64, f64)> = a.at.clone();
+    let n_at = pts.len();
+    if let Some(p) = &a.points {
+        pts.extend(read_points(p)?);
+    }
+    if pts.is_empty() {
+        return Err(Error::invalid(
+            "give an observer with --at X,Y (or --points FILE)",
+        ));
+    }
+    // --pixel applies to --at only; point files hold coordinates.
+    let cells: Vec<(usize, usize)> = pts
+        .iter()
+        .enumerate()
+        .map(|(i, &p)| to_cell(&info, p, a.pixel && i < n_at))
+        .collect::<Result<_>>()?;
+    let min_cell = crate::metrics::registry::min_cell_size_m(&info);
+    let radius_m = match parse_length(&a.radius).map_err(|e| ctx("--radius".into(), e))? {
+        Length::Metres(m) => m,
+        Length::Cells(c) => c as f64 * min_cell,
+    };
+    let fuzzy = a.fuzzy;
+    let opts = visibility::ViewshedOptions {
+        observer_height: a.observer_height,
+        target_height: a.target_height,
+        radius_m,
+        curvature: a.curvature.then_some(a.refraction),
+    };
+    visibility::check_options(&opts)?;
+    // The window: every observer's radius, clipped to the DEM.
+    let reach = (radius_m / min_cell).ceil();
+    if !(reach.is_finite()) {
+        return Err(Error::invalid(format!(
+            "--radius {}: not a usable distance",
+            a.radius
+        )));
+    }
+    let reach = reach.min(1e9) as i64;
+    let (mut x0, mut y0, mut x1, mut y1) = (i64::MAX, i64::MAX, i64::MIN, i64::MIN);
+    for &(c, r) in &cells {
+        x0 = x0.min(c as i64 - reach);
+        y0 = y0.min(r as i64 - reach);
+        x1 = x1.max(c as i64 + reach + 1);
+        y1 = y1.max(r as i64 + reach + 1);
+    }
+    let (x0, y0) = (x0.max(0), y0.max(0));
+    let (x1, y1) = (x1.min(info.width as i64), y1.min(info.height as i64));
+    let win = Window::new(x0, y0, (x1 - x0) as usize, (y1 - y0) as usize);
+    let need = win.w as u64 * win.h as u64 * 8;
+    if need > cfg.memory_budget {
+        return Err(Error::invalid(format!(
+            "{}: the viewshed window is {}x{} cells ({:.1} GiB in memory); use a smaller --radius or raise --memory",
+            info.path.display(),
+            win.w,
+            win.h,
+            need as f64 / (1u64 << 30) as f64
+        )));
+    }
+    let grid = read_window::<f32>(dem, win)?;
+    let georef = info.georef.shifted(win.x, win.y);
+    let local: Vec<(usize, usize)> = cells
+        .iter()
+        .map(|&(c, r)| (c - win.x as usize, r - win.y as usize))
+        .collect();
+    let cell_m = |row: usize| info.georef.cell_size_m(row as i64);
+    let mem = if local.len() == 1 && fuzzy.is_none() {
+        let (c, r) = local[0];
+        let v = viewshed(&grid, cell_m(r + win.y as usize), (c, r), &opts)
+            .map_err(|e| ctx(format!("observer {},{}", pts[0].0, pts[0].1), e))?;
+        MemRaster::from_grid(v, georef.with_nodata(Some(255.0)))
+    } else {
+        let mut acc = Grid::new(win.w, win.h, 0f32);
+        for (k, &(c, r)) in local.iter().enumerate() {
+            accumulate_viewshed(
+                &grid,
+                cell_m(r + win.y as usize),
+                (c, r),
+                &opts,
+                fuzzy,
+                &mut acc,
+            )
+            .map_err(|e| ctx(format!("observer {},{}", pts[k].0, pts[k].1), e))?;
+        }
+        if fuzzy.is_some() {
+            for (a, z) in acc.data_mut().iter_mut().zip(grid.data()) {
+                if z.is_nan() {
+                    *a = crate::metrics::METRIC_NODATA as f32;
+                }
+            }
+            MemRaster::from_grid(acc, georef.with_nodata(Some(crate::metrics::METRIC_NODATA)))
+        } else {
+            if local.len() > 65_534 {
+                return Err(Error::invalid(format!(
+                    "{} observers: at most 65534 for a u16 count",
+                    local.len()
+                )));
+            }
+            let counts: Vec<u16> = acc
+                .data()
+                .iter()
+                .zip(grid.data())
+                .map(|(&n, z)| if z.is_nan() { u16::MAX } else { n as u16 })
+                .collect();
+            MemRaster::from_grid(
+                Grid::from_vec(win.w, win.h, counts)?,
+                georef.with_nodata(Some(u16::MAX as f64)),
+            )
+        }
+    };
+    debug_assert!(matches!(
+        mem.grid().dtype(),
+        DType::U8 | DType::U16 | DType::F32
+    ));
+    convert(&mem, &target.path, &target.options, target.tile, cfg)
+}
