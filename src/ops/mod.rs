@@ -8,6 +8,11 @@ use crate::raster::{DType, RasterSource, TileLayout};
 use crate::store::Provenance;
 use std::path::{Path, PathBuf};
 
+pub mod erode;
+pub mod job;
+pub mod note;
+pub mod synth;
+
 /// Default work-tile size when neither input nor output is a tile store.
 pub const DEFAULT_TILE: usize = 1024;
 
