@@ -15,7 +15,6 @@ pub mod error;
 pub mod exec;
 pub mod hydro;
 pub mod io;
-pub mod job;
 pub mod metrics;
 pub mod ops;
 pub mod oro;

@@ -2,7 +2,7 @@
 //! Fuzz target: parse and plan a job file (`job::load`) against a small
 //! fixed command table.
 use libfuzzer_sys::fuzz_target;
-use orogen::job::CommandTable;
+use orogen::ops::job::CommandTable;
 
 struct Table;
 
@@ -31,5 +31,5 @@ impl CommandTable for Table {
 fuzz_target!(|data: &[u8]| {
     fuzz_common::serial_rayon();
     let p = fuzz_common::file("job.toml", data);
-    let _ = orogen::job::load(&p, &Table, None, None);
+    let _ = orogen::ops::job::load(&p, &Table, None, None);
 });

@@ -1,11 +1,13 @@
-//! `orogen synth noise`: seeded noise terrains (see `orogen::synth::noise`:
+//! `orogen synth noise`: the arguments of `orogen::ops::synth::noise` (see `orogen::synth::noise`:
 //! fBm, ridged multifractal, billow, simplex, domain-warped, diamond-square,
 //! power-law spectral), generated tile by tile and streamed to any output, so
 //! a tile store of any size is written in bounded memory.
 
-use crate::{engine, output_options, wrote, Out, Run};
-use anyhow::{bail, Context, Result};
+use super::erode::printer;
+use crate::{engine, output_options, Out, Run};
+use anyhow::Result;
 use clap::{Args, ValueEnum};
+use orogen::ops::synth::noise::{self, NoiseOptions};
 use orogen::synth::NoiseKind;
 
 /// The kinds of noise, as named on the command line.
@@ -96,31 +98,12 @@ pub struct NoiseArgs {
     pub run: Run,
 }
 
-/// Parse `WxH` or `N`.
-pub fn parse_size(s: &str) -> Result<(usize, usize)> {
-    let parse = |t: &str| -> Result<usize> {
-        t.trim()
-            .parse::<usize>()
-            .with_context(|| format!("--size: '{t}' is not a whole number of cells"))
-    };
-    let (w, h) = match s.split_once(['x', 'X']) {
-        Some((w, h)) => (parse(w)?, parse(h)?),
-        None => {
-            let n = parse(s)?;
-            (n, n)
-        }
-    };
-    if w == 0 || h == 0 {
-        bail!("--size must be at least 1x1 (got {s})");
-    }
-    Ok((w, h))
-}
-
 /// Generate and write the terrain.
 pub fn run(a: NoiseArgs) -> Result<()> {
-    let (w, h) = parse_size(&a.size)?;
-    let noise = orogen::synth::Noise {
+    let opts = NoiseOptions {
         kind: a.kind.into(),
+        size: a.size,
+        cell: a.cell,
         seed: a.seed,
         octaves: a.octaves,
         lacunarity: a.lacunarity,
@@ -133,11 +116,11 @@ pub fn run(a: NoiseArgs) -> Result<()> {
         warp: a.warp,
         blend: a.blend,
         beta: a.beta,
+        output: a.out.output.clone(),
+        tile: a.run.tile,
     };
-    let src = orogen::synth::NoiseSource::new(noise, w, h, a.cell)?;
     let cfg = engine(&a.run)?;
     let oo = output_options(&a.out.fmt)?;
-    orogen::ops::convert(&src, &a.out.output, &oo, a.run.tile, &cfg)?;
-    wrote(&a.out.output);
+    noise::run(&opts, &oo, &cfg, &mut printer(a.run.quiet))?;
     Ok(())
 }

@@ -1,17 +1,14 @@
-//! `orogen synth profile | divide-tree | from-tree | orometric`: orometric
-//! terrain synthesis (see `orogen::synth::orometric`). The profile and the
-//! divide tree are JSON files a user may edit between the steps.
+//! `orogen synth profile | divide-tree | from-tree | orometric`: the
+//! arguments of `orogen::ops::synth::orometric` (orometric terrain
+//! synthesis). The profile and the divide tree are JSON files a user may
+//! edit between the steps.
 
-use crate::{engine, output_options, wrote, In, Out, Run};
-use anyhow::{bail, Context, Result};
+use super::erode::printer;
+use crate::{engine, output_options, In, Out, Run};
+use anyhow::Result;
 use clap::Args;
-use orogen::io::{open_raster, OpenOptions};
-use orogen::raster::{read_window, Grid, Window};
-use orogen::synth::orometric::{
-    build_terrain, synthesize_tree, SynthPeak, SynthProfile, SynthTree, TerrainModel,
-    TerrainOptions, TreeOptions,
-};
-use std::path::{Path, PathBuf};
+use orogen::ops::synth::orometric as oro;
+use std::path::PathBuf;
 
 /// Arguments of `orogen synth profile`.
 #[derive(Args)]
@@ -221,353 +218,108 @@ pub struct OrometricArgs {
     pub run: Run,
 }
 
+impl TreeArgs {
+    /// The operation's options.
+    pub fn options(&self) -> oro::TreeSynthOptions {
+        oro::TreeSynthOptions {
+            profile: self.profile.clone(),
+            size: self.size.clone(),
+            cell: self.cell,
+            seed: self.seed,
+            peaks: self.peaks,
+            rho: self.rho,
+            density_map: self.density_map.clone(),
+            elevation_map: self.elevation_map.clone(),
+            fixed_peaks: self.fixed_peaks.clone(),
+            isolation_stretch: self.isolation_stretch,
+            ridge_contrast: self.ridge_contrast,
+            ridge_base: self.ridge_base,
+            type_blend_m: self.type_blend_m,
+            no_refine: self.no_refine,
+            passes: self.passes,
+            ridge_attraction: self.ridge_attraction,
+            type_map: self.type_map.clone(),
+            type_profiles: self.type_profiles.clone(),
+            paste: self.paste.clone(),
+            paste_window: self.paste_window.clone(),
+            paste_at: self.paste_at.clone(),
+        }
+    }
+}
+
+impl TerrainArgs {
+    /// The operation's options.
+    pub fn options(&self) -> oro::TerrainSynthOptions {
+        oro::TerrainSynthOptions {
+            terrain: match self.terrain {
+                TerrainKind::Tin => oro::TerrainKind::Tin,
+                TerrainKind::Tents => oro::TerrainKind::Tents,
+            },
+            valley_width: self.valley_width,
+            river_slope: self.river_slope,
+            slope: self.slope,
+            spacing: self.spacing,
+            noise: self.noise,
+            preview: self.preview.clone(),
+            erode: self.erode,
+            erode_radius: self.erode_radius,
+            erode_k: self.erode_k,
+        }
+    }
+}
+
 /// `orogen synth profile`.
 pub fn run_profile(a: ProfileArgs) -> Result<()> {
-    let path = &a.input.input;
-    let is_json = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("json"));
-    let mut prof = if is_json {
-        SynthProfile::load(path)?
-    } else {
-        let src = crate::open(&a.input)?;
-        let dem = read_all(&*src, path)?;
-        let name = path
-            .file_stem()
-            .and_then(|s| s.to_str())
-            .unwrap_or("region")
-            .to_string();
-        let label = a.label.clone().unwrap_or_else(|| name.clone());
-        SynthProfile::from_dem(
-            &dem,
-            &src.info().georef,
-            a.min_prominence,
-            &label,
-            &path.display().to_string(),
-        )
-        .with_context(|| format!("profile of {}", path.display()))?
+    let opts = oro::ProfileOptions {
+        input: a.input.input.clone(),
+        min_prominence: a.min_prominence,
+        label: a.label,
+        scale_prominence: a.scale_prominence,
+        scale_density: a.scale_density,
+        output: a.output,
     };
-    if let Some(l) = &a.label {
-        prof.label = l.clone();
-    }
-    if let Some(f) = a.scale_prominence {
-        prof.scale_prominence(f)?;
-    }
-    if let Some(f) = a.scale_density {
-        prof.scale_density(f)?;
-    }
-    prof.save(&a.output)?;
-    wrote(&a.output);
+    oro::run_profile(&opts, &a.input.png.open_options(), &mut printer(false))?;
     Ok(())
-}
-
-/// Largest map (density, elevation) read into memory, cells.
-const MAX_MAP_CELLS: usize = 1 << 26;
-
-fn read_all(src: &dyn orogen::raster::RasterSource, path: &Path) -> Result<Grid<f32>> {
-    let (w, h) = (src.info().width, src.info().height);
-    if w.saturating_mul(h) > 1 << 30 {
-        bail!(
-            "{}: {w}x{h} cells is too large to measure in memory; crop it first",
-            path.display()
-        );
-    }
-    Ok(read_window::<f32>(src, Window::full(w, h))?)
-}
-
-fn read_map(path: &Path) -> Result<Grid<f32>> {
-    let src = open_raster(path, &OpenOptions::default())?;
-    let (w, h) = (src.info().width, src.info().height);
-    if w.saturating_mul(h) > MAX_MAP_CELLS {
-        bail!(
-            "{}: a control map of {w}x{h} cells is larger than needed (at most {MAX_MAP_CELLS} cells); downsample it",
-            path.display()
-        );
-    }
-    Ok(read_window::<f32>(&*src, Window::full(w, h))?)
-}
-
-/// Fixed peaks from GeoJSON points with an "elevation" property.
-fn read_fixed(path: &Path, h_cells: usize, cell: f64) -> Result<Vec<SynthPeak>> {
-    let meta = std::fs::metadata(path).with_context(|| format!("{}", path.display()))?;
-    if meta.len() > 256 << 20 {
-        bail!("{}: fixed-peak file over 256 MiB", path.display());
-    }
-    let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
-    let v: serde_json::Value =
-        serde_json::from_str(&text).with_context(|| format!("{}: not JSON", path.display()))?;
-    let Some(feats) = v.get("features").and_then(|f| f.as_array()) else {
-        bail!(
-            "{}: expected a GeoJSON FeatureCollection of points with an \"elevation\" property",
-            path.display()
-        );
-    };
-    let hm = h_cells as f64 * cell;
-    let mut out = Vec::new();
-    for (i, f) in feats.iter().enumerate() {
-        let c = f
-            .pointer("/geometry/coordinates")
-            .and_then(|c| c.as_array())
-            .filter(|c| c.len() >= 2);
-        let (Some(c), Some(z)) = (
-            c,
-            f.pointer("/properties/elevation").and_then(|z| z.as_f64()),
-        ) else {
-            bail!(
-                "{}: feature {i} is not a point with a numeric \"elevation\" property",
-                path.display()
-            );
-        };
-        let (Some(x), Some(y)) = (c[0].as_f64(), c[1].as_f64()) else {
-            bail!(
-                "{}: feature {i} has non-numeric coordinates",
-                path.display()
-            );
-        };
-        out.push(SynthPeak {
-            x,
-            y: hm - y,
-            elevation: z,
-            fixed: true,
-        });
-    }
-    Ok(out)
-}
-
-fn make_tree(t: &TreeArgs) -> Result<SynthTree> {
-    let prof = SynthProfile::load(&t.profile)?;
-    let (w, h) = super::synth_noise::parse_size(&t.size)?;
-    let mut o = TreeOptions::new(w, h, t.cell, t.seed);
-    o.n_peaks = t.peaks;
-    o.rho = t.rho;
-    o.isolation_stretch = t.isolation_stretch;
-    o.ridge_contrast = t.ridge_contrast;
-    o.ridge_base = t.ridge_base;
-    o.type_blend_m = t.type_blend_m;
-    o.refine = !t.no_refine;
-    if let Some(p) = &t.density_map {
-        o.density_map = Some(read_map(p)?);
-    }
-    if let Some(p) = &t.elevation_map {
-        o.elevation_map = Some(read_map(p)?);
-    }
-    if let Some(p) = &t.fixed_peaks {
-        o.fixed_peaks = read_fixed(p, h, t.cell)?;
-    }
-    author_options(t, &mut o)?;
-    Ok(synthesize_tree(&prof, &o)?)
-}
-
-/// Parse "a,b,…" into exactly `n` integers.
-fn ints(s: &str, n: usize, what: &str) -> Result<Vec<i64>> {
-    let v: Vec<i64> = s
-        .split(',')
-        .map(|x| x.trim().parse::<i64>())
-        .collect::<std::result::Result<_, _>>()
-        .with_context(|| format!("{what} {s:?}: expected {n} integers separated by commas"))?;
-    if v.len() != n {
-        bail!("{what} {s:?}: expected {n} integers separated by commas");
-    }
-    Ok(v)
-}
-
-/// The multi-pass, type-map and pasted-fragment options of `t` into `o`.
-fn author_options(t: &TreeArgs, o: &mut TreeOptions) -> Result<()> {
-    o.passes = t.passes;
-    o.ridge_attraction = t.ridge_attraction;
-    if let Some(p) = &t.type_map {
-        let is_geojson = p
-            .extension()
-            .and_then(|e| e.to_str())
-            .is_some_and(|e| e.eq_ignore_ascii_case("geojson") || e.eq_ignore_ascii_case("json"));
-        let labels = if is_geojson {
-            // 512 cells along the longer side: finer than any region matters.
-            let (w, h) = (o.width as f64, o.height as f64);
-            let (c, r) = if w >= h {
-                (512, ((512.0 * h / w).ceil() as usize).max(1))
-            } else {
-                (((512.0 * w / h).ceil() as usize).max(1), 512)
-            };
-            orogen::synth::orometric::typemap::rasterize_geojson(p, w * o.cell, h * o.cell, c, r)?
-        } else {
-            read_map(p)?
-        };
-        let mut regions = Vec::new();
-        for tp in &t.type_profiles {
-            let Some((l, f)) = tp.split_once('=') else {
-                bail!("--type-profile {tp:?}: expected LABEL=PROFILE.json");
-            };
-            let l: i64 = l
-                .trim()
-                .parse()
-                .with_context(|| format!("--type-profile {tp:?}: the label must be an integer"))?;
-            regions.push((l, SynthProfile::load(Path::new(f.trim()))?));
-        }
-        o.type_map = Some(
-            orogen::synth::orometric::TypeMap::new(labels, regions)
-                .with_context(|| format!("type map {}", p.display()))?,
-        );
-    } else if !t.type_profiles.is_empty() {
-        bail!("--type-profile needs --type-map");
-    }
-    if let Some(csv) = &t.paste {
-        let Some(win) = &t.paste_window else {
-            bail!("--paste needs --paste-window COL,ROW,WIDTH,HEIGHT (cells of the real DEM)");
-        };
-        let w = ints(win, 4, "--paste-window")?;
-        if w[2] <= 0 || w[3] <= 0 {
-            bail!("--paste-window {win}: the width and height must be > 0");
-        }
-        let at = ints(&t.paste_at, 2, "--paste-at")?;
-        let frag = orogen::synth::orometric::Fragment::from_peaks_csv(
-            csv,
-            Window::new(w[0], w[1], w[2] as usize, w[3] as usize),
-            t.cell,
-        )?;
-        let (peaks, ridges, rect) = frag.placed(
-            at[0] as f64 * t.cell,
-            at[1] as f64 * t.cell,
-            o.fixed_peaks.len(),
-        );
-        o.fixed_peaks.extend(peaks);
-        o.fixed_ridges.extend(ridges);
-        o.keep_out.push(rect);
-    }
-    Ok(())
-}
-
-fn terrain_opts(t: &TerrainArgs) -> TerrainOptions {
-    TerrainOptions {
-        slope: t.slope,
-        spacing_m: t.spacing,
-        noise_amplitude: t.noise,
-        model: match t.terrain {
-            TerrainKind::Tin => TerrainModel::Tin,
-            TerrainKind::Tents => TerrainModel::Tents,
-        },
-        valley_width: t.valley_width,
-        river_slope: t.river_slope,
-        ..TerrainOptions::default()
-    }
-}
-
-fn write_terrain(tree: &SynthTree, t: &TerrainArgs, out: &Out, run: &Run) -> Result<()> {
-    let ter = build_terrain(tree, &terrain_opts(t))?;
-    let cfg = engine(run)?;
-    let oo = output_options(&out.fmt)?;
-    if t.erode == 0 {
-        orogen::ops::convert(&*ter, &out.output, &oo, run.tile, &cfg)?;
-    } else {
-        let eroded = erode_keeping_tree(tree, &*ter, t, &cfg)?;
-        orogen::ops::convert(&eroded, &out.output, &oo, run.tile, &cfg)?;
-    }
-    wrote(&out.output);
-    if let Some(p) = &t.preview {
-        let written = orogen::io::open_raster(&out.output, &orogen::io::OpenOptions::default())?;
-        orogen::tiles::render::render_preview(
-            written.as_ref(),
-            p,
-            &orogen::tiles::render::RenderOptions::default(),
-        )?;
-        wrote(p);
-    }
-    Ok(())
-}
-
-/// Constrained erosion of the rendered terrain: the cells holding the tree's
-/// peaks and saddles are the fixed points (`erosion::constrained`).
-fn erode_keeping_tree(
-    tree: &SynthTree,
-    ter: &dyn orogen::raster::RasterSource,
-    t: &TerrainArgs,
-    cfg: &orogen::exec::EngineConfig,
-) -> Result<orogen::raster::MemRaster> {
-    use orogen::erosion::constrained::{erode_constrained, ConstrainedParams};
-    use orogen::raster::{AnyGrid, MemRaster};
-    let info = ter.info().clone();
-    // Heights, receivers, stack, areas, donors and queues of the in-memory solver.
-    let need = info.width as u64 * info.height as u64 * 100;
-    if need > cfg.memory_budget {
-        bail!(
-            "--erode runs in memory and needs about {:.1} GiB for {}x{} cells; raise --memory or drop --erode",
-            need as f64 / (1u64 << 30) as f64,
-            info.width,
-            info.height
-        );
-    }
-    if !(t.erode_k.is_finite() && t.erode_k > 0.0) {
-        bail!("--erode-k {}: give an erodibility > 0", t.erode_k);
-    }
-    let radius = t.erode_radius.unwrap_or(10.0 * tree.cell);
-    if !(radius.is_finite() && radius > 0.0) {
-        bail!("--erode-radius {radius}: give a radius in metres > 0");
-    }
-    let mut h = read_window::<f32>(ter, Window::full(info.width, info.height))?;
-    let cell_of = |x: f64, y: f64| -> Option<(usize, usize)> {
-        let (c, r) = ((x / tree.cell).floor(), (y / tree.cell).floor());
-        (c >= 0.0 && r >= 0.0 && (c as usize) < info.width && (r as usize) < info.height)
-            .then_some((c as usize, r as usize))
-    };
-    let mut fixed: Vec<(usize, usize)> = tree
-        .peaks
-        .iter()
-        .map(|p| (p.x, p.y))
-        .chain(tree.saddles.iter().map(|s| (s.x, s.y)))
-        .filter_map(|(x, y)| cell_of(x, y))
-        .collect();
-    fixed.sort_unstable();
-    fixed.dedup();
-    let mut p = ConstrainedParams {
-        iterations: t.erode,
-        ..ConstrainedParams::default()
-    };
-    p.stream.k = t.erode_k;
-    // The tree's elevations are kept to within a centimetre.
-    p.tolerance = 0.01;
-    erode_constrained(&mut h, tree.cell, &fixed, radius, &p)?;
-    Ok(MemRaster::new(
-        AnyGrid::F32(h),
-        info.georef.clone(),
-        info.path.clone(),
-    ))
 }
 
 /// `orogen synth divide-tree`.
 pub fn run_divide_tree(a: DivideTreeArgs) -> Result<()> {
-    let tree = make_tree(&a.tree)?;
-    tree.save(&a.output)?;
-    wrote(&a.output);
-    if let Some(g) = &a.geojson {
-        orogen::io::atomic::write_file_atomic(g, tree.to_geojson().as_bytes())?;
-        wrote(g);
-    }
+    let opts = oro::DivideTreeOptions {
+        tree: a.tree.options(),
+        output: a.output,
+        geojson: a.geojson,
+    };
+    oro::run_divide_tree(&opts, &mut printer(false))?;
     Ok(())
 }
 
 /// `orogen synth from-tree`.
 pub fn run_from_tree(a: FromTreeArgs) -> Result<()> {
-    let mut tree = SynthTree::load(&a.tree)?;
-    if let Some(e) = &a.edits {
-        let edits = orogen::synth::orometric::TreeEdits::load(e)?;
-        tree = orogen::synth::orometric::apply_edits(&tree, &edits)
-            .with_context(|| format!("edits {}", e.display()))?;
-        if let Some(p) = &a.edited_tree {
-            tree.save(p)?;
-            wrote(p);
-        }
-    } else if a.edited_tree.is_some() {
-        bail!("--edited-tree needs --edits");
-    }
-    write_terrain(&tree, &a.terrain, &a.out, &a.run)
+    let cfg = engine(&a.run)?;
+    let oo = output_options(&a.out.fmt)?;
+    let opts = oro::FromTreeOptions {
+        tree: a.tree,
+        edits: a.edits,
+        edited_tree: a.edited_tree,
+        terrain: a.terrain.options(),
+        output: a.out.output.clone(),
+        tile: a.run.tile,
+    };
+    oro::run_from_tree(&opts, &oo, &cfg, &mut printer(a.run.quiet))?;
+    Ok(())
 }
 
 /// `orogen synth orometric`.
 pub fn run_orometric(a: OrometricArgs) -> Result<()> {
-    let tree = make_tree(&a.tree)?;
-    if let Some(p) = &a.tree_out {
-        tree.save(p)?;
-        wrote(p);
-    }
-    write_terrain(&tree, &a.terrain, &a.out, &a.run)
+    let cfg = engine(&a.run)?;
+    let oo = output_options(&a.out.fmt)?;
+    let opts = oro::OrometricOptions {
+        tree: a.tree.options(),
+        terrain: a.terrain.options(),
+        tree_out: a.tree_out,
+        output: a.out.output.clone(),
+        tile: a.run.tile,
+    };
+    oro::run_orometric(&opts, &oo, &cfg, &mut printer(a.run.quiet))?;
+    Ok(())
 }

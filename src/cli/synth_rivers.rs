@@ -1,16 +1,11 @@
-//! `orogen synth rivers`: river-network terrain (see
-//! `orogen::synth::rivers`): the river graph is built once, then the terrain
-//! is rasterised tile by tile and streamed to any output.
+//! `orogen synth rivers`: the arguments of `orogen::ops::synth::rivers`
+//! (river-network terrain, see `orogen::synth::rivers`).
 
-use super::synth_noise::parse_size;
-use super::synth_tectonic::{parse_xy, preview};
-use crate::{engine, output_options, wrote, Out, Run};
-use anyhow::{bail, Result};
+use super::erode::printer;
+use crate::{engine, output_options, Out, Run};
+use anyhow::Result;
 use clap::Args;
-use orogen::raster::{Crs, GeoRef};
-use orogen::synth::rivers::{network_geojson, LandMask, RiverNetwork, RiverParams, RiverTerrain};
-use orogen::synth::vector::VectorMap;
-use orogen::tiles::render::RenderKind;
+use orogen::ops::synth::rivers::{self, RiversOptions};
 use std::path::PathBuf;
 
 /// Arguments of `orogen synth rivers`.
@@ -81,43 +76,16 @@ pub struct RiversArgs {
 
 /// Build the network and write the terrain.
 pub fn run(a: RiversArgs) -> Result<()> {
-    let (w, h) = parse_size(&a.size)?;
-    if !(a.cell.is_finite() && a.cell > 0.0) {
-        bail!("--cell must be a positive number of metres");
-    }
-    let (x0, y0) = match &a.origin {
-        Some(o) => parse_xy(o, "--origin")?,
-        None => (0.0, h as f64 * a.cell),
-    };
-    let georef = GeoRef::north_up(x0, y0, a.cell, Crs::default());
-    let mask = match &a.coast {
-        Some(path) => {
-            let map = VectorMap::read(path)?;
-            if map.coasts.is_empty() {
-                bail!("{}: no coastline polygons", path.display());
-            }
-            let px = match a.map_units.as_str() {
-                "crs" => orogen::synth::tectonic::map_to_pixels(&map, &georef)?,
-                "pixels" => map,
-                u => bail!("--map-units {u:?}: use crs or pixels"),
-            };
-            LandMask::Rings(px.coasts)
-        }
-        None => LandMask::Noise {
-            fbm: orogen::synth::Fbm {
-                seed: a.seed ^ 0x1a4d,
-                octaves: 6,
-                wavelength: a.land_wavelength.unwrap_or(w.max(h) as f64 / 2.0),
-                warp: 0.0,
-                ..Default::default()
-            },
-            threshold: a.land_threshold,
-        },
-    };
-    let p = RiverParams {
+    let opts = RiversOptions {
+        size: a.size,
+        cell: a.cell,
+        origin: a.origin,
         seed: a.seed,
         radius: a.radius,
-        mask,
+        coast: a.coast,
+        map_units: a.map_units,
+        land_wavelength: a.land_wavelength,
+        land_threshold: a.land_threshold,
         inertia: a.inertia,
         jitter: a.jitter,
         channel_slope: a.channel_slope,
@@ -126,20 +94,13 @@ pub fn run(a: RiversArgs) -> Result<()> {
         max_slope: a.max_slope,
         hill_slope: a.hill_slope,
         sea_depth: a.sea_depth,
+        network: a.network,
+        preview: a.preview,
+        output: a.out.output.clone(),
+        tile: a.run.tile,
     };
     let cfg = engine(&a.run)?;
     let oo = output_options(&a.out.fmt)?;
-    let net = RiverNetwork::build(w, h, a.cell, &p)?;
-    if let Some(path) = &a.network {
-        let text = serde_json::to_string(&network_geojson(&net, &georef))?;
-        orogen::io::atomic::write_file_atomic(path, text.as_bytes())?;
-        wrote(path);
-    }
-    let src = RiverTerrain::new(net, w, h, a.cell, a.radius, a.sea_depth, Some(georef))?;
-    orogen::ops::convert(&src, &a.out.output, &oo, a.run.tile, &cfg)?;
-    wrote(&a.out.output);
-    if let Some(pv) = &a.preview {
-        preview(&src, pv, RenderKind::Elevation)?;
-    }
+    rivers::run(&opts, &oo, &cfg, &mut printer(a.run.quiet))?;
     Ok(())
 }

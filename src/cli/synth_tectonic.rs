@@ -1,19 +1,12 @@
-//! `orogen synth tectonic`: tectonic folds from a GeoJSON map (see
-//! `orogen::synth::tectonic`), streamed tile by tile to any output; optional
-//! intermediates (plates, velocity, folds, watershed map) and previews.
+//! `orogen synth tectonic`: the arguments of `orogen::ops::synth::tectonic`
+//! (tectonic folds from a GeoJSON map, see `orogen::synth::tectonic`).
 
-use super::synth_noise::parse_size;
-use crate::{engine, output_options, wrote, Out, Run};
-use anyhow::{bail, Context, Result};
+use super::erode::printer;
+use crate::{engine, output_options, Out, Run};
+use anyhow::Result;
 use clap::Args;
-use orogen::raster::{Crs, GeoRef, RasterSource};
-use orogen::synth::tectonic::{
-    map_to_pixels, TectonicLayer, TectonicModel, TectonicParams, TectonicSource,
-};
-use orogen::synth::vector::VectorMap;
-use orogen::tiles::render::{render_preview, RenderKind, RenderOptions};
-use std::path::{Path, PathBuf};
-use std::sync::Arc;
+use orogen::ops::synth::tectonic::{self, TectonicOptions};
+use std::path::PathBuf;
 
 /// Arguments of `orogen synth tectonic`.
 #[derive(Args)]
@@ -99,113 +92,16 @@ pub struct TectonicArgs {
     pub run: Run,
 }
 
-/// Parse `X,Y`.
-pub fn parse_xy(s: &str, what: &str) -> Result<(f64, f64)> {
-    let (a, b) = s
-        .split_once(',')
-        .with_context(|| format!("{what} {s:?}: expected X,Y"))?;
-    let p = |t: &str| -> Result<f64> {
-        let v: f64 = t
-            .trim()
-            .parse()
-            .with_context(|| format!("{what} {s:?}: {t:?} is not a number"))?;
-        if !v.is_finite() {
-            bail!("{what} {s:?}: coordinates must be finite");
-        }
-        Ok(v)
-    };
-    Ok((p(a)?, p(b)?))
-}
-
-/// Output size, georeference and the map in pixel coordinates.
-pub fn domain(
-    map: &VectorMap,
-    units: &str,
-    size: Option<&str>,
-    cell: f64,
-    origin: Option<&str>,
-    margin: f64,
-) -> Result<(usize, usize, GeoRef, VectorMap)> {
-    if !(cell.is_finite() && cell > 0.0) {
-        bail!("--cell must be a positive number of metres");
-    }
-    if !(margin.is_finite() && (0.0..=10.0).contains(&margin)) {
-        bail!("--margin must be in 0..10");
-    }
-    let size = size.map(parse_size).transpose()?;
-    let bb = map.bbox();
-    let fit = |extent: f64| -> Result<usize> {
-        let n = (extent / cell).ceil();
-        if !(1.0..=1e6).contains(&n) {
-            bail!("the map's extent gives {n} cells at --cell {cell}; give --size or a different --cell (1..1000000 cells a side)");
-        }
-        Ok(n as usize)
-    };
-    match units {
-        "pixels" => {
-            if origin.is_some() {
-                bail!("--origin applies to --map-units crs only");
-            }
-            let (w, h) = match size {
-                Some(s) => s,
-                None => {
-                    let b = bb.context("the map is empty; give --size")?;
-                    let m = margin * (b[2].max(b[3]));
-                    (fit((b[2] + m) * cell)?, fit((b[3] + m) * cell)?)
-                }
-            };
-            let g = GeoRef::north_up(0.0, h as f64 * cell, cell, Crs::default());
-            Ok((w, h, g, map.clone()))
-        }
-        "crs" => {
-            let b = bb.context("the map is empty")?;
-            let m = margin * (b[2] - b[0]).max(b[3] - b[1]);
-            let (x0, y0) = match origin {
-                Some(o) => parse_xy(o, "--origin")?,
-                None => (b[0] - m, b[3] + m),
-            };
-            let (w, h) = match size {
-                Some(s) => s,
-                None => (fit(b[2] + m - x0)?, fit(y0 - (b[1] - m))?),
-            };
-            let g = GeoRef::north_up(x0, y0, cell, Crs::default());
-            let px = map_to_pixels(map, &g)?;
-            Ok((w, h, g, px))
-        }
-        u => bail!("--map-units {u:?}: use crs or pixels"),
-    }
-}
-
-/// Preview of `src` at `path`.
-pub fn preview(src: &dyn RasterSource, path: &Path, kind: RenderKind) -> Result<()> {
-    let opts = RenderOptions {
-        kind,
-        legend: true,
-        ..Default::default()
-    };
-    render_preview(src, path, &opts)?;
-    wrote(path);
-    Ok(())
-}
-
 /// Generate and write the terrain (and intermediates).
 pub fn run(a: TectonicArgs) -> Result<()> {
-    let map = VectorMap::read(&a.map)?;
-    let (w, h, georef, px) = domain(
-        &map,
-        &a.map_units,
-        a.size.as_deref(),
-        a.cell,
-        a.origin.as_deref(),
-        a.margin,
-    )?;
-    let params = TectonicParams {
-        fbm: orogen::synth::Fbm {
-            seed: a.seed,
-            octaves: a.octaves,
-            wavelength: a.wavelength,
-            ..TectonicParams::default().fbm
-        },
+    let opts = TectonicOptions {
+        map: a.map,
+        map_units: a.map_units,
+        size: a.size,
+        cell: a.cell,
+        origin: a.origin,
+        margin: a.margin,
+        seed: a.seed,
         t1: a.t1,
         t2: a.t2,
         blur: a.blur,
@@ -213,63 +109,21 @@ pub fn run(a: TectonicArgs) -> Result<()> {
         relief: a.relief,
         peak_radius: a.peak_radius,
         noise_share: a.noise_share,
+        wavelength: a.wavelength,
+        octaves: a.octaves,
         river_slope: a.river_slope,
         hill_slope: a.hill_slope,
         river_width: a.river_width,
         coarse: a.coarse,
-        ..TectonicParams::default()
+        intermediates: a.intermediates,
+        preview: a.preview,
+        erode_steps: a.erode_steps,
+        erode_seed: a.erode_seed,
+        output: a.out.output.clone(),
+        tile: a.run.tile,
     };
-    let model = Arc::new(TectonicModel::new(&px, w, h, a.cell, params)?);
     let cfg = engine(&a.run)?;
     let oo = output_options(&a.out.fmt)?;
-    if let Some(dir) = &a.intermediates {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-        for (layer, name) in TectonicLayer::INTERMEDIATES {
-            let src = TectonicSource::new(model.clone(), layer, georef.clone());
-            let path = dir.join(format!("{name}.tif"));
-            orogen::ops::convert(&src, &path, &oo, a.run.tile, &cfg)?;
-            wrote(&path);
-            if a.preview.is_some() {
-                let kind = match layer {
-                    TectonicLayer::Plates => RenderKind::Ramp("viridis".into()),
-                    TectonicLayer::VelocityMagnitude | TectonicLayer::VelocityDirection => {
-                        RenderKind::Grey
-                    }
-                    _ => RenderKind::Elevation,
-                };
-                preview(&src, &dir.join(format!("{name}.png")), kind)?;
-            }
-        }
-    }
-    let src = TectonicSource::new(model, TectonicLayer::Terrain, georef);
-    if a.erode_steps == 0 {
-        orogen::ops::convert(&src, &a.out.output, &oo, a.run.tile, &cfg)?;
-    } else {
-        // The folded terrain is tileable, so the erosion reads it tile by tile.
-        let params = orogen::erosion::hydraulic::HydraulicParams {
-            seed: a.erode_seed,
-            ..Default::default()
-        };
-        let model = orogen::erosion::hydraulic::Hydraulic::new(
-            params,
-            a.erode_steps,
-            orogen::erosion::CellSize::square(a.cell),
-        )?;
-        orogen::erosion::tiled::erode_to_paths(
-            &model,
-            &src,
-            &[(0, a.out.output.clone())],
-            &oo,
-            a.run.tile,
-            8,
-            None,
-            &cfg,
-        )?;
-    }
-    wrote(&a.out.output);
-    if let Some(p) = &a.preview {
-        let out = orogen::io::open_raster(&a.out.output, &orogen::io::OpenOptions::default())?;
-        preview(out.as_ref(), p, RenderKind::Elevation)?;
-    }
+    tectonic::run(&opts, &oo, &cfg, &mut printer(a.run.quiet))?;
     Ok(())
 }

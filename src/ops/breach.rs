@@ -99,7 +99,7 @@ impl BreachOptions {
 }
 
 /// Breach the depressions of `dem` into `target` (f32; nodata from
-/// [`crate::hydro::out_nodata::elevation_nodata`]).
+/// [`crate::exec::output::elevation_nodata`]).
 pub fn run(
     dem: &dyn RasterSource,
     opts: &BreachOptions,
@@ -125,7 +125,7 @@ pub fn run(
         )));
     }
     let grid = read_window::<f32>(dem, Window::full(info.width, info.height))?;
-    let nd = crate::hydro::out_nodata::elevation_nodata(dem)?;
+    let nd = crate::exec::output::elevation_nodata(dem)?;
     let out = crate::hydro::breach(&grid, &hopts)?;
     let out = out.map(|v| if v.is_nan() { nd as f32 } else { v });
     let mem = MemRaster::new(
@@ -168,7 +168,7 @@ fn chain(
     let oo: &OutputOptions = &target.options;
     let ty = (
         DType::F32,
-        Some(crate::hydro::out_nodata::elevation_nodata(src)?),
+        Some(crate::exec::output::elevation_nodata(src)?),
     );
     let tile = choose_tile(src, target.tile);
     let mut tmp_oo = oo.clone();

@@ -13,7 +13,7 @@ use crate::raster::{DType, RasterSource};
 pub struct FillOptions {}
 
 /// Fill the depressions of `dem` into `target` (f32; nodata from
-/// [`crate::hydro::out_nodata::elevation_nodata`]), exact across tiles.
+/// [`crate::exec::output::elevation_nodata`]), exact across tiles.
 ///
 /// ```
 /// use orogen::ops::{fill, Target};
@@ -33,7 +33,7 @@ pub fn run(
     target: &Target,
     cfg: &EngineConfig,
 ) -> Result<()> {
-    let nd = crate::hydro::out_nodata::elevation_nodata(dem)?;
+    let nd = crate::exec::output::elevation_nodata(dem)?;
     run_global_to(
         &crate::hydro::tiled::TiledFill,
         &[dem],

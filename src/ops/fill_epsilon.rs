@@ -34,7 +34,7 @@ pub fn run(
     too.store.tile = choose_tile(dem, target.tile);
     let ty = (
         DType::F32,
-        Some(crate::hydro::out_nodata::elevation_nodata(dem)?),
+        Some(crate::exec::output::elevation_nodata(dem)?),
     );
     let result = (|| -> Result<()> {
         run_global_to(

@@ -41,6 +41,11 @@ pub use demo::demo;
 pub use info::{describe, describe_text, Description};
 pub use target::Target;
 
+pub mod erode;
+pub mod job;
+pub mod note;
+pub mod synth;
+
 pub use crate::exec::plan::{
     choose_layout, choose_tile, run_global_to, run_global_to_paths, run_local_to,
     run_local_to_paths, DEFAULT_TILE,

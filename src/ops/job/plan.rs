@@ -1,41 +1,6 @@
-//! Batch jobs: a TOML file naming inputs, a memory budget, threads and steps
-//! (any `orogen` command with its options), checked whole before anything
-//! runs, ordered by their dependencies, and resumable.
-//!
-//! ```toml
-//! memory = "1GiB"          # optional: budget passed to every step
-//! threads = 0              # optional: 0 = all cores
-//! output_dir = "out"       # optional: outputs go here (relative to this file)
-//! engine = "local"         # optional: "mpi" under mpirun (orogen built with --features mpi)
-//!
-//! [inputs]
-//! dem = "../shared/data/srtm3_S33W071.tif"   # relative to this file
-//!
-//! [[step]]
-//! name = "filled"          # later steps refer to this step's output by name
-//! run = "fill"             # the orogen command
-//! input = "dem"            # an input or an earlier step (a list for several)
-//! output = "filled.tif"    # relative to output_dir
-//! args = { compress = "zstd", cog = true }   # the command's long options
-//! ```
-//!
-//! Commands of a group (`orogen synth noise`) are named with their method,
-//! separated by a space: `run = "synth noise"`; `run = "synth"` alone is an
-//! error listing the methods.
-//!
-//! Option values: strings and numbers are passed as `--key value`, `true`
-//! as a flag `--key` (`false` leaves it out), arrays joined with commas
-//! (`metric = ["slope", "tpi:radius=500m"]`); a string `"@name"` is the path
-//! of the input or step called `name` (an extra dependency). Keys may use
-//! `_` or `-`.
-//!
-//! Resume: after each step the job records, in `output_dir/.orogen-job.json`,
-//! a fingerprint of the step's command line and of its input files (size and
-//! modification time). A rerun skips the steps whose fingerprint is unchanged
-//! and whose outputs exist; a step killed half-way runs again, and the tile
-//! stores it writes resume from their finished tiles. GeoTIFF outputs are
-//! renamed into place only when complete, so a killed job never leaves a
-//! partial file that looks finished.
+//! The job file: schema (`JobFile`, `StepSpec`), checks against the
+//! commands a job may run (`CommandTable`), dependency order, command lines,
+//! fingerprints and the resume state (see `ops::job` for the format).
 
 use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};
@@ -202,7 +167,7 @@ pub fn plan(
     }
     // Names: inputs and steps share one namespace. Ordered maps, not hash
     // maps: a hash map's per-process random seed made the fuzzer's coverage
-    // of this parser differ from run to run (docs/RELIABILITY.md, session 9).
+    // of this parser differ from run to run (docs/RELIABILITY.md).
     let mut paths: BTreeMap<String, PathBuf> = BTreeMap::new();
     for (k, v) in &file.inputs {
         check_name(path, k)?;

@@ -1,0 +1,303 @@
+//! Batch jobs: a TOML file naming inputs, a memory budget, threads and steps
+//! (any `orogen` command with its options), checked whole before anything
+//! runs, ordered by their dependencies, and resumable.
+//!
+//! ```toml
+//! memory = "1GiB"          # optional: budget passed to every step
+//! threads = 0              # optional: 0 = all cores
+//! output_dir = "out"       # optional: outputs go here (relative to this file)
+//! engine = "local"         # optional: "mpi" under mpirun (orogen built with --features mpi)
+//!
+//! [inputs]
+//! dem = "../shared/data/srtm3_S33W071.tif"   # relative to this file
+//!
+//! [[step]]
+//! name = "filled"          # later steps refer to this step's output by name
+//! run = "fill"             # the orogen command
+//! input = "dem"            # an input or an earlier step (a list for several)
+//! output = "filled.tif"    # relative to output_dir
+//! args = { compress = "zstd", cog = true }   # the command's long options
+//! ```
+//!
+//! Commands of a group (`orogen synth noise`) are named with their method,
+//! separated by a space: `run = "synth noise"`; `run = "synth"` alone is an
+//! error listing the methods.
+//!
+//! Option values: strings and numbers are passed as `--key value`, `true`
+//! as a flag `--key` (`false` leaves it out), arrays joined with commas
+//! (`metric = ["slope", "tpi:radius=500m"]`); a string `"@name"` is the path
+//! of the input or step called `name` (an extra dependency). Keys may use
+//! `_` or `-`.
+//!
+//! Resume: after each step the job records, in `output_dir/.orogen-job.json`,
+//! a fingerprint of the step's command line and of its input files (size and
+//! modification time). A rerun skips the steps whose fingerprint is unchanged
+//! and whose outputs exist; a step killed half-way runs again, and the tile
+//! stores it writes resume from their finished tiles. GeoTIFF outputs are
+//! renamed into place only when complete, so a killed job never leaves a
+//! partial file that looks finished.
+
+//!
+//! Running a job is a library call: [`prepare`] reads and checks the file
+//! (every step's command line included) and [`run`] runs the steps in
+//! order, skipping those done in an earlier run, keeps the resume state and
+//! the JSON-lines log, and writes `report.html`. How one step's command line
+//! runs is the caller's [`StepRunner`] (the CLI parses it with its own
+//! argument parser and calls the matching operation).
+
+mod plan;
+
+pub use plan::*;
+
+use crate::error::{Error, Result};
+use crate::exec::EngineKind;
+use crate::ops::note::{Note, Notify};
+use crate::report::{self, Status, StepOutcome};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// What runs a job's steps: the commands a job may name (the
+/// [`CommandTable`]), the check of a step's command line and the step
+/// itself. `argv` is the whole command line, `orogen` first.
+pub trait StepRunner: CommandTable {
+    /// Check `argv` without running it; the error is one line saying what
+    /// is wrong.
+    fn check(&self, step: &Planned, argv: &[String]) -> Result<()>;
+    /// Run the step.
+    fn run(&self, step: &Planned, argv: &[String]) -> Result<()>;
+}
+
+/// Options of `run` (each overrides the job file's value).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct JobOptions {
+    /// Memory budget for every step, e.g. "512MiB".
+    pub memory: Option<String>,
+    /// Worker threads for every step.
+    pub threads: Option<usize>,
+    /// Also write step events as JSON lines to this file.
+    pub log: Option<PathBuf>,
+    /// Do not write report.html.
+    pub no_report: bool,
+    /// No progress bars: `--quiet` for every step that takes it.
+    pub quiet: bool,
+    /// Engine for every step, made the process's engine before the first step.
+    pub engine: Option<EngineKind>,
+}
+
+/// What a job run did.
+#[derive(Debug, Clone)]
+pub struct JobReport {
+    /// One outcome per step, in run order.
+    pub outcomes: Vec<StepOutcome>,
+    /// The report written, if any.
+    pub report: Option<PathBuf>,
+}
+
+/// Commands whose raster outputs are elevations (previewed with hillshade).
+const ELEVATION_COMMANDS: [&str; 8] = [
+    "fill", "breach", "export", "ingest", "demo", "synth", "erode", "convert",
+];
+
+/// The command line of step `s`, `orogen` first (`--quiet` added when
+/// `quiet` and the command takes it).
+pub fn command_line(s: &Planned, table: &dyn CommandTable, quiet: bool) -> Vec<String> {
+    let mut v = vec!["orogen".to_string()];
+    v.extend(s.argv.iter().cloned());
+    if quiet && table.accepts(&s.command, "quiet") {
+        v.push("--quiet".into());
+    }
+    v
+}
+
+/// Read and check the job file at `path` (see [`load`]), then check every
+/// step's command line with `runner` before anything runs.
+pub fn prepare<R: StepRunner>(path: &Path, runner: &R, opts: &JobOptions) -> Result<Job> {
+    let job = load(path, runner, opts.memory.as_deref(), opts.threads)?;
+    for s in &job.steps {
+        if let Err(e) = runner.check(s, &command_line(s, runner, opts.quiet)) {
+            return Err(Error::invalid(format!(
+                "{}: step {:?}: {e}\n  command: orogen {}",
+                path.display(),
+                s.name,
+                s.argv.join(" ")
+            )));
+        }
+    }
+    Ok(job)
+}
+
+/// Files named by a step's option values (not its inputs or `-o` output)
+/// that exist and were modified since `since`: what options such as
+/// `--metrics x.csv` or `--profile p.json` made the step write.
+fn written_by_options(s: &Planned, since: std::time::SystemTime) -> Vec<PathBuf> {
+    let mut out: Vec<PathBuf> = vec![];
+    for (k, v) in s.argv.iter().enumerate().skip(1) {
+        if !s.argv[k - 1].starts_with("--") || v.starts_with('-') {
+            continue;
+        }
+        let p = PathBuf::from(v);
+        if s.inputs.contains(&p) || s.output.as_ref() == Some(&p) || out.contains(&p) {
+            continue;
+        }
+        let fresh = std::fs::metadata(&p)
+            .ok()
+            .filter(|m| m.is_file())
+            .and_then(|m| m.modified().ok())
+            .is_some_and(|t| t >= since);
+        if fresh {
+            out.push(p);
+        }
+    }
+    out
+}
+
+fn log_line(log: &mut Option<std::fs::File>, v: serde_json::Value) {
+    if let Some(f) = log {
+        let _ = writeln!(f, "{v}");
+    }
+}
+
+/// Run the steps of `job` (from [`prepare`]) with `runner`: steps done in an
+/// earlier run (same command, same inputs) are skipped, the resume state is
+/// saved after each step, and `report.html` is written into the job's
+/// output folder (unless the job or `opts` turn it off), also when a step
+/// failed. The first failing step ends the run with an error naming it.
+pub fn run<R: StepRunner>(
+    job: &Job,
+    runner: &R,
+    opts: &JobOptions,
+    notify: Notify<'_>,
+) -> Result<JobReport> {
+    if let Some(e) = opts.engine {
+        crate::exec::select_engine(e)?;
+    }
+    // Under MPI every rank runs the job; rank 0 alone keeps its books (state,
+    // log, report), as it alone writes the outputs.
+    let lead = crate::exec::rank().0 == 0;
+    std::fs::create_dir_all(&job.output_dir).map_err(|e| {
+        Error::invalid(format!(
+            "creating the output folder {}: {e}",
+            job.output_dir.display()
+        ))
+    })?;
+    let log_path = opts.log.clone().or(job.log.clone());
+    let mut log = match &log_path {
+        Some(p) if lead => Some(
+            std::fs::OpenOptions::new()
+                .create(true)
+                .append(true)
+                .open(p)
+                .map_err(|e| Error::invalid(format!("opening the log {}: {e}", p.display())))?,
+        ),
+        _ => None,
+    };
+    let mut state = job.load_state();
+    let n = job.steps.len();
+    let mut outcomes: Vec<StepOutcome> = job
+        .steps
+        .iter()
+        .map(|s| StepOutcome {
+            name: s.name.clone(),
+            command_line: format!("orogen {}", s.argv.join(" ")),
+            status: Status::NotRun,
+            seconds: 0.0,
+            peak_rss_bytes: 0,
+            output: s.output.clone(),
+            extra_outputs: vec![],
+            elevation: ELEVATION_COMMANDS
+                .contains(&s.command.split_whitespace().next().unwrap_or("")),
+        })
+        .collect();
+    let mut failure = None;
+    for (i, s) in job.steps.iter().enumerate() {
+        if job.is_done(&state, i) {
+            notify(Note::Message(format!(
+                "[{}/{n}] {}: done in an earlier run, skipped",
+                i + 1,
+                s.name
+            )));
+            outcomes[i].status = Status::Skipped;
+            log_line(
+                &mut log,
+                serde_json::json!({"event": "skipped", "step": s.name}),
+            );
+            continue;
+        }
+        notify(Note::Message(format!(
+            "[{}/{n}] {}: orogen {}",
+            i + 1,
+            s.name,
+            s.argv.join(" ")
+        )));
+        log_line(
+            &mut log,
+            serde_json::json!({"event": "start", "step": s.name, "command": s.argv}),
+        );
+        let fingerprint = job.fingerprint(i);
+        reset_peak_rss();
+        let t0 = Instant::now();
+        // File times come from a coarse kernel clock: allow a margin.
+        let started = std::time::SystemTime::now() - std::time::Duration::from_secs(2);
+        let result = runner.run(s, &command_line(s, runner, opts.quiet));
+        let seconds = t0.elapsed().as_secs_f64();
+        let peak = peak_rss();
+        outcomes[i].seconds = seconds;
+        outcomes[i].peak_rss_bytes = peak;
+        match result {
+            Ok(()) => {
+                outcomes[i].status = Status::Ran;
+                outcomes[i].extra_outputs = written_by_options(s, started);
+                state.done.insert(
+                    s.name.clone(),
+                    StepRecord {
+                        fingerprint,
+                        seconds,
+                        peak_rss_bytes: peak,
+                    },
+                );
+                if lead {
+                    job.save_state(&state)?;
+                }
+                log_line(
+                    &mut log,
+                    serde_json::json!({"event": "done", "step": s.name, "seconds": seconds, "peak_rss_bytes": peak}),
+                );
+            }
+            Err(e) => {
+                let msg = e.to_string();
+                outcomes[i].status = Status::Failed(msg.clone());
+                log_line(
+                    &mut log,
+                    serde_json::json!({"event": "failed", "step": s.name, "error": msg}),
+                );
+                failure = Some(Error::invalid(format!(
+                    "{}: step {:?} (orogen {}) failed; fix it and rerun the job to continue from this step: {msg}",
+                    job.path.display(),
+                    s.name,
+                    s.argv.join(" ")
+                )));
+                break;
+            }
+        }
+    }
+    let mut written = None;
+    if lead && job.report && !opts.no_report {
+        let path = job.output_dir.join("report.html");
+        let title = format!("orogen job {}", job.path.display());
+        match report::write_report(&title, &outcomes, &path) {
+            Ok(()) => {
+                notify(Note::Wrote(path.clone()));
+                written = Some(path);
+            }
+            Err(e) => notify(Note::Warning(format!("report not written: {e}"))),
+        }
+    }
+    match failure {
+        Some(e) => Err(e),
+        None => Ok(JobReport {
+            outcomes,
+            report: written,
+        }),
+    }
+}

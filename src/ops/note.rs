@@ -1,0 +1,64 @@
+//! What an operation tells its caller while it runs: the files it wrote,
+//! warnings and one-line summaries, in the order they happen. The CLI prints
+//! them (`wrote PATH`, `warning: ...`, summaries unless `--quiet`); a library
+//! user may collect or ignore them.
+
+use crate::error::Result;
+use crate::io::{self, OpenOptions};
+use crate::raster::RasterSource;
+use std::path::{Path, PathBuf};
+
+/// One event of a running operation.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Note {
+    /// A finished output file (or folder).
+    Wrote(PathBuf),
+    /// A warning; the text has no `warning: ` prefix.
+    Warning(String),
+    /// A summary line (the CLI prints it unless `--quiet`).
+    Info(String),
+    /// A message printed even with `--quiet` (statistics asked for, a
+    /// job's step lines).
+    Message(String),
+}
+
+/// The callback an operation reports its [`Note`]s to.
+pub type Notify<'a> = &'a mut dyn FnMut(Note);
+
+/// Return early with [`crate::Error::InvalidArgument`] built by `format!`.
+macro_rules! bail {
+    ($($t:tt)*) => {
+        return Err($crate::error::Error::invalid(format!($($t)*)))
+    };
+}
+pub(crate) use bail;
+
+/// Open the raster at `path`, with a warning when it has no georeferencing
+/// (pixel coordinates, 1 x 1 cells).
+pub fn open_input(
+    path: &Path,
+    opts: &OpenOptions,
+    notify: Notify<'_>,
+) -> Result<Box<dyn RasterSource>> {
+    let src = io::open_raster(path, opts)?;
+    let info = src.info();
+    if !info.georef.georeferenced {
+        notify(Note::Warning(format!(
+            "{} has no georeferencing; using pixel coordinates with 1 x 1 cells (slopes assume cells of 1 elevation unit)",
+            info.path.display()
+        )));
+    }
+    Ok(src)
+}
+
+/// Render the hillshaded preview of `src` to `path` and note it.
+pub(crate) fn preview(
+    src: &dyn RasterSource,
+    path: &Path,
+    opts: &crate::tiles::render::RenderOptions,
+    notify: Notify<'_>,
+) -> Result<()> {
+    crate::tiles::render::render_preview(src, path, opts)?;
+    notify(Note::Wrote(path.to_path_buf()));
+    Ok(())
+}
