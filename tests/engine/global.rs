@@ -7,9 +7,8 @@ use orogen::exec::{roundtrip_summary, Engine, GlobalStep, MemSink};
 use orogen::raster::{DType, GeoRef, Grid, MemRaster, RasterSource, TileId, TileLayout, TileView};
 use orogen::{Error, Result};
 
-mod common;
-use common::engine::{engine, tile_min};
-use common::Rng;
+use crate::common::engine::{engine, tile_min};
+use crate::common::Rng;
 
 fn grid(w: usize, h: usize, seed: u64) -> Vec<f64> {
     let mut rng = Rng(seed);

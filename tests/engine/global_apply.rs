@@ -14,9 +14,8 @@ use orogen::store::{Provenance, StoreOptions, StoreWriter, TileEntry, TileStore}
 use orogen::{Error, Result};
 use std::path::Path;
 
-mod common;
-use common::engine::{engine, tile_min};
-use common::Rng;
+use crate::common::engine::{engine, tile_min};
+use crate::common::Rng;
 
 /// Deterministic test heights with a few nodata cells (SplitMix64, Steele,
 /// Lea & Flood 2014).
