@@ -12,8 +12,7 @@ use orogen::hydro::{d8_directions, fill};
 use orogen::raster::{AnyGrid, DType, GeoRef, Grid, MemRaster, RasterSource, TileLayout};
 use proptest::prelude::*;
 
-mod common;
-use common::hydro::read_raw;
+use crate::common::hydro::read_raw;
 
 const ROUTERS: [Router; 5] = [
     Router::Dinf,

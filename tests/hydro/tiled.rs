@@ -15,8 +15,7 @@ use orogen::raster::{
 };
 use proptest::prelude::*;
 
-mod common;
-use common::hydro::read_raw;
+use crate::common::hydro::read_raw;
 use std::time::Instant;
 
 fn run_global<S>(step: &S, srcs: &[&dyn RasterSource], tile: usize) -> orogen::Result<Grid<S::Out>>
@@ -293,7 +292,7 @@ fn check_all(g: &Grid<f32>, tiles: &[usize]) -> Result<(), TestCaseError> {
 
 /// Random DEMs up to 19 x 19.
 fn dem() -> impl Strategy<Value = Grid<f32>> {
-    common::hydro::dem(20)
+    crate::common::hydro::dem(20)
 }
 
 proptest! {

@@ -12,8 +12,7 @@ use orogen::hydro::{breach, breach_masked, rho8_directions, BreachMethod, Breach
 use orogen::raster::{read_view, GeoRef, Grid, MemRaster, RasterSource, TileLayout, TileView};
 use proptest::prelude::*;
 
-mod common;
-use common::hydro::read_raw;
+use crate::common::hydro::read_raw;
 use std::time::Instant;
 
 const N8: [(i64, i64); 8] = [
@@ -149,7 +148,7 @@ fn opts(method: BreachMethod, epsilon: bool, fill_remaining: bool) -> BreachOpti
 
 /// Random DEMs up to 10 x 10.
 fn dem() -> impl Strategy<Value = Grid<f32>> {
-    common::hydro::dem(11)
+    crate::common::hydro::dem(11)
 }
 
 proptest! {
