@@ -1,8 +1,6 @@
 //! `orogen orostats`, `orogen classify` and `orogen ridges` as a user runs them.
 
-mod common;
-
-use common::cli::{data, fails, ok, orogen};
+use crate::common::cli::{data, fails, ok, orogen};
 use std::path::Path;
 
 fn asc(path: &Path, w: usize, h: usize, f: impl Fn(usize, usize) -> f64) {

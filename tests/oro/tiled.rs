@@ -2,7 +2,7 @@
 //! (peaks, representative cells, key saddles and their order, parents,
 //! prominences, edge flags), for many tile sizes and both edge conventions.
 //! The oracle is `oro::divide_tree` on the whole grid, itself checked against
-//! brute force (`oro_brute.rs`) and akirmse/mountains (`oro_reference.rs`);
+//! brute force (`brute_force.rs`) and akirmse/mountains (`reference.rs`);
 //! the tiled code shares no sweep code with it.
 
 use orogen::exec::{EngineConfig, LocalEngine};

@@ -1,0 +1,14 @@
+//! Orometry: the divide tree (hand-checked cases, brute-force prominence and
+//! isolation, a reference peak list, tiled == in memory) and orometric
+//! analysis, in the library and the CLI.
+
+#[allow(dead_code)] // each test binary uses a subset of the shared helpers
+#[path = "../common/mod.rs"]
+mod common;
+
+mod analysis;
+mod brute_force;
+mod cli_analysis;
+mod hand_checked;
+mod reference;
+mod tiled;
