@@ -5,8 +5,7 @@
 
 #![allow(clippy::needless_range_loop)] // index loops read like the definitions
 
-mod common;
-use common::{get as at, run, source, Rng, CELL};
+use crate::common::{get as at, run, source, Rng, CELL};
 
 fn close(got: f32, want: f64, rel: f64, abs: f64) -> bool {
     if want.is_nan() {

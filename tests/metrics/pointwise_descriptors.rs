@@ -10,8 +10,7 @@
 use orogen::metrics::fractional::{frac_constant, gamma};
 use orogen::metrics::table;
 
-mod common;
-use common::{
+use crate::common::{
     assert_tiled_equals_untiled, check, get, horn, random_terrain, ridge, run, run1, run_bits,
     source, spec_err as err, Rng, CELL,
 };

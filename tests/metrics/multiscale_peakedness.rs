@@ -12,8 +12,7 @@ use orogen::metrics::registry::{MetricKind, METRICS};
 use orogen::metrics::{parse_specs, MetricSpec};
 use orogen::raster::{MemRaster, RasterSource, TileLayout};
 
-mod common;
-use common::{check_abs as check, run, source, Rng, CELL};
+use crate::common::{check_abs as check, run, source, Rng, CELL};
 
 /// Hills (Gaussian bumps of 60..400 m) plus noise, with nodata holes.
 fn hills(w: usize, h: usize, seed: u64, holes: f64) -> Vec<f32> {

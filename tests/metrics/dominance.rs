@@ -8,8 +8,9 @@
 
 use orogen::raster::{Crs, GeoRef, Grid, MemRaster, RasterSource};
 
-mod common;
-use common::{check_abs as check, random_terrain, run, run_bits, source, spec_err as err, CELL};
+use crate::common::{
+    check_abs as check, random_terrain, run, run_bits, source, spec_err as err, CELL,
+};
 
 /// Random terrain (smooth + noise, values rounded to 1/2, with ties) with nodata holes.
 fn random_grid(w: usize, h: usize, seed: u64, holes: f64) -> Vec<f32> {

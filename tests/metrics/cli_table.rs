@@ -2,9 +2,7 @@
 //! files written, markdown/CSV shapes, the heat map is a PNG of the right
 //! size, errors name what is accepted.
 
-mod common;
-
-use common::cli::orogen;
+use crate::common::cli::orogen;
 use std::path::Path;
 use std::process::Output;
 

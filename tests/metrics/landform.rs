@@ -10,8 +10,7 @@ use orogen::io::{open_raster, OpenOptions};
 use orogen::metrics::parse_specs;
 use std::path::Path;
 
-mod common;
-use common::{run, source, CELL};
+use crate::common::{run, source, CELL};
 
 /// The paper's landform table, written as (class number, name, the
 /// (number of −, number of +) cells of Fig. 4 holding it).

@@ -28,8 +28,7 @@ fn random_grid(w: usize, h: usize, seed: u64, range: u64, nd: u64) -> Vec<f32> {
         .collect()
 }
 
-mod common;
-use common::{get as at, run, source, Rng, CELL};
+use crate::common::{get as at, run, source, Rng, CELL};
 
 const STEPS16: [(i64, i64); 16] = [
     (0, -1),
@@ -157,7 +156,7 @@ fn sweep_equals_rays_and_brute_force() {
 
 /// Zenith, nadir, accessibility and the horizon angle per direction against
 /// brute force; the openness family is unchanged by the sweep (its own tests
-/// in metrics_oracles.rs).
+/// in curvature_and_windows.rs).
 #[test]
 fn zenith_nadir_accessibility_horizon_brute_force() {
     let (w, h) = (26, 21);

@@ -16,12 +16,11 @@ use orogen::metrics::solar::{day_geometry, refraction_deg, sun_position, SOLAR_C
 use orogen::raster::RasterSource;
 use std::f64::consts::PI;
 
-mod common;
-use common::{source, CELL};
+use crate::common::{source, CELL};
 
-/// [`common::run`] on 2 threads.
+/// [`crate::common::run`] on 2 threads.
 fn run(src: &dyn RasterSource, specs: &str, tile: usize) -> Vec<Vec<f32>> {
-    common::run(src, specs, tile, 2)
+    crate::common::run(src, specs, tile, 2)
 }
 
 /// A plane z = a·x_east + b·y_north (metres) on a w x h grid.

@@ -15,8 +15,7 @@ use std::path::Path;
 
 const SPECS: &str = "mean_curvature:radius=3c,profile_curvature:radius=2c,dzdx,slope,aspect,northness,normal_z,laplacian,profile_curvature,plan_curvature,tangential_curvature,mean_curvature,gaussian_curvature,min_curvature,max_curvature,mean:radius=4c,stdev:radius=3c,variance:radius=5c:shape=disk,tpi:radius=90m,ntpi:radius=4c,relief:radius=5c,tophat_white:radius=3c,tophat_black:radius=2c,percentile:radius=3c,sky_view_approx,tri_riley,tri,rugosity,roughness:radius=3c,openness:radius=150m,openness_neg:radius=4c:directions=16,sky_view:radius=150m";
 
-mod common;
-use common::run_bits as run;
+use crate::common::run_bits as run;
 
 fn tiled_equals_untiled(path: &str) {
     let src = open_raster(Path::new(path), &OpenOptions::default()).unwrap();

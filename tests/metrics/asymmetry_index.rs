@@ -1,12 +1,11 @@
-//! Session-3 descriptors (`asymmetry_index`, ...) against oracles that share
-//! no code with them: direct loops over windows with full sorts for the
+//! The asymmetry index (`asymmetry_index`) against oracles that share no
+//! code with it: direct loops over windows with full sorts for the
 //! medians, closed forms on ridges; tiled == untiled bit for bit; bad
 //! parameters.
 
 #![allow(clippy::needless_range_loop)] // index loops read like the definitions
 
-mod common;
-use common::{
+use crate::common::{
     assert_tiled_equals_untiled, check, horn, ridge, run1, source, spec_err as err, Rng, CELL,
 };
 
