@@ -4,9 +4,7 @@
 //! for any tile size and thread count; parameters from a TOML file with flags
 //! overriding it; clear errors.
 
-mod common;
-
-use common::cli::{fails_args as fails, ok_args as ok, read_f32 as read, s, same};
+use crate::common::cli::{fails_args as fails, ok_args as ok, read_f32 as read, s, same};
 use std::path::{Path, PathBuf};
 
 const DEM: &str = "tests/data/bigtujunga_crop.tif";

@@ -2,9 +2,7 @@
 //! independent of tile size, exchange period and state backend, parameters
 //! from a TOML file, clear errors for bad parameters.
 
-mod common;
-
-use common::cli::{fails_args as fails, ok_args as ok, s};
+use crate::common::cli::{fails_args as fails, ok_args as ok, s};
 use std::path::{Path, PathBuf};
 
 /// `erode DEM --model MODEL EXTRA -o OUT`.

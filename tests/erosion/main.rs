@@ -1,0 +1,12 @@
+//! Erosion: the local models (hydraulic, thermal, diffusion), stream power in
+//! memory and tiled, and `orogen erode` from the command line.
+
+#[allow(dead_code)] // each test binary uses a subset of the shared helpers
+#[path = "../common/mod.rs"]
+mod common;
+
+mod cli;
+mod cli_stream_power_tiled;
+mod local_models;
+mod stream_power;
+mod stream_power_tiled;
