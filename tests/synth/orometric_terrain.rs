@@ -4,8 +4,7 @@
 //! synthesis) on the render, `hydro::fill`, the domain area, windows against
 //! the whole render, and the profiles of real DEMs.
 
-mod oro_common;
-use oro_common::*;
+use crate::oro_common::*;
 use orogen::io::{open_raster, OpenOptions};
 use orogen::oro::{EdgeConvention, PeakOptions};
 use orogen::raster::{read_window, Grid, Window};

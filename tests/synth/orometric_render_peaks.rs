@@ -4,8 +4,7 @@
 //! Oracle: the `oro` module (flooding of the raster; it shares no code with
 //! the synthesis) against the tree's own peak list.
 
-mod oro_common;
-use oro_common::*;
+use crate::oro_common::*;
 use orogen::oro::{EdgeConvention, PeakOptions};
 use orogen::synth::orometric::*;
 

@@ -4,8 +4,7 @@
 //! `orogen peaks` (the `oro` module, no code shared with the synthesis) on
 //! the rendered terrain, brute-force tree definitions, real DEM profiles.
 
-mod oro_common;
-use oro_common::*;
+use crate::oro_common::*;
 use orogen::io::{open_raster, OpenOptions};
 use orogen::raster::{read_window, GeoRef, Grid, Window};
 use orogen::synth::orometric::*;

@@ -3,8 +3,7 @@
 //! (the `oro` module, which shares no code with the synthesis) run on the
 //! synthesised terrain, and the profiles of real DEMs.
 
-mod oro_common;
-use oro_common::*;
+use crate::oro_common::*;
 use orogen::io::{open_raster, OpenOptions};
 use orogen::oro::{EdgeConvention, PeakOptions};
 use orogen::raster::{read_window, GeoRef, Grid, Window};
