@@ -1,7 +1,7 @@
-//! Findings of the session-6 fuzzing (issue 12), replayed from their inputs
-//! in `tests/data/fuzz/`: each must give a typed error naming the file, and
-//! never allocate more than a bound, measured by a counting allocator (the
-//! largest single request made by the test's own thread).
+//! Findings of `cargo fuzz` (issue 12) on the GeoTIFF reader, replayed from
+//! their inputs in `tests/data/fuzz/`: each must give a typed error naming
+//! the file, and never allocate more than a bound, measured by a counting
+//! allocator (the largest single request made by the test's own thread).
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;

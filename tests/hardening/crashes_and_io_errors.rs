@@ -12,8 +12,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-mod common;
-use common::cli::run_env as run;
+use crate::common::cli::run_env as run;
 
 const BIN: &str = env!("CARGO_BIN_EXE_orogen");
 

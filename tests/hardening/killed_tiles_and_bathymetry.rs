@@ -1,4 +1,4 @@
-//! Hardening, session 6 (issue 12), end to end with the real binary:
+//! Hardening (issue 12), end to end with the real binary:
 //! web tiles killed mid-run leave no torn tile under a final name, and the
 //! elevation-valued outputs of `erode --model stream-power` and `metric`
 //! keep real cells at −9999 (bathymetry) apart from their nodata.
@@ -7,8 +7,7 @@ use orogen::exec::EngineConfig;
 use orogen::raster::{read_window, GeoRef, Grid, MemRaster, Window};
 use std::path::{Path, PathBuf};
 
-mod common;
-use common::cli::{data, run_env as run};
+use crate::common::cli::{data, run_env as run};
 
 fn ok(args: &[&str]) {
     let o = run(args, &[]);
