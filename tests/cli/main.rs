@@ -1,5 +1,7 @@
 //! The CLI as a user runs it: demo, info, ingest/export round trip, bad input.
 
+#[allow(dead_code)] // each test binary uses a subset of the shared helpers
+#[path = "../common/mod.rs"]
 mod common;
 
 use common::cli::{data, fails, ok, orogen};
