@@ -1,6 +1,5 @@
 //! The CLI as a user runs it: demo, info, ingest/export round trip, bad input.
 
-#[allow(dead_code)] // each test binary uses a subset of the shared helpers
 #[path = "../common/mod.rs"]
 mod common;
 

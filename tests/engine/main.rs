@@ -2,7 +2,6 @@
 //! `run_global_apply` with delegated store writes, and the choice of engine
 //! from the command line and job files.
 
-#[allow(dead_code)] // each test binary uses a subset of the shared helpers
 #[path = "../common/mod.rs"]
 mod common;
 

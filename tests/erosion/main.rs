@@ -1,7 +1,6 @@
 //! Erosion: the local models (hydraulic, thermal, diffusion), stream power in
 //! memory and tiled, and `orogen erode` from the command line.
 
-#[allow(dead_code)] // each test binary uses a subset of the shared helpers
 #[path = "../common/mod.rs"]
 mod common;
 

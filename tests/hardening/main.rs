@@ -2,7 +2,6 @@
 //! errors, killed tile runs, numerics at the edges of f32/f64, hostile
 //! GeoTIFFs, and the fuzz seeds and findings.
 
-#[allow(dead_code)] // each test binary uses a subset of the shared helpers
 #[path = "../common/mod.rs"]
 mod common;
 

@@ -2,7 +2,6 @@
 //! streams and indices, in memory against independent oracles and tiled
 //! against in memory, and the hydrology commands of the CLI.
 
-#[allow(dead_code)] // each test binary uses a subset of the shared helpers
 #[path = "../common/mod.rs"]
 mod common;
 

@@ -3,7 +3,6 @@
 //! closed forms, brute force and gdaldem; tiled == untiled; the metric table
 //! and viewshed commands.
 
-#[allow(dead_code)] // each test binary uses a subset of the shared helpers
 #[path = "../common/mod.rs"]
 mod common;
 

@@ -2,7 +2,6 @@
 //! isolation, a reference peak list, tiled == in memory) and orometric
 //! analysis, in the library and the CLI.
 
-#[allow(dead_code)] // each test binary uses a subset of the shared helpers
 #[path = "../common/mod.rs"]
 mod common;
 

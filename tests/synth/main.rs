@@ -2,7 +2,6 @@
 //! tectonic folds and orometric synthesis (profiles, divide trees, terrain,
 //! authoring, blends).
 
-#[allow(dead_code)] // each test binary uses a subset of the shared helpers
 #[path = "../oro_common/mod.rs"]
 mod oro_common;
 
