@@ -416,7 +416,8 @@ fn killed_ingest_resumes() {
     let want = reference(tmp.path(), &src);
     let dir = tmp.path().join("killed.tiles");
     let mut child = std::process::Command::new(std::env::current_exe().unwrap())
-        .args(["child_ingest", "--exact", "--quiet"])
+        // The test's name inside this binary (`store`): module path + name.
+        .args(["resume::child_ingest", "--exact", "--quiet"])
         .env("OROGEN_CHILD_DIR", &dir)
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::null())
