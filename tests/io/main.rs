@@ -1,0 +1,11 @@
+//! Readers and writers of raster formats: GeoTIFF read against GDAL's
+//! fixtures, GeoTIFF and COG writing, ESRI ASCII, SRTM .hgt, PNG heightmaps
+//! and mosaics.
+
+mod ascii;
+mod cog;
+mod geotiff_read;
+mod geotiff_write;
+mod hgt;
+mod mosaic;
+mod png;
