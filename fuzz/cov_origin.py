@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Where a fuzz target's coverage grew, by origin (issue 12; session 10).
+"""Where a fuzz target's coverage grew, by origin.
 
 Replays two corpora of one target (BEFORE and AFTER, each one or more
 folders or `.tar.gz` archives of fuzz/campaign/corpus/) with libFuzzer's

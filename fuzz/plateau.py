@@ -13,7 +13,7 @@ with the reproducer in fuzz/artifacts/<target>/ and a non-zero exit.
   fuzz/plateau.py geotiff --min 180 --max 1200 [--bin PATH] [--work DIR]
                  [--seeds DIR ...] [--state FILE] [--build-id ID]
 
-Resumed runs (session 6): with --state FILE the run continues the counts
+Resumed runs: with --state FILE the run continues the counts
 of earlier runs of the target on the same working corpus: cumulative
 executions and seconds, the highest `cov` ever seen, and the cumulative
 time of the last new `cov` (a resumed run first replays its corpus, which
@@ -22,11 +22,11 @@ every earlier run's). --quiet then means "seconds of fuzzing, over all
 runs, without a new cov edge". The state is updated at the end of the
 run and one JSON line per run is appended to WORK/runs.jsonl.
 
-The plateau rule (session 11; stated before the runs it judges). Coverage
+The plateau rule (stated before the runs it judges). Coverage
 grows roughly with the logarithm of the fuzzing effort (Böhme and Falk,
 "Fuzzing: on the exponential cost of vulnerability discovery", ESEC/FSE
 2020), so "N seconds without a new edge" is met by every target sooner or
-later and says little: in session 10, hgt gained 13 % after meeting it. A
+later and says little: in one campaign hgt gained 13 % after meeting it. A
 resumed target is at its plateau when all three hold, on the counts of
 the current build:
   1. it has fuzzed at least --min-total seconds (default 1200);

@@ -7,8 +7,8 @@ given build (default: the build of the newest line): slices, fuzzing time,
 executions, exec/s, the last slice's cov/ft, the best cov, when (in
 cumulative fuzzing time) the last new edge came, how long the target had
 then fuzzed without one, the edges the last half of its executions added
-(session 11's rule 2), the corpus at the end, peak RSS, whether the plateau
-rule held, and findings. Builds fuzzed under session 11's rule
+(the plateau rule's second clause), the corpus at the end, peak RSS, whether the plateau
+rule held, and findings. Builds fuzzed under the current rule
 (fuzz/plateau.py) show that rule's verdict as recorded by the run; older
 builds, the earlier "--quiet seconds without a new edge" rule.
 

@@ -55,7 +55,6 @@ enum Cmd {
     /// Fill depressions to a strictly draining epsilon surface: each flat cell rises
     /// k ULPs above its fill level, k = its distance to the flat's exit; exact across tiles.
     FillEpsilon(cli::fill_epsilon::FillEpsilonArgs),
-    /// Stream-power erosion with uplift (Braun & Willett 2013 implicit solver), optional
     /// Watershed labels from D8 directions: each cell gets the row-major index + 1 of
     /// the cell where its flow leaves the DEM (u32, 0 = nodata); exact across tiles.
     Watersheds(cli::watersheds::WatershedsArgs),
@@ -91,7 +90,7 @@ enum Cmd {
     /// halo exchange, bit-identical to an untiled run for any tile size) or stream power
     /// with uplift (Braun & Willett 2013; constrained and coarse-to-fine; in memory, or tiled out of core with the same bytes).
     #[command(
-        after_help = "Examples:\n  orogen erode dem.tif --model hydraulic --steps 300 -o eroded.tif --preview previews/\n  orogen erode dem.tif --model thermal --steps 200 --talus 33 -o slumped.tif\n  orogen erode dem.tif --model diffusion --steps 100 --diffusivity 0.01 --dt 1000 -o smooth.tif\n  orogen erode dem.tiles --model hydraulic --steps 300 --params configs/erosion-hydraulic.toml --set rain=0.02 -o eroded.tiles\n  orogen erode dem.tif --model stream-power --steps 200 --dt 1000 --k 1e-5 --m 0.4 --n 1 --uplift 1e-3 -o sp.tif\n  orogen erode dem.tif --model stream-power --uplift-map u.tif --diffusivity 0.01 --depressions basin-graph -o sp.tif\n  orogen erode dem.tif --model stream-power --fixed-points peaks.csv --radius 300 --levels 100,50,30 -o sp.tif\nParameters: --params FILE (a table per model), then --set KEY=VALUE, then the named flags;\nstream power takes flags only (--k --m --n --uplift ...). Units: metres, seconds (hydraulic),\nyears (diffusion, stream power); see docs/notes/erosion.md and docs/notes/stream_power.md."
+        after_help = "Examples:\n  orogen erode dem.tif --model hydraulic --steps 300 -o eroded.tif --preview previews/\n  orogen erode dem.tif --model thermal --steps 200 --talus 33 -o slumped.tif\n  orogen erode dem.tif --model diffusion --steps 100 --diffusivity 0.01 --dt 1000 -o smooth.tif\n  orogen erode dem.tiles --model hydraulic --steps 300 --params configs/erosion-hydraulic.toml --set rain=0.02 -o eroded.tiles\n  orogen erode dem.tif --model stream-power --steps 200 --dt 1000 --k 1e-5 --m 0.4 --n 1 --uplift 1e-3 -o sp.tif\n  orogen erode dem.tif --model stream-power --uplift-map u.tif --diffusivity 0.01 --depressions basin-graph -o sp.tif\n  orogen erode dem.tif --model stream-power --fixed-points peaks.csv --radius 300 --levels 100,50,30 -o sp.tif\nParameters: --params FILE (a table per model), then --set KEY=VALUE, then the named flags;\nstream power takes flags only (--k --m --n --uplift ...). Units: metres, seconds (hydraulic),\nyears (diffusion, stream power); see docs/design/erosion.md#local-models-and-the-halo-exchange-driver and docs/design/erosion.md#stream-power."
     )]
     Erode(cli::erode::ErodeArgs),
     /// Terrain synthesis: `orogen synth noise|...` (see `orogen synth --help`).

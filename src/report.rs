@@ -13,8 +13,8 @@
 use crate::error::{Error, Result};
 use crate::io::{open_raster, OpenOptions};
 use crate::raster::{AnyGrid, MemRaster};
-use crate::tiles::render::{downsample_mean, render_preview, RenderKind, RenderOptions};
 use crate::store::scratch::ScratchDir;
+use crate::tiles::render::{downsample_mean, render_preview, RenderKind, RenderOptions};
 use base64::Engine as _;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};

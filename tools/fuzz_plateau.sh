@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
-# Fuzz every target to a coverage plateau, one fuzzer at a time (issue 12;
-# session 6). Round-robin over the targets in slices of SLICE seconds, each
+# Fuzz every target to a coverage plateau, one fuzzer at a time.
+# Round-robin over the targets in slices of SLICE seconds, each
 # slice resuming the target's working corpus (WORK/corpus/TARGET) and its
 # counts (WORK/state/TARGET.json) through fuzz/plateau.py --state; a target
 # leaves the rotation once it meets the plateau rule, or on a finding
-# (reproducer in fuzz/artifacts/TARGET/). The rule (session 11; see
+# (reproducer in fuzz/artifacts/TARGET/). The rule (see
 # fuzz/plateau.py): at least MIN_TOTAL seconds of fuzzing on the build, the
 # last half of its executions added at most MAX_GAIN percent of its edges,
 # and QUIET seconds without a new edge. Stops at the epoch second DEADLINE.
@@ -18,7 +18,7 @@
 # worker): never more than one core. Every slice appends one JSON line to
 # WORK/runs.jsonl.
 #
-# Campaigns carry over between machines (session 9): the minimised working
+# Campaigns carry over between machines: the minimised working
 # corpus of each target and its counts are committed in fuzz/campaign/
 # (tools/fuzz_save.sh writes them). A slice also replays the saved corpus
 # (fuzz/campaign/corpus/TARGET.tar.gz, unpacked once into WORK/saved/TARGET),
@@ -42,7 +42,7 @@ mkdir -p "$work/state"
 build_id="${BUILD_ID:-$(git log -1 --format=%h -- src fuzz/common.rs fuzz/fuzz_targets \
     fuzz/Cargo.toml fuzz/Cargo.lock Cargo.toml Cargo.lock)}"
 # The bundled SQLite has same-named function-local statics that ASan's ODR
-# check reports at start-up (see docs/RELIABILITY.md, session 6).
+# check reports at start-up (see docs/RELIABILITY.md).
 export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_odr_violation=0}"
 
 targets=("$@")

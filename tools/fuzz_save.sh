@@ -1,14 +1,14 @@
 #!/usr/bin/env bash
-# Save a fuzz campaign into the repository (issue 12; session 9), so the
+# Save a fuzz campaign into the repository, so the
 # next session, on another machine, resumes it instead of starting over
-# from the seeds (session 9 lost 388 min of working corpora with the
+# from the seeds (a campaign once lost 388 min of working corpora with the
 # machine). For each target: libFuzzer's `-merge=1` minimises WORK's
 # working corpus together with the saved one into a fresh folder, and the
 # inputs of at most MAX_LEN bytes (default 65536) replace the archive
 # fuzz/campaign/corpus/TARGET.tar.gz (one per target, names sorted, no
 # owners or times, `gzip -n`: the same inputs give the same bytes, and
 # thousands of small files stay out of the tree; 7.7 MB for all targets
-# after session 9, where uncompressed tars would be about 30 MB). Larger inputs, mostly
+# after a long campaign, where uncompressed tars would be about 30 MB). Larger inputs, mostly
 # grown GeoTIFF and ASCII files, would make it tens of MB; the seeds they
 # grew from stay in fuzz/corpus/. The target's counts (WORK/state/TARGET.json) are
 # copied to fuzz/campaign/state/, and WORK/runs.jsonl's lines are added to
@@ -17,7 +17,7 @@
 # A target whose counts are unchanged since the last save (WORK/state/TARGET.json
 # equal to fuzz/campaign/state/TARGET.json) was not fuzzed since, and is
 # skipped: `-merge=1` over an unchanged corpus picks another, equally minimal
-# set, so re-saving it would only churn its archive (6 MB for geotiff; session 12).
+# set, so re-saving it would only churn its archive (6 MB for geotiff).
 #
 #   BIN_DIR=/work/fuzzwork/target/x86_64-unknown-linux-gnu/release \
 #   WORK=/work/fuzzwork tools/fuzz_save.sh [TARGET...]

@@ -95,7 +95,7 @@ compare() {
 
 "$bin" demo --size "$size" --seed 7 -o "$work/demo" -q >/dev/null
 
-# --- Erosion with halo exchange across ranks (docs/notes/mpi_halo.md) -------
+# --- Erosion with halo exchange across ranks (docs/design/engine-and-mpi.md#erosion-halo-exchange-across-ranks) -------
 # Each rank keeps its tiles' states and receives its ghost zones point to
 # point every k substeps; rank 0 writes. Tiles of 100 and 77 do not divide
 # the rasters (367x359, 384x384); k = 1, 2, 3, 5, 8; the hydraulic runs write

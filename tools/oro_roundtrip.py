@@ -16,9 +16,9 @@ Also prints the largest elevation, prominence and key-saddle differences.
 
 Exit status 1 if more than --max-bad tree peaks are lost, peaks spurious or
 key saddles off in all (the figures are printed either way). Measured
-(session 8, seeds 1-6, 600 x 600 at 30 m, GeoTIFF and tile store): 0; every
-key saddle within one cell and 0.00 m (session 7: 1 lost); see
-docs/notes/oro8.md.
+(seeds 1-6, 600 x 600 at 30 m, GeoTIFF and tile store): 0; every
+key saddle within one cell and 0.00 m (an earlier build: 1 lost); see
+docs/design/orometric-synthesis.md#ridge-clearance-clearancers.
 """
 import argparse
 import csv

@@ -12,7 +12,7 @@ use std::path::PathBuf;
 #[derive(Args)]
 pub struct TectonicArgs {
     /// GeoJSON map: coastline polygons, river lines, peak points (format:
-    /// docs/notes/tectonic.md; example: configs/tectonic-map.geojson).
+    /// docs/design/synthesis.md#tectonic-folds-synthtectonic; example: configs/tectonic-map.geojson).
     #[arg(long)]
     pub map: PathBuf,
     /// Units of the map's coordinates: crs (x east, y north, in the output

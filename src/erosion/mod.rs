@@ -37,7 +37,7 @@ impl CellSize {
     /// whole raster, so every tile uses the same constants). Geographic
     /// rasters get the true size at their middle latitude: the models treat
     /// cells as equal rectangles, an approximation that grows with the
-    /// raster's latitude span (documented in `docs/notes/erosion.md`).
+    /// raster's latitude span (documented in `docs/design/erosion.md#local-models-and-the-halo-exchange-driver`).
     pub fn of(info: &RasterInfo) -> Result<Self> {
         let (dx, dy) = info.georef.cell_size_m(info.height as i64 / 2);
         let c = CellSize { dx, dy };
@@ -195,7 +195,7 @@ pub fn check_steps(steps: u64) -> Result<()> {
 
 /// True for a cell with data (nodata is NaN in the models' state; ±inf is
 /// nodata too, as in the hydrology and terrain steps: an infinite cell would
-/// otherwise spread infinities to its neighbours; found by tests/numerics.rs).
+/// otherwise spread infinities to its neighbours; found by tests/hardening/numerics.rs).
 #[inline]
 pub(crate) fn valid(v: f64) -> bool {
     v.is_finite()

@@ -283,7 +283,7 @@ pub fn run_ranked<M: LocalModel, X: HaloTransport>(
                     let dem = read_window::<f64>(src, core)?;
                     let mut v = vec![0.0; core.len() * nf];
                     // Cells the f32 output cannot hold (±inf, beyond ±f32::MAX)
-                    // are nodata, as in the other steps (tests/numerics.rs).
+                    // are nodata, as in the other steps (tests/hardening/numerics.rs).
                     for (o, &z) in v[..core.len()].iter_mut().zip(dem.data()) {
                         *o = if (z as f32).is_finite() { z } else { f64::NAN };
                     }

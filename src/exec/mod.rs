@@ -285,5 +285,5 @@ mod tile_io;
 pub use crate::store::sink::{to_sink_type, MemSink, MemSinkHandle, TileSink};
 pub use copy::{copy, ingest, run_local_to_memory};
 pub use local::LocalEngine;
-pub use tile_io::{local_tile_bytes, roundtrip_summary, tiles_in_flight};
 pub use memory_fit::MemoryFit;
+pub use tile_io::{local_tile_bytes, roundtrip_summary, tiles_in_flight};

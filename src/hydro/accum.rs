@@ -116,7 +116,7 @@ const BAD: u8 = 0xFF;
 /// dropped. Returns the topological order (upstream first) of valid cells.
 ///
 /// Speed (≥ 40 Mcells per core-second on real DEMs, see
-/// `docs/notes/mfd.md`): one pass copies the codes into a working array in
+/// `docs/design/hydrology.md#divergent-accumulation-d-mfd-and-the-d8-kernel`): one pass copies the codes into a working array in
 /// which a code whose receiver is nodata or beyond the array becomes
 /// NO_FLOW, and counts in-degrees; the walk then finds a receiver as
 /// `c + offset[direction]` without bounds tests and without an array of

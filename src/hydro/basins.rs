@@ -33,8 +33,8 @@
 use super::{code_to_dir, DX, DY, NODATA_DIR, NO_FLOW};
 use crate::error::{Error, Result};
 use crate::exec::GlobalStep;
-use crate::raster::{perimeter_cells, perimeter_index, perimeter_len};
 use crate::io::vector::PointNoun;
+use crate::raster::{perimeter_cells, perimeter_index, perimeter_len};
 use crate::raster::{Grid, RasterSource, TileId, TileLayout, TileView, Window};
 use serde::{Deserialize, Serialize};
 use std::path::Path;

@@ -48,7 +48,7 @@
 //! above). The loop always ends (`L` is finite on a DAG). Flow that runs
 //! along a seam and crosses it back and forth stays in the band and costs
 //! no extra round; flow that wanders a few cells away from a seam and back
-//! does. Measured rounds are in `docs/notes/mfd.md`. Memory:
+//! does. Measured rounds are in `docs/design/hydrology.md#divergent-accumulation-d-mfd-and-the-d8-kernel`. Memory:
 //! O(tile × workers) for map/apply, O(total perimeter) for the reduce
 //! (≈ 120 bytes per perimeter cell, about twice that while the summaries
 //! are decoded).

@@ -45,7 +45,7 @@ pub fn walk_3x3<O: Copy>(
         let dn = &data[r0 + 2 * gw..r0 + 2 * gw + orow.len() + 2];
         // Branch-free pass (vectorisable when `f` is): every cell is computed,
         // cells whose window holds a NaN or ±inf get `nodata` (±inf is
-        // nodata, as in the hydrology steps; found by tests/numerics.rs).
+        // nodata, as in the hydrology steps; found by tests/hardening/numerics.rs).
         let mut any_bad = false;
         for (x, o) in orow.iter_mut().enumerate() {
             let win = window(up, mid, dn, x);

@@ -2,8 +2,8 @@
 //! across tiles, Barnes 2017) or D-infinity / MFD from a filled DEM.
 
 use super::{choose_layout, convert, run_global_to, Target};
-use crate::exec::plan::{check_inputs, make_sinks};
 use crate::error::{Error, Result};
+use crate::exec::plan::{check_inputs, make_sinks};
 use crate::exec::{Engine, EngineConfig, GlobalStep, LocalEngine};
 use crate::io::{self, OutputOptions};
 use crate::raster::{DType, RasterSource};

@@ -2,8 +2,10 @@
 //! colour ramp (or greyscale), see [`crate::tiles::render`].
 
 use crate::error::Result;
-use crate::tiles::render::{render_preview, RenderInfo, RenderKind, RenderOptions as PreviewOptions};
 use crate::raster::RasterSource;
+use crate::tiles::render::{
+    render_preview, RenderInfo, RenderKind, RenderOptions as PreviewOptions,
+};
 use std::path::Path;
 
 /// Options of `orogen render`.

@@ -9,7 +9,7 @@
 //! `tree.rs` for the sweep and the tie rules, [`EdgeConvention`] for the edge.
 //!
 //! Checked against akirmse/mountains (the tool of Kirmse & de Ferranti) on two
-//! SRTM3 tiles (`tests/oro_reference.rs`): identical peak lists, elevations
+//! SRTM3 tiles (`tests/oro/reference.rs`): identical peak lists, elevations
 //! and prominences at ≥ 30 m.
 //!
 //! Out of core: [`peaks_tiled`] / [`divide_tree_tiled`] build the same tree

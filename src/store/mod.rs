@@ -8,8 +8,8 @@ pub mod crash;
 mod delegated;
 mod manifest;
 mod reader;
-pub mod sink;
 pub mod scratch;
+pub mod sink;
 mod tile;
 mod writer;
 

@@ -389,7 +389,7 @@ pub fn decode_terrarium(r: u8, g: u8, b: u8) -> f64 {
 /// Terrain-RGB pyramid showed about three quarters of the time in the match
 /// search of the png crate's default (level 6); level 2 takes 3.9x less
 /// CPU for 17% larger files, the png crate's fdeflate (`Compression::Fast`)
-/// 6.5x less for 42% larger ones (`docs/notes/compare.md`).
+/// 6.5x less for 42% larger ones (`docs/design/compare.md#features-and-distances`).
 pub fn png_bytes(rgba: &[u8]) -> Result<Vec<u8>> {
     let mut out = Vec::new();
     {

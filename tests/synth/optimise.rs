@@ -180,7 +180,7 @@ fn guide_from_the_source_reproduces_its_large_scale_structure() {
 }
 
 /// Pit statistics of the output with and without pit removal (same inputs,
-/// same seed; measured in docs/notes/optimise.md). With the default pit
+/// same seed; measured in docs/design/example-based-synthesis.md). With the default pit
 /// removal (breach at every level but the finest, then the finest level's
 /// shallow-pit pass, depth limit 2 x the source's detail RMS = 9.1 m here)
 /// both the number of depressions and their volume are a small fraction of

@@ -478,7 +478,7 @@ fn distributions_match_the_alps_profile() {
     // isolation 4.4-8.1 %, 7.1 % mean; prominence 0.8-1.4 %; dominance
     // 0.1-0.6 % (session 7: isolation 5.1-8.3 %; session 6, before the
     // render was exact: isolation 5.2-7.9 %, prominence 1.4-2.6 %, dominance
-    // 0.6-1.5 %; docs/notes/oro8.md). The Alps' isolation floor for ~578
+    // 0.6-1.5 %; docs/design/orometric-synthesis.md#ridge-clearance-clearancers). The Alps' isolation floor for ~578
     // peaks is 3.7 % (the measure's sampling noise); the rest is the
     // isolation model's bias.
     assert!(
@@ -496,7 +496,7 @@ fn distributions_match_the_low_relief_profile() {
         return;
     };
     // Measured with the ridge contrast 5 (session 5, seeds 1-6,
-    // docs/notes/oro_dallas.md): isolation 3.4-7.7 %, 5.3 % mean; prominence
+    // docs/design/orometric-synthesis.md#ridges): isolation 3.4-7.7 %, 5.3 % mean; prominence
     // 0.1-0.5 %; dominance 0.9-3.0 %, 1.8 % mean (the paper: isolation ≤ 8 %,
     // prominence and dominance ≤ 3 %). Session 8 (the tree keeps peaks and
     // saddles clear of ridges, `clearance`): isolation 5.1-8.9 %, 7.3 %
@@ -505,7 +505,7 @@ fn distributions_match_the_low_relief_profile() {
     // Isolation on ~168 peaks is at the noise floor of the measure: 168
     // values drawn from the profile's own histogram are 6.3 % off it on
     // average, over 8 % in about 20 % of draws and over 10.1 % in 5 %
-    // (docs/notes/oro8.md, 2000 draws). So at the DEM's size the paper's
+    // (docs/design/orometric-synthesis.md#ridge-clearance-clearancers, 2000 draws). So at the DEM's size the paper's
     // 8 % holds on the mean, and each seed is held to 10.5 %; the per-seed
     // 8 % is checked on a domain twice the side
     // (`low_relief_isolation_holds_per_seed_on_a_larger_domain`).

@@ -31,7 +31,7 @@ fn errors_with(
     o.ridge_attraction = attraction;
     // The placement's effect is measured on the assignment alone, with the
     // isolation stretch and ridge weights it was calibrated with (the saddle refinement of
-    // docs/notes/oro_dist.md lowers both rows further and narrows the gap).
+    // docs/design/orometric-synthesis.md#saddle-elevations lowers both rows further and narrows the gap).
     o.refine = false;
     o.isolation_stretch = 1.2;
     o.ridge_base = 0.0;
@@ -727,7 +727,7 @@ fn cli_type_map_and_pasted_fragment() {
             "--seed",
             "4",
             // The library's default (the CLI's default is still 1.2 until
-            // src/cli/synth_oro.rs follows, see docs/notes/oro_dist.md).
+            // src/cli/synth_oro.rs follows, see docs/design/orometric-synthesis.md#saddle-elevations).
             "--isolation-stretch",
             &orogen::synth::orometric::tree_synth::DEFAULT_ISOLATION_STRETCH.to_string(),
             "-o",

@@ -333,7 +333,7 @@ fn tally(name: &str, thr: f64, seed: u64) -> Option<Tally> {
 /// saddles clear of ridges joined to them lower down (`clearance`), saddles
 /// kept between their peaks, and the raster blocking a step across a river
 /// beside a crest (`TinTerrain::across_crest`; before it, 3 Alps key
-/// saddles read two cells off, one 36 m high; docs/notes/oro8.md). The
+/// saddles read two cells off, one 36 m high; docs/design/orometric-synthesis.md#ridge-clearance-clearancers). The
 /// bounds are the figures measured (default TIN render), asserted per seed
 /// and in total so that a change which adds or loses peaks or moves
 /// saddles fails here.

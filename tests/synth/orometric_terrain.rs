@@ -408,7 +408,7 @@ fn tin_distributions_match_the_low_relief_profile() {
     // Measured (seed 3, session 5, ridge contrast 5): isolation 0.051,
     // prominence 0.005, dominance 0.025, elevation 0.074, density 0.071
     // (169 tree peaks, 182 found on the terrain: extra hills the render
-    // raises in large ridge-free areas, see docs/notes/oro_dallas.md; with
+    // raises in large ridge-free areas, see docs/design/orometric-synthesis.md#ridges; with
     // the paper's ridge weights: 0.040, 0.010, 0.051, 0.073, 0.071).
     assert!(e["isolation_km"] <= 0.055, "{e:?}");
     assert!(e["prominence"] <= 0.01, "{e:?}");

@@ -5,7 +5,7 @@
 //! that. Eviction is least-recently-used by a logical clock (O(n) scan on
 //! eviction, n = blocks held: a few hundred at most). An ordered map, not a
 //! hash map: a hash map's per-process random seed made the fuzzer's coverage
-//! of the reader differ between runs (docs/RELIABILITY.md, session 9).
+//! of the reader differ between runs (docs/RELIABILITY.md, deterministic coverage).
 
 use std::collections::BTreeMap;
 use std::sync::Arc;

@@ -128,7 +128,7 @@ fn tag_u64s(dec: &mut Dec, path: &Path, tag: Tag) -> Result<Option<Vec<u64>>> {
 /// The longest text tag read (GeoAsciiParams, GDAL_NODATA hold a few
 /// dozen bytes in practice). It also keeps tiff 0.11.3 from printing a stray
 /// `dbg!` line to stderr, which it does for an ASCII tag longer than its
-/// buffer limit (at least 1 MiB here; session 10).
+/// buffer limit (at least 1 MiB here).
 const MAX_TEXT_TAG: u64 = 1 << 20;
 
 /// The declared count of a tag of the current IFD (`None` if absent),
@@ -199,7 +199,7 @@ impl GeoTiffReader {
         // Tag values are read into a `Vec<Value>` sized from the declared
         // count before anything is read (tiff 0.11.3 bounds it only by
         // `decoding_buffer_size`): a 1 KiB file declaring 33 M GeoKey shorts
-        // asked for 1 GiB (fuzzing, session 6). A tag cannot hold more
+        // asked for 1 GiB (found by fuzzing). A tag cannot hold more
         // values than the file has bytes, so the metadata decoder is bounded
         // by that; blocks are decoded with the full limits (set below).
         let meta_limits = {

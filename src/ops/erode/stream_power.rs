@@ -10,8 +10,8 @@ use crate::erosion::stream_power::{
     stream_power, BaseHeight, Boundary, Depressions, StreamPowerParams, Uplift,
 };
 use crate::error::{Error, Result};
-use crate::exec::EngineConfig;
 use crate::exec::output::{below, valid_range};
+use crate::exec::EngineConfig;
 use crate::io::OutputOptions;
 use crate::ops::note::{bail, Note, Notify};
 use crate::raster::{read_window, AnyGrid, GeoRef, Grid, MemRaster, RasterSource, Window};

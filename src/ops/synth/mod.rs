@@ -12,9 +12,9 @@ pub mod rivers;
 pub mod tectonic;
 
 use crate::error::{Error, Result};
-use crate::tiles::render::{RenderKind, RenderOptions};
 use crate::ops::note::{bail, Notify};
 use crate::raster::RasterSource;
+use crate::tiles::render::{RenderKind, RenderOptions};
 use std::path::Path;
 
 /// Parse a size `WxH` or `N` (a square) in cells.

@@ -5,7 +5,6 @@
 use super::parse_size;
 use crate::error::{Error, Result};
 use crate::exec::EngineConfig;
-use crate::tiles::render::RenderOptions;
 use crate::io::{open_raster, OpenOptions, OutputOptions};
 use crate::ops::note::{bail, preview, Note, Notify};
 use crate::raster::{read_window, GeoRef, Grid, MemRaster, Window};
@@ -13,6 +12,7 @@ use crate::synth::optimise::{
     depression_stats, synthesise, FinestPits, OptimiseOptions as SynthOptions, PitRemoval,
     SearchSpace, Weighting, DEFAULT_DETAIL_DEPTH, MAX_OUTPUT_CELLS, MAX_SOURCE_CELLS,
 };
+use crate::tiles::render::RenderOptions;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 

@@ -5,12 +5,12 @@
 use super::{parse_size, parse_xy, preview};
 use crate::error::{Error, Result};
 use crate::exec::EngineConfig;
-use crate::tiles::render::RenderKind;
 use crate::io::OutputOptions;
 use crate::ops::note::{bail, Note, Notify};
 use crate::raster::{Crs, GeoRef};
 use crate::synth::rivers::{network_geojson, LandMask, RiverNetwork, RiverParams, RiverTerrain};
 use crate::synth::vector::VectorMap;
+use crate::tiles::render::RenderKind;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 

@@ -6,7 +6,6 @@
 use super::{parse_size, parse_xy, preview};
 use crate::error::{Error, Result};
 use crate::exec::EngineConfig;
-use crate::tiles::render::RenderKind;
 use crate::io::OutputOptions;
 use crate::ops::note::{bail, Note, Notify};
 use crate::raster::{Crs, GeoRef};
@@ -14,6 +13,7 @@ use crate::synth::tectonic::{
     map_to_pixels, TectonicLayer, TectonicModel, TectonicParams, TectonicSource,
 };
 use crate::synth::vector::VectorMap;
+use crate::tiles::render::RenderKind;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 use std::sync::Arc;

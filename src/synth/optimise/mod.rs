@@ -163,7 +163,7 @@ pub struct OptimiseOptions {
     /// energy). Weighting the centre of each patch more softens the seams
     /// between overlapping patches, which otherwise leave small pits in the
     /// finest level (measured: 360 -> 196 depressions on the test case of
-    /// `docs/notes/optimise.md`).
+    /// `docs/design/example-based-synthesis.md`).
     pub falloff: Option<f32>,
     /// Remove pits at the finest level too (not in the paper; off by
     /// default): the output is then free of depressions.
@@ -174,7 +174,7 @@ pub struct OptimiseOptions {
     /// become ramps towards their outlet ([`drain_strictly`]), so the finer
     /// level's patches match draining shapes instead of averaging into
     /// small pits on flats. 0 = off (the paper's plain removal; the
-    /// default). Measured (docs/notes/optimise.md): it lowers the output's
+    /// default). Measured (docs/design/example-based-synthesis.md): it lowers the output's
     /// depression volume further but raises the depression count.
     pub drain_step: f32,
     /// Final shallow-pit pass on the finest level (a departure from the
@@ -210,7 +210,7 @@ impl Default for OptimiseOptions {
 }
 
 /// Default depth limit of the finest level's shallow-pit pass, in units of
-/// the exemplar's finest detail RMS (measured in docs/notes/optimise.md).
+/// the exemplar's finest detail RMS (measured in docs/design/example-based-synthesis.md).
 pub const DEFAULT_DETAIL_DEPTH: f32 = 2.0;
 
 /// What happened at one level.

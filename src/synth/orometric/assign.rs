@@ -28,7 +28,7 @@ pub const BLOCK: usize = 128;
 /// factor: a raster stores f32 elevations, and a peak at exactly the
 /// threshold reads a few hundredths of a millimetre under it (Dallas profile,
 /// 600² round trips, seeds 11 and 15: 4.99998 m at a 5 m threshold;
-/// docs/notes/oro8.md).
+/// docs/design/orometric-synthesis.md#ridge-clearance-clearancers).
 pub const PROMINENCE_MARGIN: f64 = 1.001;
 
 /// Owner (index of the peak whose key saddle it is) of each saddle, by the

@@ -5,8 +5,8 @@
 //! their elevations. When that is above the tree's pass height between them
 //! ([`PassHeights`]: the lowest saddle on their tree path), the terrain's
 //! divide tree is not the synthesised one: a peak's key saddle rises and its
-//! prominence falls (docs/notes/oro7.md: 7 of the 8 tree peaks the session-7
-//! render lost stood within 2.6 cells of such a ridge; docs/notes/oro8.md).
+//! prominence falls (docs/design/orometric-synthesis.md#tin-tinterrain: 7 of the 8 tree peaks the session-7
+//! render lost stood within 2.6 cells of such a ridge; docs/design/orometric-synthesis.md#ridge-clearance-clearancers).
 //! The paper's dart throwing keeps peaks apart from each other (Argudo et
 //! al. 2019, §5.1) but not from ridges; this pass adds that, after the
 //! saddle elevations are known (they decide which ridges offend).
@@ -199,7 +199,7 @@ fn touch(p: (f64, f64), q: (f64, f64), r: (f64, f64), s: (f64, f64)) -> bool {
 /// off it (the synthesis places saddles within the middle 30 % and 10 %
 /// off). Without it, repeated moves walked a saddle past its peak into a
 /// hairpin ridge whose two halves the raster then joined (Dallas seed 2 at
-/// 600², docs/notes/oro8.md).
+/// 600², docs/design/orometric-synthesis.md#ridge-clearance-clearancers).
 fn between_its_peaks(tree: &SynthTree, j: usize, x: f64, y: f64) -> bool {
     let [p, q] = tree.saddles[j].peaks;
     let (a, b) = (&tree.peaks[p], &tree.peaks[q]);

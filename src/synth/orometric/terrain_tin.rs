@@ -265,7 +265,7 @@ const BLOCK_SIDE: usize = 512;
 /// Cells around a tree peak (Chebyshev) where the noise cannot lift a cell
 /// to within half the threshold of the summit. 16 let the noise make a
 /// higher point 17 cells along a gentle Dallas ridge (600² round trip, seed
-/// 10; docs/notes/oro8.md).
+/// 10; docs/design/orometric-synthesis.md#ridge-clearance-clearancers).
 const PEAK_CALM: usize = 24;
 
 /// Halo of the reconstruction blocks, cells.
@@ -1433,7 +1433,7 @@ impl TinTerrain {
     /// cell is a crest cell: the crest band wins there (a ridge running
     /// beside a river), and a diagonal step from the crest to the flank
     /// across the river would join two hills above the tree's pass (Alps
-    /// seed 3, Dallas seed 2 at 600²; docs/notes/oro8.md). So the cell on
+    /// seed 3, Dallas seed 2 at 600²; docs/design/orometric-synthesis.md#ridge-clearance-clearancers). So the cell on
     /// the far side takes the block: it reads at most the river.
     fn across_crest(&self, b: usize, x: f64, y: f64) -> f64 {
         let c = self.cell;

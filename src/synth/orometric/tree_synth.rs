@@ -113,9 +113,9 @@ pub struct TreeOptions {
     /// closer than its summit). Default 1.2 ([`DEFAULT_ISOLATION_STRETCH`]),
     /// calibrated on the TIN terrain of the Mont Blanc and Dallas profiles
     /// over six seeds each once the render kept exactly the tree's peaks
-    /// (session 7: 1.1 suits the Alps best, 1.3 Dallas; 1.3 before, when
-    /// knolls of the render stood near many peaks; see docs/notes/oro7.md
-    /// and oro_dist.md).
+    /// (1.1 suits the Alps best, 1.3 Dallas; 1.3 was the default while
+    /// knolls of the render stood near many peaks; see
+    /// docs/design/orometric-synthesis.md#placement).
     pub isolation_stretch: f64,
     /// Placement passes by prominence bins (§5): the most prominent bin
     /// first, each next bin about twice as many peaks, earlier peaks fixed.
@@ -157,7 +157,7 @@ pub struct TreeOptions {
     /// the saddles on the way: the tree kept 4–7 peaks of prominence over
     /// 3000 m where the profile has 1 and too many of 800–1500 m (tree
     /// prominence error 1.6–3.2 %, rendered 2.0–3.5 %, seeds 1–6); with
-    /// β = 0.72 (contrast ≈ 17) 1.2–2.3 % and 1.4–2.6 % (docs/notes/oro6.md).
+    /// β = 0.72 (contrast ≈ 17) 1.2–2.3 % and 1.4–2.6 % (docs/design/orometric-synthesis.md#ridges).
     /// On Dallas b_C (contrast 5: 132 m = 0.8 · 165 m) is larger, so its
     /// trees do not change. 0: the contrast alone.
     pub ridge_base: f64,
@@ -199,7 +199,7 @@ impl TreeOptions {
 /// contrast, rounded down: it keeps the paper's weights there).
 pub const DEFAULT_RIDGE_CONTRAST: f64 = 5.0;
 /// Default [`TreeOptions::ridge_base`], calibrated on Mont Blanc, seeds
-/// 1–6 (see the field). The sweep (docs/notes/oro6.md) put every seed
+/// 1–6 (see the field). The sweep (docs/design/orometric-synthesis.md#ridges) put every seed
 /// within the paper's figures at bases ≈ 0.72 and 0.81 of the lowest peak,
 /// but ≈ 0.76 and 0.79 each missed on one seed by 0.1–0.2 points: the
 /// margin is of the order of the seed-to-seed noise. Kept below 0.8 so the
@@ -213,7 +213,7 @@ pub const DEFAULT_RIDGE_BASE: f64 = 0.72;
 pub const DEFAULT_TYPE_BLEND_M: f64 = 0.0;
 /// Default isolation stretch ([`TreeOptions::isolation_stretch`]).
 pub const DEFAULT_ISOLATION_STRETCH: f64 = 1.2;
-/// Default number of placement passes (see `docs/notes/oro_author.md`).
+/// Default number of placement passes (see `docs/design/orometric-synthesis.md#authoring`).
 pub const DEFAULT_PASSES: usize = 4;
 /// Default ridge attraction of the multi-pass placement.
 pub const DEFAULT_RIDGE_ATTRACTION: f64 = 0.8;
@@ -1202,7 +1202,7 @@ pub fn synthesize_tree(profile: &SynthProfile, opts: &TreeOptions) -> Result<Syn
 /// both ([`clear_ridges`]): cells (a raster joins crest points with one cell
 /// between them), plus metres for part of the terrain's ridge jitter. Three
 /// cells plus 50 m moved 45 % of the Alps profile's peaks and doubled the
-/// isolation error; this moves about 4 % (docs/notes/oro8.md).
+/// isolation error; this moves about 4 % (docs/design/orometric-synthesis.md#ridge-clearance-clearancers).
 pub const RIDGE_CLEARANCE_CELLS: f64 = 2.0;
 /// See [`RIDGE_CLEARANCE_CELLS`].
 pub const RIDGE_CLEARANCE_M: f64 = 25.0;
