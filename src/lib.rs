@@ -13,6 +13,7 @@ pub mod compare;
 pub mod erosion;
 pub mod error;
 pub mod exec;
+pub mod flow;
 pub mod hydro;
 pub mod io;
 pub mod metrics;

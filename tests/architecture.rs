@@ -9,6 +9,7 @@
 //!                          projections, tile layouts and perimeters, 3x3 neighbours
 //! io, store                readers and writers; the tile store; tile sinks (store::sink)
 //! exec                     step traits, engines, output nodata rules, run plans
+//! flow                     the flow graph: routers, sink resolvers, accumulation
 //! hydro < oro < metrics < erosion < synth < tiles < report < compare
 //!                          the algorithms, one tier each, in this order
 //! ops, job                 user operations and batch jobs
@@ -36,6 +37,7 @@ const TIERS: &[&[&str]] = &[
     &["error", "raster"],
     &["io", "store"],
     &["exec"],
+    &["flow"],
     &["hydro"],
     &["oro"],
     &["metrics"],
@@ -445,10 +447,10 @@ fn the_check_finds_synthetic_violations() {
     ]);
     let bad = violations(&refs);
     let expected = [
-        "src/io/fake.rs:1: io (tier 1) names ops (tier 11), a higher layer",
-        "src/hydro/fake/deep.rs:3: hydro (tier 3) names metrics (tier 5), a higher layer",
-        "src/exec/fake.rs:1: exec (tier 2) names ops (tier 11), a higher layer",
-        "src/exec/fake.rs:2: exec (tier 2) names ops (tier 11), a higher layer",
+        "src/io/fake.rs:1: io (tier 1) names ops (tier 12), a higher layer",
+        "src/hydro/fake/deep.rs:3: hydro (tier 4) names metrics (tier 6), a higher layer",
+        "src/exec/fake.rs:1: exec (tier 2) names ops (tier 12), a higher layer",
+        "src/exec/fake.rs:2: exec (tier 2) names ops (tier 12), a higher layer",
         "src/store.rs:1: store (tier 1) names exec (tier 2), a higher layer",
     ];
     assert_eq!(bad, expected);
@@ -482,9 +484,9 @@ fn the_check_finds_a_synthetic_cycle() {
         ["job -> ops (src/job.rs:2), ops -> job (src/ops/a.rs:1)"]
     );
     // A module without a tier is reported.
-    let refs = synthetic(&[("src/flow/a.rs", "use crate::raster::Grid;\n")]);
+    let refs = synthetic(&[("src/drainage/a.rs", "use crate::raster::Grid;\n")]);
     assert_eq!(
         violations(&refs),
-        ["src/flow/a.rs:1: module flow has no tier in tests/architecture.rs"]
+        ["src/drainage/a.rs:1: module drainage has no tier in tests/architecture.rs"]
     );
 }

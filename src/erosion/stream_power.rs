@@ -47,12 +47,26 @@
 //! [`super::stream_power_tiled`] (fill and no routing; not the basin graph).
 
 use crate::error::{Error, Result};
-use crate::raster::{Grid, UnionFind};
+use crate::flow::{route_steepest, FlowGraph, Lakes};
+use crate::raster::{neighbours, Grid};
 
-/// Column offsets of the 8 neighbours (E, SE, S, SW, W, NW, N, NE), as in `hydro`.
-pub(crate) const DX: [isize; 8] = [1, 1, 0, -1, -1, -1, 0, 1];
+pub(crate) use crate::flow::{order_key, BASE, VALID};
+
+/// Column offsets of the 8 neighbours (E, SE, S, SW, W, NW, N, NE) of
+/// [`crate::raster::neighbours`], as `isize`.
+pub(crate) const DX: [isize; 8] = as_isize(neighbours::DX);
 /// Row offsets of the 8 neighbours (y grows southwards).
-pub(crate) const DY: [isize; 8] = [0, 1, 1, 1, 0, -1, -1, -1];
+pub(crate) const DY: [isize; 8] = as_isize(neighbours::DY);
+
+const fn as_isize(v: [i64; 8]) -> [isize; 8] {
+    let mut o = [0isize; 8];
+    let mut k = 0;
+    while k < 8 {
+        o[k] = v[k] as isize;
+        k += 1;
+    }
+    o
+}
 /// Largest number of explicit diffusion substeps one step may need.
 pub(crate) const MAX_DIFFUSION_SUBSTEPS: usize = 100_000;
 
@@ -237,27 +251,16 @@ pub struct StreamPower {
     h: usize,
     cell: f64,
     p: StreamPowerParams,
-    /// Cell flags: bit 0 valid, bit 1 base level.
+    /// Cell flags: [`VALID`], [`BASE`].
     flags: Vec<u8>,
-    rec: Vec<u32>,
-    dist: Vec<f64>,
-    stack: Vec<u32>,
+    /// Receivers, distances (metres) and stack of the uplifted surface.
+    graph: FlowGraph<f64>,
     area: Vec<f64>,
-    /// Donor lists (CSR): offsets (n + 1) and donors.
-    don_off: Vec<u32>,
-    donors: Vec<u32>,
-    /// Scratch: fill levels, basin ids, diffusion buffer.
-    level: Vec<f64>,
-    /// True when `level` holds this step's water levels (some cell is a lake).
-    has_lakes: bool,
-    basin: Vec<u32>,
+    /// Water levels of this step's depressions and the resolvers' scratch.
+    lakes: Lakes<f64>,
+    /// Diffusion buffer.
     scratch: Vec<f64>,
 }
-
-/// Cell flag: valid (finite) cell.
-pub(crate) const VALID: u8 = 1;
-/// Cell flag: base level.
-pub(crate) const BASE: u8 = 2;
 
 impl StreamPower {
     /// Prepare a solver for `h` (sets base levels to 0 if asked).
@@ -318,26 +321,20 @@ impl StreamPower {
             cell,
             p: p.clone(),
             flags,
-            rec: vec![0; n],
-            dist: vec![0.0; n],
-            stack: Vec::with_capacity(n),
+            graph: FlowGraph::new(w, ht)?,
             area: vec![0.0; n],
-            don_off: vec![0; n + 1],
-            donors: vec![0; n],
-            level: Vec::new(),
-            has_lakes: false,
-            basin: Vec::new(),
+            lakes: Lakes::new(),
             scratch: Vec::new(),
         })
     }
 
     /// Receiver of each cell (row-major index; a root is its own receiver).
     pub fn receivers(&self) -> &[u32] {
-        &self.rec
+        self.graph.receivers()
     }
     /// Cells ordered so that every cell comes after its receiver.
     pub fn stack(&self) -> &[u32] {
-        &self.stack
+        self.graph.stack()
     }
     /// Drainage area of each cell (m², the cell itself included; 0 on nodata).
     pub fn area(&self) -> &[f64] {
@@ -361,7 +358,8 @@ impl StreamPower {
         }
         self.uplift(h.data_mut(), uplift)?;
         self.route(h.data());
-        self.build_stack();
+        let left = self.graph.build_stack();
+        debug_assert_eq!(left, 0, "the routers make acyclic graphs");
         self.accumulate();
         self.erode(h.data_mut());
         if self.p.kd > 0.0 {
@@ -415,404 +413,22 @@ impl StreamPower {
         Ok(())
     }
 
-    /// Distance to neighbour direction `d`.
-    #[inline]
-    fn step_len(&self, d: usize) -> f64 {
-        if d % 2 == 1 {
-            self.cell * std::f64::consts::SQRT_2
-        } else {
-            self.cell
-        }
-    }
-
-    /// Steepest-descent receivers on `z` (strictly lower neighbours only);
-    /// returns the number of pits (valid non-base cells without one).
-    fn steepest(&mut self, z: &[f64], only: Option<&[bool]>) -> usize {
-        let (w, ht) = (self.w, self.h);
-        let mut pits = 0;
-        for y in 0..ht {
-            for x in 0..w {
-                let i = y * w + x;
-                if let Some(o) = only {
-                    if !o[i] {
-                        continue;
-                    }
-                }
-                self.rec[i] = i as u32;
-                self.dist[i] = 0.0;
-                if self.flags[i] != VALID {
-                    continue;
-                }
-                let zi = z[i];
-                let mut best = 0.0;
-                let mut bj = i;
-                let mut bd = 0.0;
-                let interior = x > 0 && y > 0 && x + 1 < w && y + 1 < ht;
-                for d in 0..8 {
-                    let (nx, ny) = (x as isize + DX[d], y as isize + DY[d]);
-                    if !interior && (nx < 0 || ny < 0 || nx as usize >= w || ny as usize >= ht) {
-                        continue;
-                    }
-                    let j = ny as usize * w + nx as usize;
-                    if self.flags[j] & VALID == 0 {
-                        continue;
-                    }
-                    let len = self.step_len(d);
-                    let s = (zi - z[j]) / len;
-                    if s > best {
-                        best = s;
-                        bj = j;
-                        bd = len;
-                    }
-                }
-                self.rec[i] = bj as u32;
-                self.dist[i] = bd;
-                if bj == i {
-                    pits += 1;
-                }
-            }
-        }
-        pits
-    }
-
+    /// Route `h` into the flow graph: steepest descent, then the
+    /// depression routing of the parameters when there are pits.
     fn route(&mut self, h: &[f64]) {
-        self.has_lakes = false;
-        let pits = self.steepest(h, None);
+        self.lakes.clear();
+        let pits = route_steepest(&mut self.graph, h, &self.flags, self.cell);
         if pits == 0 {
             return;
         }
         match self.p.depressions {
             Depressions::None => {}
-            Depressions::Fill => self.route_fill(h),
-            Depressions::BasinGraph => self.route_basin_graph(h, true),
-        }
-    }
-
-    /// Depression filling, defined so that a tiled solve can reproduce it
-    /// exactly (see [`super::stream_power_tiled`]):
-    /// 1. water level `L` = the minimax ("priority-flood") level of Barnes,
-    ///    Lehman & Mulla (2014): `L = h` on base levels, elsewhere
-    ///    `L(i) = max(h(i), min over valid neighbours L(j))` — unique, and
-    ///    computed with `max`/`min` only, so any order gives the same bits;
-    /// 2. on flats of `L` (valid non-base cells with no strictly lower
-    ///    neighbour: lake surfaces and flat ground), the breadth-first
-    ///    distance `D` over equal-`L` 8-neighbours from the cells that drain
-    ///    (base levels and cells with a strictly lower neighbour, `D = 0`) —
-    ///    the "towards lower terrain" gradient of Barnes, Lehman & Mulla
-    ///    (2014, Computers & Geosciences 62, 128–135);
-    /// 3. receivers: steepest descent on `L` (ties to the first neighbour in
-    ///    E, SE, S, ... order); a flat cell drains to its equal-`L` neighbour
-    ///    of least `D` (first in that order), which is one step nearer the
-    ///    outlet. Along every receiver path `(L, D)` strictly decreases: no cycles.
-    ///
-    /// The levels come from the basin graph of the steepest-descent receivers
-    /// (no carving): a basin's level is the highest pass on its minimum
-    /// spanning tree path to the base levels, which is the minimax level a
-    /// priority flood gives (Cordonnier et al. 2019), at O(n) plus a sort of
-    /// the passes between basins instead of a heap operation per cell.
-    fn route_fill(&mut self, h: &[f64]) {
-        let n = self.w * self.h;
-        let (w, ht) = (self.w, self.h);
-        self.route_basin_graph(h, false);
-        let level = std::mem::take(&mut self.level);
-        // One scan: steepest descent on the levels; `dd` = 0 for cells that
-        // drain (base levels, cells with a strictly lower neighbour), MAX for
-        // flat cells, which are collected.
-        let mut dd = std::mem::take(&mut self.basin);
-        dd.clear();
-        dd.resize(n, u32::MAX);
-        let mut flats: Vec<u32> = Vec::new();
-        let off: [isize; 8] = std::array::from_fn(|d| DY[d] * w as isize + DX[d]);
-        for y in 0..ht {
-            for x in 0..w {
-                let i = y * w + x;
-                self.rec[i] = i as u32;
-                self.dist[i] = 0.0;
-                let f = self.flags[i];
-                if f != VALID {
-                    if f & BASE != 0 {
-                        dd[i] = 0;
-                    }
-                    continue;
-                }
-                let zi = level[i];
-                let mut best = 0.0;
-                let mut bj = i;
-                let mut bd = 0.0;
-                let mut lower = false;
-                let interior = x > 0 && y > 0 && x + 1 < w && y + 1 < ht;
-                for d in 0..8 {
-                    let j = if interior {
-                        (i as isize + off[d]) as usize
-                    } else {
-                        let (nx, ny) = (x as isize + DX[d], y as isize + DY[d]);
-                        if nx < 0 || ny < 0 || nx as usize >= w || ny as usize >= ht {
-                            continue;
-                        }
-                        ny as usize * w + nx as usize
-                    };
-                    if self.flags[j] & VALID == 0 {
-                        continue;
-                    }
-                    let zj = level[j];
-                    lower |= zj < zi;
-                    let len = self.step_len(d);
-                    let s = (zi - zj) / len;
-                    if s > best {
-                        best = s;
-                        bj = j;
-                        bd = len;
-                    }
-                }
-                self.rec[i] = bj as u32;
-                self.dist[i] = bd;
-                if lower {
-                    dd[i] = 0;
-                } else {
-                    flats.push(i as u32);
-                }
+            Depressions::Fill => self.lakes.fill(&mut self.graph, h, &self.flags, self.cell),
+            Depressions::BasinGraph => {
+                self.lakes
+                    .basin_graph(&mut self.graph, h, &self.flags, self.cell, true)
             }
         }
-        if !flats.is_empty() {
-            // Breadth-first distances over equal-level flat cells, from the
-            // draining cells next to them (the only seeds that reach a flat).
-            let mut queue = std::collections::VecDeque::new();
-            for &f in &flats {
-                let f = f as usize;
-                let (x, y) = (f % w, f / w);
-                for d in 0..8 {
-                    let (nx, ny) = (x as isize + DX[d], y as isize + DY[d]);
-                    if nx < 0 || ny < 0 || nx as usize >= w || ny as usize >= ht {
-                        continue;
-                    }
-                    let j = ny as usize * w + nx as usize;
-                    if self.flags[j] & VALID != 0 && dd[j] == 0 && level[j] == level[f] {
-                        queue.push_back(j as u32);
-                    }
-                }
-            }
-            while let Some(c) = queue.pop_front() {
-                let c = c as usize;
-                let (x, y) = (c % w, c / w);
-                let next = dd[c] + 1;
-                for d in 0..8 {
-                    let (nx, ny) = (x as isize + DX[d], y as isize + DY[d]);
-                    if nx < 0 || ny < 0 || nx as usize >= w || ny as usize >= ht {
-                        continue;
-                    }
-                    let j = ny as usize * w + nx as usize;
-                    if self.flags[j] & VALID != 0 && dd[j] == u32::MAX && level[j] == level[c] {
-                        dd[j] = next;
-                        queue.push_back(j as u32);
-                    }
-                }
-            }
-            // Flat cells without a strictly lower neighbour on the levels
-            // drain to the equal-level neighbour nearest the outlet.
-            for &f in &flats {
-                let i = f as usize;
-                let (x, y) = (i % w, i / w);
-                let zi = level[i];
-                let mut bdd = dd[i];
-                for d in 0..8 {
-                    let (nx, ny) = (x as isize + DX[d], y as isize + DY[d]);
-                    if nx < 0 || ny < 0 || nx as usize >= w || ny as usize >= ht {
-                        continue;
-                    }
-                    let j = ny as usize * w + nx as usize;
-                    if self.flags[j] & VALID != 0 && level[j] == zi && dd[j] < bdd {
-                        bdd = dd[j];
-                        self.rec[i] = j as u32;
-                        self.dist[i] = self.step_len(d);
-                    }
-                }
-            }
-        }
-        self.basin = dd;
-        self.level = level;
-        self.has_lakes = true;
-    }
-
-    /// Cordonnier, Bovy & Braun (2019): basins of the steepest-descent
-    /// receivers, passes between adjacent basins (pass height = max of the
-    /// two cells), a minimum spanning tree by Kruskal over the passes with
-    /// every base-level basin merged into one root, then, from the root
-    /// outwards, each basin's receivers reversed from its pass cell down to
-    /// its pit, and the pass cell pointed across the pass ("carving").
-    fn route_basin_graph(&mut self, h: &[f64], carve: bool) {
-        let (w, ht) = (self.w, self.h);
-        let n = w * ht;
-        // Basin of each cell = its root, found by the stack walk.
-        self.build_stack();
-        self.basin.clear();
-        self.basin.resize(n, u32::MAX);
-        // Basin ids: 0 = every base level (the "ocean"), then pits in stack order.
-        let mut nb = 1u32;
-        let mut pit_of: Vec<u32> = vec![u32::MAX];
-        for k in 0..self.stack.len() {
-            let i = self.stack[k] as usize;
-            let r = self.rec[i] as usize;
-            if r == i {
-                if self.flags[i] & BASE != 0 || self.flags[i] & VALID == 0 {
-                    self.basin[i] = 0;
-                } else {
-                    self.basin[i] = nb;
-                    pit_of.push(i as u32);
-                    nb += 1;
-                }
-            } else {
-                self.basin[i] = self.basin[r];
-            }
-        }
-        // Candidate passes: each 8-neighbour pair once (E, SE, S, SW of each cell).
-        let mut edges: Vec<(u64, u32, u32)> = Vec::new();
-        for y in 0..ht {
-            for x in 0..w {
-                let i = y * w + x;
-                if self.flags[i] & VALID == 0 {
-                    continue;
-                }
-                for d in 0..4 {
-                    let (nx, ny) = (x as isize + DX[d], y as isize + DY[d]);
-                    if nx < 0 || ny < 0 || nx as usize >= w || ny as usize >= ht {
-                        continue;
-                    }
-                    let j = ny as usize * w + nx as usize;
-                    if self.flags[j] & VALID == 0 || self.basin[i] == self.basin[j] {
-                        continue;
-                    }
-                    let ph = h[i].max(h[j]);
-                    edges.push((order_key(ph), i as u32, j as u32));
-                }
-            }
-        }
-        edges.sort_unstable();
-        // Kruskal with a union-find over basins.
-        let mut uf = UnionFind::<u32>::new(nb as usize);
-        // Tree adjacency per basin: (other basin, cell in this basin, cell in other).
-        let mut tree: Vec<(u32, u32, u32)> = Vec::new();
-        for &(_, i, j) in &edges {
-            let (bi, bj) = (self.basin[i as usize], self.basin[j as usize]);
-            let (ri, rj) = (uf.find(bi), uf.find(bj));
-            if ri == rj {
-                continue;
-            }
-            uf.union_min(ri, rj);
-            tree.push((bi, i, j));
-            tree.push((bj, j, i));
-            if tree.len() / 2 + 1 == nb as usize {
-                break;
-            }
-        }
-        tree.sort_unstable();
-        let mut off = vec![0usize; nb as usize + 1];
-        for t in &tree {
-            off[t.0 as usize + 1] += 1;
-        }
-        for b in 0..nb as usize {
-            off[b + 1] += off[b];
-        }
-        // Orient from the root (basin 0), breadth first. A basin's water
-        // level is the highest pass on its tree path to the root (the minimum
-        // spanning tree holds the minimax paths: the level filling would give).
-        let mut done = vec![false; nb as usize];
-        let mut water = vec![f64::NEG_INFINITY; nb as usize];
-        let mut queue = std::collections::VecDeque::new();
-        done[0] = true;
-        queue.push_back(0u32);
-        while let Some(b) = queue.pop_front() {
-            for &(_, out_cell, in_cell) in &tree[off[b as usize]..off[b as usize + 1]] {
-                let c = self.basin[in_cell as usize];
-                if done[c as usize] {
-                    continue;
-                }
-                done[c as usize] = true;
-                queue.push_back(c);
-                let pass = h[out_cell as usize].max(h[in_cell as usize]);
-                water[c as usize] = pass.max(water[b as usize]);
-                if !carve {
-                    continue;
-                }
-                // Reverse the path in_cell -> ... -> pit, then in_cell -> out_cell.
-                let pit = pit_of[c as usize] as usize;
-                let mut prev = out_cell as usize;
-                let mut cur = in_cell as usize;
-                loop {
-                    let next = self.rec[cur] as usize;
-                    self.rec[cur] = prev as u32;
-                    self.dist[cur] = self.neighbour_dist(cur, prev);
-                    if cur == pit {
-                        break;
-                    }
-                    prev = cur;
-                    cur = next;
-                }
-            }
-        }
-        self.level.clear();
-        self.level.extend(h.iter().zip(&self.basin).map(|(&z, &b)| {
-            if b == u32::MAX {
-                z
-            } else {
-                z.max(water[b as usize])
-            }
-        }));
-        self.has_lakes = true;
-    }
-
-    /// Distance between two 8-adjacent cells.
-    #[inline]
-    fn neighbour_dist(&self, a: usize, b: usize) -> f64 {
-        let (ax, ay) = (a % self.w, a / self.w);
-        let (bx, by) = (b % self.w, b / self.w);
-        if ax != bx && ay != by {
-            self.cell * std::f64::consts::SQRT_2
-        } else {
-            self.cell
-        }
-    }
-
-    /// Braun & Willett (2013) stack order: donor lists, then a depth-first walk from
-    /// every root in row-major order.
-    fn build_stack(&mut self) {
-        let n = self.w * self.h;
-        self.don_off.iter_mut().for_each(|v| *v = 0);
-        for i in 0..n {
-            let r = self.rec[i] as usize;
-            if r != i {
-                self.don_off[r + 1] += 1;
-            }
-        }
-        for i in 0..n {
-            self.don_off[i + 1] += self.don_off[i];
-        }
-        // Fill donors using a cursor copy kept in `basin` (reused as scratch).
-        let mut cur: Vec<u32> = self.don_off[..n].to_vec();
-        for i in 0..n {
-            let r = self.rec[i] as usize;
-            if r != i {
-                self.donors[cur[r] as usize] = i as u32;
-                cur[r] += 1;
-            }
-        }
-        self.stack.clear();
-        let mut todo: Vec<u32> = Vec::new();
-        for root in 0..n {
-            if self.rec[root] as usize != root {
-                continue;
-            }
-            todo.push(root as u32);
-            while let Some(c) = todo.pop() {
-                self.stack.push(c);
-                let c = c as usize;
-                let (a, b) = (self.don_off[c] as usize, self.don_off[c + 1] as usize);
-                // Push in reverse so donors are visited in index order.
-                for k in (a..b).rev() {
-                    todo.push(self.donors[k]);
-                }
-            }
-        }
-        debug_assert_eq!(self.stack.len(), n);
     }
 
     /// Drainage area: cell counts summed in reverse stack order, then times the
@@ -822,13 +438,9 @@ impl StreamPower {
         for (a, f) in self.area.iter_mut().zip(&self.flags) {
             *a = if f & VALID != 0 { 1.0 } else { 0.0 };
         }
-        for k in (0..self.stack.len()).rev() {
-            let i = self.stack[k] as usize;
-            let r = self.rec[i] as usize;
-            if r != i {
-                self.area[r] += self.area[i];
-            }
-        }
+        self.graph
+            .accumulate(&mut self.area)
+            .expect("one area per cell; f64 sums do not overflow");
         let ca = self.cell * self.cell;
         for a in self.area.iter_mut() {
             *a *= ca;
@@ -841,18 +453,20 @@ impl StreamPower {
             return;
         }
         let linear = n == 1.0;
-        for &s in &self.stack {
+        let (rec, dist) = (self.graph.receivers(), self.graph.distances());
+        let level = self.lakes.levels();
+        for &s in self.graph.stack() {
             let i = s as usize;
-            let r = self.rec[i] as usize;
+            let r = rec[i] as usize;
             if r == i || self.flags[i] != VALID {
                 continue;
             }
             let hr = h[r];
             let hs = h[i];
-            if hs <= hr || (self.has_lakes && self.level[i] > hs) {
+            if hs <= hr || level.is_some_and(|l| l[i] > hs) {
                 continue; // in a lake: no erosion, no deposition
             }
-            let d = self.dist[i];
+            let d = dist[i];
             let c = k * dt * self.area[i].powf(m);
             if linear {
                 let fac = c / d;
@@ -980,17 +594,6 @@ pub(crate) fn newton(hs: f64, hr: f64, d: f64, c: f64, n: f64) -> f64 {
     x
 }
 
-/// Order-preserving map of a finite f64 to u64 (for heap and sort keys).
-#[inline]
-pub(crate) fn order_key(v: f64) -> u64 {
-    let b = v.to_bits();
-    if b >> 63 == 1 {
-        !b
-    } else {
-        b | (1 << 63)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1046,10 +649,11 @@ mod tests {
             for start in 0..w * w {
                 let mut c = start;
                 for _ in 0..w * w {
-                    if sp.rec[c] as usize == c {
+                    let r = sp.receivers()[c] as usize;
+                    if r == c {
                         break;
                     }
-                    c = sp.rec[c] as usize;
+                    c = r;
                 }
                 assert!(sp.is_base(c), "{dep:?}: cell {start} ends at {c}");
             }
@@ -1058,7 +662,7 @@ mod tests {
                 .map(|i| sp.area[i])
                 .sum();
             assert_eq!(outflow, (w * w) as f64 * 100.0);
-            levels.push(sp.level.clone());
+            levels.push(sp.lakes.levels().expect("the bowl is a pit").to_vec());
         }
         // Both give the same water levels (flood level = highest pass on the
         // minimum-spanning-tree path), and the bowl does hold a lake.

@@ -1,11 +1,12 @@
 //! D8 flow accumulation by topological order.
 //!
 //! Each cell's accumulation is its own contribution plus that of every cell
-//! upstream of it. Cells are visited in a topological order of the D8 flow
-//! graph obtained by in-degree counting (Kahn 1962, "Topological sorting of
-//! large networks", CACM 5; as used for flow accumulation by Barnes 2017,
-//! "Parallel non-divergent flow accumulation for trillion cell digital
-//! elevation models on desktops or clusters", EMS 92, Alg. 1): O(n).
+//! upstream of it. The D8 codes become a [`crate::flow::FlowGraph`] (the
+//! D8-code router); its stack, built by in-degree counting (Kahn 1962,
+//! "Topological sorting of large networks", CACM 5; as used for flow
+//! accumulation by Barnes 2017, "Parallel non-divergent flow accumulation
+//! for trillion cell digital elevation models on desktops or clusters",
+//! EMS 92, Alg. 1), is walked backwards: O(n).
 //!
 //! Sums are exact integers so that any summation order — in particular the
 //! tile-by-tile order of [`super::tiled::TiledAccumulation`] — gives the same
@@ -17,6 +18,7 @@
 
 use super::{code_to_dir, DX, DY, NODATA_DIR};
 use crate::error::{Error, Result};
+use crate::flow::{route_d8_codes, FlowGraph};
 use crate::raster::Grid;
 
 /// Fractional bits of the fixed-point weights.
@@ -72,170 +74,55 @@ pub(crate) fn receiver(
     }
 }
 
-pub(crate) fn bad_code(code: u8, x: usize, y: usize) -> Error {
-    Error::invalid(format!(
-        "flow direction {code} at cell ({x}, {y}) is not a D8 code (0, 1, 2, 4, …, 128, or 255 for nodata)"
-    ))
-}
+pub(crate) use crate::flow::bad_code;
 
 /// An exact accumulator: cell counts in `u64`, fixed-point weights in `i128`.
-pub(crate) trait Acc: Copy {
-    fn add(self, o: Self) -> Option<Self>;
-}
-impl Acc for u64 {
-    #[inline]
-    fn add(self, o: Self) -> Option<Self> {
-        self.checked_add(o)
-    }
-}
-impl Acc for i128 {
-    #[inline]
-    fn add(self, o: Self) -> Option<Self> {
-        self.checked_add(o)
-    }
-}
-
-/// Neighbour index + 1 of each byte read as a D8 code: 0 for NO_FLOW and
-/// NODATA_DIR, [`BAD`] for bytes that are not a code.
-const DIR1: [u8; 256] = {
-    let mut t = [BAD; 256];
-    t[0] = 0;
-    t[NODATA_DIR as usize] = 0;
-    let mut d = 0;
-    while d < 8 {
-        t[1usize << d] = d as u8 + 1;
-        d += 1;
-    }
-    t
-};
-const BAD: u8 = 0xFF;
+pub(crate) use crate::flow::Flux as Acc;
 
 /// Core accumulation over a `w` x `h` direction array: `acc` holds each
 /// cell's own contribution on entry and its accumulation on exit (nodata
 /// cells are left untouched). Flow into nodata or beyond the array is
 /// dropped. Returns the topological order (upstream first) of valid cells.
-///
-/// Speed (≥ 40 Mcells per core-second on real DEMs, see
-/// `docs/design/hydrology.md#divergent-accumulation-d-mfd-and-the-d8-kernel`): one pass copies the codes into a working array in
-/// which a code whose receiver is nodata or beyond the array becomes
-/// NO_FLOW, and counts in-degrees; the walk then finds a receiver as
-/// `c + offset[direction]` without bounds tests and without an array of
-/// receivers (1 byte per cell instead of 4).
 pub(crate) fn accumulate_core<A: Acc>(
     dirs: &[u8],
     w: usize,
     h: usize,
     acc: &mut [A],
 ) -> Result<Vec<u32>> {
-    let mut order = Vec::new();
-    accumulate_walk(dirs, w, h, acc, Some(&mut order))?;
+    let mut g = flow_graph(dirs, w, h, acc.len())?;
+    g.accumulate(acc)?;
+    let mut order = g.take_stack();
+    order.reverse();
     Ok(order)
 }
 
-/// [`accumulate_core`], recording the topological order only when asked
-/// (the in-memory accumulation does not need it: 4 bytes per cell saved).
-fn accumulate_walk<A: Acc>(
-    dirs: &[u8],
-    w: usize,
-    h: usize,
-    acc: &mut [A],
-    mut order: Option<&mut Vec<u32>>,
-) -> Result<()> {
+/// The flow graph of a `w` x `h` D8 direction array (the D8-code router of
+/// [`crate::flow`], distances in cell sizes) with its stack: the stack
+/// taken backwards is the order in which Barnes (2017, Alg. 1) walks
+/// downstream from each source cell in row-major order (see
+/// [`FlowGraph::build_stack`]). Errors on an invalid code or a cycle.
+fn flow_graph(dirs: &[u8], w: usize, h: usize, values: usize) -> Result<FlowGraph<f32>> {
     let n = dirs.len();
     if n > u32::MAX as usize {
         return Err(Error::invalid(
             "flow accumulation in memory is limited to 2^32 cells; use the tiled pass",
         ));
     }
-    if n != w * h || acc.len() != n {
+    if n != w * h || values != n {
         return Err(Error::invalid(
             "flow accumulation: directions and accumulator sizes differ",
         ));
     }
-    let wi = w as isize;
-    let off: [isize; 8] = [1, wi + 1, wi, wi - 1, -1, -wi - 1, -wi, -wi + 1];
-    // working codes: direction + 1, 0 = no receiver in the array, and
-    // in-degrees; DONE marks nodata and processed cells
-    const DONE: u8 = u8::MAX;
-    let mut next = vec![0u8; n];
-    let mut indeg = vec![0u8; n];
-    let mut valid_cells = 0usize;
-    for y in 0..h {
-        let row = y * w;
-        let inner_row = y > 0 && y + 1 < h;
-        for x in 0..w {
-            let c = row + x;
-            let code = dirs[c];
-            if code == NODATA_DIR {
-                indeg[c] = DONE;
-                continue;
-            }
-            valid_cells += 1;
-            let d1 = DIR1[code as usize];
-            if d1 == 0 {
-                continue;
-            }
-            if d1 == BAD {
-                return Err(bad_code(code, x, y));
-            }
-            let d = (d1 - 1) as usize;
-            let r = if inner_row && x > 0 && x + 1 < w {
-                (c as isize + off[d]) as usize
-            } else {
-                match receiver(x, y, code, w, h) {
-                    Ok(Some(r)) => r,
-                    _ => continue,
-                }
-            };
-            if dirs[r] != NODATA_DIR {
-                next[c] = d1;
-                indeg[r] += 1;
-            }
-        }
-    }
-    // Walk downstream from each source cell (row-major) for as long as the
-    // next cell has received all its inflows (Barnes 2017, Alg. 1 style):
-    // memory is touched along flow paths rather than in breadth-first order
-    // across the grid. A processed cell's in-degree is set to DONE, so the
-    // scan only starts walks at untouched sources; `order` records a
-    // topological order (upstream first).
-    if let Some(o) = order.as_deref_mut() {
-        o.reserve_exact(valid_cells);
-    }
-    let mut done = 0usize;
-    let overflow = || Error::invalid("flow accumulation overflowed its integer range");
-    for c0 in 0..n {
-        if indeg[c0] != 0 {
-            continue;
-        }
-        let mut c = c0;
-        loop {
-            indeg[c] = DONE;
-            done += 1;
-            if let Some(o) = order.as_deref_mut() {
-                o.push(c as u32);
-            }
-            let d1 = next[c];
-            if d1 == 0 {
-                break;
-            }
-            let r = (c as isize + off[(d1 - 1) as usize]) as usize;
-            acc[r] = acc[r].add(acc[c]).ok_or_else(overflow)?;
-            indeg[r] -= 1;
-            if indeg[r] != 0 {
-                break;
-            }
-            c = r;
-        }
-    }
-    if done != valid_cells {
+    let mut g = FlowGraph::new(w, h)?;
+    route_d8_codes(&mut g, dirs, 1.0)?;
+    let left = g.build_stack();
+    if left != 0 {
         return Err(Error::invalid(format!(
-            "flow directions contain a cycle ({} cells never drain); directions must come from \
-             a D8 routing of one DEM",
-            valid_cells - done
+            "flow directions contain a cycle ({left} cells never drain); directions must come from \
+             a D8 routing of one DEM"
         )));
     }
-    Ok(())
+    Ok(g)
 }
 
 /// Number of cells draining through each cell, itself included (0 for nodata).
@@ -247,7 +134,7 @@ pub fn accumulate(dirs: &Grid<u8>) -> Result<Grid<u64>> {
         .iter()
         .map(|&c| if c == NODATA_DIR { 0 } else { 1 })
         .collect();
-    accumulate_walk(dirs.data(), dirs.width(), dirs.height(), &mut acc, None)?;
+    flow_graph(dirs.data(), dirs.width(), dirs.height(), acc.len())?.accumulate(&mut acc)?;
     Grid::from_vec(dirs.width(), dirs.height(), acc)
 }
 
@@ -272,7 +159,7 @@ pub fn accumulate_weighted(dirs: &Grid<u8>, weights: &Grid<f32>) -> Result<Grid<
             weight_to_fixed(wv)?
         });
     }
-    accumulate_walk(dirs.data(), dirs.width(), dirs.height(), &mut acc, None)?;
+    flow_graph(dirs.data(), dirs.width(), dirs.height(), acc.len())?.accumulate(&mut acc)?;
     let out = acc
         .iter()
         .zip(dirs.data())

@@ -56,27 +56,13 @@ pub use fill::{fill, fill_epsilon, watershed_labels};
 pub use flow::d8_directions;
 pub use rho8::rho8_directions;
 
-pub use crate::raster::neighbours::{DX, DY};
-/// ESRI D8 code of each neighbour direction, in the same order.
-pub const D8_CODES: [u8; 8] = [1, 2, 4, 8, 16, 32, 64, 128];
-/// D8 code of a valid cell that does not drain (pit or undrainable flat).
-pub const NO_FLOW: u8 = 0;
-/// D8 code of a nodata cell.
-pub const NODATA_DIR: u8 = 255;
 /// The output nodata rule of elevation outputs, now [`crate::exec::output`].
 pub use crate::exec::output as out_nodata;
 pub use crate::exec::output::FILL_NODATA;
-
-/// Neighbour index (0..8, order E..NE) of an ESRI code, or `None` for 0, 255
-/// and any value that is not a single power of two.
-#[inline]
-pub fn code_to_dir(code: u8) -> Option<usize> {
-    if code != 0 && code.is_power_of_two() {
-        Some(code.trailing_zeros() as usize)
-    } else {
-        None
-    }
-}
+/// The D8 codes (ESRI powers of two, [`NO_FLOW`], [`NODATA_DIR`]) are those
+/// of the flow graph's D8-code router.
+pub use crate::flow::{code_to_dir, D8_CODES, NODATA_DIR, NO_FLOW};
+pub use crate::raster::neighbours::{DX, DY};
 
 /// True for cells that carry an elevation (finite values).
 #[inline]

@@ -11,6 +11,7 @@ mod cli_fill_watersheds;
 mod divergent;
 mod divergent_tiled;
 mod fill_region_growing;
+mod flow_graph;
 mod in_memory;
 mod network;
 mod tiled;

@@ -1,0 +1,64 @@
+//! The two cell types a [`FlowGraph`](super::FlowGraph) is built over: `f32`
+//! (hydrology, which stores elevations as `f32`) and `f64` (the eroders).
+//! Slopes are always computed in `f64` from the cell values, so an `f32` DEM
+//! routes exactly as the same values widened to `f64` would.
+
+/// A floating-point cell value of a flow graph (heights, distances).
+pub trait FlowFloat:
+    Copy + PartialOrd + PartialEq + Default + std::fmt::Debug + Send + Sync + 'static
+{
+    /// Negative infinity (the water level of the base-level basin).
+    const NEG_INFINITY: Self;
+    /// The value widened to `f64` (exact).
+    fn to_f64(self) -> f64;
+    /// The nearest value of this type to `v`.
+    fn from_f64(v: f64) -> Self;
+    /// The larger of two values; a NaN operand yields the other one
+    /// (IEEE 754 `maxNum`, as `f64::max`).
+    fn max(self, o: Self) -> Self;
+}
+
+impl FlowFloat for f32 {
+    const NEG_INFINITY: Self = f32::NEG_INFINITY;
+    #[inline]
+    fn to_f64(self) -> f64 {
+        self as f64
+    }
+    #[inline]
+    fn from_f64(v: f64) -> Self {
+        v as f32
+    }
+    #[inline]
+    fn max(self, o: Self) -> Self {
+        f32::max(self, o)
+    }
+}
+
+impl FlowFloat for f64 {
+    const NEG_INFINITY: Self = f64::NEG_INFINITY;
+    #[inline]
+    fn to_f64(self) -> f64 {
+        self
+    }
+    #[inline]
+    fn from_f64(v: f64) -> Self {
+        v
+    }
+    #[inline]
+    fn max(self, o: Self) -> Self {
+        f64::max(self, o)
+    }
+}
+
+/// Order-preserving map of a finite f64 to u64 (for heap and sort keys):
+/// negative values have all bits flipped, others get the sign bit set
+/// (IEEE 754 total order).
+#[inline]
+pub fn order_key(v: f64) -> u64 {
+    let b = v.to_bits();
+    if b >> 63 == 1 {
+        !b
+    } else {
+        b | (1 << 63)
+    }
+}
