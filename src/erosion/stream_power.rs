@@ -6,20 +6,22 @@
 //!
 //! One time step (the order FastScape uses):
 //! 1. **Uplift**: `h* = h + u·dt` on every cell that is not a base level.
-//! 2. **Routing** on `h*`: each cell's receiver is its steepest-descent D8
-//!    neighbour (slope = drop / distance, diagonals at `√2·dx`; ties broken by
-//!    the neighbour order E, SE, S, SW, W, NW, N, NE of [`crate::hydro`]).
-//!    Depressions are routed by [`Depressions`]: filling (a priority flood;
-//!    receivers by steepest descent on the water surface, flats of it drained
-//!    along breadth-first distances to their outlet), the basin
-//!    graph of Cordonnier, Bovy & Braun (2019, *Earth Surf. Dynam.* 7, 549–562:
-//!    basins of the local minima, minimum spanning tree of their passes
-//!    (Kruskal), receivers reversed from each pass down to the basin's pit —
-//!    their "carving" variant), or not at all (pits are local base levels).
-//! 3. **Stack** (Braun & Willett's ordering): donors listed per receiver, then a
-//!    depth-first walk from every root (base level or unresolved pit) orders
-//!    each cell after its receiver; the drainage area `A` is the sum of cell
-//!    areas accumulated in reverse stack order. Both O(n).
+//! 2. **Routing** on `h*` into one [`FlowGraph`] (see [`crate::flow`]):
+//!    each cell's receiver is its steepest-descent D8 neighbour
+//!    ([`route_steepest`]: slope = drop / distance, diagonals at `√2·dx`;
+//!    ties broken by the neighbour order E, SE, S, SW, W, NW, N, NE of
+//!    [`crate::raster::neighbours`]). Depressions are routed by
+//!    [`Depressions`] with the sink resolvers of [`Lakes`]: filling (a
+//!    priority flood; receivers by steepest descent on the water surface,
+//!    flats of it drained along breadth-first distances to their outlet),
+//!    the basin graph of Cordonnier, Bovy & Braun (2019, *Earth Surf.
+//!    Dynam.* 7, 549–562: basins of the local minima, minimum spanning tree
+//!    of their passes (Kruskal), receivers reversed from each pass down to
+//!    the basin's pit — their "carving" variant), or not at all (pits are
+//!    local base levels).
+//! 3. **Stack**: every cell after its receiver ([`FlowGraph::build_stack`],
+//!    O(n) by in-degree counting); the drainage area `A` is the sum of cell
+//!    areas accumulated in reverse stack order ([`FlowGraph::accumulate`]).
 //! 4. **Implicit erosion** in stack order (receiver already updated):
 //!    `n = 1`: `h = (h* + F·h_r)/(1 + F)`, `F = K·dt·A^m/d^n`
 //!    (Braun & Willett's implicit update, `d` = distance to the receiver);
@@ -241,7 +243,8 @@ pub fn stream_power(
 }
 
 /// The solver with its flow graph and scratch buffers, reused from step to
-/// step (no allocation per step except the depression-routing queues).
+/// step (after the first step, depression routing allocates only the union-find
+/// over its basins).
 ///
 /// After [`step`](Self::step), [`receivers`](Self::receivers),
 /// [`stack`](Self::stack) and [`area`](Self::area) describe the flow graph of
