@@ -3,16 +3,14 @@
 //! Slopes are always computed in `f64` from the cell values, so an `f32` DEM
 //! routes exactly as the same values widened to `f64` would.
 
-/// A floating-point cell value of a flow graph (heights, distances).
-pub trait FlowFloat:
-    Copy + PartialOrd + PartialEq + Default + std::fmt::Debug + Send + Sync + 'static
-{
+use crate::raster::Cell;
+
+/// A floating-point cell value of a flow graph (heights, distances): a
+/// [`Cell`] (exact `to_f64`, `from_f64` rounding to nearest) with the two
+/// operations the sink resolvers need.
+pub trait FlowFloat: Cell {
     /// Negative infinity (the water level of the base-level basin).
     const NEG_INFINITY: Self;
-    /// The value widened to `f64` (exact).
-    fn to_f64(self) -> f64;
-    /// The nearest value of this type to `v`.
-    fn from_f64(v: f64) -> Self;
     /// The larger of two values; a NaN operand yields the other one
     /// (IEEE 754 `maxNum`, as `f64::max`).
     fn max(self, o: Self) -> Self;
@@ -21,14 +19,6 @@ pub trait FlowFloat:
 impl FlowFloat for f32 {
     const NEG_INFINITY: Self = f32::NEG_INFINITY;
     #[inline]
-    fn to_f64(self) -> f64 {
-        self as f64
-    }
-    #[inline]
-    fn from_f64(v: f64) -> Self {
-        v as f32
-    }
-    #[inline]
     fn max(self, o: Self) -> Self {
         f32::max(self, o)
     }
@@ -36,14 +26,6 @@ impl FlowFloat for f32 {
 
 impl FlowFloat for f64 {
     const NEG_INFINITY: Self = f64::NEG_INFINITY;
-    #[inline]
-    fn to_f64(self) -> f64 {
-        self
-    }
-    #[inline]
-    fn from_f64(v: f64) -> Self {
-        v
-    }
     #[inline]
     fn max(self, o: Self) -> Self {
         f64::max(self, o)

@@ -14,20 +14,17 @@ use orogen::hydro::{accumulate, d8_directions, fill, NODATA_DIR};
 use orogen::raster::Grid;
 use proptest::prelude::*;
 
-/// E, SE, S, SW, W, NW, N, NE as (dx, dy), y southwards.
-const NB: [(i64, i64); 8] = [
-    (1, 0),
-    (1, 1),
-    (0, 1),
-    (-1, 1),
-    (-1, 0),
-    (-1, -1),
-    (0, -1),
-    (1, -1),
-];
+/// Neighbour `k` (0 = east, then clockwise in steps of 45° with y
+/// southwards: E, SE, S, SW, W, NW, N, NE) as `(dx, dy)`, from its compass
+/// angle.
+fn nb(k: usize) -> (i64, i64) {
+    let a = k as f64 * std::f64::consts::FRAC_PI_4;
+    (a.cos().round() as i64, a.sin().round() as i64)
+}
 
 fn at(w: usize, h: usize, x: usize, y: usize, k: usize) -> Option<usize> {
-    let (nx, ny) = (x as i64 + NB[k].0, y as i64 + NB[k].1);
+    let (dx, dy) = nb(k);
+    let (nx, ny) = (x as i64 + dx, y as i64 + dy);
     (nx >= 0 && ny >= 0 && nx < w as i64 && ny < h as i64).then(|| ny as usize * w + nx as usize)
 }
 
