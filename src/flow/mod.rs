@@ -31,7 +31,9 @@ mod steepest;
 
 pub use accumulate::Flux;
 pub use basin_graph::Lakes;
-pub use d8_codes::{bad_code, code_to_dir, route_d8_codes, D8_CODES, NODATA_DIR, NO_FLOW};
+pub use d8_codes::{
+    accumulate_d8_codes, bad_code, code_to_dir, route_d8_codes, D8_CODES, NODATA_DIR, NO_FLOW,
+};
 pub use float::{order_key, FlowFloat};
 pub use graph::{FlowGraph, NONE};
 pub use steepest::{route_steepest, BASE, VALID};

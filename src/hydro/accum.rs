@@ -1,12 +1,12 @@
 //! D8 flow accumulation by topological order.
 //!
 //! Each cell's accumulation is its own contribution plus that of every cell
-//! upstream of it. The D8 codes become a [`crate::flow::FlowGraph`] (the
-//! D8-code router); its stack, built by in-degree counting (Kahn 1962,
-//! "Topological sorting of large networks", CACM 5; as used for flow
-//! accumulation by Barnes 2017, "Parallel non-divergent flow accumulation
-//! for trillion cell digital elevation models on desktops or clusters",
-//! EMS 92, Alg. 1), is walked backwards: O(n).
+//! upstream of it, summed down the D8 codes' flow graph by
+//! [`crate::flow::accumulate_d8_codes`] (the graph's fast form for code
+//! rasters: in-degree counting, Kahn 1962, "Topological sorting of large
+//! networks", CACM 5; the downstream walk of Barnes 2017, "Parallel
+//! non-divergent flow accumulation for trillion cell digital elevation
+//! models on desktops or clusters", EMS 92, Alg. 1): O(n).
 //!
 //! Sums are exact integers so that any summation order — in particular the
 //! tile-by-tile order of [`super::tiled::TiledAccumulation`] — gives the same
@@ -18,7 +18,7 @@
 
 use super::{code_to_dir, DX, DY, NODATA_DIR};
 use crate::error::{Error, Result};
-use crate::flow::{route_d8_codes, FlowGraph};
+use crate::flow::accumulate_d8_codes;
 use crate::raster::Grid;
 
 /// Fractional bits of the fixed-point weights.
@@ -82,47 +82,17 @@ pub(crate) use crate::flow::Flux as Acc;
 /// Core accumulation over a `w` x `h` direction array: `acc` holds each
 /// cell's own contribution on entry and its accumulation on exit (nodata
 /// cells are left untouched). Flow into nodata or beyond the array is
-/// dropped. Returns the topological order (upstream first) of valid cells.
+/// dropped. Returns the topological order (upstream first) of valid cells:
+/// the flow graph's stack taken backwards ([`accumulate_d8_codes`]).
 pub(crate) fn accumulate_core<A: Acc>(
     dirs: &[u8],
     w: usize,
     h: usize,
     acc: &mut [A],
 ) -> Result<Vec<u32>> {
-    let mut g = flow_graph(dirs, w, h, acc.len())?;
-    g.accumulate(acc)?;
-    let mut order = g.take_stack();
-    order.reverse();
+    let mut order = Vec::new();
+    accumulate_d8_codes(dirs, w, h, acc, Some(&mut order))?;
     Ok(order)
-}
-
-/// The flow graph of a `w` x `h` D8 direction array (the D8-code router of
-/// [`crate::flow`], distances in cell sizes) with its stack: the stack
-/// taken backwards is the order in which Barnes (2017, Alg. 1) walks
-/// downstream from each source cell in row-major order (see
-/// [`FlowGraph::build_stack`]). Errors on an invalid code or a cycle.
-fn flow_graph(dirs: &[u8], w: usize, h: usize, values: usize) -> Result<FlowGraph<f32>> {
-    let n = dirs.len();
-    if n > u32::MAX as usize {
-        return Err(Error::invalid(
-            "flow accumulation in memory is limited to 2^32 cells; use the tiled pass",
-        ));
-    }
-    if n != w * h || values != n {
-        return Err(Error::invalid(
-            "flow accumulation: directions and accumulator sizes differ",
-        ));
-    }
-    let mut g = FlowGraph::new(w, h)?;
-    route_d8_codes(&mut g, dirs, 1.0)?;
-    let left = g.build_stack();
-    if left != 0 {
-        return Err(Error::invalid(format!(
-            "flow directions contain a cycle ({left} cells never drain); directions must come from \
-             a D8 routing of one DEM"
-        )));
-    }
-    Ok(g)
 }
 
 /// Number of cells draining through each cell, itself included (0 for nodata).
@@ -134,7 +104,7 @@ pub fn accumulate(dirs: &Grid<u8>) -> Result<Grid<u64>> {
         .iter()
         .map(|&c| if c == NODATA_DIR { 0 } else { 1 })
         .collect();
-    flow_graph(dirs.data(), dirs.width(), dirs.height(), acc.len())?.accumulate(&mut acc)?;
+    accumulate_d8_codes(dirs.data(), dirs.width(), dirs.height(), &mut acc, None)?;
     Grid::from_vec(dirs.width(), dirs.height(), acc)
 }
 
@@ -159,7 +129,7 @@ pub fn accumulate_weighted(dirs: &Grid<u8>, weights: &Grid<f32>) -> Result<Grid<
             weight_to_fixed(wv)?
         });
     }
-    flow_graph(dirs.data(), dirs.width(), dirs.height(), acc.len())?.accumulate(&mut acc)?;
+    accumulate_d8_codes(dirs.data(), dirs.width(), dirs.height(), &mut acc, None)?;
     let out = acc
         .iter()
         .zip(dirs.data())

@@ -8,7 +8,8 @@
 use crate::common::hydro::dem;
 use crate::common::random_terrain;
 use orogen::flow::{
-    route_d8_codes, route_steepest, FlowFloat, FlowGraph, Lakes, BASE, NONE, VALID,
+    accumulate_d8_codes, route_d8_codes, route_steepest, FlowFloat, FlowGraph, Lakes, BASE, NONE,
+    VALID,
 };
 use orogen::hydro::{accumulate, d8_directions, fill, NODATA_DIR};
 use orogen::raster::Grid;
@@ -398,5 +399,13 @@ proptest! {
         prop_assert_eq!(&graph_counts(&fg), &want);
         let acc = accumulate(&dirs).unwrap();
         prop_assert_eq!(acc.data(), &want[..]);
+        // the fast form walks the same order: the graph's stack reversed
+        let mut fast: Vec<u64> = dirs.data().iter().map(|&c| u64::from(c != NODATA_DIR)).collect();
+        let mut order = Vec::new();
+        accumulate_d8_codes(dirs.data(), g.width(), g.height(), &mut fast, Some(&mut order)).unwrap();
+        prop_assert_eq!(&fast, &want);
+        let mut stack = fg.stack().to_vec();
+        stack.reverse();
+        prop_assert_eq!(order, stack);
     }
 }
