@@ -93,6 +93,13 @@ pub(super) fn pack(records: &[u8]) -> Result<Vec<u8>> {
     Ok(out)
 }
 
+/// [`pack`] a rank's summaries: the packed bytes and the raw length
+/// (errors end the job).
+fn pack_records(records: Vec<u8>) -> (Vec<u8>, u64) {
+    let raw = records.len() as u64;
+    (pack(&records).unwrap_or_else(|e| fail(e)), raw)
+}
+
 /// Undo [`pack`]; the declared size is checked against zstd's own frame
 /// header before anything that large is allocated.
 fn unpack(msg: &[u8]) -> Result<Vec<u8>> {
@@ -121,7 +128,8 @@ fn unpack(msg: &[u8]) -> Result<Vec<u8>> {
 impl MpiEngine {
     /// Map phase of a global step: the ranks map all tiles, drawn from the
     /// work queue; returns (rank 0) the queue, which records who mapped
-    /// which tile, this rank's summaries as a record list of JSON, and this
+    /// which tile, this rank's summaries as a packed record list of JSON
+    /// ([`pack`]) with its length before packing, and this
     /// rank's work. Errors end the job.
     pub(super) fn map_mine<S: GlobalStep>(
         &self,
@@ -129,7 +137,7 @@ impl MpiEngine {
         step: &S,
         inputs: &[&dyn RasterSource],
         layout: &TileLayout,
-    ) -> (Option<Queue>, Vec<u8>, Work) {
+    ) -> (Option<Queue>, Vec<u8>, u64, Work) {
         let name = step.name();
         let halo = step.halo();
         let all: Vec<TileId> = (0..layout.count()).collect();
@@ -167,13 +175,15 @@ impl MpiEngine {
             };
             let work = mpi_queue::serve(comm, &map_name, threads, cap, &all, &mut q, &map, &mut h);
             last_words::clear();
-            (Some(q), h.records, work)
+            let (packed, raw) = pack_records(h.records);
+            (Some(q), packed, raw, work)
         } else {
             let mut h = MapDraw {
                 records: Vec::new(),
             };
             let work = mpi_queue::draw(comm, &map_name, threads, cap, &all, &map, &mut h);
-            (None, h.records, work)
+            let (packed, raw) = pack_records(h.records);
+            (None, packed, raw, work)
         }
     }
 

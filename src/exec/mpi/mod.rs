@@ -58,7 +58,7 @@ use super::tile_io::{blank_outputs, check_inputs, check_sinks, convert_outputs, 
 use super::{Engine, GlobalStep, LocalEngine, LocalStep, TileSink};
 use crate::error::{Error, Result};
 use crate::raster::{AnyGrid, DType, RasterSource, TileId, TileLayout};
-use global::{decode_summaries, pack};
+use global::decode_summaries;
 use mpi::topology::SimpleCommunicator;
 use mpi::traits::*;
 use std::time::Instant;
@@ -99,6 +99,26 @@ impl MpiEngine {
     /// An MPI engine whose ranks compute as `local` does. Call [`init`] first.
     pub fn new(local: LocalEngine) -> Self {
         MpiEngine { local }
+    }
+
+    /// What every engine call checks first (the calling thread, the
+    /// inputs, and the sinks: always for local steps, when there are any
+    /// for global ones); returns the communicator of all ranks.
+    fn start(
+        &self,
+        name: &str,
+        inputs: &[&dyn RasterSource],
+        layout: &TileLayout,
+        sinks: &[Box<dyn TileSink>],
+        n_out: usize,
+        sinks_required: bool,
+    ) -> Result<SimpleCommunicator> {
+        self.check_thread(name)?;
+        check_inputs(name, inputs, layout)?;
+        if sinks_required || !sinks.is_empty() {
+            check_sinks(name, sinks, n_out, layout)?;
+        }
+        Ok(world())
     }
 
     fn check_thread(&self, name: &str) -> Result<()> {
@@ -243,10 +263,7 @@ impl Engine for MpiEngine {
         sinks: Vec<Box<dyn TileSink>>,
     ) -> Result<()> {
         let name = step.name();
-        self.check_thread(&name)?;
-        check_inputs(&name, inputs, &layout)?;
-        check_sinks(&name, &sinks, step.outputs(), &layout)?;
-        let comm = world();
+        let comm = self.start(&name, inputs, &layout, &sinks, step.outputs(), true)?;
         let t0 = Instant::now();
         let halo = step.halo();
         let meta: Vec<(DType, Option<f64>)> =
@@ -297,21 +314,13 @@ impl Engine for MpiEngine {
         sinks: Vec<Box<dyn TileSink>>,
     ) -> Result<S::Solution> {
         let name = step.name();
-        self.check_thread(&name)?;
-        check_inputs(&name, inputs, &layout)?;
-        if !sinks.is_empty() {
-            check_sinks(&name, &sinks, step.outputs(), &layout)?;
-        }
-        let comm = world();
+        let comm = self.start(&name, inputs, &layout, &sinks, step.outputs(), false)?;
         let me = comm.rank() as usize;
         let count = layout.count();
 
         // Map, then every rank's summaries to every rank.
         let t0 = Instant::now();
-        let (queue, records, work) = self.map_mine(&comm, step, inputs, &layout);
-        let raw = records.len() as u64;
-        let packed = pack(&records).unwrap_or_else(|e| fail(e));
-        drop(records);
+        let (queue, packed, raw, work) = self.map_mine(&comm, step, inputs, &layout);
         let up = packed.len() as u64;
         let lists = all_to_all(&comm, packed);
         let down: u64 = lists
@@ -367,12 +376,7 @@ impl Engine for MpiEngine {
         sinks: Vec<Box<dyn TileSink>>,
     ) -> Result<()> {
         let name = step.name();
-        self.check_thread(&name)?;
-        check_inputs(&name, inputs, &layout)?;
-        if !sinks.is_empty() {
-            check_sinks(&name, &sinks, step.outputs(), &layout)?;
-        }
-        let comm = world();
+        let comm = self.start(&name, inputs, &layout, &sinks, step.outputs(), false)?;
         let me = comm.rank() as usize;
         let ranks = comm.size() as usize;
         let count = layout.count();
@@ -381,10 +385,7 @@ impl Engine for MpiEngine {
         // Map, then the summaries to rank 0 (rank 0's own are packed too,
         // so the figure counts every tile's summary whatever the rank count).
         let t0 = Instant::now();
-        let (queue, records, work) = self.map_mine(&comm, step, inputs, &layout);
-        let raw = records.len() as u64;
-        let packed = pack(&records).unwrap_or_else(|e| fail(e));
-        drop(records);
+        let (queue, packed, raw, work) = self.map_mine(&comm, step, inputs, &layout);
         let up = packed.len() as u64;
         let summaries = if me == 0 {
             let mut lists = Vec::with_capacity(ranks);
