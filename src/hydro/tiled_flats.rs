@@ -574,33 +574,45 @@ fn dist_at(
     }
 }
 
-impl GlobalStep for TiledD8 {
-    type In = f32;
-    type Out = u8;
-    type Summary = FlatSummary;
-    type Solution = FlatSolution;
-    type Slice = FlatSlice;
+/// What [`TiledD8`] and [`TiledEpsilon`] share as global steps: f32 in,
+/// halo 2, the map (flat distances from each tile's own edges, towards
+/// lower terrain and, for D8, `away` from higher terrain), the reduce
+/// ([`reduce_flats`]) and the slice ([`slice_flats`]); only the output type
+/// and the apply differ.
+macro_rules! flat_passes {
+    ($name:literal, $away:literal) => {
+        type In = f32;
+        type Summary = FlatSummary;
+        type Solution = FlatSolution;
+        type Slice = FlatSlice;
 
-    fn name(&self) -> String {
-        "d8".into()
-    }
+        fn name(&self) -> String {
+            $name.into()
+        }
+        fn halo(&self) -> usize {
+            2
+        }
+
+        fn map(&self, inputs: &[TileView<f32>]) -> Result<FlatSummary> {
+            Ok(D8Prep::new(first_view(inputs, $name)?, $away)?.summary())
+        }
+
+        fn reduce(&self, layout: &TileLayout, summaries: Vec<FlatSummary>) -> Result<FlatSolution> {
+            reduce_flats(layout, summaries)
+        }
+
+        fn slice(&self, sol: &FlatSolution, id: TileId) -> FlatSlice {
+            slice_flats(sol, id)
+        }
+    };
+}
+
+impl GlobalStep for TiledD8 {
+    type Out = u8;
+    flat_passes!("d8", true);
+
     fn params(&self) -> serde_json::Value {
         serde_json::json!({"algorithm": "D8 steepest descent, flats after Barnes, Lehman & Mulla 2014"})
-    }
-    fn halo(&self) -> usize {
-        2
-    }
-
-    fn map(&self, inputs: &[TileView<f32>]) -> Result<FlatSummary> {
-        Ok(D8Prep::new(first_view(inputs, "d8")?, true)?.summary())
-    }
-
-    fn reduce(&self, layout: &TileLayout, summaries: Vec<FlatSummary>) -> Result<FlatSolution> {
-        reduce_flats(layout, summaries)
-    }
-
-    fn slice(&self, sol: &FlatSolution, id: TileId) -> FlatSlice {
-        slice_flats(sol, id)
     }
 
     fn apply(
@@ -664,32 +676,11 @@ impl GlobalStep for TiledD8 {
 }
 
 impl GlobalStep for TiledEpsilon {
-    type In = f32;
     type Out = f32;
-    type Summary = FlatSummary;
-    type Solution = FlatSolution;
-    type Slice = FlatSlice;
+    flat_passes!("fill-epsilon", false);
 
-    fn name(&self) -> String {
-        "fill-epsilon".into()
-    }
     fn params(&self) -> serde_json::Value {
         serde_json::json!({"algorithm": "epsilon surface next_up^k(fill level), k = geodesic distance to the flat's draining edge"})
-    }
-    fn halo(&self) -> usize {
-        2
-    }
-
-    fn map(&self, inputs: &[TileView<f32>]) -> Result<FlatSummary> {
-        Ok(D8Prep::new(first_view(inputs, "fill-epsilon")?, false)?.summary())
-    }
-
-    fn reduce(&self, layout: &TileLayout, summaries: Vec<FlatSummary>) -> Result<FlatSolution> {
-        reduce_flats(layout, summaries)
-    }
-
-    fn slice(&self, sol: &FlatSolution, id: TileId) -> FlatSlice {
-        slice_flats(sol, id)
     }
 
     fn apply(

@@ -1,12 +1,14 @@
 //! `orogen accumulate`: flow accumulation, D8 from flow directions (exact
 //! across tiles, Barnes 2017) or D-infinity / MFD from a filled DEM.
 
-use super::{choose_layout, convert, run_global_to, Target};
+use super::{choose_layout, convert, Target};
 use crate::error::{Error, Result};
 use crate::exec::plan::{check_inputs, make_sinks};
+use crate::exec::MemoryFit;
 use crate::exec::{Engine, EngineConfig, GlobalStep, LocalEngine};
 use crate::io::{self, OutputOptions};
 use crate::raster::{DType, RasterSource};
+use crate::store::scratch::ScratchDir;
 use std::path::{Path, PathBuf};
 
 /// Routing of `orogen accumulate --method`.
@@ -129,15 +131,7 @@ pub fn run(
     let step = crate::hydro::tiled::TiledAccumulation {
         weighted: opts.weights.is_some(),
     };
-    run_global_to(
-        &step,
-        &inputs,
-        &target.path,
-        (DType::F64, Some(-1.0)),
-        &target.options,
-        target.tile,
-        cfg,
-    )?;
+    target.run_global(&step, &inputs, (DType::F64, Some(-1.0)), cfg)?;
     Ok(AccumulateOutcome { rounds: 0 })
 }
 /// Multiple-flow routing for `orogen accumulate --method`.
@@ -180,10 +174,13 @@ pub fn accumulate_multi(
     }
     check_inputs(&inputs)?;
     let info = dem.info();
-    let need = (info.width as u64)
-        .saturating_mul(info.height as u64)
-        .saturating_mul(MULTI_FLOW_BYTES_PER_CELL);
-    if need <= cfg.memory_budget && (info.width as u64) * (info.height as u64) <= u32::MAX as u64 {
+    let fit = MemoryFit::cells(
+        info.width,
+        info.height,
+        MULTI_FLOW_BYTES_PER_CELL,
+        cfg.memory_budget,
+    );
+    if fit.fits() && (info.width as u64) * (info.height as u64) <= u32::MAX as u64 {
         let full = crate::raster::Window::full(info.width, info.height);
         let z = crate::raster::read_window::<f32>(dem, full)?;
         let flow = match method {
@@ -216,6 +213,9 @@ pub fn accumulate_multi(
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "accumulation".into());
     let tmp = out.with_file_name(format!(".{name}.d8-tmp.tiles"));
+    // Under MPI only rank 0 created the store (and every rank is past the
+    // engine's closing barrier): several ranks removing it would race.
+    let scratch = ScratchDir::new(&tmp).owned(crate::exec::rank().0 == 0);
     let mut tmp_oo = oo.clone();
     tmp_oo.store.tile = layout.tile;
     tmp_oo.store.overwrite = true;
@@ -259,18 +259,7 @@ pub fn accumulate_multi(
         )?;
         Ok(run.rounds)
     })();
-    // Under MPI only rank 0 created the store (and every rank is past the
-    // engine's closing barrier): several ranks removing it would race.
-    let cleanup = if crate::exec::rank().0 == 0 {
-        std::fs::remove_dir_all(&tmp)
-    } else {
-        Ok(())
-    };
     let rounds = result?;
-    if let Err(e) = cleanup {
-        if e.kind() != std::io::ErrorKind::NotFound {
-            return Err(Error::io(&tmp, e));
-        }
-    }
+    scratch.remove()?;
     Ok(rounds)
 }

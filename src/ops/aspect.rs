@@ -1,7 +1,7 @@
 //! `orogen aspect`: aspect (Horn 1981, as gdaldem aspect), the azimuth of
 //! downslope in degrees from north.
 
-use super::{run_local_to, Target};
+use super::Target;
 use crate::error::Result;
 use crate::exec::EngineConfig;
 use crate::metrics::{Aspect, EdgeMode};
@@ -39,13 +39,10 @@ pub fn run(
     target: &Target,
     cfg: &EngineConfig,
 ) -> Result<()> {
-    run_local_to(
+    target.run_local(
         &opts.step(),
         dem,
-        &target.path,
         (DType::F32, Some(crate::metrics::terrain::SLOPE_NODATA)),
-        &target.options,
-        target.tile,
         cfg,
     )
 }

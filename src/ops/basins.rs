@@ -4,7 +4,7 @@
 //! circularity, hypsometry, ...) and outlines, in memory.
 
 use super::hydro_io::{full, guard, open_path, read_dirs, same_size};
-use super::{run_global_to, Target};
+use super::Target;
 use crate::error::{Error, Result};
 use crate::exec::EngineConfig;
 use crate::hydro::basin_metrics;
@@ -112,15 +112,7 @@ pub fn write_labels(
         (DType::F64, Some(0.0))
     };
     let step = TiledDownstream { seeds };
-    run_global_to(
-        &step,
-        &[dirs],
-        &target.path,
-        ty,
-        &target.options,
-        target.tile,
-        cfg,
-    )?;
+    target.run_global(&step, &[dirs], ty, cfg)?;
     Ok(Labels { cells })
 }
 

@@ -6,13 +6,15 @@
 
 use super::{choose_tile, convert, run_global_to, run_local_to_paths, Target};
 use crate::error::{Error, Result};
+use crate::exec::MemoryFit;
 use crate::exec::{EngineConfig, LocalStep};
 use crate::hydro::tiled::TiledFill;
 use crate::hydro::tiled_breach::TiledLeastCostBreach;
 use crate::hydro::BreachMethod;
 use crate::io::{self, OpenOptions, OutputOptions};
 use crate::raster::{read_window, DType, MemRaster, RasterSource, Window};
-use std::path::{Path, PathBuf};
+use crate::store::scratch::ScratchDir;
+use std::path::Path;
 
 /// Breaching method of `orogen breach --method`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
@@ -112,18 +114,17 @@ pub fn run(
         return tiled_least_cost(dem, &hopts, opts.dist, target, cfg);
     }
     let info = dem.info().clone();
-    let need = info.width as u64 * info.height as u64 * BREACH_BYTES_PER_CELL;
-    if need > cfg.memory_budget {
-        return Err(Error::invalid(format!(
+    MemoryFit::cells(info.width, info.height, BREACH_BYTES_PER_CELL, cfg.memory_budget).check(|f| {
+        Error::invalid(format!(
             "{}: this breaching method runs in memory and needs about {:.1} GiB for {}x{} cells; \
              raise --memory (e.g. --memory {}GiB) or use --method least-cost, which runs across tiles",
             info.path.display(),
-            need as f64 / (1u64 << 30) as f64,
+            f.need_gib(),
             info.width,
             info.height,
-            need.div_ceil(1 << 30)
-        )));
-    }
+            f.suggested_gib()
+        ))
+    })?;
     let grid = read_window::<f32>(dem, Window::full(info.width, info.height))?;
     let nd = crate::exec::output::elevation_nodata(dem)?;
     let out = crate::hydro::breach(&grid, &hopts)?;
@@ -145,16 +146,9 @@ fn tiled_least_cost(
     target: &Target,
     cfg: &EngineConfig,
 ) -> Result<()> {
-    let tmp = PathBuf::from(format!("{}.breach-tmp", target.path.display()));
-    std::fs::create_dir_all(&tmp).map_err(|e| {
-        Error::invalid(format!(
-            "{}: cannot create a temporary folder: {e}",
-            tmp.display()
-        ))
-    })?;
-    let res = chain(src, opts, dist, target, cfg, &tmp);
-    let _ = std::fs::remove_dir_all(&tmp);
-    res
+    // Removed when dropped, whatever `chain` returns.
+    let tmp = ScratchDir::new(format!("{}.breach-tmp", target.path.display())).create()?;
+    chain(src, opts, dist, target, cfg, tmp.path())
 }
 
 fn chain(
@@ -180,14 +174,14 @@ fn chain(
     // and the search scratch: refuse before allocating what the budget forbids.
     let side = tile as u64 + 2 * step.halo() as u64;
     let need = side * side * 2 * 12 + step.scratch_bytes(tile);
-    if need > cfg.memory_budget {
-        return Err(Error::invalid(format!(
+    MemoryFit::bytes(need, cfg.memory_budget).check(|f| {
+        Error::invalid(format!(
             "least-cost breaching with --dist {dist} on {tile}-cell tiles needs about {} MiB per tile \
              (halo 2*dist+1 = {} cells); lower --dist or --tile, or raise --memory",
-            need >> 20,
+            f.need_mib(),
             step.halo()
-        )));
-    }
+        ))
+    })?;
     let filled_path = tmp.join("filled.tiles");
     run_global_to(
         &TiledFill,

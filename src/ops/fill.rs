@@ -2,7 +2,7 @@
 //! 2014; exact across tiles after Barnes 2016). Nodata cells and the DEM's
 //! edge are outlets.
 
-use super::{run_global_to, Target};
+use super::Target;
 use crate::error::Result;
 use crate::exec::EngineConfig;
 use crate::raster::{DType, RasterSource};
@@ -34,13 +34,10 @@ pub fn run(
     cfg: &EngineConfig,
 ) -> Result<()> {
     let nd = crate::exec::output::elevation_nodata(dem)?;
-    run_global_to(
+    target.run_global(
         &crate::hydro::tiled::TiledFill,
         &[dem],
-        &target.path,
         (DType::F32, Some(nd)),
-        &target.options,
-        target.tile,
         cfg,
     )
 }

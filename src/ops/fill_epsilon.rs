@@ -5,9 +5,10 @@
 //! `TiledEpsilon`; see [`crate::hydro::tiled`]).
 
 use super::{choose_tile, run_global_to, Target};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::exec::EngineConfig;
 use crate::raster::{DType, RasterSource};
+use crate::store::scratch::ScratchDir;
 
 /// Options of `orogen fill-epsilon` (none yet: the surface is parameter-free).
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -28,6 +29,8 @@ pub fn run(
     let mut name = out.file_name().unwrap_or_default().to_os_string();
     name.push(".fill-tmp.tiles");
     let tmp = out.with_file_name(name);
+    // Under MPI only rank 0 created the store; the others removing it too would race.
+    let scratch = ScratchDir::new(&tmp).owned(crate::exec::rank().0 == 0);
     let mut too = crate::io::OutputOptions::default();
     too.store.overwrite = true;
     too.store.sync = false;
@@ -58,14 +61,6 @@ pub fn run(
         )?;
         Ok(())
     })();
-    // Under MPI only rank 0 created the store; the others removing it too would race.
-    if crate::exec::rank().0 == 0 && tmp.exists() {
-        std::fs::remove_dir_all(&tmp).map_err(|e| {
-            Error::invalid(format!(
-                "removing the temporary store {}: {e}",
-                tmp.display()
-            ))
-        })?;
-    }
+    scratch.remove()?;
     result
 }

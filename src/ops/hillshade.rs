@@ -1,7 +1,7 @@
 //! `orogen hillshade`: hillshade (Horn 1981, as gdaldem hillshade), byte
 //! values 1-255, 0 = nodata.
 
-use super::{run_local_to, Target};
+use super::Target;
 use crate::error::{Error, Result};
 use crate::exec::EngineConfig;
 use crate::metrics::{EdgeMode, Hillshade};
@@ -67,13 +67,5 @@ pub fn run(
     cfg: &EngineConfig,
 ) -> Result<()> {
     opts.validate()?;
-    run_local_to(
-        &opts.step(),
-        dem,
-        &target.path,
-        (DType::U8, Some(0.0)),
-        &target.options,
-        target.tile,
-        cfg,
-    )
+    target.run_local(&opts.step(), dem, (DType::U8, Some(0.0)), cfg)
 }

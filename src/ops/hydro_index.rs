@@ -3,7 +3,7 @@
 //! water) and branch-length (maximum branch length), in memory.
 
 use super::hydro_io::{full, guard, open_path, read_dirs, same_size, write_mem};
-use super::{run_global_to, run_local_to_paths, Target};
+use super::{run_local_to_paths, Target};
 use crate::error::{Error, Result};
 use crate::exec::EngineConfig;
 use crate::hydro::basins::{Seeds, TiledDownstream};
@@ -109,13 +109,10 @@ pub fn run(opts: &HydroIndexOptions, target: &Target, cfg: &EngineConfig) -> Res
                     threshold: a.threshold,
                 },
             };
-            run_global_to(
+            target.run_global(
                 &step,
                 &[dirs.as_ref(), dem.as_ref(), st.as_ref()],
-                &target.path,
                 f32_out,
-                &target.options,
-                target.tile,
                 cfg,
             )
         }

@@ -6,6 +6,7 @@
 use super::convert;
 use crate::error::{Error, Result};
 use crate::exec::EngineConfig;
+use crate::exec::MemoryFit;
 use crate::hydro::{NODATA_DIR, NO_FLOW};
 use crate::io::{self, OpenOptions, OutputOptions};
 use crate::raster::{read_window, DType, Grid, MemRaster, RasterSource, Window};
@@ -24,18 +25,16 @@ pub(crate) fn guard(
     cfg: &EngineConfig,
 ) -> Result<()> {
     let info = src.info();
-    let need = (info.width as u64) * (info.height as u64) * per_cell;
-    if need > cfg.memory_budget {
-        return Err(Error::invalid(format!(
+    MemoryFit::cells(info.width, info.height, per_cell, cfg.memory_budget).check(|f| {
+        Error::invalid(format!(
             "{}: {what} runs in memory and needs about {:.2} GiB for {}x{} cells; raise --memory (e.g. --memory {}GiB)",
             info.path.display(),
-            need as f64 / (1u64 << 30) as f64,
+            f.need_gib(),
             info.width,
             info.height,
-            need.div_ceil(1 << 30)
-        )));
-    }
-    Ok(())
+            f.suggested_gib()
+        ))
+    })
 }
 
 /// The whole raster as a window.

@@ -4,6 +4,7 @@
 
 use crate::error::{Error, Result};
 use crate::exec::EngineConfig;
+use crate::exec::MemoryFit;
 use crate::oro::stats::{self, OroStats, StatsOptions};
 use crate::oro::EdgeConvention;
 use crate::raster::{GeoRef, Grid, RasterSource, Window};
@@ -37,17 +38,16 @@ pub fn read_dem(
     cfg: &EngineConfig,
 ) -> Result<(Grid<f32>, GeoRef)> {
     let info = src.info().clone();
-    let need = (info.width as u64) * (info.height as u64) * bytes_per_cell;
-    if need > cfg.memory_budget {
-        return Err(Error::invalid(format!(
+    MemoryFit::cells(info.width, info.height, bytes_per_cell, cfg.memory_budget).check(|f| {
+        Error::invalid(format!(
             "{}: this step runs in memory and needs about {:.1} GiB for {}x{} cells; raise --memory (e.g. --memory {}GiB)",
             info.path.display(),
-            need as f64 / (1u64 << 30) as f64,
+            f.need_gib(),
             info.width,
             info.height,
-            need.div_ceil(1 << 30)
-        )));
-    }
+            f.suggested_gib()
+        ))
+    })?;
     let dem = crate::raster::read_window::<f32>(src, Window::full(info.width, info.height))?;
     Ok((dem, info.georef))
 }

@@ -4,6 +4,7 @@
 
 use crate::error::{Error, Result};
 use crate::exec::EngineConfig;
+use crate::exec::MemoryFit;
 use crate::oro::EdgeConvention;
 use crate::raster::RasterSource;
 use std::path::{Path, PathBuf};
@@ -92,8 +93,14 @@ pub enum PeaksMode {
 /// an error for line parents when the DEM does not fit.
 pub fn mode(src: &dyn RasterSource, opts: &PeaksOptions, cfg: &EngineConfig) -> Result<PeaksMode> {
     let info = src.info();
-    let need = (info.width as u64) * (info.height as u64) * PEAKS_BYTES_PER_CELL;
-    let go_tiled = opts.tiled || need > cfg.memory_budget;
+    let fit = MemoryFit::cells(
+        info.width,
+        info.height,
+        PEAKS_BYTES_PER_CELL,
+        cfg.memory_budget,
+    );
+    let need = fit.need;
+    let go_tiled = opts.tiled || !fit.fits();
     if opts.line_parents && go_tiled {
         return Err(Error::invalid(format!(
             "--line-parents needs the whole DEM in memory (about {} MiB); raise --memory and drop --tiled",

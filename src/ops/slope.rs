@@ -1,6 +1,6 @@
 //! `orogen slope`: slope (Horn 1981, as gdaldem slope), in degrees or percent.
 
-use super::{run_local_to, Target};
+use super::Target;
 use crate::error::Result;
 use crate::exec::EngineConfig;
 use crate::metrics::{EdgeMode, Slope, SlopeUnits};
@@ -65,13 +65,10 @@ pub fn run(
     target: &Target,
     cfg: &EngineConfig,
 ) -> Result<()> {
-    run_local_to(
+    target.run_local(
         &opts.step(),
         dem,
-        &target.path,
         (DType::F32, Some(crate::metrics::terrain::SLOPE_NODATA)),
-        &target.options,
-        target.tile,
         cfg,
     )
 }

@@ -5,6 +5,7 @@
 use crate::error::{Error, Result};
 use crate::exec::EngineConfig;
 use crate::raster::RasterSource;
+use crate::store::scratch::ScratchDir;
 use crate::tiles::{archive, build_pyramid, Encoding, PyramidInfo, PyramidOptions, Resampling};
 use std::path::{Path, PathBuf};
 
@@ -138,12 +139,15 @@ pub fn run(
                 _ => Path::new("."),
             };
             crate::io::atomic::remove_dead_pid_files(parent, &format!(".{name}.orogen-tiles-"));
-            Some(first.with_file_name(format!(".{name}.orogen-tiles-{}", std::process::id())))
+            Some(ScratchDir::new(first.with_file_name(format!(
+                ".{name}.orogen-tiles-{}",
+                std::process::id()
+            ))))
         }
     };
     let dir = folder
         .clone()
-        .or(scratch.clone())
+        .or_else(|| scratch.as_ref().map(|s| s.path().to_path_buf()))
         .ok_or_else(|| Error::invalid("no output"))?;
     if folder.is_some() && dir.join("metadata.json").exists() {
         std::fs::remove_dir_all(&dir).map_err(|e| {
@@ -168,8 +172,7 @@ pub fn run(
         }
         Ok(info)
     })();
-    if let Some(s) = scratch {
-        let _ = std::fs::remove_dir_all(s);
-    }
+    // The scratch folder (if any) is removed when dropped.
+    drop(scratch);
     result
 }

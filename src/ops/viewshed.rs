@@ -10,6 +10,7 @@
 use super::{convert, Target};
 use crate::error::{Error, Result};
 use crate::exec::EngineConfig;
+use crate::exec::MemoryFit;
 use crate::metrics::registry::{parse_length, Length};
 use crate::metrics::visibility::{self, accumulate_viewshed, viewshed};
 use crate::raster::{read_window, DType, Grid, MemRaster, RasterInfo, RasterSource, Window};
@@ -71,109 +72,19 @@ pub fn parse_pair(s: &str, what: &str) -> Result<(f64, f64)> {
     }
 }
 
-/// Observer points (map coordinates) from a CSV or GeoJSON file.
-/// The observers of a point file: GeoJSON Points, or a CSV with x,y
-/// (lon,lat, easting,northing) columns.
+/// The observers of a point file (map coordinates): GeoJSON Points, or a
+/// CSV with x,y (lon,lat, easting,northing) columns, read by
+/// [`crate::io::vector::read_points`].
 pub fn read_points(path: &Path) -> Result<Vec<(f64, f64)>> {
-    let meta =
-        std::fs::metadata(path).map_err(|e| ctx(format!("{}: cannot read", path.display()), e))?;
-    if meta.len() > 256 << 20 {
-        return Err(Error::invalid(format!(
-            "{}: {} bytes is too large for a point file (limit 256 MiB)",
-            path.display(),
-            meta.len()
-        )));
-    }
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| ctx(format!("{}: cannot read", path.display()), e))?;
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or("")
-        .to_ascii_lowercase();
-    let mut pts = Vec::new();
-    if ext == "geojson" || ext == "json" {
-        let v: serde_json::Value = serde_json::from_str(&text)
-            .map_err(|e| ctx(format!("{}: not valid JSON", path.display()), e))?;
-        let feats = v
-            .get("features")
-            .and_then(|f| f.as_array())
-            .ok_or_else(|| {
-                Error::invalid(format!(
-                    "{}: expected a GeoJSON FeatureCollection",
-                    path.display()
-                ))
-            })?;
-        for (i, f) in feats.iter().enumerate() {
-            let g = f.get("geometry");
-            let is_point = g.and_then(|g| g.get("type")).and_then(|t| t.as_str()) == Some("Point");
-            let c = g
-                .and_then(|g| g.get("coordinates"))
-                .and_then(|c| c.as_array());
-            match (is_point, c) {
-                (true, Some(c)) if c.len() >= 2 => {
-                    let (x, y) = (c[0].as_f64(), c[1].as_f64());
-                    match (x, y) {
-                        (Some(x), Some(y)) if x.is_finite() && y.is_finite() => pts.push((x, y)),
-                        _ => {
-                            return Err(Error::invalid(format!(
-                                "{}: feature {i} has non-numeric coordinates",
-                                path.display()
-                            )))
-                        }
-                    }
-                }
-                _ => {
-                    return Err(Error::invalid(format!(
-                        "{}: feature {i} is not a Point",
-                        path.display()
-                    )))
-                }
-            }
-        }
-    } else {
-        let mut lines = text.lines().filter(|l| !l.trim().is_empty());
-        let header: Vec<String> = lines
-            .next()
-            .ok_or_else(|| Error::invalid(format!("{}: empty CSV", path.display())))?
-            .split(',')
-            .map(|h| h.trim().trim_matches('"').to_ascii_lowercase())
-            .collect();
-        let col = |names: &[&str]| header.iter().position(|h| names.contains(&h.as_str()));
-        let (Some(cx), Some(cy)) = (
-            col(&["x", "lon", "longitude", "easting"]),
-            col(&["y", "lat", "latitude", "northing"]),
-        ) else {
-            return Err(Error::invalid(format!(
-                "{}: the CSV header needs x,y or lon,lat columns (found {:?})",
-                path.display(),
-                header
-            )));
-        };
-        for (i, l) in lines.enumerate() {
-            let f: Vec<&str> = l.split(',').collect();
-            let get = |c: usize| {
-                f.get(c)
-                    .and_then(|v| v.trim().parse::<f64>().ok())
-                    .filter(|v| v.is_finite())
-            };
-            match (get(cx), get(cy)) {
-                (Some(x), Some(y)) => pts.push((x, y)),
-                _ => {
-                    return Err(Error::invalid(format!(
-                        "{}: line {} has no numeric x,y",
-                        path.display(),
-                        i + 2
-                    )))
-                }
-            }
-        }
-    }
-    if pts.is_empty() {
-        return Err(Error::invalid(format!("{}: no points", path.display())));
-    }
-    Ok(pts)
+    let pts = crate::io::vector::read_points(path, OBSERVERS)?;
+    Ok(pts.into_iter().map(|p| (p.x, p.y)).collect())
 }
+
+/// What the points of `--points` are, in the point reader's errors.
+const OBSERVERS: crate::io::vector::PointNoun<'static> = crate::io::vector::PointNoun {
+    one: "observer point",
+    many: "observer points",
+};
 
 /// Cell of a point, or an error naming the point and the DEM's extent.
 fn to_cell(info: &RasterInfo, p: (f64, f64), pixel: bool) -> Result<(usize, usize)> {
@@ -260,16 +171,15 @@ pub fn run(
     let (x0, y0) = (x0.max(0), y0.max(0));
     let (x1, y1) = (x1.min(info.width as i64), y1.min(info.height as i64));
     let win = Window::new(x0, y0, (x1 - x0) as usize, (y1 - y0) as usize);
-    let need = win.w as u64 * win.h as u64 * 8;
-    if need > cfg.memory_budget {
-        return Err(Error::invalid(format!(
+    MemoryFit::cells(win.w, win.h, 8, cfg.memory_budget).check(|f| {
+        Error::invalid(format!(
             "{}: the viewshed window is {}x{} cells ({:.1} GiB in memory); use a smaller --radius or raise --memory",
             info.path.display(),
             win.w,
             win.h,
-            need as f64 / (1u64 << 30) as f64
-        )));
-    }
+            f.need_gib()
+        ))
+    })?;
     let grid = read_window::<f32>(dem, win)?;
     let georef = info.georef.shifted(win.x, win.y);
     let local: Vec<(usize, usize)> = cells

@@ -1,7 +1,7 @@
 //! `orogen watersheds`: watershed labels from D8 directions, exact across
 //! tiles ([`crate::hydro::tiled::TiledLabels`]).
 
-use super::{run_global_to, Target};
+use super::Target;
 use crate::error::Result;
 use crate::exec::EngineConfig;
 use crate::raster::{DType, RasterSource};
@@ -19,13 +19,10 @@ pub fn run(
     target: &Target,
     cfg: &EngineConfig,
 ) -> Result<()> {
-    run_global_to(
+    target.run_global(
         &crate::hydro::tiled::TiledLabels,
         &[dirs],
-        &target.path,
         (DType::U32, Some(0.0)),
-        &target.options,
-        target.tile,
         cfg,
     )
 }

@@ -13,6 +13,21 @@ use orogen::exec::{EngineConfig, LocalEngine};
 use orogen::metrics::{parse_specs, MultiMetric};
 use orogen::raster::{Crs, DType, GeoRef, Grid, MemRaster, RasterSource, TileLayout};
 
+/// A file of the data folder shared beside the repository
+/// (`../shared/data/NAME`), or `None` after a note that the real-data
+/// `what` ("check", "render") is skipped when it is absent.
+pub fn shared_data(name: &str, what: &str) -> Option<std::path::PathBuf> {
+    let p = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data")
+        .join(name);
+    if p.exists() {
+        Some(p)
+    } else {
+        println!("note: {} absent, real-data {what} skipped", p.display());
+        None
+    }
+}
+
 /// SplitMix64 (Steele, Lea & Flood 2014) for reproducible test data.
 pub struct Rng(pub u64);
 impl Rng {
@@ -76,6 +91,21 @@ pub fn run_bits(src: &dyn RasterSource, specs: &str, tile: usize, threads: usize
 /// Random terrain (smooth + noise, values rounded to multiples of `1/q`)
 /// with a fraction `holes` of nodata cells.
 pub fn random_terrain(w: usize, h: usize, seed: u64, holes: f64, q: f64) -> Vec<f32> {
+    random_terrain_by(w, h, seed, holes, q, |x, y| {
+        40.0 * (x * 0.3).sin() + 25.0 * (y * 0.21).cos()
+    })
+}
+
+/// [`random_terrain`] with another smooth part `smooth(x, y)` (the noise,
+/// the rounding and the holes as there).
+pub fn random_terrain_by(
+    w: usize,
+    h: usize,
+    seed: u64,
+    holes: f64,
+    q: f64,
+    smooth: impl Fn(f64, f64) -> f64,
+) -> Vec<f32> {
     let mut rng = Rng(seed);
     (0..w * h)
         .map(|i| {
@@ -83,7 +113,7 @@ pub fn random_terrain(w: usize, h: usize, seed: u64, holes: f64, q: f64) -> Vec<
             if rng.unit() < holes {
                 f32::NAN
             } else {
-                let z = 40.0 * (x * 0.3).sin() + 25.0 * (y * 0.21).cos() + 8.0 * rng.unit();
+                let z = smooth(x, y) + 8.0 * rng.unit();
                 ((z * q).round() / q) as f32
             }
         })

@@ -2,6 +2,9 @@
 //! fixtures, GeoTIFF and COG writing, ESRI ASCII, SRTM .hgt, PNG heightmaps
 //! and mosaics.
 
+#[path = "../common/mod.rs"]
+mod common;
+
 mod ascii;
 mod cog;
 mod geotiff_read;

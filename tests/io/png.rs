@@ -182,15 +182,7 @@ fn hostile_and_truncated_files_are_errors() {
 }
 
 fn shared(name: &str) -> Option<PathBuf> {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data")
-        .join(name);
-    if p.exists() {
-        Some(p)
-    } else {
-        println!("note: {} absent, real-data check skipped", p.display());
-        None
-    }
+    crate::common::shared_data(name, "check")
 }
 
 #[test]

@@ -6,27 +6,16 @@
 #![allow(clippy::needless_range_loop)] // index loops read like the definitions
 
 use crate::common::{
-    assert_tiled_equals_untiled, check, horn, ridge, run1, source, spec_err as err, Rng, CELL,
+    assert_tiled_equals_untiled, check, horn, random_terrain_by, ridge, run1, source,
+    spec_err as err, CELL,
 };
 
 /// Random terrain (smooth + noise, values rounded to 1/8) with nodata holes.
 fn random_grid(w: usize, h: usize, seed: u64, holes: f64) -> Vec<f32> {
-    let mut rng = Rng(seed);
-    (0..w * h)
-        .map(|i| {
-            let (x, y) = ((i % w) as f64, (i / w) as f64);
-            if rng.unit() < holes {
-                f32::NAN
-            } else {
-                // Short wavelengths in both axes: every window sees slopes
-                // facing all ways.
-                let z = 30.0 * (0.9 * x + 0.3 * y).sin()
-                    + 20.0 * (0.8 * y - 0.2 * x).cos()
-                    + 8.0 * rng.unit();
-                ((z * 8.0).round() / 8.0) as f32
-            }
-        })
-        .collect()
+    // Short wavelengths in both axes: every window sees slopes facing all ways.
+    random_terrain_by(w, h, seed, holes, 8.0, |x, y| {
+        30.0 * (0.9 * x + 0.3 * y).sin() + 20.0 * (0.8 * y - 0.2 * x).cos()
+    })
 }
 
 /// Aspect (azimuth of steepest descent, clockwise from north) in degrees.

@@ -194,7 +194,7 @@ fn viewshed_cli_errors() {
     let bad = dir.path().join("bad.csv");
     std::fs::write(&bad, "a,b\n1,2\n").unwrap();
     let (ok, err) = orogen(&["viewshed", DEM, "--points", bad.to_str().unwrap(), "-o", o]);
-    assert!(!ok && err.contains("x,y"), "{err}");
+    assert!(!ok && err.contains("x and y"), "{err}");
     let (ok, err) = orogen(&[
         "viewshed", DEM, "--pixel", "--at", "5,5", "--fuzzy", "10,0", "-o", o,
     ]);

@@ -320,15 +320,7 @@ fn large_sources_are_streamed_in_bounded_chunks() {
 }
 
 fn shared(name: &str) -> Option<PathBuf> {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data")
-        .join(name);
-    if p.exists() {
-        Some(p)
-    } else {
-        println!("note: {} absent, real-data render skipped", p.display());
-        None
-    }
+    crate::common::shared_data(name, "render")
 }
 
 fn out_dir(tmp: &Path) -> PathBuf {

@@ -30,10 +30,9 @@
 //! continuous data, [`Resampling::Nearest`] (the footprint's top-left cell)
 //! for classes and codes.
 
+use super::ifd::{encode_ifd, geo_entries, Entry};
 use super::rows::RowBuffer;
-use super::writer::{
-    check_create, clean_stale_temps, encode_band, encode_ifd, geo_entries, Entry, WriteOptions,
-};
+use super::writer::{check_create, clean_stale_temps, encode_band, WriteOptions};
 use crate::error::{Error, IoContext, Result};
 use crate::raster::{AnyGrid, DType, GeoRef, Grid, TileId, Window};
 use crate::store::sink::TileSink;

@@ -11,6 +11,7 @@
 mod cache;
 mod cog;
 mod georef;
+mod ifd;
 mod reader;
 mod rows;
 mod writer;

@@ -6,6 +6,7 @@
 use super::parse_size;
 use crate::error::{Error, Result};
 use crate::exec::EngineConfig;
+use crate::exec::MemoryFit;
 use crate::io::{open_raster, OpenOptions, OutputOptions};
 use crate::ops::note::{bail, open_input, preview, Note, Notify};
 use crate::raster::{read_window, AnyGrid, Grid, MemRaster, RasterSource, Window};
@@ -514,11 +515,11 @@ fn erode_keeping_tree(
     use crate::erosion::constrained::{erode_constrained, ConstrainedParams};
     let info = ter.info().clone();
     // Heights, receivers, stack, areas, donors and queues of the in-memory solver.
-    let need = info.width as u64 * info.height as u64 * 100;
-    if need > cfg.memory_budget {
+    let fit = MemoryFit::cells(info.width, info.height, 100, cfg.memory_budget);
+    if !fit.fits() {
         bail!(
             "--erode runs in memory and needs about {:.1} GiB for {}x{} cells; raise --memory or drop --erode",
-            need as f64 / (1u64 << 30) as f64,
+            fit.need_gib(),
             info.width,
             info.height
         );

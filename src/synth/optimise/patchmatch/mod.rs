@@ -23,8 +23,12 @@
 //! reflected), sampled bilinearly; axis-aligned candidates at integer
 //! positions read cells directly (the same values bilinear sampling gives).
 
-use crate::raster::Grid;
+mod geom;
+mod source;
+
+pub(crate) use geom::Geom;
 use rayon::prelude::*;
+pub(crate) use source::SourceLevel;
 
 /// The search space switches (see `SearchSpace` in the parent module).
 #[derive(Debug, Clone, Copy)]
@@ -83,179 +87,6 @@ pub(crate) fn mix(mut z: u64) -> u64 {
 #[inline]
 fn unit(key: u64, k: u64) -> f32 {
     (mix(key ^ k.wrapping_mul(0xd6e8_feb8_6659_fd93)) >> 40) as f32 / (1u64 << 24) as f32
-}
-
-/// One source pyramid level with the box of allowed patch centres and,
-/// when the source has nodata, the centres whose footprint avoids it.
-pub(crate) struct SourceLevel {
-    pub w: usize,
-    pub h: usize,
-    pub data: Vec<f32>,
-    /// Footprint radius: the farthest a sample lies from the centre.
-    pub rho: f32,
-    pub lo_x: f32,
-    pub hi_x: f32,
-    pub lo_y: f32,
-    pub hi_y: f32,
-    /// Summed-area table of nodata counts, `(w+1) x (h+1)`, if any nodata.
-    sat: Option<Vec<u32>>,
-    /// Integer centres (`y·w + x`) with a nodata-free footprint (nodata only).
-    valid: Vec<u32>,
-}
-
-impl SourceLevel {
-    /// `None` when the grid is too small for a patch of radius `rho` at an
-    /// integer centre.
-    pub fn new(g: &Grid<f32>, rho: f32) -> Option<SourceLevel> {
-        let (w, h) = (g.width(), g.height());
-        if w < 2 || h < 2 {
-            return None;
-        }
-        let (lo_x, hi_x) = (rho, (w - 1) as f32 - rho);
-        let (lo_y, hi_y) = (rho, (h - 1) as f32 - rho);
-        if hi_x.floor() < lo_x.ceil() || hi_y.floor() < lo_y.ceil() {
-            return None;
-        }
-        let data = g.data().to_vec();
-        let mut s = SourceLevel {
-            w,
-            h,
-            data,
-            rho,
-            lo_x,
-            hi_x,
-            lo_y,
-            hi_y,
-            sat: None,
-            valid: Vec::new(),
-        };
-        if s.data.iter().any(|v| !v.is_finite()) {
-            let mut sat = vec![0u32; (w + 1) * (h + 1)];
-            for y in 0..h {
-                let mut run = 0u32;
-                for x in 0..w {
-                    run += u32::from(!s.data[y * w + x].is_finite());
-                    sat[(y + 1) * (w + 1) + x + 1] = sat[y * (w + 1) + x + 1] + run;
-                }
-            }
-            s.sat = Some(sat);
-            let mut valid = Vec::new();
-            for y in lo_y.ceil() as usize..=hi_y.floor() as usize {
-                for x in lo_x.ceil() as usize..=hi_x.floor() as usize {
-                    if s.footprint_ok(x as f32, y as f32) {
-                        valid.push((y * w + x) as u32);
-                    }
-                }
-            }
-            s.valid = valid;
-        }
-        Some(s)
-    }
-
-    /// True when the source has nodata but no usable patch position.
-    pub fn exhausted(&self) -> bool {
-        self.sat.is_some() && self.valid.is_empty()
-    }
-
-    /// Share of nodata-free centres (1 without nodata).
-    #[inline]
-    fn footprint_ok(&self, x: f32, y: f32) -> bool {
-        let Some(sat) = &self.sat else { return true };
-        let (w, h) = (self.w, self.h);
-        let x0 = ((x - self.rho).floor().max(0.0) as usize).min(w - 1);
-        let y0 = ((y - self.rho).floor().max(0.0) as usize).min(h - 1);
-        let x1 = ((x + self.rho).floor().max(0.0) as usize + 1).min(w - 1);
-        let y1 = ((y + self.rho).floor().max(0.0) as usize + 1).min(h - 1);
-        let s = |xx: usize, yy: usize| sat[yy * (w + 1) + xx];
-        s(x1 + 1, y1 + 1) + s(x0, y0) - s(x0, y1 + 1) - s(x1 + 1, y0) == 0
-    }
-
-    #[inline(always)]
-    fn bilinear(&self, u: f32, v: f32) -> f32 {
-        let w = self.w;
-        let x0 = (u as usize).min(w - 2);
-        let y0 = (v as usize).min(self.h - 2);
-        let fx = u - x0 as f32;
-        let fy = v - y0 as f32;
-        let i = y0 * w + x0;
-        let d = &self.data;
-        let a = d[i];
-        let b = d[i + 1];
-        let c = d[i + w];
-        let e = d[i + w + 1];
-        let top = a + fx * (b - a);
-        let bot = c + fx * (e - c);
-        top + fy * (bot - top)
-    }
-}
-
-/// Patch layout of one synthesis level: patch corners on a grid with the
-/// given spacing (the last row/column clamped to the edge so every cell is
-/// covered), and per row/column the patches covering each cell.
-pub(crate) struct Geom {
-    pub w: usize,
-    pub n: usize,
-    /// Centre offset inside a patch: offsets run from `-h0` to `n-1-h0`.
-    pub h0: usize,
-    pub spacing: usize,
-    pub cx: Vec<usize>,
-    pub cy: Vec<usize>,
-    cover_x: (Vec<usize>, Vec<(u32, u32)>),
-    cover_y: (Vec<usize>, Vec<(u32, u32)>),
-}
-
-fn corners(len: usize, n: usize, s: usize) -> Vec<usize> {
-    let count = if len <= n {
-        1
-    } else {
-        (len - n).div_ceil(s) + 1
-    };
-    (0..count).map(|i| (i * s).min(len - n)).collect()
-}
-
-fn cover(len: usize, n: usize, c: &[usize]) -> (Vec<usize>, Vec<(u32, u32)>) {
-    let mut start = Vec::with_capacity(len + 1);
-    let mut list = Vec::new();
-    for x in 0..len {
-        start.push(list.len());
-        for (i, &ci) in c.iter().enumerate() {
-            if ci <= x && x < ci + n {
-                list.push((i as u32, (x - ci) as u32));
-            }
-        }
-    }
-    start.push(list.len());
-    (start, list)
-}
-
-impl Geom {
-    pub fn new(w: usize, h: usize, n: usize, spacing: usize) -> Geom {
-        let cx = corners(w, n, spacing);
-        let cy = corners(h, n, spacing);
-        let cover_x = cover(w, n, &cx);
-        let cover_y = cover(h, n, &cy);
-        Geom {
-            w,
-            n,
-            h0: (n - 1) / 2,
-            spacing,
-            cx,
-            cy,
-            cover_x,
-            cover_y,
-        }
-    }
-    pub fn nx(&self) -> usize {
-        self.cx.len()
-    }
-    pub fn count(&self) -> usize {
-        self.cx.len() * self.cy.len()
-    }
-    /// Centre of patch (i, j) in cells.
-    #[inline]
-    fn centre(&self, i: usize, j: usize) -> (f32, f32) {
-        ((self.cx[i] + self.h0) as f32, (self.cy[j] + self.h0) as f32)
-    }
 }
 
 /// Everything a pass needs about one level.
@@ -646,6 +477,7 @@ impl Level<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::raster::Grid;
 
     fn noise(w: usize, h: usize, seed: u64) -> Grid<f32> {
         Grid::from_fn(w, h, |x, y| {

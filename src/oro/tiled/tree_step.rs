@@ -1,333 +1,31 @@
-//! The divide tree as an exact global pass across tiles: the same tree as
-//! [`super::divide_tree`] (same peaks, representative cells, key saddles,
-//! parents, prominences, saddle order) for DEMs that do not fit in memory.
-//!
-//! Method (Kirmse & de Ferranti 2017 merge per-tile divide trees through the
-//! "runoffs" where ridges leave a tile; here the tile trees are contracted
-//! join trees, as in the distributed contour-tree construction of Pascucci &
-//! Cole-McLaughlin 2003, "Parallel computation of the topology of level
-//! sets", and merged by one descending union-find sweep, Carr, Snoeyink &
-//! Axen 2003):
-//!
-//! 1. **Plateaus** ([`PlateauStep`]): the in-memory sweep orders regions by
-//!    (elevation, first cell in row-major order), and a flat region may span
-//!    tiles. *map*: each tile labels the flat pieces touching its perimeter
-//!    with their first cell; *reduce*: pieces equal in height and adjacent
-//!    across a seam are joined (union-find), giving every perimeter cell the
-//!    global representative of its region.
-//! 2. **Tree** ([`TreeStep`], halo 1): *map*: each tile runs the descending
-//!    sweep on its pieces (open pieces — those with a valid neighbour in
-//!    another tile — keyed by their global representative) plus the sea
-//!    node of [`EdgeConvention::SeaLevel`] at key (0, +∞). A component is
-//!    *closed* while it holds no open piece and not the sea: its cells and
-//!    all their neighbours lie in the tile, so the whole DEM sees the same
-//!    component. A peak that loses at an interior region where every merging
-//!    component is closed (or where the sea wins) is final: its key saddle,
-//!    parent and prominence go straight into the summary. The rest becomes a
-//!    contracted join tree: nodes are open pieces, the sea, tops of closed
-//!    components when they open, and regions where ≥ 2 such branches meet;
-//!    each node is linked to the last node of every component it joins. This
-//!    keeps the connectivity of every superlevel set among the nodes, so the
-//!    global sweep sees the same merges. Edges across seams are emitted from
-//!    the halo (the higher cell's tile names both regions).
-//!    *reduce*: the tile graphs are joined by region id (pieces of one region
-//!    become one node) and swept once more in (elevation, id) order with the
-//!    tie and sea rules of `tree.rs`; then all peaks are sorted as the
-//!    in-memory sweep numbers them and the saddles as it pushes them.
-//!
-//! With a prominence threshold ([`pruned_tree_tiled`]) the map drops final
-//! peaks below it when pruning cannot need them, and does not turn a closed
-//! top into a node when it is beaten at a saddle below the threshold: on the
-//! Poland mosaic (1024-cell tiles, 30 m) ~3,500 nodes per tile instead of
-//! ~25,000.
-//!
-//! Memory: a tile in flight holds its cells and ~40-60 bytes of scratch per
-//! cell; the reduce holds all tile graphs (O(total perimeter)) and the final
-//! peaks kept. Summaries are merged in one reduce (no hierarchical 2 x 2
-//! merging, no contraction of seams that became interior).
+//! Pass 2 of the tiled divide tree ([`TreeStep`], halo 1): each tile's
+//! descending sweep contracted to a join tree of its open pieces (final
+//! peaks go straight into the summary), and the reduce that joins the tile
+//! graphs by region id and sweeps them once more.
 
-use super::regions::N8;
-use super::tree::{DivideTree, EdgeConvention, Peak, Saddle};
-use crate::error::{Error, Result};
-use crate::exec::{Engine, GlobalStep};
-use crate::raster::{perimeter_cells, perimeter_index, perimeter_len};
-use crate::raster::{Grid, RasterSource, TileId, TileLayout, TileView, UnionFind};
-use serde::{Deserialize, Serialize};
+use super::super::regions::N8;
+use super::super::tree::DivideTree;
+use super::super::tree::EdgeConvention;
+use super::assemble;
+use super::bits;
+use super::check_finite;
+use super::first_view;
+use super::key;
+use super::plateau::PlateauSolution;
+use super::NONE;
+use super::SEA_ID;
+use crate::error::Error;
+use crate::error::Result;
+use crate::exec::GlobalStep;
+use crate::raster::perimeter_index;
+use crate::raster::Grid;
+use crate::raster::TileId;
+use crate::raster::TileLayout;
+use crate::raster::TileView;
+use crate::raster::UnionFind;
+use serde::Deserialize;
+use serde::Serialize;
 use std::collections::HashMap;
-
-const NONE: u32 = u32::MAX;
-
-/// Floats in summaries travel as their bit patterns: a JSON round trip of a
-/// decimal float is not always exact, and the tree must be.
-mod bits {
-    use serde::{Deserialize, Deserializer, Serialize, Serializer};
-    pub mod f32s {
-        use super::*;
-        pub fn serialize<S: Serializer>(v: &f32, s: S) -> Result<S::Ok, S::Error> {
-            v.to_bits().serialize(s)
-        }
-        pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
-            u32::deserialize(d).map(f32::from_bits)
-        }
-    }
-    pub mod f64s {
-        use super::*;
-        pub fn serialize<S: Serializer>(v: &f64, s: S) -> Result<S::Ok, S::Error> {
-            v.to_bits().serialize(s)
-        }
-        pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-            u64::deserialize(d).map(f64::from_bits)
-        }
-    }
-    pub mod saddle {
-        use super::*;
-        pub fn serialize<S: Serializer>(v: &Option<(u64, f32)>, s: S) -> Result<S::Ok, S::Error> {
-            v.map(|(i, z)| (i, z.to_bits())).serialize(s)
-        }
-        pub fn deserialize<'de, D: Deserializer<'de>>(
-            d: D,
-        ) -> Result<Option<(u64, f32)>, D::Error> {
-            Option::<(u64, u32)>::deserialize(d).map(|o| o.map(|(i, b)| (i, f32::from_bits(b))))
-        }
-    }
-    pub mod f32vec {
-        use super::*;
-        pub fn serialize<S: Serializer>(v: &[f32], s: S) -> Result<S::Ok, S::Error> {
-            s.collect_seq(v.iter().map(|z| z.to_bits()))
-        }
-        pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<f32>, D::Error> {
-            Vec::<u32>::deserialize(d).map(|v| v.into_iter().map(f32::from_bits).collect())
-        }
-    }
-}
-/// Region id of the sea node.
-pub const SEA_ID: u64 = u64::MAX;
-
-/// Order-preserving bits of an elevation (−0.0 sorts as 0.0), as in `tree.rs`.
-#[inline]
-fn zkey(z: f32) -> u32 {
-    let b = (z + 0.0).to_bits();
-    if b >> 31 == 1 {
-        !b
-    } else {
-        b | 0x8000_0000
-    }
-}
-
-/// Sweep key of a region: (elevation, global id of its first cell). The sea
-/// has key (0, +∞): after every region above 0, before every region at 0.
-#[inline]
-fn key(z: f32, gid: u64) -> (u32, u64) {
-    (zkey(z), gid)
-}
-
-fn check_finite(z: f32, gx: i64, gy: i64) -> Result<()> {
-    if z.is_infinite() {
-        return Err(Error::invalid(format!(
-            "orometry: cell ({gx}, {gy}) is {z}; elevations must be finite (use NaN for nodata)"
-        )));
-    }
-    Ok(())
-}
-
-fn first_view<'v>(inputs: &'v [TileView<f32>], step: &str) -> Result<&'v TileView<f32>> {
-    inputs
-        .first()
-        .ok_or_else(|| Error::invalid(format!("{step} needs one input (the DEM)")))
-}
-
-// ------------------------------------------------------------ plateaus ----
-
-/// Pass 1: the global representative (first cell in row-major order) of
-/// every region touching a tile perimeter. See the module docs.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct PlateauStep;
-
-/// Per-tile summary of [`PlateauStep`]: O(perimeter).
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct PlateauSummary {
-    pub w: usize,
-    pub h: usize,
-    /// Piece index of each perimeter cell (row-major perimeter order),
-    /// `u32::MAX` for nodata.
-    pub piece: Vec<u32>,
-    /// Elevation of each perimeter cell (0 for nodata).
-    #[serde(with = "bits::f32vec")]
-    pub z: Vec<f32>,
-    /// Global id (y·W + x) of each piece's first cell.
-    pub first: Vec<u64>,
-}
-
-/// Reduced [`PlateauStep`]: per tile, the global region id of each
-/// perimeter cell (`u64::MAX` for nodata).
-#[derive(Debug, Clone, Default)]
-pub struct PlateauSolution {
-    pub perimeter_id: Vec<Vec<u64>>,
-}
-
-impl GlobalStep for PlateauStep {
-    type In = f32;
-    type Out = f32;
-    type Summary = PlateauSummary;
-    type Solution = PlateauSolution;
-    type Slice = Vec<u64>;
-
-    fn name(&self) -> String {
-        "divide tree (plateaus)".into()
-    }
-    fn params(&self) -> serde_json::Value {
-        serde_json::json!({})
-    }
-    fn halo(&self) -> usize {
-        0
-    }
-    fn outputs(&self) -> usize {
-        0
-    }
-
-    fn map(&self, inputs: &[TileView<f32>]) -> Result<PlateauSummary> {
-        let v = first_view(inputs, "divide tree")?;
-        let (w, h) = (v.core.w, v.core.h);
-        let rw = v.raster_width as u64;
-        let mut label = vec![NONE; w * h];
-        let mut piece = Vec::with_capacity(perimeter_len(w, h));
-        let mut zs = Vec::with_capacity(perimeter_len(w, h));
-        let mut first = Vec::new();
-        let mut queue: Vec<usize> = Vec::new();
-        for (x, y) in perimeter_cells(w, h) {
-            let z = v.at(x as i64, y as i64);
-            if z.is_nan() {
-                piece.push(NONE);
-                zs.push(0.0);
-                continue;
-            }
-            check_finite(z, v.core.x + x as i64, v.core.y + y as i64)?;
-            let s = y * w + x;
-            if label[s] == NONE {
-                let id = first.len() as u32;
-                label[s] = id;
-                queue.clear();
-                queue.push(s);
-                let mut min = s;
-                let mut head = 0;
-                while head < queue.len() {
-                    let c = queue[head];
-                    head += 1;
-                    min = min.min(c);
-                    let (cx, cy) = ((c % w) as i64, (c / w) as i64);
-                    for (dx, dy) in N8 {
-                        let (nx, ny) = (cx + dx, cy + dy);
-                        if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
-                            continue;
-                        }
-                        let n = ny as usize * w + nx as usize;
-                        if label[n] == NONE && v.at(nx, ny) == z {
-                            label[n] = id;
-                            queue.push(n);
-                        }
-                    }
-                }
-                let (mx, my) = ((min % w) as i64 + v.core.x, (min / w) as i64 + v.core.y);
-                first.push(my as u64 * rw + mx as u64);
-            }
-            piece.push(label[s]);
-            zs.push(z);
-        }
-        Ok(PlateauSummary {
-            w,
-            h,
-            piece,
-            z: zs,
-            first,
-        })
-    }
-
-    fn reduce(
-        &self,
-        layout: &TileLayout,
-        summaries: Vec<PlateauSummary>,
-    ) -> Result<PlateauSolution> {
-        if summaries.len() != layout.count() {
-            return Err(Error::invalid(format!(
-                "divide tree (plateaus): {} summaries for {} tiles",
-                summaries.len(),
-                layout.count()
-            )));
-        }
-        let mut offset = Vec::with_capacity(summaries.len() + 1);
-        let mut total = 0usize;
-        for (t, s) in summaries.iter().enumerate() {
-            let win = layout.window(t);
-            if s.w != win.w
-                || s.h != win.h
-                || s.piece.len() != perimeter_len(s.w, s.h)
-                || s.z.len() != s.piece.len()
-                || s.piece
-                    .iter()
-                    .any(|&p| p != NONE && p as usize >= s.first.len())
-            {
-                return Err(Error::invalid(format!(
-                    "divide tree (plateaus): summary of tile {t} does not match the layout"
-                )));
-            }
-            offset.push(total);
-            total += s.first.len();
-        }
-        let mut uf = UnionFind::<usize>::new(total);
-        crate::raster::cross_tile_pairs(layout, |ta, (xa, ya), tb, (xb, yb)| {
-            let sa = &summaries[ta];
-            let sb = &summaries[tb];
-            let (Some(ka), Some(kb)) = (
-                perimeter_index(sa.w, sa.h, xa, ya),
-                perimeter_index(sb.w, sb.h, xb, yb),
-            ) else {
-                return;
-            };
-            let (pa, pb) = (sa.piece[ka], sb.piece[kb]);
-            if pa == NONE || pb == NONE || sa.z[ka] != sb.z[kb] {
-                return;
-            }
-            let a = uf.find(offset[ta] + pa as usize);
-            let b = uf.find(offset[tb] + pb as usize);
-            uf.union_min(a, b);
-        });
-        let mut rep = vec![u64::MAX; total];
-        for (t, s) in summaries.iter().enumerate() {
-            for (p, &f) in s.first.iter().enumerate() {
-                let r = uf.find(offset[t] + p);
-                rep[r] = rep[r].min(f);
-            }
-        }
-        let mut perimeter_id = Vec::with_capacity(summaries.len());
-        for (t, s) in summaries.iter().enumerate() {
-            let ids = s
-                .piece
-                .iter()
-                .map(|&p| {
-                    if p == NONE {
-                        u64::MAX
-                    } else {
-                        rep[uf.find(offset[t] + p as usize)]
-                    }
-                })
-                .collect();
-            perimeter_id.push(ids);
-        }
-        Ok(PlateauSolution { perimeter_id })
-    }
-
-    fn slice(&self, solution: &PlateauSolution, id: TileId) -> Vec<u64> {
-        solution.perimeter_id.get(id).cloned().unwrap_or_default()
-    }
-
-    fn apply(&self, _: &[TileView<f32>], _: &Vec<u64>, _: &mut [Grid<f32>]) -> Result<()> {
-        Err(Error::invalid(
-            "divide tree (plateaus) writes no raster; run it without outputs",
-        ))
-    }
-}
-
-// ---------------------------------------------------------------- tree ----
 
 /// A node of a tile's contracted join tree.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -387,27 +85,29 @@ pub struct TreeStep<'a> {
 }
 
 /// Component state of the per-tile sweep.
-const SEA_TOP: u32 = u32::MAX;
-const OPEN_TOP: u32 = u32::MAX - 1;
-const NO_TOP: u32 = u32::MAX - 2;
+pub(super) const SEA_TOP: u32 = u32::MAX;
 
-struct Comp {
-    closed: bool,
+pub(super) const OPEN_TOP: u32 = u32::MAX - 1;
+
+pub(super) const NO_TOP: u32 = u32::MAX - 2;
+
+pub(super) struct Comp {
+    pub(super) closed: bool,
     /// Local peak index (closed components), or SEA_TOP / OPEN_TOP / NO_TOP.
-    top: u32,
-    lowest: f32,
+    pub(super) top: u32,
+    pub(super) lowest: f32,
     /// Last node of the contracted tree in this component (open ones).
-    last: u32,
+    pub(super) last: u32,
     /// Highest sweep key in the component (the sea's is above all).
-    hi: (u32, u64),
+    pub(super) hi: (u32, u64),
 }
 
-struct Piece {
-    z: f32,
-    id: u64,
-    open: bool,
-    outside: bool,
-    any_valid: bool,
+pub(super) struct Piece {
+    pub(super) z: f32,
+    pub(super) id: u64,
+    pub(super) open: bool,
+    pub(super) outside: bool,
+    pub(super) any_valid: bool,
 }
 
 impl TreeStep<'_> {
@@ -418,7 +118,7 @@ impl TreeStep<'_> {
     /// is kept and pruning never needs it. Peaks that merged into the sea
     /// stay: a sub-sea-level saddle below them can give a descendant more
     /// prominence than they have.
-    fn droppable(&self, p: &FinalPeak) -> bool {
+    pub(super) fn droppable(&self, p: &FinalPeak) -> bool {
         match self.min_prominence {
             Some(m) => {
                 p.prominence < m
@@ -430,7 +130,7 @@ impl TreeStep<'_> {
 
     /// Global region id of the cell at global (gx, gy), which must be a
     /// perimeter cell of its tile.
-    fn perimeter_id(&self, gx: i64, gy: i64) -> Option<u64> {
+    pub(super) fn perimeter_id(&self, gx: i64, gy: i64) -> Option<u64> {
         let t = self.layout.tile as i64;
         let tid = self.layout.id((gx / t) as usize, (gy / t) as usize);
         let win = self.layout.window(tid);
@@ -439,7 +139,7 @@ impl TreeStep<'_> {
         (id != u64::MAX).then_some(id)
     }
 
-    fn missing(&self, gx: i64, gy: i64) -> Error {
+    pub(super) fn missing(&self, gx: i64, gy: i64) -> Error {
         Error::invalid(format!(
             "divide tree: no plateau id for perimeter cell ({gx}, {gy}); run the plateau pass on the same layout"
         ))
@@ -1050,147 +750,4 @@ impl GlobalStep for TreeStep<'_> {
             "divide tree writes no raster; run it without outputs",
         ))
     }
-}
-
-/// Sort peaks as the in-memory sweep numbers them ((elevation, id)
-/// decreasing) and saddles as it pushes them (saddle key decreasing, then
-/// loser peak order), and resolve parents from region ids to indices.
-fn assemble(
-    width: usize,
-    height: usize,
-    convention: EdgeConvention,
-    mut recs: Vec<FinalPeak>,
-    min_prominence: Option<f64>,
-) -> Result<DivideTree> {
-    recs.sort_unstable_by_key(|p| std::cmp::Reverse(key(p.z, p.id)));
-    let w = width as u64;
-    let mut index: HashMap<u64, usize> = HashMap::with_capacity(recs.len());
-    for (i, p) in recs.iter().enumerate() {
-        if index.insert(p.id, i).is_some() {
-            return Err(Error::invalid(format!(
-                "divide tree: region {} is a peak twice in the tile summaries",
-                p.id
-            )));
-        }
-        if p.prominence.is_nan() {
-            return Err(Error::invalid(format!(
-                "divide tree: peak {} was left without prominence",
-                p.id
-            )));
-        }
-    }
-    let mut with_saddle: Vec<(std::cmp::Reverse<(u32, u64)>, usize)> = recs
-        .iter()
-        .enumerate()
-        .filter_map(|(i, p)| {
-            p.saddle
-                .map(|(sid, sz)| (std::cmp::Reverse(key(sz, sid)), i))
-        })
-        .collect();
-    with_saddle.sort_unstable();
-    let mut saddle_of = vec![None; recs.len()];
-    let mut saddles = Vec::with_capacity(with_saddle.len());
-    for (k, &(_, i)) in with_saddle.iter().enumerate() {
-        saddle_of[i] = Some(k);
-        let (sid, sz) = recs[i].saddle.expect("filtered on saddle");
-        saddles.push(Saddle {
-            col: (sid % w) as u32,
-            row: (sid / w) as u32,
-            elevation: sz,
-        });
-    }
-    let mut peaks = Vec::with_capacity(recs.len());
-    for (i, p) in recs.iter().enumerate() {
-        let parent = match (p.parent, min_prominence) {
-            (None, _) => None,
-            // A dropped parent (see `TreeStep::droppable`) only has children
-            // that pruning at the same threshold removes as well.
-            (Some(pid), Some(m)) if p.prominence < m && !index.contains_key(&pid) => None,
-            (Some(pid), _) => Some(*index.get(&pid).ok_or_else(|| {
-                Error::invalid(format!(
-                    "divide tree: peak {} names parent {pid}, which is not a peak",
-                    p.id
-                ))
-            })?),
-        };
-        peaks.push(Peak {
-            col: (p.id % w) as u32,
-            row: (p.id / w) as u32,
-            elevation: p.z,
-            prominence: p.prominence,
-            key_saddle: saddle_of[i],
-            parent,
-            on_edge: p.on_edge,
-            isolation: None,
-        });
-    }
-    Ok(DivideTree {
-        width,
-        height,
-        convention,
-        peaks,
-        saddles,
-    })
-}
-
-fn tree_tiled<E: Engine>(
-    src: &dyn RasterSource,
-    convention: EdgeConvention,
-    min_prominence: Option<f64>,
-    tile: usize,
-    engine: &E,
-) -> Result<DivideTree> {
-    let info = src.info();
-    let layout = TileLayout::new(info.width, info.height, tile.max(1));
-    if info.width == 0 || info.height == 0 {
-        return Ok(DivideTree {
-            width: info.width,
-            height: info.height,
-            convention,
-            peaks: Vec::new(),
-            saddles: Vec::new(),
-        });
-    }
-    let plateaus = engine.run_global(&PlateauStep, &[src], layout, Vec::new())?;
-    let step = TreeStep {
-        convention,
-        min_prominence,
-        layout,
-        plateaus: &plateaus,
-    };
-    let tree = engine.run_global(&step, &[src], layout, Vec::new())?;
-    Ok(match min_prominence {
-        Some(m) => tree.pruned(m),
-        None => tree,
-    })
-}
-
-/// The unpruned divide tree of `src` (read as f32, nodata = NaN) computed
-/// tile by tile on `engine` with tiles of `tile` cells: equal to
-/// [`super::divide_tree`] on the whole grid. Two passes over the tiles
-/// (plateaus, then the tree).
-pub fn divide_tree_tiled<E: Engine>(
-    src: &dyn RasterSource,
-    convention: EdgeConvention,
-    tile: usize,
-    engine: &E,
-) -> Result<DivideTree> {
-    tree_tiled(src, convention, None, tile, engine)
-}
-
-/// `divide_tree_tiled(..).pruned(min_prominence)`, without ever holding the
-/// peaks pruning removes (most of them are dropped in the tiles).
-pub fn pruned_tree_tiled<E: Engine>(
-    src: &dyn RasterSource,
-    convention: EdgeConvention,
-    min_prominence: f64,
-    tile: usize,
-    engine: &E,
-) -> Result<DivideTree> {
-    if !min_prominence.is_finite() {
-        return Err(Error::invalid(format!(
-            "peaks: minimum prominence must be a finite number, got {min_prominence}"
-        )));
-    }
-    tree_tiled(src, convention, Some(min_prominence), tile, engine)
 }
