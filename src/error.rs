@@ -39,9 +39,6 @@ pub enum Error {
         // the CLI's error chain).
         inner: Box<Error>,
     },
-    /// A capability of an optional cargo feature this build left out.
-    #[error("{what} needs orogen's `{feature}` feature: build with `--features {feature}` (the default features include it)")]
-    FeatureDisabled { feature: &'static str, what: String },
 }
 
 /// The fix for the I/O errors a user can fix (issue 12: "one clear error
