@@ -67,46 +67,27 @@ fn mpi_engine(_local: LocalEngine) -> Result<Engines> {
     Err(super::mpi_missing())
 }
 
+/// One `Engine` method of [`Engines`]: the same call on the engine inside.
+macro_rules! forward {
+    ($name:ident, $bound:ident, $ret:ty) => {
+        fn $name<S: $bound>(
+            &self,
+            step: &S,
+            inputs: &[&dyn RasterSource],
+            layout: TileLayout,
+            sinks: Vec<Box<dyn TileSink>>,
+        ) -> Result<$ret> {
+            match self {
+                Engines::Local(e) => e.$name(step, inputs, layout, sinks),
+                #[cfg(feature = "mpi")]
+                Engines::Mpi(e) => e.$name(step, inputs, layout, sinks),
+            }
+        }
+    };
+}
+
 impl Engine for Engines {
-    fn run_local<S: LocalStep>(
-        &self,
-        step: &S,
-        inputs: &[&dyn RasterSource],
-        layout: TileLayout,
-        sinks: Vec<Box<dyn TileSink>>,
-    ) -> Result<()> {
-        match self {
-            Engines::Local(e) => e.run_local(step, inputs, layout, sinks),
-            #[cfg(feature = "mpi")]
-            Engines::Mpi(e) => e.run_local(step, inputs, layout, sinks),
-        }
-    }
-
-    fn run_global<S: GlobalStep>(
-        &self,
-        step: &S,
-        inputs: &[&dyn RasterSource],
-        layout: TileLayout,
-        sinks: Vec<Box<dyn TileSink>>,
-    ) -> Result<S::Solution> {
-        match self {
-            Engines::Local(e) => e.run_global(step, inputs, layout, sinks),
-            #[cfg(feature = "mpi")]
-            Engines::Mpi(e) => e.run_global(step, inputs, layout, sinks),
-        }
-    }
-
-    fn run_global_apply<S: GlobalStep>(
-        &self,
-        step: &S,
-        inputs: &[&dyn RasterSource],
-        layout: TileLayout,
-        sinks: Vec<Box<dyn TileSink>>,
-    ) -> Result<()> {
-        match self {
-            Engines::Local(e) => e.run_global_apply(step, inputs, layout, sinks),
-            #[cfg(feature = "mpi")]
-            Engines::Mpi(e) => e.run_global_apply(step, inputs, layout, sinks),
-        }
-    }
+    forward!(run_local, LocalStep, ());
+    forward!(run_global, GlobalStep, S::Solution);
+    forward!(run_global_apply, GlobalStep, ());
 }
