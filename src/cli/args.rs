@@ -160,6 +160,7 @@ pub(crate) fn engine(run: &Run) -> Result<EngineConfig> {
         threads: run.threads,
         memory_budget: parse_bytes(&run.memory)?,
         progress: !run.quiet && std::io::stderr().is_terminal(),
+        engine: orogen::exec::EngineKind::current(),
     })
 }
 

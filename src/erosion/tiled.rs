@@ -266,11 +266,11 @@ pub fn run_ranked<M: LocalModel, X: HaloTransport>(
     }
     let rounds = total.div_ceil(k);
     let pb = if cfg.progress && me == 0 {
-        let pb = indicatif::ProgressBar::new(rounds);
+        let pb = crate::exec::Progress::new(rounds);
         pb.set_message(model.name());
         pb
     } else {
-        indicatif::ProgressBar::hidden()
+        crate::exec::Progress::hidden()
     };
     // From here on an error on one rank must end every rank (the others
     // would wait for its messages): `x.fail`.
@@ -879,6 +879,7 @@ mod tests {
             threads,
             memory_budget: 1 << 30,
             progress: false,
+            engine: Default::default(),
         }
     }
 

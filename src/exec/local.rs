@@ -22,13 +22,11 @@ use super::tile_io::{
     blank_outputs, check_inputs, check_sinks, convert_outputs, finish_all, local_tile_bytes,
     read_views, roundtrip_summary, tiles_in_flight, todo, write_outputs,
 };
-use super::{EngineConfig, GlobalStep, LocalStep, TileSink};
+use super::{Engine, EngineConfig, GlobalStep, LocalStep, TileSink};
 use crate::error::{Error, Result};
 use crate::raster::{AnyGrid, DType, RasterSource, TileId, TileLayout};
 use crossbeam_channel::bounded;
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::collections::BTreeMap;
-use std::io::IsTerminal;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 /// The in-process engine (rayon pool of `config.threads` workers).
@@ -66,20 +64,6 @@ impl LocalEngine {
         tiles_in_flight(self.config.memory_budget, bytes_per_tile)
     }
 
-    fn progress(&self, name: &str, len: usize) -> ProgressBar {
-        if !self.config.progress || !std::io::stderr().is_terminal() {
-            return ProgressBar::hidden();
-        }
-        let pb = ProgressBar::with_draw_target(Some(len as u64), ProgressDrawTarget::stderr());
-        if let Ok(style) = ProgressStyle::with_template(
-            "{msg} [{elapsed_precise}] {wide_bar} {pos}/{len} tiles, ETA {eta}",
-        ) {
-            pb.set_style(style);
-        }
-        pb.set_message(name.to_string());
-        pb
-    }
-
     /// Run `compute` for every tile of `ids` (in row-major order) on the
     /// pool and hand each result to `consume` on the calling thread in the
     /// order of `ids`. At most `in_flight` tiles are between dispatch and
@@ -104,7 +88,7 @@ impl LocalEngine {
             .tiles_in_flight(bytes_per_tile)
             .min(ids.len())
             .min(window);
-        let progress = self.progress(name, ids.len());
+        let progress = super::Progress::tiles(name, ids.len(), self.config.progress);
         let (permit_tx, permit_rx) = bounded::<()>(in_flight);
         for _ in 0..in_flight {
             // Cannot fail: the channel has room for `in_flight` permits.
@@ -191,10 +175,10 @@ impl LocalEngine {
     }
 }
 
-impl LocalEngine {
-    /// [`super::Engine::run_local`] in this process (the `Engine` impl in
-    /// `exec` sends it to MPI under `--engine mpi`).
-    pub(super) fn run_local_here<S: LocalStep>(
+/// Runs every step in this process; the MPI engine is another value
+/// ([`super::Engines`], chosen by [`EngineConfig::engine`]).
+impl Engine for LocalEngine {
+    fn run_local<S: LocalStep>(
         &self,
         step: &S,
         inputs: &[&dyn RasterSource],
@@ -230,9 +214,7 @@ impl LocalEngine {
         finish_all(sinks)
     }
 
-    /// [`super::Engine::run_global`] in this process (see
-    /// [`LocalEngine::run_local_here`]).
-    pub(super) fn run_global_here<S: GlobalStep>(
+    fn run_global<S: GlobalStep>(
         &self,
         step: &S,
         inputs: &[&dyn RasterSource],

@@ -3,6 +3,12 @@
 //! here), output nodata rules ([`output`]) and runs planned from paths
 //! ([`plan`]). Steps never know which engine runs them; an engine never
 //! knows what a step computes.
+//!
+//! The engine is a value: [`engine`] turns an [`EngineConfig`] (whose
+//! `engine` field is an [`EngineKind`]) into an [`Engines`], the in-process
+//! [`LocalEngine`] or, with the `mpi` feature, the MPI engine; both
+//! implement [`Engine`]. [`select_engine`] only starts MPI at process
+//! start-up.
 
 use crate::error::Result;
 use crate::raster::{Cell, Grid, IntoAny, RasterSource, TileId, TileLayout, TileView};
@@ -88,6 +94,9 @@ pub struct EngineConfig {
     pub memory_budget: u64,
     /// Show a progress bar on stderr.
     pub progress: bool,
+    /// Which engine runs the steps ([`engine`] builds it): in this process
+    /// or over the ranks of `mpirun`.
+    pub engine: EngineKind,
 }
 
 impl Default for EngineConfig {
@@ -96,6 +105,7 @@ impl Default for EngineConfig {
             threads: 0,
             memory_budget: 1 << 30,
             progress: false,
+            engine: EngineKind::Local,
         }
     }
 }
@@ -140,82 +150,28 @@ pub trait Engine {
     }
 }
 
-/// Every run of a [`LocalEngine`] goes to the engine this process selected
-/// ([`select_engine`]): in this process, or under `--engine mpi` to the
-/// ranks, so callers and steps stay unchanged.
-impl Engine for LocalEngine {
-    fn run_local<S: LocalStep>(
-        &self,
-        step: &S,
-        inputs: &[&dyn RasterSource],
-        layout: TileLayout,
-        sinks: Vec<Box<dyn TileSink>>,
-    ) -> Result<()> {
-        #[cfg(feature = "mpi")]
-        if mpi::active() {
-            return mpi::MpiEngine::new(self.clone()).run_local(step, inputs, layout, sinks);
-        }
-        self.run_local_here(step, inputs, layout, sinks)
-    }
-
-    fn run_global<S: GlobalStep>(
-        &self,
-        step: &S,
-        inputs: &[&dyn RasterSource],
-        layout: TileLayout,
-        sinks: Vec<Box<dyn TileSink>>,
-    ) -> Result<S::Solution> {
-        #[cfg(feature = "mpi")]
-        if mpi::active() {
-            return mpi::MpiEngine::new(self.clone()).run_global(step, inputs, layout, sinks);
-        }
-        self.run_global_here(step, inputs, layout, sinks)
-    }
-
-    fn run_global_apply<S: GlobalStep>(
-        &self,
-        step: &S,
-        inputs: &[&dyn RasterSource],
-        layout: TileLayout,
-        sinks: Vec<Box<dyn TileSink>>,
-    ) -> Result<()> {
-        // Under MPI: rank 0 reduces and sends each rank its slices.
-        #[cfg(feature = "mpi")]
-        if mpi::active() {
-            return mpi::MpiEngine::new(self.clone()).run_global_apply(step, inputs, layout, sinks);
-        }
-        self.run_global_here(step, inputs, layout, sinks)
-            .map(|_| ())
-    }
-}
-
-/// Which engine runs the steps of this process (`--engine`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum EngineKind {
-    /// In-process: tiles on a rayon pool ([`LocalEngine`]).
-    #[default]
-    Local,
-    /// MPI: tiles spread over the ranks of `mpirun` (needs `--features mpi`).
-    Mpi,
-}
-
-/// Make `kind` the engine of this process. Every [`LocalEngine`] run then
-/// goes to it, so callers and steps stay unchanged. `Mpi` initialises MPI
-/// once (call [`finish_engine`] before the process exits) and stays for the
-/// life of the process (`Local` afterwards changes nothing, so the job
-/// steps of `orogen run --engine mpi` all run on MPI); it is an error in a
-/// build without the `mpi` feature.
+/// Start the engine `kind` for this process (at start-up, before the first
+/// step): `Mpi` initialises MPI once (call [`finish_engine`] before the
+/// process exits; [`EngineKind::current`] is `Mpi` from then on); it is an
+/// error in a build without the `mpi` feature. `Local` needs no start.
+/// Which engine runs a step is the [`EngineConfig::engine`] value given to
+/// [`engine`], never this process state.
 pub fn select_engine(kind: EngineKind) -> Result<()> {
     match kind {
         EngineKind::Local => Ok(()),
         #[cfg(feature = "mpi")]
         EngineKind::Mpi => mpi::init(),
         #[cfg(not(feature = "mpi"))]
-        EngineKind::Mpi => Err(crate::error::Error::invalid(
-            "--engine mpi: this orogen was built without MPI; rebuild with `cargo build --release --features mpi` (tools/install_mpi.sh installs Open MPI and libclang) and start it with mpirun",
-        )),
+        EngineKind::Mpi => Err(mpi_missing()),
     }
+}
+
+/// The error of `--engine mpi` in a build without the `mpi` feature.
+#[cfg(not(feature = "mpi"))]
+fn mpi_missing() -> crate::error::Error {
+    crate::error::Error::invalid(
+        "--engine mpi: this orogen was built without MPI (feature `mpi`); rebuild with `cargo build --release --features mpi` (tools/install_mpi.sh installs Open MPI and libclang) and start it with mpirun",
+    )
 }
 
 /// True when the MPI engine runs this process's steps.
@@ -269,6 +225,7 @@ pub fn abort_engine(msg: &str) -> ! {
 }
 
 mod copy;
+mod engines;
 mod local;
 mod memory_fit;
 #[cfg(feature = "mpi")]
@@ -279,11 +236,14 @@ pub mod mpi_halo;
 mod mpi_queue;
 pub mod output;
 pub mod plan;
+mod progress;
 pub mod stats;
 mod tile_io;
 
 pub use crate::store::sink::{to_sink_type, MemSink, MemSinkHandle, TileSink};
 pub use copy::{copy, ingest, run_local_to_memory};
+pub use engines::{engine, EngineKind, Engines};
 pub use local::LocalEngine;
 pub use memory_fit::MemoryFit;
+pub use progress::Progress;
 pub use tile_io::{local_tile_bytes, roundtrip_summary, tiles_in_flight};

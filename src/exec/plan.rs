@@ -3,7 +3,7 @@
 //! one sink per output path by its extension, and run a local or global step
 //! on the engine.
 
-use super::{Engine, EngineConfig, GlobalStep, LocalEngine, LocalStep, TileSink};
+use super::{engine, Engine, EngineConfig, GlobalStep, LocalStep, TileSink};
 use crate::error::{Error, Result};
 use crate::io::{self, OutputOptions};
 use crate::raster::{DType, RasterSource, TileLayout};
@@ -154,7 +154,7 @@ pub fn run_local_to_paths<S: LocalStep>(
         oo,
         tile,
     )?;
-    LocalEngine::new(cfg.clone()).run_local(step, inputs, layout, sinks)
+    engine(cfg)?.run_local(step, inputs, layout, sinks)
 }
 
 /// Run a global step (map, reduce, apply) on `inputs` and write its outputs
@@ -179,7 +179,7 @@ pub fn run_global_to_paths<S: GlobalStep>(
         oo,
         tile,
     )?;
-    LocalEngine::new(cfg.clone()).run_global_apply(step, inputs, layout, sinks)
+    engine(cfg)?.run_global_apply(step, inputs, layout, sinks)
 }
 
 /// [`run_local_to_paths`] for a one-output step on one input.

@@ -57,7 +57,7 @@ use super::registry::{MetricKind, Resolved};
 use super::tile::Tile;
 use super::windowed::{box_max, Sat};
 use crate::error::{Error, Result};
-use crate::exec::{Engine, EngineConfig, GlobalStep, LocalEngine, MemSink, TileSink};
+use crate::exec::{Engine, EngineConfig, GlobalStep, MemSink, TileSink};
 use crate::raster::RasterInfo;
 use crate::raster::{DType, Grid, RasterSource, TileId, TileLayout, TileView};
 use serde::{Deserialize, Serialize};
@@ -590,7 +590,7 @@ pub fn run(
             "peakedness_dw: top={top} is out of range: use 0 < top <= 1 (share of the peaks in the centroid)"
         )));
     }
-    let engine = LocalEngine::new(cfg.clone());
+    let engine = crate::exec::engine(cfg)?;
     let stats_step = PeakStats {
         top,
         width: info.width,

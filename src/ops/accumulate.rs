@@ -5,7 +5,7 @@ use super::{choose_layout, convert, Target};
 use crate::error::{Error, Result};
 use crate::exec::plan::{check_inputs, make_sinks};
 use crate::exec::MemoryFit;
-use crate::exec::{Engine, EngineConfig, GlobalStep, LocalEngine};
+use crate::exec::{Engine, EngineConfig, GlobalStep};
 use crate::io::{self, OutputOptions};
 use crate::raster::{DType, RasterSource};
 use crate::store::scratch::ScratchDir;
@@ -207,7 +207,7 @@ pub fn accumulate_multi(
         return Ok(0);
     }
     let layout = choose_layout(dem, &[out.to_path_buf()], oo, tile);
-    let engine = LocalEngine::new(cfg.clone());
+    let engine = crate::exec::engine(cfg)?;
     let name = out
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())

@@ -41,6 +41,34 @@ pub struct FlowOptions {
 
 /// Flow directions of the filled `dem` into `target` (u8, nodata
 /// [`crate::hydro::NODATA_DIR`]), exact across tiles.
+///
+/// D8 then accumulation ([`crate::ops::accumulate::run`]) on a 5 x 5 plane
+/// rising 1 m per cell eastwards and 10 m per cell southwards: below the top
+/// row every cell drains north (ESRI code 64; 10 m down beats 1 m west and
+/// 11/√2 m north-west), and the top row drains west (code 16) to the lowest
+/// corner. Counting each cell itself, the middle column holds 1..4 from the
+/// bottom up, and its top cell also collects the two columns east of it.
+///
+/// ```
+/// use orogen::ops::{accumulate, flow, Target};
+/// use orogen::raster::{read_window, GeoRef, Grid, MemRaster, Window};
+/// let dem = MemRaster::from_grid(Grid::from_fn(5, 5, |x, y| (x + 10 * y) as f32), GeoRef::pixel());
+/// let dir = std::env::temp_dir().join(format!("orogen-doc-flow-{}", std::process::id()));
+/// std::fs::create_dir_all(&dir)?;
+/// let cfg = Default::default();
+/// flow::run(&dem, &flow::FlowOptions::default(), &Target::new(dir.join("d8.tif")), &cfg)?;
+/// let d8 = orogen::io::open_raster(&dir.join("d8.tif"), &Default::default())?;
+/// assert_eq!(read_window::<u8>(d8.as_ref(), Window::new(2, 2, 1, 1))?.get(0, 0), 64);
+/// assert_eq!(read_window::<u8>(d8.as_ref(), Window::new(2, 0, 1, 1))?.get(0, 0), 16);
+/// accumulate::run(d8.as_ref(), &Default::default(), &Target::new(dir.join("acc.tif")), &cfg)?;
+/// let acc = orogen::io::open_raster(&dir.join("acc.tif"), &Default::default())?;
+/// let column: Vec<f64> = (0..5)
+///     .map(|y| read_window::<f64>(acc.as_ref(), Window::new(2, y, 1, 1)).map(|g| g.get(0, 0)))
+///     .collect::<Result<_, _>>()?;
+/// assert_eq!(column, [15.0, 4.0, 3.0, 2.0, 1.0]);
+/// # std::fs::remove_dir_all(&dir)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn run(
     dem: &dyn RasterSource,
     opts: &FlowOptions,

@@ -3,7 +3,7 @@
 
 use super::choose_tile;
 use crate::error::Result;
-use crate::exec::{Engine, EngineConfig, LocalEngine};
+use crate::exec::{engine, Engine, EngineConfig};
 use crate::io;
 use crate::raster::{DType, RasterSource, TileLayout};
 
@@ -48,7 +48,7 @@ pub fn describe(src: &dyn RasterSource, stats: bool, cfg: &EngineConfig) -> Resu
         let step = crate::exec::stats::Stats::new(-1e300, 1e300, 1)?;
         let info = src.info();
         let layout = TileLayout::new(info.width, info.height, choose_tile(src, None));
-        Some(LocalEngine::new(cfg.clone()).run_global(&step, &[src], layout, Vec::new())?)
+        Some(engine(cfg)?.run_global(&step, &[src], layout, Vec::new())?)
     } else {
         None
     };

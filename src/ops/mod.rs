@@ -11,6 +11,7 @@ pub mod accumulate;
 pub mod aspect;
 pub mod basins;
 pub mod breach;
+#[cfg(feature = "learn")]
 pub mod classify;
 pub mod compare;
 pub mod convert;
@@ -31,6 +32,7 @@ pub mod ridges;
 pub mod slope;
 pub mod streams;
 mod target;
+#[cfg(feature = "archives")]
 pub mod tiles;
 pub mod viewshed;
 pub mod watersheds;

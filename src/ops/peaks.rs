@@ -165,7 +165,7 @@ pub fn run_in(
         PeaksMode::Tiled { tile } => {
             // A quarter of the budget caches cells for the isolation search.
             let cache = cfg.memory_budget / 4;
-            let eng = crate::exec::LocalEngine::new(cfg.clone());
+            let eng = crate::exec::engine(cfg)?;
             (
                 crate::oro::peaks_tiled(dem, &popts, tile, &eng, cache)?,
                 None,

@@ -18,6 +18,7 @@
 //! over the joined graphs finishes it) and compute isolation with
 //! [`TiledIsolationIndex`] (block maxima in memory, cells read on demand).
 
+#[cfg(feature = "learn")]
 pub mod classify;
 mod isolation;
 mod links;

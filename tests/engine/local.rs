@@ -193,6 +193,7 @@ fn engine(threads: usize) -> LocalEngine {
         threads,
         memory_budget: 1 << 26,
         progress: false,
+        engine: Default::default(),
     })
 }
 
@@ -404,6 +405,7 @@ fn memory_budget_bounds_tiles_in_flight() {
             threads: 2,
             memory_budget: budget,
             progress: false,
+            engine: Default::default(),
         })
         .run_local(
             &step,

@@ -32,6 +32,7 @@ fn run<S: LocalStep>(
         threads,
         memory_budget: 64 << 20,
         progress: false,
+        engine: Default::default(),
     });
     let layout = TileLayout::new(info.width, info.height, tile);
     run_local_to_memory(&engine, step, &[src], layout, &[(dtype, Some(nd))])
@@ -165,6 +166,7 @@ fn from_stores_of_several_tile_sizes_equal_in_memory() {
         threads: 2,
         memory_budget: 64 << 20,
         progress: false,
+        engine: Default::default(),
     };
     for tile in [64, 257, 1024] {
         for compression in [Compression::None, Compression::Zstd { level: 1 }] {

@@ -17,6 +17,7 @@ fn engine(threads: usize) -> LocalEngine {
         threads,
         memory_budget: 1 << 28,
         progress: false,
+        engine: Default::default(),
     })
 }
 

@@ -74,6 +74,7 @@ fn cfg(threads: usize) -> EngineConfig {
         threads,
         memory_budget: 1 << 20,
         progress: false,
+        engine: Default::default(),
     }
 }
 
