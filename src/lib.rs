@@ -12,7 +12,10 @@
 //! opened with [`open_raster`] or held in memory as a [`MemRaster`] over a
 //! [`Grid`]), an output [`Target`] and an [`EngineConfig`] (threads, memory
 //! budget, [`EngineKind`]: in this process or MPI). What a library user
-//! needs is re-exported here; the modules hold the algorithms behind them.
+//! needs is re-exported here (`ops::flow`, `ops::compare`, `ops::tiles` and
+//! `ops::synth` stay under [`ops`]: their names are the algorithm modules'
+//! [`flow`], [`compare`], [`tiles`], [`synth`]); the modules hold the
+//! algorithms behind them.
 //! (The batch-job runner [`ops::job`] still takes its step runner from the
 //! caller: `orogen run` parses each step as a command line.)
 //!
@@ -66,7 +69,7 @@ pub use error::{Error, Result};
 pub use exec::{engine, Engine, EngineConfig, EngineKind, Engines, LocalEngine};
 pub use io::{open_raster, OpenOptions, OutputOptions};
 pub use ops::{
-    accumulate, aspect, basins, breach, fill, fill_epsilon, flow, hillshade, hydro_index, info,
+    accumulate, aspect, basins, breach, fill, fill_epsilon, hillshade, hydro_index, info,
     metric, orostats, peaks, render, ridges, slope, streams, viewshed, watersheds, Target,
 };
 pub use raster::{DType, GeoRef, Grid, MemRaster, RasterSource, Window};
