@@ -852,6 +852,26 @@ mod tests {
         fn sum(&mut self, v: &[u64]) -> Result<Vec<u64>> {
             Ok(v.to_vec())
         }
+        fn all_gather(&mut self, v: &[f64]) -> Result<Vec<Vec<f64>>> {
+            for q in 0..self.n {
+                if q != self.me {
+                    self.tx[q]
+                        .send(v.to_vec())
+                        .map_err(|_| Error::invalid("peer gone"))?;
+                }
+            }
+            (0..self.n)
+                .map(|p| {
+                    if p == self.me {
+                        Ok(v.to_vec())
+                    } else {
+                        self.rx[p]
+                            .recv()
+                            .map_err(|_| Error::invalid(format!("rank {p} hung up")))
+                    }
+                })
+                .collect()
+        }
         fn barrier(&mut self) {
             self.barrier.wait();
         }

@@ -269,6 +269,7 @@ pub fn abort_engine(msg: &str) -> ! {
 }
 
 mod copy;
+pub mod iterate;
 mod local;
 mod memory_fit;
 #[cfg(feature = "mpi")]

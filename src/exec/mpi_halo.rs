@@ -261,6 +261,9 @@ pub trait HaloTransport {
     fn recv_from_f32(&mut self, from: usize, buf: &mut [f32]) -> Result<()>;
     /// Element-wise sum of `v` over the ranks.
     fn sum(&mut self, v: &[u64]) -> Result<Vec<u64>>;
+    /// Every rank's `v` (of any length), indexed by rank, on every rank
+    /// (the board exchange of `exec::iterate`).
+    fn all_gather(&mut self, v: &[f64]) -> Result<Vec<Vec<f64>>>;
     /// Wait until every rank got here.
     fn barrier(&mut self);
     /// Turn an error on this rank into the run's end: under MPI this ends
@@ -304,6 +307,9 @@ impl HaloTransport for Single {
     }
     fn sum(&mut self, v: &[u64]) -> Result<Vec<u64>> {
         Ok(v.to_vec())
+    }
+    fn all_gather(&mut self, v: &[f64]) -> Result<Vec<Vec<f64>>> {
+        Ok(vec![v.to_vec()])
     }
     fn barrier(&mut self) {}
     fn fail(&self, e: Error) -> Error {
@@ -452,6 +458,34 @@ mod with_mpi {
                 }
             }
             Ok(s)
+        }
+        fn all_gather(&mut self, v: &[f64]) -> Result<Vec<Vec<f64>>> {
+            use mpi::datatype::PartitionMut;
+            count_ok(v.len())?;
+            let n = self.comm.size().max(1) as usize;
+            let mut counts = vec![0i32; n];
+            self.comm
+                .all_gather_into(&(v.len() as i32), &mut counts[..]);
+            let total: usize = counts.iter().map(|&c| c as usize).sum();
+            count_ok(total)?;
+            let displs: Vec<i32> = counts
+                .iter()
+                .scan(0i32, |acc, &c| {
+                    let d = *acc;
+                    *acc += c;
+                    Some(d)
+                })
+                .collect();
+            let mut all = vec![0f64; total];
+            {
+                let mut part = PartitionMut::new(&mut all[..], &counts[..], &displs[..]);
+                self.comm.all_gather_varcount_into(v, &mut part);
+            }
+            Ok(counts
+                .iter()
+                .zip(&displs)
+                .map(|(&c, &d)| all[d as usize..(d + c) as usize].to_vec())
+                .collect())
         }
         fn barrier(&mut self) {
             self.comm.barrier();
