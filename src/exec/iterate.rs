@@ -307,7 +307,9 @@ impl<'x, X: HaloTransport> Rounds<'x, X> {
         done: Option<&mut Vec<bool>>,
     ) -> Result<(Vec<bool>, u64)> {
         let board = &self.board;
-        let res: Vec<Result<(TileId, bool, Option<Vec<f64>>)>> = self.pool.install(|| {
+        // Per tile: final?, and the new publication if it changed.
+        type Passed = (TileId, bool, Option<Vec<f64>>);
+        let res: Vec<Result<Passed>> = self.pool.install(|| {
             tiles
                 .par_iter()
                 .map(|&id| {

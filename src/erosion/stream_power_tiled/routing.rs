@@ -94,76 +94,83 @@ impl TileWork for Levels<'_> {
         let geo = &self.ctx.geo;
         let win = geo.lay.window(id);
         let pd = Pad::new(win);
+        // The flood runs on padded arrays (no index conversion per
+        // neighbour); the ring holds the neighbours' levels and flags.
+        let mut lp = geo.pad(board, &pd, &t.lev, LEV, f64::NAN, |v| v);
+        let mut fp = geo.pad(board, &pd, &t.flags, FLAGS, f64::NAN, as_flags);
+        let mut hp = vec![f64::NAN; lp.len()];
+        for y in 0..pd.h {
+            let q = pd.at(0, y);
+            hp[q..q + pd.w].copy_from_slice(&t.h[y * pd.w..(y + 1) * pd.w]);
+        }
         let mut heap: BinaryHeap<Reverse<(u64, u32)>> = BinaryHeap::new();
+        // Lower cell q from its neighbours' levels (any upper bound of a
+        // neighbour's level gives one of q's: label correcting).
+        let relax = |q: usize, lp: &mut [f64], fp: &[u8], hp: &[f64]| -> bool {
+            let mut low = false;
+            for d in 0..8 {
+                let j = pd.nb(q, d);
+                if fp[j] & VALID == 0 || !lp[j].is_finite() {
+                    continue;
+                }
+                let c = hp[q].max(lp[j]);
+                if c < lp[q] {
+                    lp[q] = c;
+                    low = true;
+                }
+            }
+            low
+        };
         if round == 0 {
-            let lev = geo.pad(board, &pd, &t.lev, LEV, f64::NAN, |v| v);
-            let fl = geo.pad(board, &pd, &t.flags, FLAGS, f64::NAN, as_flags);
             for y in 0..pd.h {
                 for x in 0..pd.w {
-                    let i = y * pd.w + x;
-                    if t.flags[i] != VALID {
-                        if t.flags[i] & BASE != 0 {
-                            heap.push(Reverse((order_key(t.lev[i]), i as u32)));
+                    let q = pd.at(x, y);
+                    if fp[q] != VALID {
+                        if fp[q] & BASE != 0 {
+                            heap.push(Reverse((order_key(lp[q]), q as u32)));
                         }
                         continue;
                     }
-                    let q = pd.at(x, y);
-                    for d in 0..8 {
-                        let j = pd.nb(q, d);
-                        if pd.core(j).is_some() || fl[j] & VALID == 0 || !lev[j].is_finite() {
-                            continue;
-                        }
-                        let c = t.h[i].max(lev[j]);
-                        if c < t.lev[i] {
-                            t.lev[i] = c;
-                        }
-                    }
-                    if t.lev[i].is_finite() {
-                        heap.push(Reverse((order_key(t.lev[i]), i as u32)));
+                    relax(q, &mut lp, &fp, &hp);
+                    if lp[q].is_finite() {
+                        heap.push(Reverse((order_key(lp[q]), q as u32)));
                     }
                 }
             }
         } else {
-            let lev = geo.ring(board, &pd, LEV, f64::NAN);
-            let fl = geo.ring(board, &pd, FLAGS, f64::NAN);
-            for (k, (px, py)) in perimeter_cells(pd.w + 2, pd.h + 2).enumerate() {
-                if as_flags(fl[k]) & VALID == 0 || !lev[k].is_finite() {
-                    continue;
+            // Only the perimeter cells read the ring.
+            for_perimeter(pd.w, pd.h, |i, _| {
+                let q = pd.at(i % pd.w, i / pd.w);
+                if fp[q] == VALID && relax(q, &mut lp, &fp, &hp) {
+                    heap.push(Reverse((order_key(lp[q]), q as u32)));
                 }
-                for d in 0..8 {
-                    let Some(i) = pd.core_xy(px as isize + DX[d], py as isize + DY[d]) else {
-                        continue;
-                    };
-                    if t.flags[i] != VALID {
-                        continue;
-                    }
-                    let c = t.h[i].max(lev[k]);
-                    if c < t.lev[i] {
-                        t.lev[i] = c;
-                        heap.push(Reverse((order_key(c), i as u32)));
-                    }
-                }
-            }
+            });
         }
-        while let Some(Reverse((key, c))) = heap.pop() {
-            let c = c as usize;
-            if order_key(t.lev[c]) != key {
+        // The flood stays inside the tile.
+        for (px, py) in perimeter_cells(pd.w + 2, pd.h + 2) {
+            fp[py * pd.pw + px] = 0;
+        }
+        while let Some(Reverse((key, q))) = heap.pop() {
+            let q = q as usize;
+            let lq = lp[q];
+            if order_key(lq) != key {
                 continue;
             }
-            let q = pd.at(c % pd.w, c / pd.w);
             for d in 0..8 {
-                let Some(j) = pd.core(pd.nb(q, d)) else {
-                    continue;
-                };
-                if t.flags[j] != VALID {
+                let j = pd.nb(q, d);
+                if fp[j] != VALID {
                     continue;
                 }
-                let cand = t.h[j].max(t.lev[c]);
-                if cand < t.lev[j] {
-                    t.lev[j] = cand;
+                let cand = hp[j].max(lq);
+                if cand < lp[j] {
+                    lp[j] = cand;
                     heap.push(Reverse((order_key(cand), j as u32)));
                 }
             }
+        }
+        for y in 0..pd.h {
+            let q = pd.at(0, y);
+            t.lev[y * pd.w..(y + 1) * pd.w].copy_from_slice(&lp[q..q + pd.w]);
         }
         publish(out, win.w, win.h, geo.perimeter(id), LEV, |i| t.lev[i]);
         Ok(false)
@@ -268,7 +275,21 @@ impl TileWork for Flats<'_> {
                             }
                         }
                     }
-                    if t.dd[i] != u32::MAX {
+                    // A draining cell seeds the search only next to a flat
+                    // cell of its level (most cells drain and have none).
+                    let seeds = match t.dd[i] {
+                        u32::MAX => false,
+                        0 => {
+                            let q = pd.at(x, y);
+                            (0..8).any(|d| {
+                                pd.core(pd.nb(q, d)).is_some_and(|j| {
+                                    t.flags[j] & VALID != 0 && t.dd[j] != 0 && t.lev[j] == t.lev[i]
+                                })
+                            })
+                        }
+                        _ => true,
+                    };
+                    if seeds {
                         heap.push(Reverse((t.dd[i], i as u32)));
                     }
                 }
