@@ -13,6 +13,14 @@ per step; orogen's time per step is the difference between two runs of
 different step counts divided by the step difference, so reading and writing
 the grid do not count. Run through tools/fastscape_compare.sh (builds orogen
 in release mode and installs fastscapelib in a virtual environment).
+
+With --tiled, orogen runs its tiled (out-of-core) solve instead (`--tiled
+--tile N`, once per value of --threads), which does not tile the basin
+graph: orogen routes depressions by filling (--depressions fill), the same
+routes as the minimum spanning tree on the ramp start (no depression).
+--baseline BIN times another orogen binary's tiled solve in the same run
+(e.g. a build from before a change, with --baseline-threads), and the table
+ends with the ratios of every orogen run to fastscapelib and to the baseline.
 """
 
 import argparse
@@ -66,15 +74,29 @@ def run_fastscape(z0, a):
     return z, t / a.steps
 
 
-def run_orogen(inp, out, steps, a):
+def run_orogen(inp, out, steps, a, binary=None, threads=1):
     cmd = [
-        a.orogen, "erode", inp, "--model", "stream-power", "--steps", str(steps), "--dt", repr(a.dt),
-        f"--k={a.k!r}", f"--m={a.m!r}", f"--n={a.n!r}", f"--uplift={a.uplift!r}",
-        "--depressions", "basin-graph", "--threads", "1", "-q", "-o", out,
+        binary or a.orogen, "erode", inp, "--model", "stream-power", "--steps", str(steps),
+        "--dt", repr(a.dt), f"--k={a.k!r}", f"--m={a.m!r}", f"--n={a.n!r}",
+        f"--uplift={a.uplift!r}", "--threads", str(threads), "-q", "-o", out,
     ]
+    if a.tiled:
+        cmd += ["--depressions", "fill", "--tiled", "--tile", str(a.tile)]
+    else:
+        cmd += ["--depressions", "basin-graph"]
     t0 = time.perf_counter()
     subprocess.run(cmd, check=True)
     return time.perf_counter() - t0
+
+
+def time_per_step(inp, tmp, a, binary=None, threads=1):
+    """Time per step (difference of two runs) and the output of the longer run."""
+    few = max(1, a.steps // 10)
+    out_few = os.path.join(tmp, "few.asc")
+    out = os.path.join(tmp, "out.asc")
+    t_few = run_orogen(inp, out_few, few, a, binary, threads)
+    t_all = run_orogen(inp, out, a.steps, a, binary, threads)
+    return (t_all - t_few) / (a.steps - few), read_asc(out)
 
 
 def main():
@@ -89,6 +111,13 @@ def main():
     p.add_argument("--n", type=float, default=1.0)
     p.add_argument("--uplift", type=float, default=1e-3)
     p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--tiled", action="store_true",
+                   help="orogen runs its tiled solve (--tiled --tile TILE --depressions fill)")
+    p.add_argument("--tile", type=int, default=256, help="tile side with --tiled")
+    p.add_argument("--threads", default="1",
+                   help="orogen worker threads, a comma-separated list (one run each)")
+    p.add_argument("--baseline", help="another orogen binary, timed with --tiled too")
+    p.add_argument("--baseline-threads", type=int, default=2)
     p.add_argument(
         "--start", choices=["ramp", "noise"], default="ramp",
         help="ramp: distance to the border (1 m per cell) + 0.5 m noise, no depression, "
@@ -112,15 +141,22 @@ def main():
         write_asc(inp, z0, a.cell)
         z0 = read_asc(inp)  # exactly what orogen reads
         zf, fs_step = run_fastscape(z0, a)
-        few = max(1, a.steps // 10)
-        out_few = os.path.join(tmp, "few.asc")
-        out = os.path.join(tmp, "out.asc")
-        t_few = run_orogen(inp, out_few, few, a)
-        t_all = run_orogen(inp, out, a.steps, a)
-        zo = read_asc(out)
-    og_step = (t_all - t_few) / (a.steps - few)
+        runs = []  # (label, ms per step, output)
+        if a.baseline:
+            t, zb = time_per_step(inp, tmp, a, a.baseline, a.baseline_threads)
+            runs.append((f"baseline {a.baseline} --threads {a.baseline_threads}", t, zb))
+        for th in [int(v) for v in a.threads.split(",")]:
+            t, zo = time_per_step(inp, tmp, a, None, th)
+            runs.append((f"orogen --threads {th}", t, zo))
+    og_step = runs[-1][1]
+    if a.baseline:
+        for label, _, z in runs[1:]:
+            same = np.array_equal(z, runs[0][2])
+            print(f"{label}: output {'identical to' if same else 'DIFFERS from'} the baseline's")
     d = np.abs(zo - zf)
     relief = float(zf.max() - zf.min())
+    mode = f"tiled, {a.tile}-cell tiles, fill routing" if a.tiled else "in memory, basin graph"
+    print(f"orogen: {mode}")
     print(f"start {a.start}, grid {a.size}x{a.size}, {a.steps} steps, dt {a.dt}, K {a.k}, m {a.m}, n {a.n}, uplift {a.uplift}")
     print(f"relief (fastscapelib) {relief:.3f} m")
     print(f"max abs difference  {d.max():.6g} m ({d.max() / relief:.3g} of relief)")
@@ -133,6 +169,12 @@ def main():
     print(f"mean elevation: fastscapelib {zf.mean():.3f} m, orogen {zo.mean():.3f} m")
     print(f"time per step: fastscapelib {fs_step * 1e3:.3f} ms, orogen {og_step * 1e3:.3f} ms")
     print(f"ratio fastscapelib/orogen {fs_step / og_step:.2f} (> 1: orogen faster)")
+    print("| run | ms/step | fastscapelib / run | baseline / run |")
+    print("|---|---:|---:|---:|")
+    print(f"| fastscapelib 0.3.0 | {fs_step * 1e3:.1f} | 1.00 | |")
+    for label, t, _ in runs:
+        base = f"{runs[0][1] / t:.2f}" if a.baseline else ""
+        print(f"| {label} | {t * 1e3:.1f} | {fs_step / t:.2f} | {base} |")
     return 0
 
 

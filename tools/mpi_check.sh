@@ -11,8 +11,10 @@
 # (tools/mpi_kill.sh).
 #
 # Erosion with halo exchange across ranks (hydraulic, thermal, diffusion;
-# several exchange intervals, tiles that do not divide the raster) is checked
-# in its own block below; --only-erosion runs that block alone.
+# several exchange intervals, tiles that do not divide the raster) and the
+# tiled stream-power solve distributed over the ranks (rounds of the
+# exec::iterate driver, perimeters exchanged after every round) are checked
+# in their own block below; --only-erosion runs that block alone.
 #
 # Usage: tools/mpi_check.sh [--release] [--ranks "1 2 4"] [--dem PATH] [--size N] [--tile N] [--only-erosion]
 # (defaults: a 367x359 real DEM and a 384x384 generated one in tiles of 128)
@@ -100,7 +102,9 @@ compare() {
 # point every k substeps; rank 0 writes. Tiles of 100 and 77 do not divide
 # the rasters (367x359, 384x384); k = 1, 2, 3, 5, 8; the hydraulic runs write
 # two outputs (terrain + water) and one keeps its states on disk (a scratch
-# folder per rank). Every output is cmp'd with the in-process run.
+# folder per rank); the stream-power runs keep each rank's tiles and
+# exchange the changed perimeters after every round. Every output is cmp'd
+# with the in-process run.
 halo_cases() {
     local dir="$1" input="$2" eng="$3"
     shift 3
@@ -111,6 +115,11 @@ halo_cases() {
     "$@" erode "$input" --model hydraulic --steps 24 --exchange 2 --tile 100 --water "$dir/water-k2.tif" -o "$dir/hydraulic-k2.tif" -q $eng
     "$@" erode "$input" --model hydraulic --steps 24 --exchange 5 --tile 77 --scratch "$dir" -o "$dir/hydraulic-k5-disk.tif" -q $eng
     "$@" erode "$input" --model diffusion --steps 4 --diffusivity 0.5 --dt 3000 --exchange 3 --tile 77 -o "$dir/diffusion-k3.tif" -q $eng
+    # Stream power, tiled: fill routing (levels, flat distances, area and
+    # update as rounds), no routing with diffusion and uplift, scratch files.
+    "$@" erode "$input" --model stream-power --steps 5 --tiled --tile 100 -o "$dir/sp-fill-t100.tif" -q $eng
+    "$@" erode "$input" --model stream-power --steps 4 --tiled --tile 77 --depressions none --uplift 1e-3 --diffusivity 0.5 -o "$dir/sp-none-t77.tif" -q $eng
+    "$@" erode "$input" --model stream-power --steps 3 --tiled --tile 77 --uplift 2e-3 --scratch "$dir" -o "$dir/sp-fill-disk.tif" -q $eng
 }
 for name in real demo; do
     if [ $name = real ]; then input="$dem"; else input="$work/demo/terrain.tif"; fi

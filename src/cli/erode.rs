@@ -6,8 +6,12 @@
 //!
 //! Under `--engine mpi` the hydraulic, thermal and diffusion models run
 //! distributed (each rank its tiles, ghost zones exchanged point to point,
-//! rank 0 writes; `erosion::tiled::run_ranked`); stream power does not: every
-//! rank runs the whole solve (same bytes, no speed-up) and rank 0 writes.
+//! rank 0 writes; `erosion::tiled::run_ranked`), and so does the tiled
+//! stream-power solve (`--tiled`, or a DEM larger than `--memory`: each rank
+//! its tiles, changed perimeters exchanged after every round, rank 0 writes;
+//! `erosion::stream_power_tiled::stream_power_tiled_ranked`); the in-memory
+//! stream-power solve is not: every rank runs it whole (same bytes, no
+//! speed-up) and rank 0 writes.
 
 use crate::{engine, output_options, wrote, In, Out, Run};
 use anyhow::Result;
@@ -25,8 +29,8 @@ pub enum ModelArg {
     Thermal,
     /// Linear hillslope diffusion, explicit and CFL-stable.
     Diffusion,
-    /// Stream power with uplift, implicit (Braun & Willett 2013); in memory. Under
-    /// --engine mpi every rank runs the whole solve (not distributed).
+    /// Stream power with uplift, implicit (Braun & Willett 2013); in memory, or tiled
+    /// (--tiled), which --engine mpi distributes over the ranks.
     StreamPower,
 }
 

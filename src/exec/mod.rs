@@ -226,6 +226,7 @@ pub fn abort_engine(msg: &str) -> ! {
 
 mod copy;
 mod engines;
+pub mod iterate;
 mod local;
 mod memory_fit;
 #[cfg(feature = "mpi")]

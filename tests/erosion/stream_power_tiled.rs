@@ -8,7 +8,7 @@
 use orogen::erosion::stream_power::{
     stream_power, BaseHeight, Boundary, Depressions, StreamPower, StreamPowerParams, Uplift,
 };
-use orogen::erosion::stream_power_tiled::{stream_power_tiled_grid, SpBackend};
+use orogen::erosion::stream_power_tiled::{stream_power_tiled_grid, SpBackend, SpTiling};
 use orogen::raster::{read_window, Grid, Window};
 use proptest::prelude::*;
 
@@ -71,14 +71,19 @@ fn check(
     };
     stream_power(&mut a, 50.0, p, &u, steps).unwrap();
     for &t in tiles {
-        let (b, _) = stream_power_tiled_grid(g, 50.0, p, up, steps, t, &SpBackend::Memory).unwrap();
-        if let Some((i, x, y)) = same_bits(&a, &b) {
-            panic!(
-                "tile {t}, {:?}: cell ({}, {}) untiled {x} tiled {y}",
-                p.depressions,
-                i % g.width(),
-                i / g.width()
-            );
+        // One worker thread and two: the rounds are Jacobi, so the same bits.
+        for threads in [1, 2] {
+            let (b, _) =
+                stream_power_tiled_grid(g, 50.0, p, up, steps, &SpTiling::memory(t, threads))
+                    .unwrap();
+            if let Some((i, x, y)) = same_bits(&a, &b) {
+                panic!(
+                    "tile {t}, {threads} threads, {:?}: cell ({}, {}) untiled {x} tiled {y}",
+                    p.depressions,
+                    i % g.width(),
+                    i / g.width()
+                );
+            }
         }
     }
     a
@@ -184,8 +189,7 @@ fn borders_base_height_and_uniform_uplift() {
                 &p,
                 &orogen::erosion::stream_power_tiled::TiledUplift::Uniform(2e-3),
                 5,
-                t,
-                &SpBackend::Memory,
+                &SpTiling::memory(t, 2),
                 |_, win, tile| {
                     b.paste(tile, win.x, win.y);
                     Ok(())
@@ -203,7 +207,7 @@ fn scratch_files_give_the_same_bits() {
     let up = uplift_map(45, 38);
     let p = params(Depressions::Fill, 1.0, 0.2);
     let (mem, _) =
-        stream_power_tiled_grid(&g, 50.0, &p, Some(&up), 4, 9, &SpBackend::Memory).unwrap();
+        stream_power_tiled_grid(&g, 50.0, &p, Some(&up), 4, &SpTiling::memory(9, 1)).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let (disk, _) = stream_power_tiled_grid(
         &g,
@@ -211,8 +215,11 @@ fn scratch_files_give_the_same_bits() {
         &p,
         Some(&up),
         4,
-        9,
-        &SpBackend::Disk(dir.path().join("scratch")),
+        &SpTiling {
+            tile: 9,
+            backend: SpBackend::Disk(dir.path().join("scratch")),
+            threads: 2,
+        },
     )
     .unwrap();
     assert_eq!(same_bits(&mem, &disk), None);
@@ -267,7 +274,7 @@ fn real_dems_equal_untiled() {
 fn basin_graph_is_refused_with_a_clear_error() {
     let g = terrain(20, 20, 6, false);
     let p = params(Depressions::BasinGraph, 1.0, 0.0);
-    let e = stream_power_tiled_grid(&g, 50.0, &p, None, 1, 7, &SpBackend::Memory)
+    let e = stream_power_tiled_grid(&g, 50.0, &p, None, 1, &SpTiling::memory(7, 1))
         .unwrap_err()
         .to_string();
     assert!(e.contains("basin-graph") && e.contains("fill"), "{e}");
@@ -277,18 +284,18 @@ fn basin_graph_is_refused_with_a_clear_error() {
 fn bad_input_is_refused() {
     let g = terrain(20, 20, 6, false);
     let p = params(Depressions::Fill, 1.0, 0.0);
-    assert!(stream_power_tiled_grid(&g, 50.0, &p, None, 0, 7, &SpBackend::Memory).is_err());
-    assert!(stream_power_tiled_grid(&g, 0.0, &p, None, 1, 7, &SpBackend::Memory).is_err());
+    assert!(stream_power_tiled_grid(&g, 50.0, &p, None, 0, &SpTiling::memory(7, 1)).is_err());
+    assert!(stream_power_tiled_grid(&g, 0.0, &p, None, 1, &SpTiling::memory(7, 1)).is_err());
     let bad = StreamPowerParams {
         k: -1.0,
         ..p.clone()
     };
-    assert!(stream_power_tiled_grid(&g, 50.0, &bad, None, 1, 7, &SpBackend::Memory).is_err());
+    assert!(stream_power_tiled_grid(&g, 50.0, &bad, None, 1, &SpTiling::memory(7, 1)).is_err());
     let up = Grid::new(19, 20, 1e-3);
-    assert!(stream_power_tiled_grid(&g, 50.0, &p, Some(&up), 1, 7, &SpBackend::Memory).is_err());
+    assert!(stream_power_tiled_grid(&g, 50.0, &p, Some(&up), 1, &SpTiling::memory(7, 1)).is_err());
     let mut up = Grid::new(20, 20, 1e-3);
     up.set(5, 5, f64::NAN);
-    let e = stream_power_tiled_grid(&g, 50.0, &p, Some(&up), 1, 7, &SpBackend::Memory)
+    let e = stream_power_tiled_grid(&g, 50.0, &p, Some(&up), 1, &SpTiling::memory(7, 1))
         .unwrap_err()
         .to_string();
     assert!(e.contains("column 5, row 5"), "{e}");
@@ -296,7 +303,7 @@ fn bad_input_is_refused() {
         boundary: Boundary::parse("none").unwrap(),
         ..p
     };
-    assert!(stream_power_tiled_grid(&g, 50.0, &nob, None, 1, 7, &SpBackend::Memory).is_err());
+    assert!(stream_power_tiled_grid(&g, 50.0, &nob, None, 1, &SpTiling::memory(7, 1)).is_err());
 }
 
 /// The in-memory fill routing against brute-force definitions: levels by
@@ -436,6 +443,7 @@ proptest! {
         fill in any::<bool>(),
         holes in any::<bool>(),
         n2 in any::<bool>(),
+        threads in 1usize..4,
     ) {
         let g = terrain(w, h, seed, holes);
         let dep = if fill { Depressions::Fill } else { Depressions::None };
@@ -443,7 +451,7 @@ proptest! {
         let up = uplift_map(w, h);
         let mut a = g.clone();
         let r1 = stream_power(&mut a, 50.0, &p, &Uplift::Map(&up), steps);
-        let r2 = stream_power_tiled_grid(&g, 50.0, &p, Some(&up), steps, tile, &SpBackend::Memory);
+        let r2 = stream_power_tiled_grid(&g, 50.0, &p, Some(&up), steps, &SpTiling::memory(tile, threads));
         match (r1, r2) {
             (Ok(()), Ok((b, _))) => prop_assert_eq!(same_bits(&a, &b), None),
             (Err(_), Err(_)) => {}

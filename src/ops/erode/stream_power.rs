@@ -465,7 +465,7 @@ fn run_tiled(
     notify: Notify<'_>,
 ) -> Result<()> {
     use crate::erosion::stream_power_tiled::{
-        stream_power_tiled, SpBackend, TiledUplift, TILE_BYTES_PER_CELL,
+        SpBackend, SpTiling, TiledUplift, TILE_BYTES_PER_CELL,
     };
     let p = model.params()?;
     let info = src.info().clone();
@@ -479,13 +479,21 @@ fn run_tiled(
         Some(m) => TiledUplift::Map(m.as_ref()),
         None => TiledUplift::Uniform(model.uplift_rate()),
     };
-    let cells = info.width as u64 * info.height as u64;
+    // Under MPI each rank keeps its own tiles (about 1/ranks of them),
+    // in a scratch folder of its own (ranks may share a filesystem).
+    let (me, ranks) = crate::exec::rank();
+    let cells = (info.width as u64 * info.height as u64).div_ceil(ranks as u64);
+    let rank_tag = if ranks > 1 {
+        format!("-rank{me}")
+    } else {
+        String::new()
+    };
     let (backend, cleanup) = match &model.scratch {
         None if cells.saturating_mul(TILE_BYTES_PER_CELL) <= cfg.memory_budget / 2 => {
             (SpBackend::Memory, None)
         }
         Some(d) => {
-            let dir = d.join("orogen-sp-scratch");
+            let dir = d.join(format!("orogen-sp-scratch{rank_tag}"));
             (SpBackend::Disk(dir.clone()), Some(dir))
         }
         None => {
@@ -493,7 +501,7 @@ fn run_tiled(
                 .file_name()
                 .map(|n| n.to_string_lossy().into_owned())
                 .unwrap_or_else(|| "erosion".into());
-            let dir = output.with_file_name(format!(".{name}.sp-scratch"));
+            let dir = output.with_file_name(format!(".{name}.sp-scratch{rank_tag}"));
             (SpBackend::Disk(dir.clone()), Some(dir))
         }
     };
@@ -518,39 +526,36 @@ fn run_tiled(
         oo,
         prov,
     )?;
-    let result = stream_power_tiled(
-        src,
-        cell,
-        &p,
-        &uplift,
-        model.steps,
-        layout.tile,
-        &backend,
-        |id, win, g| {
-            let low = g
-                .data()
-                .iter()
-                .map(|&v| v as f32)
-                .filter(|v| v.is_finite())
-                .fold(f32::INFINITY, f32::min);
-            let g = g.map(|v| {
-                let v = v as f32;
-                if v.is_finite() {
-                    v
-                } else {
-                    nd as f32
-                }
-            });
-            if low as f64 <= nd {
-                // Out of the bound `tiled_nodata` derived: refuse rather
-                // than write a cell that reads back as nodata.
-                return Err(Error::invalid(format!(
+    let tiling = SpTiling {
+        tile: layout.tile,
+        backend,
+        threads: cfg.threads,
+    };
+    let write = |id, win, g: &Grid<f64>| {
+        let low = g
+            .data()
+            .iter()
+            .map(|&v| v as f32)
+            .filter(|v| v.is_finite())
+            .fold(f32::INFINITY, f32::min);
+        let g = g.map(|v| {
+            let v = v as f32;
+            if v.is_finite() {
+                v
+            } else {
+                nd as f32
+            }
+        });
+        if low as f64 <= nd {
+            // Out of the bound `tiled_nodata` derived: refuse rather
+            // than write a cell that reads back as nodata.
+            return Err(Error::invalid(format!(
                     "tile {id}: an eroded elevation ({low}) reaches the output nodata ({nd}) chosen from the input's minimum; this is a bug, please report it"
                 )));
-            }
-            sink.write(id, win, AnyGrid::F32(g))
-        },
-    );
+        }
+        sink.write(id, win, AnyGrid::F32(g))
+    };
+    let result = dispatch_tiled(src, cell, &p, &uplift, model.steps, &tiling, write);
     if let Some(dir) = &cleanup {
         if let Err(e) = std::fs::remove_dir_all(dir) {
             if e.kind() != std::io::ErrorKind::NotFound {
@@ -563,6 +568,8 @@ fn run_tiled(
     }
     let stats = result.map_err(|e| Error::invalid(format!("{}: {e}", info.path.display())))?;
     sink.finish()?;
+    // Nobody goes on (and reads the output) before rank 0 finished it.
+    crate::exec::barrier();
     notify(Note::Info(format!(
         "erode: stream power (tiled, {}-cell tiles, {}) on {}x{} cells, {} steps, {} tile passes (longest round {}), {:.1} s",
         layout.tile,
@@ -576,6 +583,27 @@ fn run_tiled(
     )));
     notify(Note::Wrote(output.to_path_buf()));
     Ok(())
+}
+
+/// The tiled solve over the ranks of the MPI engine when it runs this
+/// process (`--engine mpi`), else in this process alone.
+fn dispatch_tiled(
+    src: &dyn RasterSource,
+    cell: f64,
+    p: &StreamPowerParams,
+    uplift: &crate::erosion::stream_power_tiled::TiledUplift,
+    steps: usize,
+    tiling: &crate::erosion::stream_power_tiled::SpTiling,
+    write: impl FnMut(crate::raster::TileId, Window, &Grid<f64>) -> Result<()>,
+) -> Result<crate::erosion::stream_power_tiled::SpTiledStats> {
+    use crate::erosion::stream_power_tiled::stream_power_tiled_ranked;
+    #[cfg(feature = "mpi")]
+    if crate::exec::distributed() {
+        let mut x = crate::exec::mpi_halo::MpiHalo::new()?;
+        return stream_power_tiled_ranked(src, cell, p, uplift, steps, tiling, &mut x, write);
+    }
+    let mut x = crate::exec::mpi_halo::Single;
+    stream_power_tiled_ranked(src, cell, p, uplift, steps, tiling, &mut x, write)
 }
 
 /// Output nodata of the tiled solve, fixed before the first tile is written:
