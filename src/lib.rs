@@ -69,7 +69,7 @@ pub use error::{Error, Result};
 pub use exec::{engine, Engine, EngineConfig, EngineKind, Engines, LocalEngine};
 pub use io::{open_raster, OpenOptions, OutputOptions};
 pub use ops::{
-    accumulate, aspect, basins, breach, fill, fill_epsilon, hillshade, hydro_index, info,
-    metric, orostats, peaks, render, ridges, slope, streams, viewshed, watersheds, Target,
+    accumulate, aspect, basins, breach, fill, fill_epsilon, hillshade, hydro_index, info, metric,
+    orostats, peaks, render, ridges, slope, streams, viewshed, watersheds, Target,
 };
 pub use raster::{DType, GeoRef, Grid, MemRaster, RasterSource, Window};
