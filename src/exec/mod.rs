@@ -168,7 +168,7 @@ pub fn select_engine(kind: EngineKind) -> Result<()> {
 
 /// The error of `--engine mpi` in a build without the `mpi` feature.
 #[cfg(not(feature = "mpi"))]
-fn mpi_missing() -> crate::error::Error {
+pub(crate) fn mpi_missing() -> crate::error::Error {
     crate::error::Error::invalid(
         "--engine mpi: this orogen was built without MPI (feature `mpi`); rebuild with `cargo build --release --features mpi` (tools/install_mpi.sh installs Open MPI and libclang) and start it with mpirun",
     )

@@ -6,6 +6,7 @@ mod common;
 
 mod cli;
 mod cli_stream_power_tiled;
+mod engine_choice;
 mod local_models;
 mod stream_power;
 mod stream_power_tiled;

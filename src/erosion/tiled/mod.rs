@@ -722,8 +722,9 @@ pub fn erode_to_paths<M: LocalModel>(
     Ok((stats, layout))
 }
 
-/// [`run_to_sinks_ranked`] over the ranks of the MPI engine when it runs
-/// this process (`--engine mpi`), else in this process alone.
+/// [`run_to_sinks_ranked`] over the ranks of the MPI engine when the config
+/// names it ([`EngineConfig::engine`], `--engine mpi`), else in this
+/// process alone.
 fn dispatch<M: LocalModel>(
     model: &M,
     src: &dyn RasterSource,
@@ -734,9 +735,13 @@ fn dispatch<M: LocalModel>(
     sinks: Vec<(usize, Box<dyn TileSink>)>,
 ) -> Result<RunStats> {
     #[cfg(feature = "mpi")]
-    if crate::exec::distributed() {
+    if cfg.engine == crate::exec::EngineKind::Mpi {
         let mut x = crate::exec::mpi_halo::MpiHalo::new()?;
         return run_to_sinks_ranked(model, src, layout, exchange, backend, cfg, &mut x, sinks);
+    }
+    #[cfg(not(feature = "mpi"))]
+    if cfg.engine == crate::exec::EngineKind::Mpi {
+        return Err(crate::exec::mpi_missing());
     }
     run_to_sinks(model, src, layout, exchange, backend, cfg, sinks)
 }

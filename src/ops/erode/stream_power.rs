@@ -555,7 +555,7 @@ fn run_tiled(
         }
         sink.write(id, win, AnyGrid::F32(g))
     };
-    let result = dispatch_tiled(src, cell, &p, &uplift, model.steps, &tiling, write);
+    let result = dispatch_tiled(cfg, src, cell, &p, &uplift, model.steps, &tiling, write);
     if let Some(dir) = &cleanup {
         if let Err(e) = std::fs::remove_dir_all(dir) {
             if e.kind() != std::io::ErrorKind::NotFound {
@@ -585,9 +585,11 @@ fn run_tiled(
     Ok(())
 }
 
-/// The tiled solve over the ranks of the MPI engine when it runs this
-/// process (`--engine mpi`), else in this process alone.
+/// The tiled solve over the ranks of the MPI engine when the config names
+/// it ([`EngineConfig::engine`], `--engine mpi`), else in this process alone.
+#[allow(clippy::too_many_arguments)]
 fn dispatch_tiled(
+    cfg: &EngineConfig,
     src: &dyn RasterSource,
     cell: f64,
     p: &StreamPowerParams,
@@ -598,9 +600,13 @@ fn dispatch_tiled(
 ) -> Result<crate::erosion::stream_power_tiled::SpTiledStats> {
     use crate::erosion::stream_power_tiled::stream_power_tiled_ranked;
     #[cfg(feature = "mpi")]
-    if crate::exec::distributed() {
+    if cfg.engine == crate::exec::EngineKind::Mpi {
         let mut x = crate::exec::mpi_halo::MpiHalo::new()?;
         return stream_power_tiled_ranked(src, cell, p, uplift, steps, tiling, &mut x, write);
+    }
+    #[cfg(not(feature = "mpi"))]
+    if cfg.engine == crate::exec::EngineKind::Mpi {
+        return Err(crate::exec::mpi_missing());
     }
     let mut x = crate::exec::mpi_halo::Single;
     stream_power_tiled_ranked(src, cell, p, uplift, steps, tiling, &mut x, write)
