@@ -143,8 +143,8 @@ pub fn route_d8_codes<T: FlowFloat>(g: &mut FlowGraph<T>, codes: &[u8], cell: f6
 /// order, pushed to `order` (upstream first, i.e. the stack reversed) when
 /// asked. This is the graph's fast form for code rasters: one byte of
 /// direction and one of in-degree per cell instead of a 4-byte receiver,
-/// distance and stack entry (about 1.65x faster on a 4096² accumulation),
-/// the walk of Barnes (2017, Alg. 1): downstream from each source cell in
+/// distance and stack entry (figures in `docs/design/flow-graph.md`), the
+/// walk of Barnes (2017, Alg. 1): downstream from each source cell in
 /// row-major order while the next cell has received all its inflows.
 /// Errors on an invalid code, an integer overflow or a cycle.
 pub fn accumulate_d8_codes<A: Flux>(
