@@ -32,6 +32,16 @@
 //! ([`super::mpi_halo::partition`]); each rank keeps only its tiles' states
 //! ([`TileStates`]: in memory with [`MemStates`], or wherever the step
 //! keeps them), and the board (O(tiles' perimeters)) everywhere.
+//!
+//! The same driver runs *ghost-zone rounds* ([`Rounds::ghost_rounds`],
+//! `iterate/ghost.rs`): a fixed number of rounds in which every tile reads
+//! the previous round's states of the tiles within a ghost zone of its
+//! core, exchanged point to point between ranks instead of on the board
+//! (the tiled local erosion models).
+
+mod ghost;
+
+pub use ghost::{CoreStates, GhostPatch, GhostRun};
 
 use super::mpi_halo::{partition, HaloTransport};
 use crate::error::{Error, Result};

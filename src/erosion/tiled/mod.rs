@@ -12,11 +12,16 @@
 //! (a ghost-zone scheme, as in e.g. Ding & He, "A ghost cell expansion method
 //! for reducing communications in solving PDE problems", SC 2001).
 //!
-//! Tiles of a round run in parallel (rayon); each reads only the previous
-//! round's states, so the result does not depend on thread count or order.
-//! States live in memory ([`Backend::Memory`], two copies of the whole state)
-//! or in a scratch directory of one raw file per tile ([`Backend::Disk`]),
-//! where memory is O(threads × patch) and the raster may exceed memory.
+//! The rounds are run by the engine's round driver, the one tiled stream
+//! power uses (`exec::iterate::Rounds`, its ghost-zone rounds
+//! `Rounds::ghost_rounds`): tiles of a round run in parallel (rayon); each
+//! reads only the previous round's states, so the result does not depend on
+//! thread count or order. States live in memory ([`Backend::Memory`], two
+//! copies of the whole state) or in a scratch directory of one raw file per
+//! tile ([`Backend::Disk`]), where memory is O(threads × patch) and the
+//! raster may exceed memory. This module keeps what is erosion's: the ghost
+//! depth from the model's radius and the exchange interval, the memory
+//! check, the substeps on each patch, the finish and the final gather.
 //!
 //! The tile loop does not know where the neighbours live: [`run_ranked`]
 //! takes a [`HaloTransport`]. [`Single`] (one process, what [`run`] uses)
@@ -24,19 +29,18 @@
 //! `exec::mpi_halo::MpiHalo`) the tiles are split between the ranks in
 //! contiguous ranges, each rank keeps only its tiles' states, and before
 //! every round the ghost-zone cells of other ranks' tiles arrive point to
-//! point from their owners (`exec::mpi_halo`); the finished tiles go to
-//! rank 0, which writes them. Same bits for any number of ranks.
+//! point from their owners (`exec::mpi_halo`; not the board all-gather of
+//! the fixed-point rounds, which would send whole tile states to every
+//! rank: see `exec/iterate/ghost.rs`); the finished tiles go to rank 0,
+//! which writes them. Same bits for any number of ranks.
 
 use super::{LocalModel, Patch};
 use crate::error::{Error, Result};
-use crate::exec::mpi_halo::{
-    extract, partition, paste, patch_window, HaloPlan, HaloTransport, Single,
-};
+use crate::exec::iterate::{GhostPatch, GhostRun, Rounds};
+use crate::exec::mpi_halo::{partition, patch_window, HaloTransport, Single};
 use crate::exec::{to_sink_type, EngineConfig, MemoryFit, TileSink};
 use crate::raster::{read_window, DType, Grid, RasterSource, TileId, TileLayout, Window};
 use crate::store::scratch::{hidden_beside, ScratchDir};
-use rayon::prelude::*;
-use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
 /// Where tile states are kept between rounds.
@@ -58,6 +62,18 @@ pub struct RunStats {
     pub substeps: u64,
     /// Ghost-zone depth in cells.
     pub ghost: usize,
+}
+
+/// One tiled run: the model, its input, the tile layout, the exchange
+/// interval (substeps per round), where the states live and the engine
+/// settings.
+pub struct Tiled<'a, M> {
+    pub model: &'a M,
+    pub src: &'a dyn RasterSource,
+    pub layout: TileLayout,
+    pub exchange: usize,
+    pub backend: &'a Backend,
+    pub cfg: &'a EngineConfig,
 }
 
 /// Bytes of state of a `width x height` raster for `fields` fields.
@@ -86,79 +102,14 @@ pub fn run_untiled<M: LocalModel>(model: &M, dem: &Grid<f64>) -> Vec<Grid<f64>> 
         .collect()
 }
 
-/// Tile states of one round.
-enum States {
-    Memory(Vec<Vec<f64>>),
-    Disk(PathBuf),
-}
-
-fn tile_file(dir: &Path, id: TileId) -> PathBuf {
-    dir.join(format!("t{id}.f64"))
-}
-
-impl States {
-    fn get(&self, id: TileId, expect: usize) -> Result<Cow<'_, [f64]>> {
-        match self {
-            States::Memory(v) => Ok(Cow::Borrowed(&v[id])),
-            States::Disk(dir) => {
-                let path = tile_file(dir, id);
-                let bytes = std::fs::read(&path).map_err(|e| Error::io(&path, e))?;
-                if bytes.len() != expect * 8 {
-                    return Err(Error::corrupt(
-                        &path,
-                        format!(
-                            "erosion scratch tile has {} bytes, expected {}; was the scratch folder changed during the run?",
-                            bytes.len(),
-                            expect * 8
-                        ),
-                    ));
-                }
-                Ok(Cow::Owned(
-                    bytes
-                        .chunks_exact(8)
-                        .map(|c| {
-                            f64::from_le_bytes([c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]])
-                        })
-                        .collect(),
-                ))
-            }
-        }
-    }
-}
-
-fn write_tile(dir: &Path, id: TileId, data: &[f64]) -> Result<()> {
-    let path = tile_file(dir, id);
-    let mut bytes = Vec::with_capacity(data.len() * 8);
-    for v in data {
-        bytes.extend_from_slice(&v.to_le_bytes());
-    }
-    std::fs::write(&path, bytes).map_err(|e| Error::io(&path, e))
-}
-
 /// Run `model` on `src` over `layout` with a halo exchange every `exchange`
 /// substeps, and hand each finished tile (after [`LocalModel::finish`]) to
 /// `emit` in increasing tile id order, as a patch holding exactly the core.
 pub fn run<M: LocalModel>(
-    model: &M,
-    src: &dyn RasterSource,
-    layout: TileLayout,
-    exchange: usize,
-    backend: &Backend,
-    cfg: &EngineConfig,
+    job: &Tiled<'_, M>,
     emit: impl FnMut(TileId, Window, &Patch) -> Result<()>,
 ) -> Result<RunStats> {
-    run_ranked(
-        model,
-        src,
-        layout,
-        exchange,
-        backend,
-        cfg,
-        &mut Single,
-        None,
-        false,
-        emit,
-    )
+    run_ranked(job, &mut Single, None, false, emit)
 }
 
 /// [`run`] spread over the ranks of `x` (every rank calls it with the same
@@ -173,19 +124,21 @@ pub fn run<M: LocalModel>(
 /// travel as `f32` (half the bytes): their kept fields reach `emit` rounded
 /// to `f32`, which gives the same bytes when every kept field is written
 /// as `f32` (an `f32` widened to `f64` converts back to itself).
-#[allow(clippy::too_many_arguments)]
 pub fn run_ranked<M: LocalModel, X: HaloTransport>(
-    model: &M,
-    src: &dyn RasterSource,
-    layout: TileLayout,
-    exchange: usize,
-    backend: &Backend,
-    cfg: &EngineConfig,
+    job: &Tiled<'_, M>,
     x: &mut X,
     keep: Option<&[usize]>,
     narrow: bool,
     mut emit: impl FnMut(TileId, Window, &Patch) -> Result<()>,
 ) -> Result<RunStats> {
+    let Tiled {
+        model,
+        src,
+        layout,
+        exchange,
+        backend,
+        cfg,
+    } = *job;
     let info = src.info();
     if (layout.width, layout.height) != (info.width, info.height) {
         return Err(Error::invalid(format!(
@@ -232,38 +185,7 @@ pub fn run_ranked<M: LocalModel, X: HaloTransport>(
             fit.budget_mib()
         ))
     })?;
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(cfg.threads)
-        .build()
-        .map_err(|e| Error::invalid(format!("erosion: cannot start worker threads: {e}")))?;
     let (me, ranks) = x.rank();
-    let count = layout.count();
-    let plan = HaloPlan::new(&layout, ghost, partition(&layout, ranks), (me, ranks), nf)?;
-    let mine = &plan.mine;
-    let owner = &plan.owner;
-    let disk_dir = |parity: u64| -> Option<PathBuf> {
-        match backend {
-            Backend::Memory => None,
-            Backend::Disk(d) => Some(d.join(format!("r{parity}"))),
-        }
-    };
-    let store = |parity: u64, results: Vec<(TileId, Vec<f64>)>| -> States {
-        match disk_dir(parity) {
-            None => {
-                let mut v = vec![Vec::new(); count];
-                for (id, d) in results {
-                    v[id] = d;
-                }
-                States::Memory(v)
-            }
-            Some(dir) => States::Disk(dir),
-        }
-    };
-    for p in 0..2 {
-        if let Some(d) = disk_dir(p) {
-            std::fs::create_dir_all(&d).map_err(|e| Error::io(&d, e))?;
-        }
-    }
     let rounds = total.div_ceil(k);
     let pb = if cfg.progress && me == 0 {
         let pb = crate::exec::Progress::new(rounds);
@@ -272,101 +194,51 @@ pub fn run_ranked<M: LocalModel, X: HaloTransport>(
     } else {
         crate::exec::Progress::hidden()
     };
-    // From here on an error on one rank must end every rank (the others
-    // would wait for its messages): `x.fail`.
-    // Round 0: the initial state (terrain from the source, other fields 0).
-    let init = pool
-        .install(|| {
-            mine.par_iter()
-                .map(|&id| -> Result<(TileId, Vec<f64>)> {
-                    let core = layout.window(id);
-                    let dem = read_window::<f64>(src, core)?;
-                    let mut v = vec![0.0; core.len() * nf];
-                    // Cells the f32 output cannot hold (±inf, beyond ±f32::MAX)
-                    // are nodata, as in the other steps (tests/hardening/numerics.rs).
-                    for (o, &z) in v[..core.len()].iter_mut().zip(dem.data()) {
-                        *o = if (z as f32).is_finite() { z } else { f64::NAN };
-                    }
-                    if let Some(dir) = disk_dir(0) {
-                        write_tile(&dir, id, &v)?;
-                        return Ok((id, Vec::new()));
-                    }
-                    Ok((id, v))
-                })
-                .collect::<Result<Vec<_>>>()
-        })
-        .map_err(|e| x.fail(e))?;
-    let mut cur = store(0, init);
-    // Halo messages, reused every round: strips out to each rank, in from each.
-    let mut outbox: Vec<Vec<f64>> = plan
-        .sends
-        .iter()
-        .map(|s| Vec::with_capacity(s.iter().map(|s| s.win.len() * nf).sum()))
-        .collect();
-    let mut inbox: Vec<Vec<f64>> = plan.recv_len.iter().map(|&n| vec![0.0; n]).collect();
-    let mut exchange_time = std::time::Duration::ZERO;
-    for round in 0..rounds {
-        let s0 = round * k;
-        let s1 = (s0 + k).min(total);
-        let next_parity = (round + 1) % 2;
-        if ranks > 1 {
-            let t = std::time::Instant::now();
-            for (out, strips) in outbox.iter_mut().zip(&plan.sends) {
-                out.clear();
-                // Strips are grouped by tile: read each tile once.
-                for group in strips.chunk_by(|a, b| a.tile == b.tile) {
-                    let tile = group[0].tile;
-                    let tw = layout.window(tile);
-                    let data = cur.get(tile, tw.len() * nf).map_err(|e| x.fail(e))?;
-                    for s in group {
-                        extract(tw, &data, nf, s.win, out);
-                    }
-                }
+    let disk = match backend {
+        Backend::Memory => None,
+        Backend::Disk(d) => Some(d.as_path()),
+    };
+    let mut driver = Rounds::new(layout, cfg.threads, x, |_| 0)?;
+    let GhostRun {
+        states: cur,
+        plan,
+        exchange_time,
+    } = driver.ghost_rounds(
+        ghost,
+        nf,
+        rounds,
+        disk,
+        // Round 0: the initial state (terrain from the source, other fields 0).
+        |id| {
+            let core = layout.window(id);
+            let dem = read_window::<f64>(src, core)?;
+            let mut v = vec![0.0; core.len() * nf];
+            // Cells the f32 output cannot hold (±inf, beyond ±f32::MAX)
+            // are nodata, as in the other steps (tests/hardening/numerics.rs).
+            for (o, &z) in v[..core.len()].iter_mut().zip(dem.data()) {
+                *o = if (z as f32).is_finite() { z } else { f64::NAN };
             }
-            x.exchange(&outbox, &mut inbox).map_err(|e| x.fail(e))?;
-            exchange_time += t.elapsed();
-        }
-        let prev = &cur;
-        let inbox = &inbox;
-        let results = pool
-            .install(|| {
-                mine.par_iter()
-                    .map(|&id| -> Result<(TileId, Vec<f64>)> {
-                        let core = layout.window(id);
-                        let pw = patch_window(&layout, id, ghost);
-                        let mut patch = Patch::new(pw.x, pw.y, pw.w, pw.h, nf);
-                        for tid in layout.tiles_in(&pw) {
-                            let tw = layout.window(tid);
-                            let Some(iw) = tw.intersect(&pw) else {
-                                continue;
-                            };
-                            if owner[tid] == me {
-                                let data = prev.get(tid, tw.len() * nf)?;
-                                paste(pw, &mut patch.fields, tw, &data, iw);
-                            } else {
-                                for g in &plan.ghosts[tid] {
-                                    let n = g.win.len() * nf;
-                                    let data = &inbox[g.from][g.offset..g.offset + n];
-                                    paste(pw, &mut patch.fields, g.win, data, iw);
-                                }
-                            }
-                        }
-                        for n in s0..s1 {
-                            model.substep(&mut patch, n);
-                        }
-                        let v = core_of(&patch, core);
-                        if let Some(dir) = disk_dir(next_parity) {
-                            write_tile(&dir, id, &v)?;
-                            return Ok((id, Vec::new()));
-                        }
-                        Ok((id, v))
-                    })
-                    .collect::<Result<Vec<_>>>()
+            Ok(v)
+        },
+        |round, _, gp| {
+            let s0 = round * k;
+            let s1 = (s0 + k).min(total);
+            let pw = gp.win;
+            let mut patch = Patch::new(pw.x, pw.y, pw.w, pw.h, 0);
+            patch.fields = gp.fields;
+            for n in s0..s1 {
+                model.substep(&mut patch, n);
+            }
+            Ok(GhostPatch {
+                win: pw,
+                fields: patch.fields,
             })
-            .map_err(|e| x.fail(e))?;
-        cur = store(next_parity, results);
-        pb.inc(1);
-    }
+        },
+        || pb.inc(1),
+    )?;
+    drop(driver);
+    let mine = &plan.mine;
+    let owner = &plan.owner;
     pb.finish_and_clear();
     // Finish; rank 0 emits in tile id order, receiving the other ranks'
     // tiles (each sends its own in increasing order).
@@ -510,54 +382,25 @@ fn print_stats(
     );
 }
 
-/// Copy the core `core` (inside `p`) of every field into one flat vector.
-fn core_of(p: &Patch, core: Window) -> Vec<f64> {
-    let pw = Window::new(p.x0, p.y0, p.w, p.h);
-    let mut out = Vec::with_capacity(core.len() * p.fields.len());
-    for f in &p.fields {
-        extract(pw, f, 1, core, &mut out);
-    }
-    out
-}
-
 /// [`run`], writing field `f` of every tile to the sink paired with it.
 /// Sinks are finished only when every tile was written.
 pub fn run_to_sinks<M: LocalModel>(
-    model: &M,
-    src: &dyn RasterSource,
-    layout: TileLayout,
-    exchange: usize,
-    backend: &Backend,
-    cfg: &EngineConfig,
+    job: &Tiled<'_, M>,
     sinks: Vec<(usize, Box<dyn TileSink>)>,
 ) -> Result<RunStats> {
-    run_to_sinks_ranked(
-        model,
-        src,
-        layout,
-        exchange,
-        backend,
-        cfg,
-        &mut Single,
-        sinks,
-    )
+    run_to_sinks_ranked(job, &mut Single, sinks)
 }
 
 /// [`run_to_sinks`] over the ranks of `x` ([`run_ranked`]): only rank 0
 /// writes (the other ranks' sinks are dropped unwritten); only the sinks'
 /// fields travel to rank 0; every rank returns once the outputs are
 /// finished.
-#[allow(clippy::too_many_arguments)]
 pub fn run_to_sinks_ranked<M: LocalModel, X: HaloTransport>(
-    model: &M,
-    src: &dyn RasterSource,
-    layout: TileLayout,
-    exchange: usize,
-    backend: &Backend,
-    cfg: &EngineConfig,
+    job: &Tiled<'_, M>,
     x: &mut X,
     mut sinks: Vec<(usize, Box<dyn TileSink>)>,
 ) -> Result<RunStats> {
+    let (model, layout) = (job.model, job.layout);
     let nf = model.field_names().len();
     if let Some((f, _)) = sinks.iter().find(|(f, _)| *f >= nf) {
         return Err(Error::invalid(format!(
@@ -580,25 +423,14 @@ pub fn run_to_sinks_ranked<M: LocalModel, X: HaloTransport>(
     // Every output f32 (the same on every rank: the other ranks' sinks
     // report the real sinks' types): tiles travel as f32.
     let narrow = !sinks.is_empty() && sinks.iter().all(|(_, s)| s.dtype() == DType::F32);
-    let stats = run_ranked(
-        model,
-        src,
-        layout,
-        exchange,
-        backend,
-        cfg,
-        x,
-        Some(&keep),
-        narrow,
-        |id, core, p| {
-            for (f, sink) in sinks.iter_mut() {
-                let g = Grid::from_vec(core.w, core.h, p.fields[*f].clone())?;
-                let any = to_sink_type(&g, sink.as_ref());
-                sink.write(id, core, any)?;
-            }
-            Ok(())
-        },
-    )?;
+    let stats = run_ranked(job, x, Some(&keep), narrow, |id, core, p| {
+        for (f, sink) in sinks.iter_mut() {
+            let g = Grid::from_vec(core.w, core.h, p.fields[*f].clone())?;
+            let any = to_sink_type(&g, sink.as_ref());
+            sink.write(id, core, any)?;
+        }
+        Ok(())
+    })?;
     let (me, _) = x.rank();
     if me == 0 {
         for (_, s) in sinks {
@@ -626,7 +458,15 @@ pub fn run_to_grids<M: LocalModel>(
     let nf = model.field_names().len();
     let mut grids: Vec<Grid<f64>> = (0..nf).map(|_| Grid::new(w, h, 0.0)).collect();
     let layout = TileLayout::new(w, h, tile.max(1));
-    let stats = run(model, src, layout, exchange, backend, cfg, |_, core, p| {
+    let job = Tiled {
+        model,
+        src,
+        layout,
+        exchange,
+        backend,
+        cfg,
+    };
+    let stats = run(&job, |_, core, p| {
         for (g, f) in grids.iter_mut().zip(&p.fields) {
             let t = Grid::from_vec(core.w, core.h, f.clone())?;
             g.paste(&t, core.x, core.y);
@@ -693,8 +533,16 @@ pub fn erode_to_paths<M: LocalModel>(
             cfg.memory_budget / 2,
         )
         .fits();
+    let job = |backend| Tiled {
+        model,
+        src,
+        layout,
+        exchange,
+        backend,
+        cfg,
+    };
     if in_memory {
-        let stats = dispatch(model, src, layout, exchange, &Backend::Memory, cfg, sinks)?;
+        let stats = dispatch(&job(&Backend::Memory), sinks)?;
         return Ok((stats, layout));
     }
     // One scratch folder per rank (ranks may share a filesystem).
@@ -707,15 +555,7 @@ pub fn erode_to_paths<M: LocalModel>(
         Some(d) => d.join(format!("orogen-erosion-scratch{rank_tag}")),
         None => hidden_beside(&first.1, &format!("erosion-scratch{rank_tag}"), "erosion"),
     });
-    let result = dispatch(
-        model,
-        src,
-        layout,
-        exchange,
-        &Backend::Disk(dir.path().to_path_buf()),
-        cfg,
-        sinks,
-    );
+    let result = dispatch(&job(&Backend::Disk(dir.path().to_path_buf())), sinks);
     let cleanup = dir.remove();
     let stats = result?;
     cleanup?;
@@ -726,24 +566,19 @@ pub fn erode_to_paths<M: LocalModel>(
 /// names it ([`EngineConfig::engine`], `--engine mpi`), else in this
 /// process alone.
 fn dispatch<M: LocalModel>(
-    model: &M,
-    src: &dyn RasterSource,
-    layout: TileLayout,
-    exchange: usize,
-    backend: &Backend,
-    cfg: &EngineConfig,
+    job: &Tiled<'_, M>,
     sinks: Vec<(usize, Box<dyn TileSink>)>,
 ) -> Result<RunStats> {
     #[cfg(feature = "mpi")]
-    if cfg.engine == crate::exec::EngineKind::Mpi {
+    if job.cfg.engine == crate::exec::EngineKind::Mpi {
         let mut x = crate::exec::mpi_halo::MpiHalo::new()?;
-        return run_to_sinks_ranked(model, src, layout, exchange, backend, cfg, &mut x, sinks);
+        return run_to_sinks_ranked(job, &mut x, sinks);
     }
     #[cfg(not(feature = "mpi"))]
-    if cfg.engine == crate::exec::EngineKind::Mpi {
+    if job.cfg.engine == crate::exec::EngineKind::Mpi {
         return Err(crate::exec::mpi_missing());
     }
-    run_to_sinks(model, src, layout, exchange, backend, cfg, sinks)
+    run_to_sinks(job, sinks)
 }
 
 #[cfg(test)]

@@ -56,30 +56,28 @@ fn ranked<M: LocalModel>(
                     let mut grids: Vec<Grid<f64>> =
                         (0..nf).map(|_| Grid::new(w, h, -1.0)).collect();
                     let mut emitted = Vec::new();
-                    run_ranked(
+                    let (backend, cfg) = (backend(me), cfg(threads));
+                    let job = Tiled {
                         model,
                         src,
                         layout,
-                        k,
-                        &backend(me),
-                        &cfg(threads),
-                        &mut c,
-                        keep,
-                        narrow,
-                        |id, core, p| {
-                            emitted.push(id);
-                            for (g, f) in grids.iter_mut().zip(&p.fields) {
-                                if !f.is_empty() {
-                                    g.paste(
-                                        &Grid::from_vec(core.w, core.h, f.clone())?,
-                                        core.x,
-                                        core.y,
-                                    );
-                                }
+                        exchange: k,
+                        backend: &backend,
+                        cfg: &cfg,
+                    };
+                    run_ranked(&job, &mut c, keep, narrow, |id, core, p| {
+                        emitted.push(id);
+                        for (g, f) in grids.iter_mut().zip(&p.fields) {
+                            if !f.is_empty() {
+                                g.paste(
+                                    &Grid::from_vec(core.w, core.h, f.clone())?,
+                                    core.x,
+                                    core.y,
+                                );
                             }
-                            Ok(())
-                        },
-                    )
+                        }
+                        Ok(())
+                    })
                     .unwrap();
                     if me == 0 {
                         assert_eq!(emitted, (0..layout.count()).collect::<Vec<_>>());
