@@ -15,16 +15,7 @@ use crate::error::{Error, Result};
 use crate::raster::{AnyGrid, DType, TileId, TileLayout};
 
 /// The cell types in wire order (the byte code is the index).
-const DTYPES: [DType; 8] = [
-    DType::U8,
-    DType::I8,
-    DType::U16,
-    DType::I16,
-    DType::U32,
-    DType::I32,
-    DType::F32,
-    DType::F64,
-];
+const DTYPES: [DType; 8] = DType::ALL;
 
 fn dtype_code(d: DType) -> u8 {
     DTYPES.iter().position(|&x| x == d).unwrap_or(0) as u8

@@ -16,9 +16,9 @@
 //! Module conventions in [`crate::hydro`]: outlet cells without a lower
 //! neighbour drain off the DEM; codes are the ESRI powers of two.
 
-use super::{code_to_dir, valid, D8_CODES, DX, DY, NODATA_DIR, NO_FLOW};
+use super::{code_to_dir, valid, D8_CODES, NODATA_DIR, NO_FLOW};
 use crate::error::{Error, Result};
-use crate::raster::neighbours::DIST;
+use crate::raster::neighbours::{neighbour, DIST};
 use crate::raster::Grid;
 
 /// D8 flow directions of `dem` (normally a filled DEM) with flats resolved.
@@ -93,18 +93,6 @@ pub fn outlet_labels(dirs: &Grid<u8>) -> Result<Grid<u32>> {
         path.clear();
     }
     Grid::from_vec(w, h, lab)
-}
-
-/// Index of neighbour `d` of cell (x, y), or `None` beyond the grid.
-#[inline]
-fn neighbour(x: usize, y: usize, d: usize, w: usize, h: usize) -> Option<usize> {
-    let nx = x as i64 + DX[d];
-    let ny = y as i64 + DY[d];
-    if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
-        None
-    } else {
-        Some(ny as usize * w + nx as usize)
-    }
 }
 
 /// Steepest-descent codes; cells without a lower neighbour get NO_FLOW unless
@@ -306,6 +294,7 @@ fn bfs(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::raster::neighbours::{DX, DY};
 
     #[test]
     fn slope_picks_steepest_with_diagonal_distance() {

@@ -41,7 +41,7 @@ use super::streams::{receivers, row_sizes};
 use super::NODATA_DIR;
 use crate::error::{Error, Result};
 use crate::exec::LocalStep;
-use crate::raster::neighbours::horn_gradient;
+use crate::raster::neighbours::{horn_gradient, neighbour};
 use crate::raster::{GeoRef, Grid, TileView};
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -206,18 +206,15 @@ pub fn depth_to_water(dem: &Grid<f32>, streams: &Grid<bool>, georef: &GeoRef) ->
         if d > cost[c] {
             continue;
         }
-        let (x, y) = ((c % w) as i64, (c / w) as i64);
+        let (x, y) = (c % w, c / w);
         for k in 0..8 {
-            let nx = x + super::DX[k];
-            let ny = y + super::DY[k];
-            if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
+            let Some(m) = neighbour(x, y, k, w, h) else {
                 continue;
-            }
-            let m = ny as usize * w + nx as usize;
+            };
             if !tb[m].is_finite() {
                 continue;
             }
-            let (ew, ns) = sizes[y as usize];
+            let (ew, ns) = sizes[y];
             let len =
                 ((super::DX[k] as f64 * ew).powi(2) + (super::DY[k] as f64 * ns).powi(2)).sqrt();
             let nd = d + 0.5 * (tb[c] + tb[m]) * len;
@@ -281,15 +278,12 @@ pub fn max_branch_length(dirs: &Grid<u8>, georef: &GeoRef) -> Result<Grid<f32>> 
         if d[c] == NODATA_DIR {
             continue;
         }
-        let (x, y) = ((c % w) as i64, (c / w) as i64);
+        let (x, y) = (c % w, c / w);
         // E, SE, S, SW: each unordered pair once
         for k in 0..4 {
-            let nx = x + super::DX[k];
-            let ny = y + super::DY[k];
-            if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
+            let Some(m) = neighbour(x, y, k, w, h) else {
                 continue;
-            }
-            let m = ny as usize * w + nx as usize;
+            };
             if d[m] == NODATA_DIR {
                 continue;
             }

@@ -42,8 +42,9 @@
 //! a cell per receiver.
 
 use super::accum::{fixed_to_f64, weight_to_fixed};
-use super::{code_to_dir, valid, DX, DY, NODATA_DIR};
+use super::{code_to_dir, valid, NODATA_DIR};
 use crate::error::{Error, Result};
+pub(crate) use crate::raster::neighbours::neighbour;
 use crate::raster::neighbours::DIST;
 use crate::raster::Grid;
 
@@ -117,18 +118,6 @@ pub(crate) fn check_size(w: usize, h: usize) -> Result<()> {
             "a {w}x{h} grid is too large for in-memory divergent flow routing (limit 2^32 cells); \
              crop or resample the DEM"
         ))),
-    }
-}
-
-/// Index of neighbour `d` of (x, y), or `None` beyond the grid.
-#[inline]
-pub(crate) fn neighbour(x: usize, y: usize, d: usize, w: usize, h: usize) -> Option<usize> {
-    let nx = x as i64 + DX[d];
-    let ny = y as i64 + DY[d];
-    if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
-        None
-    } else {
-        Some(ny as usize * w + nx as usize)
     }
 }
 

@@ -471,21 +471,12 @@ impl TiledAccumulation {
         let gw = v.grid.width();
         let h = v.halo as i64;
         for (i, &c) in v.grid.data().iter().enumerate() {
-            let code = if c.is_nan() || c == NODATA_DIR as f32 {
-                NODATA_DIR
-            } else if (0.0..=128.0).contains(&c)
-                && c.fract() == 0.0
-                && (c == 0.0 || super::code_to_dir(c as u8).is_some())
-            {
-                c as u8
-            } else {
-                let gx = v.core.x + (i % gw) as i64 - h;
-                let gy = v.core.y + (i / gw) as i64 - h;
-                return Err(Error::invalid(format!(
-                    "flow direction {c} at cell ({gx}, {gy}) is not a D8 code (0, 1, 2, 4, …, 128; NaN or 255 for nodata)"
-                )));
-            };
-            out.push(code);
+            out.push(decode_code(c, || {
+                (
+                    v.core.x + (i % gw) as i64 - h,
+                    v.core.y + (i / gw) as i64 - h,
+                )
+            })?);
         }
         Ok(out)
     }
@@ -730,6 +721,26 @@ impl GlobalStep for TiledAccumulation {
 }
 
 // ---------------------------------------------------- cross-tile pairs ----
+
+/// The D8 code of a direction cell read as `f32` (NaN or 255 are nodata);
+/// `at()` gives the cell's raster position for the error, computed only
+/// when the value is not a code.
+#[inline]
+pub(super) fn decode_code(c: f32, at: impl FnOnce() -> (i64, i64)) -> Result<u8> {
+    if c.is_nan() || c == NODATA_DIR as f32 {
+        Ok(NODATA_DIR)
+    } else if (0.0..=128.0).contains(&c)
+        && c.fract() == 0.0
+        && (c == 0.0 || super::code_to_dir(c as u8).is_some())
+    {
+        Ok(c as u8)
+    } else {
+        let (gx, gy) = at();
+        Err(Error::invalid(format!(
+            "flow direction {c} at cell ({gx}, {gy}) is not a D8 code (0, 1, 2, 4, …, 128; NaN or 255 for nodata)"
+        )))
+    }
+}
 
 #[cfg(test)]
 mod tests {

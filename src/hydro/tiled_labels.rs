@@ -17,6 +17,7 @@
 //! cell digital elevation models on desktops or clusters". Environmental
 //! Modelling & Software 92, 202–212.
 
+use super::tiled::decode_code;
 use super::{code_to_dir, DX, DY, NODATA_DIR, NO_FLOW};
 use crate::error::{Error, Result};
 use crate::exec::GlobalStep;
@@ -77,21 +78,6 @@ struct Resolved {
     codes: Vec<u8>,
 }
 
-fn decode(c: f32, gx: i64, gy: i64) -> Result<u8> {
-    if c.is_nan() || c == NODATA_DIR as f32 {
-        Ok(NODATA_DIR)
-    } else if (0.0..=128.0).contains(&c)
-        && c.fract() == 0.0
-        && (c == 0.0 || code_to_dir(c as u8).is_some())
-    {
-        Ok(c as u8)
-    } else {
-        Err(Error::invalid(format!(
-            "flow direction {c} at cell ({gx}, {gy}) is not a D8 code (0, 1, 2, 4, …, 128; NaN or 255 for nodata)"
-        )))
-    }
-}
-
 /// Follow every core cell's path inside the tile.
 fn resolve(v: &TileView<f32>) -> Result<Resolved> {
     if v.halo < 1 {
@@ -104,11 +90,9 @@ fn resolve(v: &TileView<f32>) -> Result<Resolved> {
     let mut codes = Vec::with_capacity(w * h);
     for y in 0..h {
         for x in 0..w {
-            codes.push(decode(
-                v.at(x as i64, y as i64),
-                v.core.x + x as i64,
-                v.core.y + y as i64,
-            )?);
+            codes.push(decode_code(v.at(x as i64, y as i64), || {
+                (v.core.x + x as i64, v.core.y + y as i64)
+            })?);
         }
     }
     let gidx = |c: usize| -> u64 {

@@ -59,9 +59,9 @@ use super::mfd::{
     accumulate_fixed_core, d8_fallback, mfd_cell, mfd_params, overflow, split_fixed, MfdMethod, ONE,
 };
 use super::tiled::{
-    check_summaries, perimeter_cells, perimeter_index, perimeter_len, weighted_amounts,
+    check_summaries, decode_code, perimeter_cells, perimeter_index, perimeter_len, weighted_amounts,
 };
-use super::{code_to_dir, valid, DX, DY, NODATA_DIR};
+use super::{valid, DX, DY};
 use crate::error::{Error, Result};
 use crate::exec::{Engine, GlobalStep, TileSink};
 use crate::raster::{Grid, RasterSource, TileId, TileLayout, TileView};
@@ -154,21 +154,6 @@ struct Solved {
     nodes: Vec<(i128, [u64; 8])>,
 }
 
-fn decode_code(c: f32, gx: i64, gy: i64) -> Result<u8> {
-    if c.is_nan() || c == NODATA_DIR as f32 {
-        Ok(NODATA_DIR)
-    } else if (0.0..=128.0).contains(&c)
-        && c.fract() == 0.0
-        && (c == 0.0 || code_to_dir(c as u8).is_some())
-    {
-        Ok(c as u8)
-    } else {
-        Err(Error::invalid(format!(
-            "flow direction {c} at cell ({gx}, {gy}) is not a D8 code (0, 1, 2, 4, …, 128; NaN or 255 for nodata)"
-        )))
-    }
-}
-
 impl TiledMultiAccumulation {
     /// First round of `router` (no inflow yet).
     pub fn new(router: Router, weighted: bool) -> Self {
@@ -219,11 +204,9 @@ impl TiledMultiAccumulation {
                     None => dinf_cell(z, gw, gh, vx, vy, &mut f).is_some(),
                 };
                 if !routed {
-                    let code = decode_code(
-                        d8.grid.data()[vy * gw + vx],
-                        dem.core.x + x as i64,
-                        dem.core.y + y as i64,
-                    )?;
+                    let code = decode_code(d8.grid.data()[vy * gw + vx], || {
+                        (dem.core.x + x as i64, dem.core.y + y as i64)
+                    })?;
                     f = d8_fallback(code);
                 }
                 frac[c] = f;

@@ -52,17 +52,8 @@ fn holds(c: DType, t: DType) -> bool {
 
 /// The output type of a mosaic of `types` (see the module doc).
 pub fn common_dtype(types: &[DType]) -> DType {
-    const ORDER: [DType; 8] = [
-        DType::U8,
-        DType::I8,
-        DType::U16,
-        DType::I16,
-        DType::U32,
-        DType::I32,
-        DType::F32,
-        DType::F64,
-    ];
-    ORDER
+    // The first (narrowest) type that holds every input's values.
+    DType::ALL
         .into_iter()
         .find(|&c| types.iter().all(|&t| holds(c, t)))
         .unwrap_or(DType::F64)

@@ -17,6 +17,21 @@ pub enum DType {
 }
 
 impl DType {
+    /// Every type, in declaration order: integers by width (unsigned before
+    /// signed), then floats by width. The order is the MPI wire code of a
+    /// type (`exec::mpi_codec`) and the mosaic's narrowest-first search:
+    /// never reorder.
+    pub const ALL: [DType; 8] = [
+        DType::U8,
+        DType::I8,
+        DType::U16,
+        DType::I16,
+        DType::U32,
+        DType::I32,
+        DType::F32,
+        DType::F64,
+    ];
+
     /// Bytes per cell.
     pub fn size(self) -> usize {
         match self {

@@ -1,5 +1,5 @@
 //! The 3x3 neighbourhood of a cell: the D8 neighbour order every routing
-//! and labelling pass uses, the neighbours' distances, and Horn's 3x3
+//! and labelling pass uses, the neighbours' distances and indices, and Horn's 3x3
 //! gradient (shared by terrain metrics and hydrological indices).
 
 /// Column offsets of the 8 neighbours in the order E, SE, S, SW, W, NW, N, NE.
@@ -18,6 +18,19 @@ pub const DIST: [f64; 8] = [
     1.0,
     std::f64::consts::SQRT_2,
 ];
+
+/// Index of neighbour `d` (order E..NE) of cell (x, y) in a row-major
+/// `w x h` grid, or `None` beyond the grid.
+#[inline]
+pub fn neighbour(x: usize, y: usize, d: usize, w: usize, h: usize) -> Option<usize> {
+    let nx = x as i64 + DX[d];
+    let ny = y as i64 + DY[d];
+    if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
+        None
+    } else {
+        Some(ny as usize * w + nx as usize)
+    }
+}
 
 /// Horn's gradient (dz/dx east, dz/dy north) of a 3x3 window (row-major,
 /// north row first), in z units per metre for cell sizes `ew` x `ns` metres.
