@@ -110,11 +110,7 @@ impl LocalEngine {
                             }
                             let tx = res_tx.clone();
                             s.spawn(move |_| {
-                                let r = if stop.load(Ordering::Acquire) {
-                                    Err(Error::invalid("cancelled"))
-                                } else {
-                                    compute(id)
-                                };
+                                let r = unless_stopped(stop, || compute(id));
                                 let _ = tx.send((k, r));
                             });
                         }
@@ -189,17 +185,8 @@ impl Engine for LocalEngine {
         check_inputs(&name, inputs, &layout)?;
         check_sinks(&name, &sinks, step.outputs(), &layout)?;
         let halo = step.halo();
-        let meta: Vec<(DType, Option<f64>)> =
-            sinks.iter().map(|s| (s.dtype(), s.nodata())).collect();
-        let sizes: Vec<usize> = meta.iter().map(|m| m.0.size()).collect();
-        let bytes = local_tile_bytes(
-            &layout,
-            halo,
-            inputs,
-            std::mem::size_of::<S::In>(),
-            std::mem::size_of::<S::Out>(),
-            &sizes,
-        ) + step.scratch_bytes(layout.tile);
+        let (meta, bytes) = out_meta::<S::In, S::Out>(&layout, halo, inputs, &sinks);
+        let bytes = bytes + step.scratch_bytes(layout.tile);
         let ids = todo(&layout, &sinks);
         let n_out = step.outputs();
         let compute = |id: TileId| -> Result<Vec<AnyGrid>> {
@@ -258,17 +245,7 @@ impl Engine for LocalEngine {
             return Ok(solution);
         }
         // Apply: like a local step, with each tile's slice of the solution.
-        let meta: Vec<(DType, Option<f64>)> =
-            sinks.iter().map(|s| (s.dtype(), s.nodata())).collect();
-        let sizes: Vec<usize> = meta.iter().map(|m| m.0.size()).collect();
-        let bytes = local_tile_bytes(
-            &layout,
-            halo,
-            inputs,
-            in_size,
-            std::mem::size_of::<S::Out>(),
-            &sizes,
-        );
+        let (meta, bytes) = out_meta::<S::In, S::Out>(&layout, halo, inputs, &sinks);
         let ids = todo(&layout, &sinks);
         let n_out = step.outputs();
         let apply_name = format!("{name} (apply)");
@@ -285,5 +262,41 @@ impl Engine for LocalEngine {
         })?;
         finish_all(sinks)?;
         Ok(solution)
+    }
+}
+
+/// The sinks' cell types and nodata, and the memory of one tile of a step
+/// reading `inputs` as `I` with `halo` cells and writing the sinks from
+/// outputs of `O` (`local_tile_bytes`).
+fn out_meta<I, O>(
+    layout: &TileLayout,
+    halo: usize,
+    inputs: &[&dyn RasterSource],
+    sinks: &[Box<dyn TileSink>],
+) -> (Vec<(DType, Option<f64>)>, u64) {
+    let meta: Vec<(DType, Option<f64>)> = sinks.iter().map(|s| (s.dtype(), s.nodata())).collect();
+    let sizes: Vec<usize> = meta.iter().map(|m| m.0.size()).collect();
+    let bytes = local_tile_bytes(
+        layout,
+        halo,
+        inputs,
+        std::mem::size_of::<I>(),
+        std::mem::size_of::<O>(),
+        &sizes,
+    );
+    (meta, bytes)
+}
+
+/// `compute()`, unless the run was stopped (another tile failed): then the
+/// error `cancelled`, which is never reported (the first failure is).
+#[inline]
+pub(super) fn unless_stopped<R>(
+    stop: &AtomicBool,
+    compute: impl FnOnce() -> Result<R>,
+) -> Result<R> {
+    if stop.load(Ordering::Acquire) {
+        Err(Error::invalid("cancelled"))
+    } else {
+        compute()
     }
 }

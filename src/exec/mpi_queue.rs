@@ -33,6 +33,7 @@
 //! grantable and its rank always computes it: its earlier tiles were all
 //! received, so nothing it sends waits for anything later.
 
+use super::local::unless_stopped;
 use super::mpi::fail;
 use super::mpi_codec::{decode_grant, encode_grant, Queue};
 use crate::error::{Error, Result};
@@ -156,15 +157,13 @@ fn with_lanes<R: Send, T>(
                     }
                     let tx = res_tx.clone();
                     s.spawn(move |_| {
-                        let r = if stop.load(Ordering::Acquire) {
-                            Err(Error::invalid("cancelled"))
-                        } else {
+                        let r = unless_stopped(stop, || {
                             let t = Instant::now();
                             let r = compute(id);
                             busy_ns.fetch_add(t.elapsed().as_nanos() as u64, Ordering::Relaxed);
                             tiles.fetch_add(1, Ordering::Relaxed);
                             r
-                        };
+                        });
                         let _ = tx.send((k, r));
                     });
                 }

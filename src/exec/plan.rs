@@ -48,22 +48,28 @@ pub fn check_inputs<'a>(inputs: &[&'a dyn RasterSource]) -> Result<&'a dyn Raste
     let first = *inputs
         .first()
         .ok_or_else(|| Error::invalid("a step needs at least one input"))?;
-    let info = first.info();
     for i in &inputs[1..] {
-        let o = i.info();
-        if (o.width, o.height) != (info.width, info.height) {
-            return Err(Error::invalid(format!(
-                "{} is {}x{} but {} is {}x{}: inputs of one step must have the same size",
-                o.path.display(),
-                o.width,
-                o.height,
-                info.path.display(),
-                info.width,
-                info.height
-            )));
-        }
+        check_same_size(first, *i, "inputs of one step must have the same size")?;
     }
     Ok(first)
+}
+
+/// Check that `b` has the size of `a`; the error names both and ends with
+/// `why`.
+pub fn check_same_size(a: &dyn RasterSource, b: &dyn RasterSource, why: &str) -> Result<()> {
+    let (ia, ib) = (a.info(), b.info());
+    if (ia.width, ia.height) != (ib.width, ib.height) {
+        return Err(Error::invalid(format!(
+            "{} is {}x{} but {} is {}x{}: {why}",
+            ib.path.display(),
+            ib.width,
+            ib.height,
+            ia.path.display(),
+            ia.width,
+            ia.height
+        )));
+    }
+    Ok(())
 }
 
 /// One sink per output path, with the first input's georeference.

@@ -75,19 +75,7 @@ pub(crate) fn read_dirs(src: &dyn RasterSource) -> Result<Grid<u8>> {
 
 /// Check that `b` has the size of `a`.
 pub(crate) fn same_size(a: &dyn RasterSource, b: &dyn RasterSource) -> Result<()> {
-    let (ia, ib) = (a.info(), b.info());
-    if (ia.width, ia.height) != (ib.width, ib.height) {
-        return Err(Error::invalid(format!(
-            "{} is {}x{} but {} is {}x{}: the rasters must have the same size",
-            ib.path.display(),
-            ib.width,
-            ib.height,
-            ia.path.display(),
-            ia.width,
-            ia.height
-        )));
-    }
-    Ok(())
+    crate::exec::plan::check_same_size(a, b, "the rasters must have the same size")
 }
 
 /// Write the in-memory raster `mem` to `p` with nodata `ty.1`.
