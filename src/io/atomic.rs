@@ -101,16 +101,23 @@ pub fn temp_name(path: &Path) -> Result<PathBuf> {
 /// Remove temporaries of `path` left by writers that no longer run (Linux:
 /// no `/proc/PID`); temporaries of live processes are left alone.
 fn remove_stale_temps(path: &Path) {
+    if let Some((dir, prefix)) = hidden_prefix(path, "orogen-tmp-") {
+        remove_dead_pid_files(dir, &prefix);
+    }
+}
+
+/// The folder of `path` (`.` for a bare file name) and the name prefix
+/// `.NAME.{tag}` of the hidden files next to it; `None` without a file name.
+pub(crate) fn hidden_prefix<'a>(path: &'a Path, tag: &str) -> Option<(&'a Path, String)> {
     let (Some(dir), Some(name)) = (path.parent(), path.file_name()) else {
-        return;
+        return None;
     };
     let dir = if dir.as_os_str().is_empty() {
         Path::new(".")
     } else {
         dir
     };
-    let prefix = format!(".{}.orogen-tmp-", name.to_string_lossy());
-    remove_dead_pid_files(dir, &prefix);
+    Some((dir, format!(".{}.{tag}", name.to_string_lossy())))
 }
 
 /// Remove the entries of `dir` named `PREFIX<pid>` whose process no longer
@@ -125,7 +132,7 @@ pub fn remove_dead_pid_files(dir: &Path, prefix: &str) {
 /// removed where `/proc` is absent). Entries of this process and of live
 /// ones are left alone; folders are removed whole; errors are ignored (best
 /// effort).
-fn remove_dead(dir: &Path, pid_of: impl Fn(&str) -> Option<&str>) {
+pub(crate) fn remove_dead(dir: &Path, pid_of: impl Fn(&str) -> Option<&str>) {
     if !Path::new("/proc/self").exists() {
         return;
     }

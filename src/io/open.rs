@@ -171,6 +171,18 @@ pub fn create_sink(
             dtype, nodata, layout,
         )));
     }
+    // Formats written whole at the end (the raster held in memory).
+    type Finisher = Box<dyn FnOnce(crate::raster::AnyGrid, &GeoRef) -> Result<()> + Send>;
+    let whole = |finisher: Finisher| -> Result<Box<dyn TileSink>> {
+        Ok(Box::new(WholeFileSink::new(
+            width,
+            height,
+            dtype,
+            georef.clone(),
+            finisher,
+        )?))
+    };
+    let p = path.to_path_buf();
     Ok(match ext.as_str() {
         "tif" | "tiff" => match oo.cog {
             Some(r) => Box::new(crate::io::geotiff::CogWriter::create(
@@ -189,30 +201,14 @@ pub fn create_sink(
             oo.store,
             provenance,
         )?),
-        "png" => {
-            let p = path.to_path_buf();
-            Box::new(WholeFileSink::new(
-                width,
-                height,
-                dtype,
-                georef.clone(),
-                Box::new(move |g, geo| {
-                    let g = g.to_typed::<f32>(geo.nodata);
-                    let (lo, hi) = crate::io::png::finite_range(&g);
-                    crate::io::png::write_png16(&p, &g, lo, hi).map(|_| ())
-                }),
-            )?)
-        }
-        "asc" => {
-            let p = path.to_path_buf();
-            Box::new(WholeFileSink::new(
-                width,
-                height,
-                dtype,
-                georef.clone(),
-                Box::new(move |g, geo| crate::io::ascii::write_ascii(&p, &g, geo)),
-            )?)
-        }
+        "png" => whole(Box::new(move |g, geo| {
+            let g = g.to_typed::<f32>(geo.nodata);
+            let (lo, hi) = crate::io::png::finite_range(&g);
+            crate::io::png::write_png16(&p, &g, lo, hi).map(|_| ())
+        }))?,
+        "asc" => whole(Box::new(move |g, geo| {
+            crate::io::ascii::write_ascii(&p, &g, geo)
+        }))?,
         _ => {
             return Err(Error::unsupported(
                 path,

@@ -50,6 +50,17 @@ impl DelegatedTiles {
     /// `store.delegated-tile.{tmp,renamed}` (only processes writing
     /// delegated tiles reach it).
     pub fn write_tile(&self, id: TileId, data: &AnyGrid) -> Result<TileEntry> {
+        self.write_tile_at(id, data, "store.delegated-tile")
+    }
+
+    /// [`DelegatedTiles::write_tile`] with crash point `{kind}.{tmp,renamed}`
+    /// (the store's own writer: `store.tile`).
+    pub(super) fn write_tile_at(
+        &self,
+        id: TileId,
+        data: &AnyGrid,
+        kind: &str,
+    ) -> Result<TileEntry> {
         let layout = self.layout()?;
         if id >= layout.count() {
             return Err(Error::store(
@@ -77,7 +88,7 @@ impl DelegatedTiles {
         let (tx, ty) = layout.coords(id);
         let path = tile_file(&self.dir, tx, ty);
         let enc = encode(raw, self.compression, &path)?;
-        write_atomic(&path, &enc, self.sync, "store.delegated-tile")?;
+        write_atomic(&path, &enc, self.sync, kind)?;
         Ok(TileEntry {
             state: TileState::Done,
             crc32: crc,

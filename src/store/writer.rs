@@ -15,7 +15,7 @@ use super::manifest::{
     check_dims, Compression, Manifest, Provenance, TileEntry, TileState, FORMAT, VERSION,
 };
 use super::sink::TileSink;
-use super::tile::{encode, is_intact, sync_dir, tile_file, write_atomic};
+use super::tile::{is_intact, sync_dir, tile_file, write_atomic};
 use super::{JOURNAL, LOCK, MANIFEST};
 use crate::error::{Error, IoContext, Result};
 use crate::raster::{AnyGrid, DType, GeoRef, TileId, TileLayout, Window};
@@ -499,6 +499,19 @@ impl StoreWriter {
         self.manifest.tiles[id] = entry;
         Ok(())
     }
+
+    /// What a process needs to write this store's tile files itself.
+    fn tiles(&self) -> super::DelegatedTiles {
+        super::DelegatedTiles {
+            dir: self.dir.clone(),
+            width: self.layout.width,
+            height: self.layout.height,
+            tile: self.layout.tile,
+            dtype: self.manifest.dtype,
+            compression: self.opts.compression,
+            sync: self.opts.sync,
+        }
+    }
 }
 
 impl TileSink for StoreWriter {
@@ -531,47 +544,14 @@ impl TileSink for StoreWriter {
                 ),
             ));
         }
-        if data.dtype() != self.manifest.dtype || data.width() != core.w || data.height() != core.h
-        {
-            return Err(Error::store(
-                &self.dir,
-                format!(
-                    "tile {id}: got {}x{} {} cells, the store holds {}x{} {}",
-                    data.width(),
-                    data.height(),
-                    data.dtype(),
-                    core.w,
-                    core.h,
-                    self.manifest.dtype
-                ),
-            ));
-        }
-        let raw = data.as_le_bytes();
-        let crc = crc32fast::hash(raw);
-        let (tx, ty) = self.layout.coords(id);
-        let path = tile_file(&self.dir, tx, ty);
-        let enc = encode(raw, self.opts.compression, &path)?;
-        write_atomic(&path, &enc, self.opts.sync, "store.tile")?;
-        self.journal_done(
-            id,
-            TileEntry {
-                state: TileState::Done,
-                crc32: crc,
-                bytes: enc.len() as u64,
-            },
-        )
+        // The tile's checks, file and entry are the delegated writers' (the
+        // same bytes whoever writes a tile).
+        let entry = self.tiles().write_tile_at(id, &data, "store.tile")?;
+        self.journal_done(id, entry)
     }
 
     fn delegate(&self) -> Option<super::DelegatedTiles> {
-        Some(super::DelegatedTiles {
-            dir: self.dir.clone(),
-            width: self.layout.width,
-            height: self.layout.height,
-            tile: self.layout.tile,
-            dtype: self.manifest.dtype,
-            compression: self.opts.compression,
-            sync: self.opts.sync,
-        })
+        Some(self.tiles())
     }
 
     fn record_delegated(&mut self, id: TileId, entry: TileEntry) -> Result<()> {

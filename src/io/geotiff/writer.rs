@@ -206,29 +206,12 @@ pub(super) fn encode_block(
 /// Remove temporary files that an earlier, killed writer of the same output
 /// left next to it (`.NAME.orogen-*-PID` whose process no longer runs).
 pub(super) fn clean_stale_temps(path: &Path) {
-    let (Some(dir), Some(name)) = (path.parent(), path.file_name()) else {
-        return;
-    };
-    let dir = if dir.as_os_str().is_empty() {
-        Path::new(".")
-    } else {
-        dir
-    };
-    let prefix = format!(".{}.orogen-", name.to_string_lossy());
-    let Ok(rd) = std::fs::read_dir(dir) else {
-        return;
-    };
-    for e in rd.flatten() {
-        let n = e.file_name().to_string_lossy().into_owned();
-        let Some(rest) = n.strip_prefix(&prefix) else {
-            continue;
-        };
-        let Some(pid) = rest.rsplit('-').next().and_then(|p| p.parse::<u32>().ok()) else {
-            continue;
-        };
-        if pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists() {
-            let _ = std::fs::remove_file(e.path());
-        }
+    use crate::io::atomic::{hidden_prefix, remove_dead};
+    if let Some((dir, prefix)) = hidden_prefix(path, "orogen-") {
+        remove_dead(dir, |n| {
+            n.strip_prefix(prefix.as_str())
+                .and_then(|rest| rest.rsplit('-').next())
+        });
     }
 }
 
