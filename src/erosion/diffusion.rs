@@ -14,7 +14,7 @@
 //! Boundaries: the raster's edge and nodata cells are zero-flux (the missing
 //! difference counts as 0), so the volume is conserved to round-off.
 
-use super::{check_positive, check_steps, valid, CellSize, LocalModel, Patch};
+use super::{check_cell, check_positive, check_steps, valid, CellSize, LocalModel, Patch};
 use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};
 
@@ -48,10 +48,7 @@ impl DiffusionParams {
     pub fn validate(&self) -> Result<()> {
         check_positive("diffusivity", self.diffusivity, 1e12, " m²/yr")?;
         check_positive("dt", self.dt, 1e12, " yr")?;
-        if let Some(c) = self.cell {
-            check_positive("cell", c, 1e7, " m")?;
-        }
-        Ok(())
+        check_cell(self.cell)
     }
 }
 

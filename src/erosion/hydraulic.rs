@@ -40,7 +40,8 @@
 //! 3–5: [`LocalModel::radius`] is 2.
 
 use super::{
-    check_positive, check_range, check_steps, hash_unit, valid, CellSize, LocalModel, Patch,
+    check_cell, check_positive, check_range, check_steps, hash_unit, valid, CellSize, LocalModel,
+    Patch,
 };
 use crate::error::Result;
 use serde::{Deserialize, Serialize};
@@ -144,10 +145,7 @@ impl HydraulicParams {
         )?;
         check_range("min_tilt", self.min_tilt, 0.0, 1.0, "")?;
         check_positive("max_depth", self.max_depth, 1e6, " m")?;
-        if let Some(c) = self.cell {
-            check_positive("cell", c, 1e7, " m")?;
-        }
-        Ok(())
+        check_cell(self.cell)
     }
 }
 

@@ -162,6 +162,14 @@ pub(crate) fn check_range(name: &str, v: f64, lo: f64, hi: f64, unit: &str) -> R
     }
 }
 
+/// Check a model's optional `cell` parameter (metres, at most 10 000 km).
+pub(crate) fn check_cell(cell: Option<f64>) -> Result<()> {
+    match cell {
+        Some(c) => check_positive("cell", c, 1e7, " m"),
+        None => Ok(()),
+    }
+}
+
 /// Check that `v` is finite and > 0 (and <= `hi`).
 pub(crate) fn check_positive(name: &str, v: f64, hi: f64, unit: &str) -> Result<()> {
     if v.is_finite() && v > 0.0 && v <= hi {

@@ -16,7 +16,7 @@
 //! `h' = h − Σ out + Σ in`, so what leaves one cell enters another and mass
 //! is conserved to round-off. Raster edge and nodata are walls. Radius 2.
 
-use super::{check_positive, check_range, check_steps, valid, CellSize, LocalModel, Patch};
+use super::{check_cell, check_range, check_steps, valid, CellSize, LocalModel, Patch};
 use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};
 
@@ -64,10 +64,7 @@ impl ThermalParams {
             )));
         }
         check_range("rate", self.rate, 1e-9, 0.5, "")?;
-        if let Some(c) = self.cell {
-            check_positive("cell", c, 1e7, " m")?;
-        }
-        Ok(())
+        check_cell(self.cell)
     }
 }
 
