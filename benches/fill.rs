@@ -12,7 +12,7 @@
 
 use orogen::hydro::fill;
 use orogen::hydro::fill::fill_reference;
-use orogen::raster::Grid;
+use orogen::raster::{AnyGrid, DType, Grid};
 use std::time::Instant;
 
 fn hash(x: u64, y: u64, s: u64) -> f32 {
@@ -54,13 +54,10 @@ fn load(spec: &str) -> Grid<f32> {
     let (w, h): (usize, usize) = (parts[1].parse().unwrap(), parts[2].parse().unwrap());
     let nodata: f32 = parts[3].parse().unwrap();
     let bytes = std::fs::read(parts[0]).unwrap();
-    assert_eq!(bytes.len(), w * h * 4, "raw file size");
-    let v = bytes
-        .chunks_exact(4)
-        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-        .map(|z| if z == nodata { f32::NAN } else { z })
-        .collect();
-    Grid::from_vec(w, h, v).unwrap()
+    // Raw little-endian f32 cells (the size is checked); `nodata` becomes NaN.
+    AnyGrid::from_le_bytes(DType::F32, w, h, &bytes)
+        .expect("raw file size")
+        .to_typed::<f32>(Some(nodata.into()))
 }
 
 fn main() {

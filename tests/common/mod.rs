@@ -219,3 +219,39 @@ pub fn ridge(w: usize, h: usize, crest: usize, gn: f64, gs: f64) -> Vec<f32> {
         })
         .collect()
 }
+
+/// Every file of `dir` (not recursive) as (name, bytes), by name.
+pub fn dir_bytes(dir: &std::path::Path) -> Vec<(String, Vec<u8>)> {
+    let mut v: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| {
+            let e = e.unwrap();
+            (
+                e.file_name().to_string_lossy().into_owned(),
+                std::fs::read(e.path()).unwrap(),
+            )
+        })
+        .collect();
+    v.sort();
+    v
+}
+
+/// Ingest a `w x h` u16 raster (cell (x, y) = 100 x + y) into the tile store
+/// `dir` (tiles of 16 cells, `compression`, no sync); returns the source.
+pub fn u16_store(
+    dir: &std::path::Path,
+    w: usize,
+    h: usize,
+    compression: orogen::store::Compression,
+) -> MemRaster {
+    let g = Grid::from_fn(w, h, |x, y| (x * 100 + y) as u16);
+    let src = MemRaster::new(orogen::raster::AnyGrid::U16(g), GeoRef::pixel(), "u16.mem");
+    let opts = orogen::store::StoreOptions {
+        tile: 16,
+        compression,
+        sync: false,
+        ..Default::default()
+    };
+    orogen::exec::ingest(&src, dir, opts, &EngineConfig::default()).unwrap();
+    src
+}

@@ -10,17 +10,7 @@ use orogen::store::{Provenance, StoreOptions, StoreWriter, TileStore};
 use orogen::{Error, Result};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-/// SplitMix64 (Steele, Lea & Flood 2014) for reproducible test data.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-}
+use crate::common::{dir_bytes, Rng};
 
 /// Integer-valued cells in -50..50 (sums are exact), ~5 % NaN.
 fn random_grid(w: usize, h: usize, seed: u64) -> Vec<f64> {
@@ -299,21 +289,6 @@ fn output_converted_to_sink_type_with_nodata() {
     }
 }
 
-fn store_bytes(dir: &std::path::Path) -> Vec<(String, Vec<u8>)> {
-    let mut v: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| {
-            let e = e.unwrap();
-            (
-                e.file_name().to_string_lossy().into_owned(),
-                std::fs::read(e.path()).unwrap(),
-            )
-        })
-        .collect();
-    v.sort();
-    v
-}
-
 #[test]
 fn store_output_identical_with_one_and_two_threads() {
     let (w, h) = (200, 150);
@@ -340,7 +315,7 @@ fn store_output_identical_with_one_and_two_threads() {
                 vec![Box::new(wr)],
             )
             .unwrap();
-        outs.push(store_bytes(&dir));
+        outs.push(dir_bytes(&dir));
         let st = TileStore::open(&dir).unwrap();
         let g: Grid<f32> = st
             .read_native(orogen::raster::Window::full(w, h))

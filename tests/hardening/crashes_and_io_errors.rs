@@ -20,6 +20,20 @@ fn dem() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/whitebox_DEM.tif")
 }
 
+/// `orogen slope INPUT -o OUT -q`.
+fn slope_to(input: &Path, out: &Path) -> Output {
+    run(
+        &[
+            "slope",
+            input.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "-q",
+        ],
+        &[],
+    )
+}
+
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
@@ -312,16 +326,7 @@ fn output_in_a_missing_folder_is_one_clear_error() {
     let d = dem();
     for out in ["nope/s.tif", "nope/s.tiles"] {
         let p = tmp.path().join(out);
-        let o = run(
-            &[
-                "slope",
-                d.to_str().unwrap(),
-                "-o",
-                p.to_str().unwrap(),
-                "-q",
-            ],
-            &[],
-        );
+        let o = slope_to(&d, &p);
         assert!(!o.status.success(), "{out}");
         let e = stderr(&o);
         assert!(e.contains("nope"), "{out}: {e}");
@@ -333,16 +338,7 @@ fn output_in_a_missing_folder_is_one_clear_error() {
     // A regular file where the folder should be.
     std::fs::write(tmp.path().join("file"), "x").unwrap();
     let p = tmp.path().join("file/s.tif");
-    let o = run(
-        &[
-            "slope",
-            d.to_str().unwrap(),
-            "-o",
-            p.to_str().unwrap(),
-            "-q",
-        ],
-        &[],
-    );
+    let o = slope_to(&d, &p);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("file"), "{}", stderr(&o));
 }
@@ -357,16 +353,7 @@ fn a_truncated_input_is_one_clear_error_and_no_output() {
     // leave a valid file, so the last cut is inside the IFD.)
     for keep in [0, 7, 300, bytes.len() / 2, 178_300] {
         std::fs::write(&input, &bytes[..keep]).unwrap();
-        let o = run(
-            &[
-                "slope",
-                input.to_str().unwrap(),
-                "-o",
-                out.to_str().unwrap(),
-                "-q",
-            ],
-            &[],
-        );
+        let o = slope_to(&input, &out);
         assert!(!o.status.success(), "cut at {keep}");
         let e = stderr(&o);
         assert!(

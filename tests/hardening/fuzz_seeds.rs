@@ -3,10 +3,10 @@
 //! from its minimised input in `tests/data/fuzz/`: it must give a typed
 //! error (or a valid raster), never a panic or an unbounded allocation.
 
-use orogen::exec::{ingest, EngineConfig};
+use crate::common::u16_store;
 use orogen::io::{open_raster, OpenOptions};
-use orogen::raster::{read_window, AnyGrid, GeoRef, Grid, MemRaster, Window};
-use orogen::store::{Compression, StoreOptions};
+use orogen::raster::{read_window, Window};
+use orogen::store::Compression;
 use std::path::{Path, PathBuf};
 
 const SEP: &[u8] = b"\n--TILE--\n";
@@ -19,17 +19,9 @@ fn root() -> PathBuf {
 /// the single tile file. Built here with the store writer; with
 /// `OROGEN_WRITE_SEEDS=1` they are (re)written into fuzz/corpus/store/.
 fn store_seed(tmp: &Path, compression: Compression) -> Vec<u8> {
-    let g = Grid::from_fn(12, 10, |x, y| (x * 100 + y) as u16);
-    let src = MemRaster::new(AnyGrid::U16(g), GeoRef::pixel(), "u16.mem");
     let dir = tmp.join("seed.tiles");
     let _ = std::fs::remove_dir_all(&dir);
-    let opts = StoreOptions {
-        tile: 16,
-        compression,
-        sync: false,
-        ..Default::default()
-    };
-    ingest(&src, &dir, opts, &EngineConfig::default()).unwrap();
+    u16_store(&dir, 12, 10, compression);
     let mut out = std::fs::read(dir.join("manifest.json")).unwrap();
     out.extend_from_slice(SEP);
     out.extend_from_slice(&std::fs::read(dir.join("t_0_0.bin")).unwrap());

@@ -10,16 +10,7 @@ use orogen::hydro::fill::fill_reference;
 use orogen::raster::Grid;
 use proptest::prelude::*;
 
-const NB: [(i64, i64); 8] = [
-    (1, 0),
-    (1, 1),
-    (0, 1),
-    (-1, 1),
-    (-1, 0),
-    (-1, -1),
-    (0, -1),
-    (1, -1),
-];
+use crate::NB;
 
 fn nbrs(w: usize, h: usize, x: usize, y: usize) -> impl Iterator<Item = Option<usize>> {
     NB.iter().map(move |&(dx, dy)| {

@@ -9,16 +9,7 @@ use orogen::hydro::{
 use orogen::raster::Grid;
 use proptest::prelude::*;
 
-const NB: [(i64, i64); 8] = [
-    (1, 0),
-    (1, 1),
-    (0, 1),
-    (-1, 1),
-    (-1, 0),
-    (-1, -1),
-    (0, -1),
-    (1, -1),
-];
+use crate::NB;
 
 fn ok(z: f32) -> bool {
     z.is_finite()

@@ -16,6 +16,7 @@ use orogen::raster::{
 use proptest::prelude::*;
 
 use crate::common::hydro::read_raw;
+use crate::NB;
 use std::time::Instant;
 
 fn run_global<S>(step: &S, srcs: &[&dyn RasterSource], tile: usize) -> orogen::Result<Grid<S::Out>>
@@ -67,17 +68,6 @@ fn bits64(g: &Grid<f64>) -> Vec<u64> {
         .map(|v| if v.is_nan() { u64::MAX } else { v.to_bits() })
         .collect()
 }
-
-const NB: [(i64, i64); 8] = [
-    (1, 0),
-    (1, 1),
-    (0, 1),
-    (-1, 1),
-    (-1, 0),
-    (-1, -1),
-    (0, -1),
-    (1, -1),
-];
 
 /// The next f32 above `z` by bit manipulation (the test's own oracle).
 fn up(z: f32) -> f32 {

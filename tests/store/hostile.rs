@@ -1,22 +1,14 @@
 //! Corrupt, hostile and unfinished stores give typed errors naming the file.
 
-use orogen::exec::{ingest, EngineConfig};
-use orogen::raster::{AnyGrid, GeoRef, Grid, MemRaster, RasterSource, Window};
-use orogen::store::{Compression, StoreOptions, TileStore};
+use crate::common::u16_store;
+use orogen::raster::{MemRaster, RasterSource, Window};
+use orogen::store::{Compression, TileStore};
 use orogen::Error;
 use std::path::{Path, PathBuf};
 
 fn make(tmp: &Path, name: &str, compression: Compression) -> (PathBuf, MemRaster) {
-    let g = Grid::from_fn(40, 30, |x, y| (x * 100 + y) as u16);
-    let src = MemRaster::new(AnyGrid::U16(g), GeoRef::pixel(), "u16.mem");
     let dir = tmp.join(name);
-    let opts = StoreOptions {
-        tile: 16,
-        compression,
-        sync: false,
-        ..Default::default()
-    };
-    ingest(&src, &dir, opts, &EngineConfig::default()).unwrap();
+    let src = u16_store(&dir, 40, 30, compression);
     (dir, src)
 }
 

@@ -2,6 +2,7 @@
 //! recomputing finished tiles, torn tiles and journal lines, parameter
 //! checks, the writer lock, compression, exact native copies.
 
+use crate::common::dir_bytes;
 use orogen::exec::{ingest, EngineConfig};
 use orogen::raster::{
     AnyGrid, DType, GeoRef, Grid, MemRaster, RasterInfo, RasterSource, TileLayout, Window,
@@ -84,21 +85,6 @@ fn opts(tile: usize) -> StoreOptions {
         sync: true,
         ..Default::default()
     }
-}
-
-fn dir_bytes(dir: &Path) -> Vec<(String, Vec<u8>)> {
-    let mut v: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| {
-            let e = e.unwrap();
-            (
-                e.file_name().to_string_lossy().into_owned(),
-                std::fs::read(e.path()).unwrap(),
-            )
-        })
-        .collect();
-    v.sort();
-    v
 }
 
 const W: usize = 100;
