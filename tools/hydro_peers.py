@@ -132,6 +132,17 @@ def upstream_tie_free(codes, tie):
     return ~b.reshape(h, w)
 
 
+def equal_share(a, b, m):
+    """Share of the cells of mask `m` where `a` equals `b` (NaN for an empty mask)."""
+    return (a[m] == b[m]).mean() if m.any() else float("nan")
+
+
+def fill_differs(gf, zf):
+    """The valid cells of orogen's fill `zf`, and how many of them a peer's fill `gf` changes (as f32)."""
+    valid = ~np.isnan(zf)
+    return valid, int((valid & (gf.astype(np.float32) != zf.astype(np.float32))).sum())
+
+
 def corr_log(a, b):
     m = np.isfinite(a) & np.isfinite(b) & (a > 0) & (b > 0)
     if m.sum() < 2:
@@ -159,7 +170,7 @@ def compare_dem(dem, tmp, ob):
     direction, tie = d8_ties(zf)
     ocode = np.where(direction >= 0, np.array(CODES)[np.maximum(direction, 0)], 0)
     free = ~tie
-    own_rate = (codes[free] == ocode[free]).mean() if free.any() else float("nan")
+    own_rate = equal_share(codes, ocode, free)
     print(f"  self-check: orogen D8 == steepest descent on {own_rate*100:.3f}% of {int(free.sum())} tie-free cells")
     up_free = upstream_tie_free(codes, tie) & ~np.isnan(zf)
     multi = {}
@@ -180,8 +191,7 @@ def compare_dem(dem, tmp, ob):
         t_rf = time.perf_counter() - t
         rfa = np.array(rf, dtype=np.float64)
         rfa[rfa == -9999.0] = np.nan
-        valid = ~np.isnan(zf)
-        differ = int((valid & (rfa.astype(np.float32) != zf.astype(np.float32))).sum())
+        valid, differ = fill_differs(rfa, zf)
         print(f"  RichDEM fill: {differ} differing cells; {t_rf:.2f} s = {t_rf / t_fill:.2f}x orogen's CLI fill")
         for m, meth, ex in [
             ("d8", "D8", None),
@@ -232,8 +242,7 @@ def compare_dem(dem, tmp, ob):
         pf = g.fill_depressions(pf)
         t_pf = time.perf_counter() - t
         pfa = np.array(pf, dtype=np.float64)
-        valid = ~np.isnan(zf)
-        differ = int((valid & (pfa.astype(np.float32) != zf.astype(np.float32))).sum())
+        valid, differ = fill_differs(pfa, zf)
         print(f"  pysheds fill: {differ} differing cells; {t_pf:.2f} s = {t_pf / t_fill:.2f}x orogen's CLI fill")
         t = time.perf_counter()
         inf = g.resolve_flats(pf)
@@ -244,9 +253,9 @@ def compare_dem(dem, tmp, ob):
         pacc = np.array(pacc, dtype=np.float64)
         # directions on cells tie-free in orogen's filled DEM (same fill)
         m = free & (pfa.astype(np.float32) == zf.astype(np.float32))
-        rate = (pfd[m] == codes[m]).mean() if m.any() else float("nan")
+        rate = equal_share(pfd, codes, m)
         ma = up_free & valid
-        arate = (pacc[ma] == oacc[ma]).mean() if ma.any() else float("nan")
+        arate = equal_share(pacc, oacc, ma)
         print(f"  pysheds D8: directions equal on {rate*100:.2f}% of {int(m.sum())} tie-free cells; "
               f"accumulation equal on {arate*100:.2f}% of {int(ma.sum())} cells with tie-free upstream; "
               f"flats+flowdir+accumulation {t_pa:.2f} s = {t_pa / (t_flow + t_acc):.2f}x orogen flow+accumulate")
@@ -267,8 +276,7 @@ def compare_dem(dem, tmp, ob):
                            check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
             t_sfill = time.time() - t0
             gf = read(sf)
-            valid = ~np.isnan(zf)
-            differ = int((valid & (gf.astype(np.float32) != zf.astype(np.float32))).sum())
+            valid, differ = fill_differs(gf, zf)
             print(f"  SAGA Fill Sinks (Wang & Liu, min slope 0): {differ} cells differ from orogen's fill; "
                   f"{t_sfill:.2f} s = {t_sfill / t_fill:.2f}x orogen fill")
             ff = os.path.join(tmp, "saga_f.tif")
@@ -281,7 +289,7 @@ def compare_dem(dem, tmp, ob):
             t_sacc = time.time() - t0
             ga = np.abs(read(sa))
             ma = up_free & valid
-            arate = (ga[ma] == oacc[ma]).mean() if ma.any() else float("nan")
+            arate = equal_share(ga, oacc, ma)
             print(f"  SAGA Flow Accumulation (D8, on orogen's filled DEM): equal on {arate*100:.2f}% of "
                   f"{int(ma.sum())} cells with tie-free upstream; {t_sacc:.2f} s = "
                   f"{t_sacc / (t_flow + t_acc):.2f}x orogen flow+accumulate")
@@ -317,13 +325,12 @@ r.out.gdal --q -f input=mfd output={tmp}/gmfd.tif type=Float64
                        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         tt = [float(v) for v in open(os.path.join(tmp, "gt.txt")).read().split()[1:]]
         gf = read(os.path.join(tmp, "gfill.tif"))
-        valid = ~np.isnan(zf)
-        differ = int((valid & (gf.astype(np.float32) != zf.astype(np.float32))).sum())
+        valid, differ = fill_differs(gf, zf)
         print(f"  GRASS r.fill.dir on orogen's filled DEM: {differ} changed cells "
               f"(r.fill.dir also removes flats' ambiguity by its own rule); {tt[1]-tt[0]:.2f} s")
         gs = np.abs(read(os.path.join(tmp, "gsfd.tif")))
         ma = up_free & valid
-        arate = (gs[ma] == oacc[ma]).mean() if ma.any() else float("nan")
+        arate = equal_share(gs, oacc, ma)
         print(f"  GRASS r.watershed -s (SFD): accumulation equal on {arate*100:.2f}% of {int(ma.sum())} cells with "
               f"tie-free upstream; {tt[2]-tt[1]:.2f} s = {(tt[2]-tt[1]) / (t_flow + t_acc):.2f}x orogen flow+accumulate")
         gm = np.abs(read(os.path.join(tmp, "gmfd.tif")))

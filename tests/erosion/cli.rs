@@ -42,48 +42,22 @@ fn hydraulic_writes_outputs_and_previews_independent_of_tiling() {
     let c = dir.path().join("c.tif");
     let water = dir.path().join("w.tif");
     let pv = dir.path().join("pv");
-    ok(&erode(
-        &d,
-        "hydraulic",
-        &[
-            "--steps",
-            "25",
-            "--tile",
-            "64",
-            "-q",
-            "--set",
-            "rain=0.05",
-            "--water",
-            s(&water),
-            "--preview",
-            s(&pv),
-        ],
+    // 25 hydraulic steps with rain, tiled as `tiling`.
+    let rain = |tiling: &[&str], out: &Path| {
+        let mut args = vec!["erode", s(&d), "--model", "hydraulic", "--steps", "25"];
+        args.extend_from_slice(tiling);
+        args.extend_from_slice(&["-q", "--set", "rain=0.05", "-o", s(out)]);
+        ok(&args);
+    };
+    rain(
+        &["--tile", "64", "--water", s(&water), "--preview", s(&pv)],
         &a,
-    ));
-    ok(&erode(
-        &d,
-        "hydraulic",
-        &[
-            "--steps",
-            "25",
-            "--tile",
-            "7",
-            "--exchange",
-            "3",
-            "-q",
-            "--set",
-            "rain=0.05",
-        ],
-        &b,
-    ));
+    );
+    rain(&["--tile", "7", "--exchange", "3"], &b);
     let scratch = dir.path().join("scratch");
     std::fs::create_dir_all(&scratch).unwrap();
-    ok(&erode(
-        &d,
-        "hydraulic",
+    rain(
         &[
-            "--steps",
-            "25",
             "--tile",
             "13",
             "--exchange",
@@ -92,12 +66,9 @@ fn hydraulic_writes_outputs_and_previews_independent_of_tiling() {
             "1",
             "--scratch",
             s(&scratch),
-            "-q",
-            "--set",
-            "rain=0.05",
         ],
         &c,
-    ));
+    );
     let (ba, bb, bc) = (
         std::fs::read(&a).unwrap(),
         std::fs::read(&b).unwrap(),

@@ -7,16 +7,8 @@ mod common;
 
 /// The 8 neighbour offsets (dx, dy) in D8 code order E, SE, S, SW, W, NW, N,
 /// NE (code `1 << k`): the oracles' own, independent of `orogen::raster`.
-const NB: [(i64, i64); 8] = [
-    (1, 0),
-    (1, 1),
-    (0, 1),
-    (-1, 1),
-    (-1, 0),
-    (-1, -1),
-    (0, -1),
-    (1, -1),
-];
+#[rustfmt::skip]
+const NB: [(i64, i64); 8] = [(1, 0), (1, 1), (0, 1), (-1, 1), (-1, 0), (-1, -1), (0, -1), (1, -1)];
 
 mod breach;
 mod cli_breach;

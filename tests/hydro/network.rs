@@ -6,7 +6,9 @@ use orogen::exec::{run_local_to_memory, EngineConfig, GlobalStep, LocalEngine};
 use orogen::hydro::basin_metrics::basin_metrics;
 use orogen::hydro::basins::{point_seeds, Seeds, TiledDownstream};
 use orogen::hydro::indices::{depth_to_water, max_branch_length, HydroIndex, IndexKind};
-use orogen::hydro::streams::{extract_network, horton, tokunaga, ChannelRule, NetworkOptions};
+use orogen::hydro::streams::{
+    extract_network, horton, tokunaga, ChannelRule, Network, NetworkOptions,
+};
 use orogen::hydro::{basin_labels, d8_directions, fill, hand, watersheds};
 use orogen::raster::{
     read_view, read_window, Crs, DType, GeoRef, Grid, MemRaster, RasterSource, TileLayout,
@@ -97,6 +99,20 @@ fn mem<T: orogen::raster::IntoAny>(g: &Grid<T>, nodata: Option<f64>) -> MemRaste
     MemRaster::from_grid(g.clone(), GeoRef::pixel().with_nodata(nodata))
 }
 
+/// The network of every cell draining at least one cell, on 10 m cells.
+fn cells_network(d: &Grid<u8>, valley_window: usize) -> Network {
+    extract_network(
+        d,
+        None,
+        &geo10(),
+        &NetworkOptions {
+            rule: ChannelRule::Cells(1.0),
+            valley_window,
+        },
+    )
+    .unwrap()
+}
+
 fn same_f64(a: &Grid<f64>, b: &Grid<f64>) -> bool {
     a.data()
         .iter()
@@ -132,16 +148,7 @@ fn tree() -> Grid<u8> {
 #[test]
 fn hand_built_tree_orders_lengths_areas() {
     let d = tree();
-    let net = extract_network(
-        &d,
-        None,
-        &geo10(),
-        &NetworkOptions {
-            rule: ChannelRule::Cells(1.0),
-            valley_window: 1,
-        },
-    )
-    .unwrap();
+    let net = cells_network(&d, 1);
     // 7 heads, 3 confluences ((3,2), (4,4), (3,4), (3,5) = 4), 1 outlet
     assert_eq!(net.nodes.len(), 7 + 4 + 1);
     assert_eq!(net.links.len(), 11);
@@ -242,16 +249,7 @@ fn tokunaga_fit_on_a_self_similar_tree() {
     }
     d.set(0, 0, 2);
     d.set(0, 3, 128);
-    let net = extract_network(
-        &d,
-        None,
-        &geo10(),
-        &NetworkOptions {
-            rule: ChannelRule::Cells(1.0),
-            valley_window: 0,
-        },
-    )
-    .unwrap();
+    let net = cells_network(&d, 0);
     let tk = tokunaga(&net);
     // streams: order 1: (1,0), (0,0), (0,3) -> 3; order 2: one. Side: (0,3) -> T_{1,2} = 1
     assert_eq!(tk.t, vec![(1, 2, 1.0)]);
@@ -979,16 +977,7 @@ fn tokunaga_parameters_of_a_comb() {
     d.set(14, 1, 4);
     d.set(11, 12, 16);
     d.set(11, 15, 16);
-    let net = extract_network(
-        &d,
-        None,
-        &geo10(),
-        &NetworkOptions {
-            rule: ChannelRule::Cells(1.0),
-            valley_window: 2,
-        },
-    )
-    .unwrap();
+    let net = cells_network(&d, 2);
     let ho = horton(&net);
     assert_eq!(ho.count, vec![11, 3, 1]);
     assert!((ho.bifurcation_ratio - 11f64.sqrt()).abs() < 1e-9);

@@ -338,30 +338,17 @@ fn writer_checks_tiles_against_its_layout() {
         Provenance::default(),
     )
     .unwrap();
-    let e = wr
-        .write(
-            0,
-            Window::new(0, 0, 5, 5),
-            AnyGrid::filled(DType::U8, 5, 5, 1.0),
-        )
-        .unwrap_err();
-    assert!(e.to_string().contains("layout"), "{e}");
-    let e = wr
-        .write(
-            0,
-            Window::new(0, 0, 4, 4),
-            AnyGrid::filled(DType::I16, 4, 4, 1.0),
-        )
-        .unwrap_err();
-    assert!(e.to_string().contains("i16"), "{e}");
-    let e = wr
-        .write(
-            99,
-            Window::new(0, 0, 4, 4),
-            AnyGrid::filled(DType::U8, 4, 4, 1.0),
-        )
-        .unwrap_err();
-    assert!(e.to_string().contains("tile 99"), "{e}");
+    // A window off the layout, a wrong cell type, a tile beyond the store.
+    for (id, win, dtype, want) in [
+        (0, Window::new(0, 0, 5, 5), DType::U8, "layout"),
+        (0, Window::new(0, 0, 4, 4), DType::I16, "i16"),
+        (99, Window::new(0, 0, 4, 4), DType::U8, "tile 99"),
+    ] {
+        let e = wr
+            .write(id, win, AnyGrid::filled(dtype, win.w, win.h, 1.0))
+            .unwrap_err();
+        assert!(e.to_string().contains(want), "{e}");
+    }
     wr.write(
         8,
         Window::new(8, 8, 2, 2),

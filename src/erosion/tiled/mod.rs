@@ -76,6 +76,28 @@ pub struct Tiled<'a, M> {
     pub cfg: &'a EngineConfig,
 }
 
+impl<'a, M> Tiled<'a, M> {
+    /// The run of `model` on `src` over `layout`, a halo exchange every
+    /// `exchange` substeps, states in `backend`.
+    pub fn new(
+        model: &'a M,
+        src: &'a dyn RasterSource,
+        layout: TileLayout,
+        exchange: usize,
+        backend: &'a Backend,
+        cfg: &'a EngineConfig,
+    ) -> Self {
+        Tiled {
+            model,
+            src,
+            layout,
+            exchange,
+            backend,
+            cfg,
+        }
+    }
+}
+
 /// Bytes of state of a `width x height` raster for `fields` fields.
 pub fn state_bytes(width: usize, height: usize, fields: usize) -> u64 {
     (width as u64)
@@ -131,14 +153,8 @@ pub fn run_ranked<M: LocalModel, X: HaloTransport>(
     narrow: bool,
     mut emit: impl FnMut(TileId, Window, &Patch) -> Result<()>,
 ) -> Result<RunStats> {
-    let Tiled {
-        model,
-        src,
-        layout,
-        exchange,
-        backend,
-        cfg,
-    } = *job;
+    let (model, src, layout) = (job.model, job.src, job.layout);
+    let (exchange, backend, cfg) = (job.exchange, job.backend, job.cfg);
     let info = src.info();
     if (layout.width, layout.height) != (info.width, info.height) {
         return Err(Error::invalid(format!(
@@ -458,14 +474,7 @@ pub fn run_to_grids<M: LocalModel>(
     let nf = model.field_names().len();
     let mut grids: Vec<Grid<f64>> = (0..nf).map(|_| Grid::new(w, h, 0.0)).collect();
     let layout = TileLayout::new(w, h, tile.max(1));
-    let job = Tiled {
-        model,
-        src,
-        layout,
-        exchange,
-        backend,
-        cfg,
-    };
+    let job = Tiled::new(model, src, layout, exchange, backend, cfg);
     let stats = run(&job, |_, core, p| {
         for (g, f) in grids.iter_mut().zip(&p.fields) {
             let t = Grid::from_vec(core.w, core.h, f.clone())?;
@@ -533,14 +542,7 @@ pub fn erode_to_paths<M: LocalModel>(
             cfg.memory_budget / 2,
         )
         .fits();
-    let job = |backend| Tiled {
-        model,
-        src,
-        layout,
-        exchange,
-        backend,
-        cfg,
-    };
+    let job = |backend| Tiled::new(model, src, layout, exchange, backend, cfg);
     if in_memory {
         let stats = dispatch(&job(&Backend::Memory), sinks)?;
         return Ok((stats, layout));

@@ -57,14 +57,7 @@ fn ranked<M: LocalModel>(
                         (0..nf).map(|_| Grid::new(w, h, -1.0)).collect();
                     let mut emitted = Vec::new();
                     let (backend, cfg) = (backend(me), cfg(threads));
-                    let job = Tiled {
-                        model,
-                        src,
-                        layout,
-                        exchange: k,
-                        backend: &backend,
-                        cfg: &cfg,
-                    };
+                    let job = Tiled::new(model, src, layout, k, &backend, &cfg);
                     run_ranked(&job, &mut c, keep, narrow, |id, core, p| {
                         emitted.push(id);
                         for (g, f) in grids.iter_mut().zip(&p.fields) {
