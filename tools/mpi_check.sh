@@ -95,6 +95,29 @@ compare() {
     echo "$label: $n files compared"
 }
 
+# across_ranks CASES LABEL PREFIX: the runs of the function CASES (pipeline or
+# halo_cases) on the real DEM and on the generated one, in-process into
+# $work/PREFIX<name>-local, then under `mpirun -n N` for each N of $ranks
+# into $work/PREFIX<name>-mpiN; each timed, each rank count's outputs
+# compared with the in-process ones.
+across_ranks() {
+    local cases="$1" label="$2" prefix="$3" name input n t0 t1
+    for name in real demo; do
+        if [ $name = real ]; then input="$dem"; else input="$work/demo/terrain.tif"; fi
+        t0=$(date +%s.%N)
+        "$cases" "$work/$prefix$name-local" "$input" "" "$bin"
+        t1=$(date +%s.%N)
+        echo "$label$name: in-process $(echo "$t1 - $t0" | bc) s"
+        for n in $ranks; do
+            t0=$(date +%s.%N)
+            "$cases" "$work/$prefix$name-mpi$n" "$input" "--engine mpi" $mpirun_ -n "$n" "$bin"
+            t1=$(date +%s.%N)
+            echo "$label$name: mpirun -n $n $(echo "$t1 - $t0" | bc) s"
+            compare "$work/$prefix$name-local" "$work/$prefix$name-mpi$n" "$label$name, $n ranks"
+        done
+    done
+}
+
 "$bin" demo --size "$size" --seed 7 -o "$work/demo" -q >/dev/null
 
 # --- Erosion with halo exchange across ranks (docs/design/engine-and-mpi.md#erosion-halo-exchange-across-ranks) -------
@@ -121,17 +144,7 @@ halo_cases() {
     "$@" erode "$input" --model stream-power --steps 4 --tiled --tile 77 --depressions none --uplift 1e-3 --diffusivity 0.5 -o "$dir/sp-none-t77.tif" -q $eng
     "$@" erode "$input" --model stream-power --steps 3 --tiled --tile 77 --uplift 2e-3 --scratch "$dir" -o "$dir/sp-fill-disk.tif" -q $eng
 }
-for name in real demo; do
-    if [ $name = real ]; then input="$dem"; else input="$work/demo/terrain.tif"; fi
-    halo_cases "$work/halo-$name-local" "$input" "" "$bin"
-    for n in $ranks; do
-        t0=$(date +%s.%N)
-        halo_cases "$work/halo-$name-mpi$n" "$input" "--engine mpi" $mpirun_ -n "$n" "$bin"
-        t1=$(date +%s.%N)
-        echo "erosion halo, $name: mpirun -n $n $(echo "$t1 - $t0" | bc) s"
-        compare "$work/halo-$name-local" "$work/halo-$name-mpi$n" "erosion halo, $name, $n ranks"
-    done
-done
+across_ranks halo_cases "erosion halo, " halo-
 if [ "$only_erosion" = 1 ]; then
     if [ "$fails" != 0 ]; then
         echo "mpi_check: $fails difference(s)"
@@ -142,20 +155,7 @@ if [ "$only_erosion" = 1 ]; then
 fi
 # --- end of the erosion block ------------------------------------------------
 
-for name in real demo; do
-    if [ $name = real ]; then input="$dem"; else input="$work/demo/terrain.tif"; fi
-    t0=$(date +%s.%N)
-    pipeline "$work/$name-local" "$input" "" "$bin"
-    t1=$(date +%s.%N)
-    echo "$name: in-process $(echo "$t1 - $t0" | bc) s"
-    for n in $ranks; do
-        t0=$(date +%s.%N)
-        pipeline "$work/$name-mpi$n" "$input" "--engine mpi" $mpirun_ -n "$n" "$bin"
-        t1=$(date +%s.%N)
-        echo "$name: mpirun -n $n $(echo "$t1 - $t0" | bc) s"
-        compare "$work/$name-local" "$work/$name-mpi$n" "$name, $n ranks"
-    done
-done
+across_ranks pipeline "" ""
 
 # A job file under mpirun (engine from the command line).
 mkdir -p "$work/job"
