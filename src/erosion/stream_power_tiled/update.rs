@@ -3,11 +3,10 @@
 
 use super::super::stream_power::{newton, DX, DY, VALID};
 use super::routing::as_flags;
-use super::tile::{for_perimeter, publish, Pad, Tile, CNT, DIR, FLAGS, H, HN, NONE, OK};
-use super::{step_len, Ctx};
+use super::tile::{for_perimeter, publish, Tile, CNT, DIR, FLAGS, H, HN, NONE, OK};
+use super::{step_len, Ctx, Cx, SpPass};
 use crate::error::Result;
-use crate::exec::iterate::{Board, TileWork};
-use crate::raster::{perimeter_cells, TileId};
+use crate::raster::perimeter_cells;
 
 /// Drainage area: cell counts summed down the receiver graph in Kahn's
 /// order inside the tile. A cell whose donors include a cell of another
@@ -20,19 +19,21 @@ pub(super) struct Accumulate<'a> {
     pub ctx: &'a Ctx,
 }
 
-impl TileWork for Accumulate<'_> {
-    type State = Tile;
-    fn pass(
-        &self,
-        id: TileId,
-        round: u64,
-        t: &mut Tile,
-        board: &Board,
-        out: &mut [f64],
-    ) -> Result<bool> {
+impl SpPass for Accumulate<'_> {
+    fn ctx(&self) -> &Ctx {
+        self.ctx
+    }
+    fn run(&self, c: Cx<'_>) -> Result<bool> {
+        let Cx {
+            round,
+            t,
+            board,
+            out,
+            win,
+            pd,
+            pl,
+        } = c;
         let geo = &self.ctx.geo;
-        let win = geo.lay.window(id);
-        let pd = Pad::new(win);
         let n = t.h.len();
         let dir = geo.ring(board, &pd, DIR, NONE as f64);
         let cnt = geo.ring(board, &pd, CNT, f64::NAN);
@@ -101,7 +102,6 @@ impl TileWork for Accumulate<'_> {
                 }
             }
         }
-        let pl = geo.perimeter(id);
         for_perimeter(win.w, win.h, |i, k| {
             if t.done[i] == 1 && out[CNT * pl + k].is_nan() {
                 out[CNT * pl + k] = t.area[i];
@@ -125,6 +125,9 @@ impl TileWork for Accumulate<'_> {
 /// passes start only from the perimeter cells whose receiver is on the ring.
 pub(super) struct Erode<'a> {
     pub ctx: &'a Ctx,
+    /// The step has lakes (fill routing found pits): cells under their
+    /// water level are not eroded.
+    pub lakes: bool,
 }
 
 impl Erode<'_> {
@@ -133,7 +136,7 @@ impl Erode<'_> {
     fn solve(&self, t: &mut Tile, i: usize, hr: f64) {
         let p = &self.ctx.p;
         let hs = t.h[i];
-        if p.k == 0.0 || hs <= hr || (self.ctx.fill && t.lev[i] > hs) {
+        if p.k == 0.0 || hs <= hr || (self.lakes && t.lev[i] > hs) {
             return;
         }
         let d = step_len(self.ctx.cell, t.dir[i] as usize);
@@ -147,19 +150,21 @@ impl Erode<'_> {
     }
 }
 
-impl TileWork for Erode<'_> {
-    type State = Tile;
-    fn pass(
-        &self,
-        id: TileId,
-        round: u64,
-        t: &mut Tile,
-        board: &Board,
-        out: &mut [f64],
-    ) -> Result<bool> {
+impl SpPass for Erode<'_> {
+    fn ctx(&self) -> &Ctx {
+        self.ctx
+    }
+    fn run(&self, c: Cx<'_>) -> Result<bool> {
+        let Cx {
+            round,
+            t,
+            board,
+            out,
+            win,
+            pd,
+            pl,
+        } = c;
         let geo = &self.ctx.geo;
-        let win = geo.lay.window(id);
-        let pd = Pad::new(win);
         let nc = t.h.len();
         let hn = geo.ring(board, &pd, HN, f64::NAN);
         let ok = geo.ring(board, &pd, OK, 0.0);
@@ -236,7 +241,6 @@ impl TileWork for Erode<'_> {
                 work.push(j as u32);
             }
         }
-        let pl = geo.perimeter(id);
         for_perimeter(win.w, win.h, |i, k| {
             if t.done[i] != 0 && out[OK * pl + k] == 0.0 {
                 out[HN * pl + k] = t.h[i];
@@ -259,20 +263,22 @@ pub(super) struct Diffuse<'a> {
     pub c: f64,
 }
 
-impl TileWork for Diffuse<'_> {
-    type State = Tile;
-    fn pass(
-        &self,
-        id: TileId,
-        _: u64,
-        t: &mut Tile,
-        board: &Board,
-        out: &mut [f64],
-    ) -> Result<bool> {
+impl SpPass for Diffuse<'_> {
+    fn ctx(&self) -> &Ctx {
+        self.ctx
+    }
+    fn run(&self, cx: Cx<'_>) -> Result<bool> {
+        let Cx {
+            t,
+            board,
+            out,
+            win,
+            pd,
+            pl,
+            ..
+        } = cx;
         let geo = &self.ctx.geo;
         let c = self.c;
-        let win = geo.lay.window(id);
-        let pd = Pad::new(win);
         let old = geo.pad(board, &pd, &t.h, H, f64::NAN, |v| v);
         let fl = geo.pad(board, &pd, &t.flags, FLAGS, f64::NAN, as_flags);
         let pw = pd.pw;
@@ -300,7 +306,7 @@ impl TileWork for Diffuse<'_> {
                 t.h[i] = hi + c * lap;
             }
         }
-        publish(out, win.w, win.h, geo.perimeter(id), H, |i| t.h[i]);
+        publish(out, win.w, win.h, pl, H, |i| t.h[i]);
         Ok(true)
     }
 }
