@@ -128,7 +128,8 @@ impl SpPass for Levels<'_> {
         } else {
             // Only the perimeter cells read the ring.
             for_perimeter(pd.w, pd.h, |i, _| {
-                let q = pd.at(i % pd.w, i / pd.w);
+                let (x, y) = pd.xy(i);
+                let q = pd.at(x, y);
                 if fp[q] == VALID && relax(q, &mut lp, &fp, &hp) {
                     heap.push(Reverse((order_key(lp[q]), q as u32)));
                 }
@@ -255,7 +256,7 @@ impl SpPass for Flats<'_> {
                         let q = pd.at(x, y);
                         for d in 0..8 {
                             let j = pd.nb(q, d);
-                            if pd.core(j).is_some()
+                            if pd.core_nb(x, y, d).is_some()
                                 || fl[j] & VALID == 0
                                 || ddp[j] == u32::MAX
                                 || lev[j] != lev[q]
@@ -271,14 +272,11 @@ impl SpPass for Flats<'_> {
                     // cell of its level (most cells drain and have none).
                     let seeds = match t.dd[i] {
                         u32::MAX => false,
-                        0 => {
-                            let q = pd.at(x, y);
-                            (0..8).any(|d| {
-                                pd.core(pd.nb(q, d)).is_some_and(|j| {
-                                    t.flags[j] & VALID != 0 && t.dd[j] != 0 && t.lev[j] == t.lev[i]
-                                })
+                        0 => (0..8).any(|d| {
+                            pd.core_nb(x, y, d).is_some_and(|j| {
+                                t.flags[j] & VALID != 0 && t.dd[j] != 0 && t.lev[j] == t.lev[i]
                             })
-                        }
+                        }),
                         _ => true,
                     };
                     if seeds {
@@ -314,9 +312,9 @@ impl SpPass for Flats<'_> {
             if t.dd[c] != dc {
                 continue;
             }
-            let q = pd.at(c % pd.w, c / pd.w);
+            let (x, y) = pd.xy(c);
             for d in 0..8 {
-                let Some(j) = pd.core(pd.nb(q, d)) else {
+                let Some(j) = pd.core_nb(x, y, d) else {
                     continue;
                 };
                 if t.flags[j] & VALID == 0 || t.dd[j] == 0 || t.lev[j] != t.lev[c] {

@@ -45,11 +45,13 @@ impl SpPass for Accumulate<'_> {
                 t.done[i] = 0;
             }
             t.ring.iter_mut().for_each(|v| *v = 0);
-            for i in 0..n {
-                if t.dir[i] != NONE {
-                    let q = pd.at(i % pd.w, i / pd.w);
-                    if let Some(r) = pd.core(pd.nb(q, t.dir[i] as usize)) {
-                        t.dd[r] += 1;
+            for y in 0..pd.h {
+                for x in 0..pd.w {
+                    let d = t.dir[y * pd.w + x];
+                    if d != NONE {
+                        if let Some(r) = pd.core_nb(x, y, d as usize) {
+                            t.dd[r] += 1;
+                        }
                     }
                 }
             }
@@ -93,8 +95,8 @@ impl SpPass for Accumulate<'_> {
             if t.dir[c] == NONE {
                 continue;
             }
-            let q = pd.at(c % pd.w, c / pd.w);
-            if let Some(r) = pd.core(pd.nb(q, t.dir[c] as usize)) {
+            let (x, y) = pd.xy(c);
+            if let Some(r) = pd.core_nb(x, y, t.dir[c] as usize) {
                 t.area[r] += t.area[c];
                 t.dd[r] -= 1;
                 if t.dd[r] == 0 {
@@ -165,7 +167,6 @@ impl SpPass for Erode<'_> {
             pl,
         } = c;
         let geo = &self.ctx.geo;
-        let nc = t.h.len();
         let hn = geo.ring(board, &pd, HN, f64::NAN);
         let ok = geo.ring(board, &pd, OK, 0.0);
         let mut work: Vec<u32> = Vec::new();
@@ -176,30 +177,23 @@ impl SpPass for Erode<'_> {
         };
         if round == 0 {
             t.done.iter_mut().for_each(|v| *v = 0);
-            for i in 0..nc {
-                if t.dir[i] == NONE || t.flags[i] != VALID {
-                    t.done[i] = 1;
-                    work.push(i as u32);
-                    continue;
-                }
-                let (x, y) = (i % pd.w, i / pd.w);
-                let d = t.dir[i] as usize;
-                let (rx, ry) = (x as isize + 1 + DX[d], y as isize + 1 + DY[d]);
-                match pd.core_xy(rx, ry) {
-                    Some(r) => {
-                        if t.done[r] != 0 {
-                            let hr = t.h[r];
-                            self.solve(t, i, hr);
-                            t.done[i] = 1;
-                            work.push(i as u32);
-                        }
+            for y in 0..pd.h {
+                for x in 0..pd.w {
+                    let i = y * pd.w + x;
+                    if t.dir[i] == NONE || t.flags[i] != VALID {
+                        t.done[i] = 1;
+                        work.push(i as u32);
+                        continue;
                     }
-                    None => {
-                        if let Some(hr) = remote(rx, ry) {
-                            self.solve(t, i, hr);
-                            t.done[i] = 1;
-                            work.push(i as u32);
-                        }
+                    let d = t.dir[i] as usize;
+                    let hr = match pd.core_nb(x, y, d) {
+                        Some(r) => (t.done[r] != 0).then(|| t.h[r]),
+                        None => remote(x as isize + 1 + DX[d], y as isize + 1 + DY[d]),
+                    };
+                    if let Some(hr) = hr {
+                        self.solve(t, i, hr);
+                        t.done[i] = 1;
+                        work.push(i as u32);
                     }
                 }
             }
@@ -208,31 +202,28 @@ impl SpPass for Erode<'_> {
                 if t.done[i] != 0 {
                     return;
                 }
-                let (x, y) = (i % pd.w, i / pd.w);
+                let (x, y) = pd.xy(i);
                 let d = t.dir[i] as usize;
-                let (rx, ry) = (x as isize + 1 + DX[d], y as isize + 1 + DY[d]);
-                if pd.core_xy(rx, ry).is_some() {
+                if pd.core_nb(x, y, d).is_some() {
                     return;
                 }
-                if let Some(hr) = remote(rx, ry) {
+                if let Some(hr) = remote(x as isize + 1 + DX[d], y as isize + 1 + DY[d]) {
                     self.solve(t, i, hr);
                     t.done[i] = 1;
                     work.push(i as u32);
                 }
             });
         }
+        // The donors of a solved cell: neighbours whose direction is the
+        // opposite of the way to them (E..NE order: d and d + 4 mod 8).
         while let Some(c) = work.pop() {
             let c = c as usize;
-            let q = pd.at(c % pd.w, c / pd.w);
+            let (x, y) = pd.xy(c);
             for d in 0..8 {
-                let qj = pd.nb(q, d);
-                let Some(j) = pd.core(qj) else {
+                let Some(j) = pd.core_nb(x, y, d) else {
                     continue;
                 };
-                if t.done[j] != 0 || t.dir[j] == NONE {
-                    continue;
-                }
-                if pd.nb(qj, t.dir[j] as usize) != q {
+                if t.done[j] != 0 || t.dir[j] as usize != (d + 4) % 8 {
                     continue;
                 }
                 let hr = t.h[c];
