@@ -372,48 +372,24 @@ impl StreamPower {
     }
 
     fn uplift(&self, h: &mut [f64], u: &Uplift) -> Result<()> {
-        let dt = self.p.dt;
         match u {
-            Uplift::Uniform(r) => {
-                if !r.is_finite() {
-                    return Err(Error::invalid(format!(
-                        "stream power: uplift rate {r} is not finite"
-                    )));
-                }
-                let du = r * dt;
-                for (v, f) in h.iter_mut().zip(&self.flags) {
-                    if *f == VALID {
-                        *v += du;
-                    }
-                }
+            Uplift::Uniform(r) if !r.is_finite() => {
+                return Err(Error::invalid(format!(
+                    "stream power: uplift rate {r} is not finite"
+                )));
             }
-            Uplift::Map(g) => {
-                if g.width() != self.w || g.height() != self.h {
-                    return Err(Error::invalid(format!(
-                        "stream power: the uplift map is {}x{} but the DEM is {}x{}",
-                        g.width(),
-                        g.height(),
-                        self.w,
-                        self.h
-                    )));
-                }
-                for (i, (v, f)) in h.iter_mut().zip(&self.flags).enumerate() {
-                    if *f == VALID {
-                        let r = g.data()[i];
-                        if !r.is_finite() {
-                            return Err(Error::invalid(format!(
-                                "stream power: the uplift map has no value at column {}, row {} \
-                                 where the DEM has one; give a rate for every valid cell",
-                                i % self.w,
-                                i / self.w
-                            )));
-                        }
-                        *v += r * dt;
-                    }
-                }
+            Uplift::Map(g) if g.width() != self.w || g.height() != self.h => {
+                return Err(Error::invalid(format!(
+                    "stream power: the uplift map is {}x{} but the DEM is {}x{}",
+                    g.width(),
+                    g.height(),
+                    self.w,
+                    self.h
+                )));
             }
+            _ => {}
         }
-        Ok(())
+        raise(h, &self.flags, self.p.dt, u).map_err(|i| no_uplift_rate(i % self.w, i / self.w))
     }
 
     /// Route `h` into the flow graph: steepest descent, then the
@@ -513,6 +489,47 @@ impl StreamPower {
         }
         Ok(())
     }
+}
+
+/// Uplift of one step: every cell whose flags are exactly [`VALID`] rises
+/// by its rate times `dt` (`u`'s map has the size of `h`). `Err(i)` at the
+/// first such cell whose rate is not finite.
+pub(crate) fn raise(
+    h: &mut [f64],
+    flags: &[u8],
+    dt: f64,
+    u: &Uplift,
+) -> std::result::Result<(), usize> {
+    match u {
+        Uplift::Uniform(r) => {
+            let du = r * dt;
+            for (v, f) in h.iter_mut().zip(flags) {
+                if *f == VALID {
+                    *v += du;
+                }
+            }
+        }
+        Uplift::Map(g) => {
+            for (i, (v, f)) in h.iter_mut().zip(flags).enumerate() {
+                if *f == VALID {
+                    let r = g.data()[i];
+                    if !r.is_finite() {
+                        return Err(i);
+                    }
+                    *v += r * dt;
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The error for a valid cell (column `x`, row `y`) the uplift map has no rate for.
+pub(crate) fn no_uplift_rate(x: usize, y: usize) -> Error {
+    Error::invalid(format!(
+        "stream power: the uplift map has no value at column {x}, row {y} \
+         where the DEM has one; give a rate for every valid cell"
+    ))
 }
 
 /// The explicit diffusion substeps of one step of `p` on cells of `cell`

@@ -269,6 +269,22 @@ impl<'x, X: HaloTransport> Rounds<'x, X> {
         Ok(())
     }
 
+    /// [`once`](Self::once), and whether every tile of every rank returned
+    /// final from its pass (a global "all" of a per-tile test, e.g. "this
+    /// tile has no pit", at the cost of the round's exchange).
+    pub fn once_all_final<W: TileWork>(
+        &mut self,
+        work: &W,
+        states: &impl TileStates<W::State>,
+    ) -> Result<bool> {
+        let mine = self.mine.clone();
+        let mut done = vec![false; self.layout.count()];
+        let (_, open) = self.round(work, states, &mine, 0, Some(&mut done))?;
+        self.stats.rounds += 1;
+        self.stats.max_rounds = self.stats.max_rounds.max(1);
+        Ok(open == 0)
+    }
+
     /// Rounds until no publication changes. With `final_required`, every
     /// tile must end final ([`TileWork::pass`] returning true), else the
     /// rounds stalled (a cycle in what the tiles wait for) and `stalled`

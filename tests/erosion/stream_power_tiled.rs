@@ -128,6 +128,40 @@ fn fill_equals_untiled_for_many_tile_sizes() {
     assert!(changed > 1000, "{changed} cells eroded");
 }
 
+/// Distance to the border (1 m per cell) plus under 0.5 m of noise: no
+/// pit, as in the fastscapelib comparison's start.
+fn ramp(w: usize, h: usize, seed: u64) -> Grid<f64> {
+    let mut r = rng(seed);
+    Grid::from_fn(w, h, |x, y| {
+        let d = x.min(y).min(w - 1 - x).min(h - 1 - y) as f64;
+        d + 0.49 * r()
+    })
+}
+
+#[test]
+fn pit_free_steps_skip_the_levels_and_equal_untiled() {
+    let (w, h) = (57, 49);
+    let g = ramp(w, h, 6);
+    let p = params(Depressions::Fill, 1.0, 0.0);
+    check(&g, &p, Some(&uplift_map(w, h)), 5, &[1, 7, 16, 64]);
+    // The same ramp with one pit dug in the middle of a tile: the step
+    // routes on the levels, which takes more tile passes than the
+    // pit-free step (steepest descent only).
+    let mut dug = g.clone();
+    dug.set(10, 10, 0.5);
+    let tiling = SpTiling::memory(8, 1);
+    let (_, plain) = stream_power_tiled_grid(&g, 50.0, &p, None, 1, &tiling).unwrap();
+    let (_, pit) = stream_power_tiled_grid(&dug, 50.0, &p, None, 1, &tiling).unwrap();
+    let tiles = (w.div_ceil(8) * h.div_ceil(8)) as u64;
+    assert!(
+        plain.passes + 3 * tiles <= pit.passes,
+        "{} vs {} passes",
+        plain.passes,
+        pit.passes
+    );
+    check(&dug, &p, None, 3, &[7, 16]);
+}
+
 #[test]
 fn none_equals_untiled() {
     let g = terrain(53, 40, 2, true);

@@ -17,8 +17,12 @@
 //! neither the order nor the tile size changes a bit:
 //!
 //! 1. **Uplift** (local).
-//! 2. **Routing** (`routing`). `None`: steepest descent on `h*` (local, halo 1).
-//!    `Fill`: the minimax water level `L(i) = max(h(i), min_j L(j))`
+//! 2. **Routing** (`routing`). Steepest descent on `h*` (local, halo 1);
+//!    that is all of `None`, and all of `Fill` when no tile has a pit (a
+//!    routed cell without a strictly lower neighbour, found in the same pass
+//!    and reduced over tiles and ranks): then the levels equal `h*` and no
+//!    cell is on a flat, exactly as the in-memory solver skips its sink
+//!    resolver. Otherwise `Fill` computes the minimax water level `L(i) = max(h(i), min_j L(j))`
 //!    (`L = h` on base levels) by a priority flood inside each tile seeded
 //!    from the neighbours' perimeter levels, repeated until no perimeter
 //!    level drops (`max`/`min` only: exact; after the first pass only from
@@ -61,7 +65,7 @@ use super::stream_power::{
     diffusion_substeps, is_base, BaseHeight, Depressions, StreamPowerParams, BASE, VALID,
 };
 use crate::error::{Error, Result};
-use crate::exec::iterate::{MemStates, Rounds, TileStates};
+use crate::exec::iterate::{Board, MemStates, Rounds, TileStates, TileWork};
 use crate::exec::mpi_halo::{HaloTransport, Single};
 use crate::raster::{perimeter_len, read_window, Grid, RasterSource, TileId, TileLayout, Window};
 use std::path::PathBuf;
@@ -269,6 +273,56 @@ fn step_len(cell: f64, d: usize) -> f64 {
     }
 }
 
+/// What one pass on a tile reads and writes: the arguments of
+/// [`TileWork::pass`] with the tile's window, padded geometry and perimeter
+/// length (the setup every pass needs).
+struct Cx<'a> {
+    pub round: u64,
+    pub t: &'a mut Tile,
+    pub board: &'a Board,
+    pub out: &'a mut [f64],
+    pub win: Window,
+    pub pd: Pad,
+    /// Perimeter cells of the tile.
+    pub pl: usize,
+}
+
+/// One pass of the tiled step on a tile ([`TileWork::pass`] through [`Run`]).
+trait SpPass: Sync {
+    /// The run's context.
+    fn ctx(&self) -> &Ctx;
+    /// The pass; returns true when the tile is final.
+    fn run(&self, c: Cx<'_>) -> Result<bool>;
+}
+
+/// A [`SpPass`] as the round driver's [`TileWork`].
+struct Run<P>(P);
+
+impl<P: SpPass> TileWork for Run<P> {
+    type State = Tile;
+    fn pass(
+        &self,
+        id: TileId,
+        round: u64,
+        t: &mut Tile,
+        board: &Board,
+        out: &mut [f64],
+    ) -> Result<bool> {
+        let geo = &self.0.ctx().geo;
+        let win = geo.lay.window(id);
+        let c = Cx {
+            round,
+            t,
+            board,
+            out,
+            win,
+            pd: Pad::new(win),
+            pl: geo.perimeter(id),
+        };
+        self.0.run(c)
+    }
+}
+
 /// What every pass of a run reads: geometry and parameters.
 struct Ctx {
     pub geo: Geo,
@@ -391,18 +445,38 @@ impl Ctx {
     ) -> Result<()> {
         let cycle =
             "stream power (tiled): the receiver graph has a cycle; this is a bug, please report it";
-        rounds.once(&routing::Uplift { ctx: self, uplift }, store)?;
-        if self.fill {
-            rounds.fixed_point(&routing::Levels { ctx: self }, store, false, cycle)?;
-            rounds.once(&routing::FlatStart { ctx: self }, store)?;
-            rounds.fixed_point(&routing::Flats { ctx: self }, store, false, cycle)?;
-        }
-        rounds.once(&routing::Receivers { ctx: self }, store)?;
-        rounds.fixed_point(&update::Accumulate { ctx: self }, store, true, cycle)?;
-        rounds.fixed_point(&update::Erode { ctx: self }, store, true, cycle)?;
+        rounds.once(&Run(routing::Uplift { ctx: self, uplift }), store)?;
+        // Steepest descent on the uplifted heights; with fill routing, a
+        // step without any pit (the usual case on eroded terrain) needs no
+        // levels: they equal the heights and no cell is on a flat (the
+        // in-memory solver skips its sink resolver the same way).
+        let steepest = Run(routing::Receivers {
+            ctx: self,
+            on_levels: false,
+        });
+        let lakes = if self.fill {
+            let no_pit = rounds.once_all_final(&steepest, store)?;
+            if !no_pit {
+                rounds.fixed_point(&Run(routing::Levels { ctx: self }), store, false, cycle)?;
+                rounds.once(&Run(routing::FlatStart { ctx: self }), store)?;
+                rounds.fixed_point(&Run(routing::Flats { ctx: self }), store, false, cycle)?;
+                let on_levels = routing::Receivers {
+                    ctx: self,
+                    on_levels: true,
+                };
+                rounds.once(&Run(on_levels), store)?;
+            }
+            !no_pit
+        } else {
+            rounds.once(&steepest, store)?;
+            false
+        };
+        rounds.fixed_point(&Run(update::Accumulate { ctx: self }), store, true, cycle)?;
+        let erode = update::Erode { ctx: self, lakes };
+        rounds.fixed_point(&Run(erode), store, true, cycle)?;
         if let Some((n, c)) = nsub {
             for _ in 0..n {
-                rounds.once(&update::Diffuse { ctx: self, c }, store)?;
+                rounds.once(&Run(update::Diffuse { ctx: self, c }), store)?;
             }
         }
         Ok(())

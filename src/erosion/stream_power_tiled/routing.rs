@@ -1,12 +1,13 @@
 //! The routing passes of a step: uplift, minimax water levels, flat
 //! distances and receivers, each a [`TileWork`] of the round driver.
 
-use super::super::stream_power::{order_key, BASE, DX, DY, VALID};
-use super::tile::{for_perimeter, publish, Pad, Tile, CNT, DD, DIR, FLAGS, H, HN, LEV, NONE, OK};
-use super::{step_len, Ctx, TiledUplift};
-use crate::error::{Error, Result};
-use crate::exec::iterate::{Board, TileWork};
-use crate::raster::{perimeter_cells, read_window, TileId};
+use super::super::stream_power::{
+    no_uplift_rate, order_key, raise, Uplift as Rates, BASE, DX, DY, VALID,
+};
+use super::tile::{for_perimeter, publish, CNT, DD, DIR, FLAGS, H, HN, LEV, NONE, OK};
+use super::{step_len, Ctx, Cx, SpPass, TiledUplift};
+use crate::error::Result;
+use crate::raster::{perimeter_cells, read_window};
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
@@ -23,39 +24,24 @@ pub(super) struct Uplift<'a> {
     pub uplift: &'a TiledUplift<'a>,
 }
 
-impl TileWork for Uplift<'_> {
-    type State = Tile;
-    fn pass(&self, id: TileId, _: u64, t: &mut Tile, _: &Board, out: &mut [f64]) -> Result<bool> {
+impl SpPass for Uplift<'_> {
+    fn ctx(&self) -> &Ctx {
+        self.ctx
+    }
+    fn run(&self, c: Cx<'_>) -> Result<bool> {
+        let Cx {
+            t, out, win, pl, ..
+        } = c;
         let dt = self.ctx.p.dt;
-        let win = self.ctx.geo.lay.window(id);
-        match self.uplift {
-            TiledUplift::Uniform(r) => {
-                let du = r * dt;
-                for (v, f) in t.h.iter_mut().zip(&t.flags) {
-                    if *f == VALID {
-                        *v += du;
-                    }
-                }
-            }
+        let raised = match self.uplift {
+            TiledUplift::Uniform(r) => raise(&mut t.h, &t.flags, dt, &Rates::Uniform(*r)),
             TiledUplift::Map(m) => {
                 let g = read_window::<f64>(*m, win)?;
-                for (i, (v, f)) in t.h.iter_mut().zip(&t.flags).enumerate() {
-                    if *f == VALID {
-                        let r = g.data()[i];
-                        if !r.is_finite() {
-                            return Err(Error::invalid(format!(
-                                "stream power: the uplift map has no value at column {}, row {} \
-                                 where the DEM has one; give a rate for every valid cell",
-                                win.x as usize + i % win.w,
-                                win.y as usize + i / win.w
-                            )));
-                        }
-                        *v += r * dt;
-                    }
-                }
+                raise(&mut t.h, &t.flags, dt, &Rates::Map(&g))
             }
-        }
-        let pl = self.ctx.geo.perimeter(id);
+        };
+        raised
+            .map_err(|i| no_uplift_rate(win.x as usize + i % win.w, win.y as usize + i / win.w))?;
         publish(out, win.w, win.h, pl, H, |i| t.h[i]);
         if self.ctx.fill {
             for i in 0..t.h.len() {
@@ -81,19 +67,21 @@ pub(super) struct Levels<'a> {
     pub ctx: &'a Ctx,
 }
 
-impl TileWork for Levels<'_> {
-    type State = Tile;
-    fn pass(
-        &self,
-        id: TileId,
-        round: u64,
-        t: &mut Tile,
-        board: &Board,
-        out: &mut [f64],
-    ) -> Result<bool> {
+impl SpPass for Levels<'_> {
+    fn ctx(&self) -> &Ctx {
+        self.ctx
+    }
+    fn run(&self, c: Cx<'_>) -> Result<bool> {
+        let Cx {
+            round,
+            t,
+            board,
+            out,
+            win,
+            pd,
+            pl,
+        } = c;
         let geo = &self.ctx.geo;
-        let win = geo.lay.window(id);
-        let pd = Pad::new(win);
         // The flood runs on padded arrays (no index conversion per
         // neighbour); the ring holds the neighbours' levels and flags.
         let mut lp = geo.pad(board, &pd, &t.lev, LEV, f64::NAN, |v| v);
@@ -140,7 +128,8 @@ impl TileWork for Levels<'_> {
         } else {
             // Only the perimeter cells read the ring.
             for_perimeter(pd.w, pd.h, |i, _| {
-                let q = pd.at(i % pd.w, i / pd.w);
+                let (x, y) = pd.xy(i);
+                let q = pd.at(x, y);
                 if fp[q] == VALID && relax(q, &mut lp, &fp, &hp) {
                     heap.push(Reverse((order_key(lp[q]), q as u32)));
                 }
@@ -172,7 +161,7 @@ impl TileWork for Levels<'_> {
             let q = pd.at(0, y);
             t.lev[y * pd.w..(y + 1) * pd.w].copy_from_slice(&lp[q..q + pd.w]);
         }
-        publish(out, win.w, win.h, geo.perimeter(id), LEV, |i| t.lev[i]);
+        publish(out, win.w, win.h, pl, LEV, |i| t.lev[i]);
         Ok(false)
     }
 }
@@ -183,19 +172,21 @@ pub(super) struct FlatStart<'a> {
     pub ctx: &'a Ctx,
 }
 
-impl TileWork for FlatStart<'_> {
-    type State = Tile;
-    fn pass(
-        &self,
-        id: TileId,
-        _: u64,
-        t: &mut Tile,
-        board: &Board,
-        out: &mut [f64],
-    ) -> Result<bool> {
+impl SpPass for FlatStart<'_> {
+    fn ctx(&self) -> &Ctx {
+        self.ctx
+    }
+    fn run(&self, c: Cx<'_>) -> Result<bool> {
+        let Cx {
+            t,
+            board,
+            out,
+            win,
+            pd,
+            pl,
+            ..
+        } = c;
         let geo = &self.ctx.geo;
-        let win = geo.lay.window(id);
-        let pd = Pad::new(win);
         let lev = geo.pad(board, &pd, &t.lev, LEV, f64::NAN, |v| v);
         let fl = geo.pad(board, &pd, &t.flags, FLAGS, f64::NAN, as_flags);
         for y in 0..pd.h {
@@ -221,7 +212,7 @@ impl TileWork for FlatStart<'_> {
                 }
             }
         }
-        publish(out, win.w, win.h, geo.perimeter(id), DD, |i| t.dd[i] as f64);
+        publish(out, win.w, win.h, pl, DD, |i| t.dd[i] as f64);
         Ok(true)
     }
 }
@@ -234,19 +225,21 @@ pub(super) struct Flats<'a> {
     pub ctx: &'a Ctx,
 }
 
-impl TileWork for Flats<'_> {
-    type State = Tile;
-    fn pass(
-        &self,
-        id: TileId,
-        round: u64,
-        t: &mut Tile,
-        board: &Board,
-        out: &mut [f64],
-    ) -> Result<bool> {
+impl SpPass for Flats<'_> {
+    fn ctx(&self) -> &Ctx {
+        self.ctx
+    }
+    fn run(&self, c: Cx<'_>) -> Result<bool> {
+        let Cx {
+            round,
+            t,
+            board,
+            out,
+            win,
+            pd,
+            pl,
+        } = c;
         let geo = &self.ctx.geo;
-        let win = geo.lay.window(id);
-        let pd = Pad::new(win);
         let mut heap: BinaryHeap<Reverse<(u32, u32)>> = BinaryHeap::new();
         let as_dd = |v: f64| v as u32;
         if round == 0 {
@@ -263,7 +256,7 @@ impl TileWork for Flats<'_> {
                         let q = pd.at(x, y);
                         for d in 0..8 {
                             let j = pd.nb(q, d);
-                            if pd.core(j).is_some()
+                            if pd.core_nb(x, y, d).is_some()
                                 || fl[j] & VALID == 0
                                 || ddp[j] == u32::MAX
                                 || lev[j] != lev[q]
@@ -279,14 +272,11 @@ impl TileWork for Flats<'_> {
                     // cell of its level (most cells drain and have none).
                     let seeds = match t.dd[i] {
                         u32::MAX => false,
-                        0 => {
-                            let q = pd.at(x, y);
-                            (0..8).any(|d| {
-                                pd.core(pd.nb(q, d)).is_some_and(|j| {
-                                    t.flags[j] & VALID != 0 && t.dd[j] != 0 && t.lev[j] == t.lev[i]
-                                })
+                        0 => (0..8).any(|d| {
+                            pd.core_nb(x, y, d).is_some_and(|j| {
+                                t.flags[j] & VALID != 0 && t.dd[j] != 0 && t.lev[j] == t.lev[i]
                             })
-                        }
+                        }),
                         _ => true,
                     };
                     if seeds {
@@ -322,9 +312,9 @@ impl TileWork for Flats<'_> {
             if t.dd[c] != dc {
                 continue;
             }
-            let q = pd.at(c % pd.w, c / pd.w);
+            let (x, y) = pd.xy(c);
             for d in 0..8 {
-                let Some(j) = pd.core(pd.nb(q, d)) else {
+                let Some(j) = pd.core_nb(x, y, d) else {
                     continue;
                 };
                 if t.flags[j] & VALID == 0 || t.dd[j] == 0 || t.lev[j] != t.lev[c] {
@@ -336,41 +326,49 @@ impl TileWork for Flats<'_> {
                 }
             }
         }
-        publish(out, win.w, win.h, geo.perimeter(id), DD, |i| t.dd[i] as f64);
+        publish(out, win.w, win.h, pl, DD, |i| t.dd[i] as f64);
         Ok(false)
     }
 }
 
-/// Receivers: steepest descent on `L` (fill) or `h*` (none); flats by `D`.
-/// Also clears the published counts and new heights of the previous step.
+/// Receivers: steepest descent on `L` (`on_levels`, after the levels and
+/// flat distances of fill routing; flats by `D`) or on `h*` (no routing, and
+/// the first routing of every fill step). Also clears the published counts
+/// and new heights of the previous step. Final when the tile has no pit (a
+/// routed cell without a receiver).
 pub(super) struct Receivers<'a> {
     pub ctx: &'a Ctx,
+    pub on_levels: bool,
 }
 
-impl TileWork for Receivers<'_> {
-    type State = Tile;
-    fn pass(
-        &self,
-        id: TileId,
-        _: u64,
-        t: &mut Tile,
-        board: &Board,
-        out: &mut [f64],
-    ) -> Result<bool> {
-        let (geo, cell, fill) = (&self.ctx.geo, self.ctx.cell, self.ctx.fill);
-        let win = geo.lay.window(id);
-        let pd = Pad::new(win);
-        let z = if fill {
+impl SpPass for Receivers<'_> {
+    fn ctx(&self) -> &Ctx {
+        self.ctx
+    }
+    fn run(&self, c: Cx<'_>) -> Result<bool> {
+        let Cx {
+            t,
+            board,
+            out,
+            win,
+            pd,
+            pl,
+            ..
+        } = c;
+        let (geo, cell, lev) = (&self.ctx.geo, self.ctx.cell, self.on_levels);
+        let z = if lev {
             geo.pad(board, &pd, &t.lev, LEV, f64::NAN, |v| v)
         } else {
             geo.pad(board, &pd, &t.h, H, f64::NAN, |v| v)
         };
         let fl = geo.pad(board, &pd, &t.flags, FLAGS, f64::NAN, as_flags);
-        let ddp = if fill {
+        let ddp = if lev {
             geo.pad(board, &pd, &t.dd, DD, u32::MAX as f64, |v| v as u32)
         } else {
             Vec::new()
         };
+        let len: [f64; 8] = std::array::from_fn(|d| step_len(cell, d));
+        let mut pits = 0usize;
         for y in 0..pd.h {
             for x in 0..pd.w {
                 let i = y * pd.w + x;
@@ -387,14 +385,13 @@ impl TileWork for Receivers<'_> {
                     if fl[j] & VALID == 0 {
                         continue;
                     }
-                    let len = step_len(cell, d);
-                    let s = (zi - z[j]) / len;
+                    let s = (zi - z[j]) / len[d];
                     if s > best {
                         best = s;
                         bd = d as u8;
                     }
                 }
-                if bd == NONE && fill {
+                if bd == NONE && lev {
                     let mut bdd = ddp[q];
                     for d in 0..8 {
                         let j = pd.nb(q, d);
@@ -404,16 +401,18 @@ impl TileWork for Receivers<'_> {
                         }
                     }
                 }
+                if bd == NONE {
+                    pits += 1;
+                }
                 t.dir[i] = bd;
             }
         }
-        let pl = geo.perimeter(id);
         for_perimeter(win.w, win.h, |i, k| {
             out[DIR * pl + k] = t.dir[i] as f64;
             out[CNT * pl + k] = f64::NAN;
             out[HN * pl + k] = f64::NAN;
             out[OK * pl + k] = 0.0;
         });
-        Ok(true)
+        Ok(pits == 0)
     }
 }

@@ -150,6 +150,39 @@ impl TileStates<Tile> for Store {
     }
 }
 
+/// Exact `n / d` and `n % d` of a 32-bit `n` by multiplications instead of
+/// a division, `M = ceil(2^64 / d)` (Lemire, Kaser & Kurz 2019, "Faster
+/// remainder by direct computation: applications to compilers and software
+/// libraries", *Software: Practice and Experience* 49(6), 953–970,
+/// Theorem 1 with F = 2N = 64).
+#[derive(Clone, Copy)]
+pub(super) struct Divisor {
+    d: u64,
+    /// `M`, or 0 for `d = 1` (where `M` = 2^64 does not fit).
+    m: u64,
+}
+
+impl Divisor {
+    pub fn new(d: usize) -> Divisor {
+        let d = d.max(1) as u64;
+        let m = if d == 1 { 0 } else { u64::MAX / d + 1 };
+        Divisor { d, m }
+    }
+    /// `(n / d, n % d)`; `n` below 2^32.
+    #[inline]
+    pub fn divmod(&self, n: usize) -> (usize, usize) {
+        debug_assert!(n < 1 << 32);
+        if self.m == 0 {
+            return (n, 0);
+        }
+        let n = n as u64;
+        let q = (self.m as u128 * n as u128) >> 64;
+        let low = self.m.wrapping_mul(n);
+        let r = (low as u128 * self.d as u128) >> 64;
+        (q as usize, r as usize)
+    }
+}
+
 /// A tile padded with a ring of one cell: index helpers.
 #[derive(Clone, Copy)]
 pub(super) struct Pad {
@@ -162,6 +195,8 @@ pub(super) struct Pad {
     pub pw: usize,
     /// Offsets of the 8 neighbours in the padded array.
     pub off: [isize; 8],
+    /// Division by `w` (core index to column and row).
+    by_w: Divisor,
 }
 
 impl Pad {
@@ -178,22 +213,29 @@ impl Pad {
             h: win.h,
             pw,
             off,
+            by_w: Divisor::new(win.w),
+        }
+    }
+    /// Column and row of core index `i`.
+    #[inline]
+    pub fn xy(&self, i: usize) -> (usize, usize) {
+        let (y, x) = self.by_w.divmod(i);
+        (x, y)
+    }
+    /// Core index of neighbour `d` of core cell (x, y), if it lies in the core.
+    #[inline]
+    pub fn core_nb(&self, x: usize, y: usize, d: usize) -> Option<usize> {
+        let (nx, ny) = (x as isize + DX[d], y as isize + DY[d]);
+        if nx >= 0 && ny >= 0 && (nx as usize) < self.w && (ny as usize) < self.h {
+            Some(ny as usize * self.w + nx as usize)
+        } else {
+            None
         }
     }
     /// Padded index of core cell (x, y).
     #[inline]
     pub fn at(&self, x: usize, y: usize) -> usize {
         (y + 1) * self.pw + x + 1
-    }
-    /// Core index of a padded index that lies in the core, else None.
-    #[inline]
-    pub fn core(&self, q: usize) -> Option<usize> {
-        let (px, py) = (q % self.pw, q / self.pw);
-        if px >= 1 && py >= 1 && px <= self.w && py <= self.h {
-            Some((py - 1) * self.w + px - 1)
-        } else {
-            None
-        }
     }
     #[inline]
     pub fn nb(&self, q: usize, d: usize) -> usize {

@@ -3,11 +3,10 @@
 
 use super::super::stream_power::{newton, DX, DY, VALID};
 use super::routing::as_flags;
-use super::tile::{for_perimeter, publish, Pad, Tile, CNT, DIR, FLAGS, H, HN, NONE, OK};
-use super::{step_len, Ctx};
+use super::tile::{for_perimeter, publish, Tile, CNT, DIR, FLAGS, H, HN, NONE, OK};
+use super::{step_len, Ctx, Cx, SpPass};
 use crate::error::Result;
-use crate::exec::iterate::{Board, TileWork};
-use crate::raster::{perimeter_cells, TileId};
+use crate::raster::perimeter_cells;
 
 /// Drainage area: cell counts summed down the receiver graph in Kahn's
 /// order inside the tile. A cell whose donors include a cell of another
@@ -20,19 +19,21 @@ pub(super) struct Accumulate<'a> {
     pub ctx: &'a Ctx,
 }
 
-impl TileWork for Accumulate<'_> {
-    type State = Tile;
-    fn pass(
-        &self,
-        id: TileId,
-        round: u64,
-        t: &mut Tile,
-        board: &Board,
-        out: &mut [f64],
-    ) -> Result<bool> {
+impl SpPass for Accumulate<'_> {
+    fn ctx(&self) -> &Ctx {
+        self.ctx
+    }
+    fn run(&self, c: Cx<'_>) -> Result<bool> {
+        let Cx {
+            round,
+            t,
+            board,
+            out,
+            win,
+            pd,
+            pl,
+        } = c;
         let geo = &self.ctx.geo;
-        let win = geo.lay.window(id);
-        let pd = Pad::new(win);
         let n = t.h.len();
         let dir = geo.ring(board, &pd, DIR, NONE as f64);
         let cnt = geo.ring(board, &pd, CNT, f64::NAN);
@@ -44,11 +45,13 @@ impl TileWork for Accumulate<'_> {
                 t.done[i] = 0;
             }
             t.ring.iter_mut().for_each(|v| *v = 0);
-            for i in 0..n {
-                if t.dir[i] != NONE {
-                    let q = pd.at(i % pd.w, i / pd.w);
-                    if let Some(r) = pd.core(pd.nb(q, t.dir[i] as usize)) {
-                        t.dd[r] += 1;
+            for y in 0..pd.h {
+                for x in 0..pd.w {
+                    let d = t.dir[y * pd.w + x];
+                    if d != NONE {
+                        if let Some(r) = pd.core_nb(x, y, d as usize) {
+                            t.dd[r] += 1;
+                        }
                     }
                 }
             }
@@ -92,8 +95,8 @@ impl TileWork for Accumulate<'_> {
             if t.dir[c] == NONE {
                 continue;
             }
-            let q = pd.at(c % pd.w, c / pd.w);
-            if let Some(r) = pd.core(pd.nb(q, t.dir[c] as usize)) {
+            let (x, y) = pd.xy(c);
+            if let Some(r) = pd.core_nb(x, y, t.dir[c] as usize) {
                 t.area[r] += t.area[c];
                 t.dd[r] -= 1;
                 if t.dd[r] == 0 {
@@ -101,7 +104,6 @@ impl TileWork for Accumulate<'_> {
                 }
             }
         }
-        let pl = geo.perimeter(id);
         for_perimeter(win.w, win.h, |i, k| {
             if t.done[i] == 1 && out[CNT * pl + k].is_nan() {
                 out[CNT * pl + k] = t.area[i];
@@ -125,6 +127,9 @@ impl TileWork for Accumulate<'_> {
 /// passes start only from the perimeter cells whose receiver is on the ring.
 pub(super) struct Erode<'a> {
     pub ctx: &'a Ctx,
+    /// The step has lakes (fill routing found pits): cells under their
+    /// water level are not eroded.
+    pub lakes: bool,
 }
 
 impl Erode<'_> {
@@ -133,7 +138,7 @@ impl Erode<'_> {
     fn solve(&self, t: &mut Tile, i: usize, hr: f64) {
         let p = &self.ctx.p;
         let hs = t.h[i];
-        if p.k == 0.0 || hs <= hr || (self.ctx.fill && t.lev[i] > hs) {
+        if p.k == 0.0 || hs <= hr || (self.lakes && t.lev[i] > hs) {
             return;
         }
         let d = step_len(self.ctx.cell, t.dir[i] as usize);
@@ -147,20 +152,21 @@ impl Erode<'_> {
     }
 }
 
-impl TileWork for Erode<'_> {
-    type State = Tile;
-    fn pass(
-        &self,
-        id: TileId,
-        round: u64,
-        t: &mut Tile,
-        board: &Board,
-        out: &mut [f64],
-    ) -> Result<bool> {
+impl SpPass for Erode<'_> {
+    fn ctx(&self) -> &Ctx {
+        self.ctx
+    }
+    fn run(&self, c: Cx<'_>) -> Result<bool> {
+        let Cx {
+            round,
+            t,
+            board,
+            out,
+            win,
+            pd,
+            pl,
+        } = c;
         let geo = &self.ctx.geo;
-        let win = geo.lay.window(id);
-        let pd = Pad::new(win);
-        let nc = t.h.len();
         let hn = geo.ring(board, &pd, HN, f64::NAN);
         let ok = geo.ring(board, &pd, OK, 0.0);
         let mut work: Vec<u32> = Vec::new();
@@ -171,30 +177,23 @@ impl TileWork for Erode<'_> {
         };
         if round == 0 {
             t.done.iter_mut().for_each(|v| *v = 0);
-            for i in 0..nc {
-                if t.dir[i] == NONE || t.flags[i] != VALID {
-                    t.done[i] = 1;
-                    work.push(i as u32);
-                    continue;
-                }
-                let (x, y) = (i % pd.w, i / pd.w);
-                let d = t.dir[i] as usize;
-                let (rx, ry) = (x as isize + 1 + DX[d], y as isize + 1 + DY[d]);
-                match pd.core_xy(rx, ry) {
-                    Some(r) => {
-                        if t.done[r] != 0 {
-                            let hr = t.h[r];
-                            self.solve(t, i, hr);
-                            t.done[i] = 1;
-                            work.push(i as u32);
-                        }
+            for y in 0..pd.h {
+                for x in 0..pd.w {
+                    let i = y * pd.w + x;
+                    if t.dir[i] == NONE || t.flags[i] != VALID {
+                        t.done[i] = 1;
+                        work.push(i as u32);
+                        continue;
                     }
-                    None => {
-                        if let Some(hr) = remote(rx, ry) {
-                            self.solve(t, i, hr);
-                            t.done[i] = 1;
-                            work.push(i as u32);
-                        }
+                    let d = t.dir[i] as usize;
+                    let hr = match pd.core_nb(x, y, d) {
+                        Some(r) => (t.done[r] != 0).then(|| t.h[r]),
+                        None => remote(x as isize + 1 + DX[d], y as isize + 1 + DY[d]),
+                    };
+                    if let Some(hr) = hr {
+                        self.solve(t, i, hr);
+                        t.done[i] = 1;
+                        work.push(i as u32);
                     }
                 }
             }
@@ -203,31 +202,28 @@ impl TileWork for Erode<'_> {
                 if t.done[i] != 0 {
                     return;
                 }
-                let (x, y) = (i % pd.w, i / pd.w);
+                let (x, y) = pd.xy(i);
                 let d = t.dir[i] as usize;
-                let (rx, ry) = (x as isize + 1 + DX[d], y as isize + 1 + DY[d]);
-                if pd.core_xy(rx, ry).is_some() {
+                if pd.core_nb(x, y, d).is_some() {
                     return;
                 }
-                if let Some(hr) = remote(rx, ry) {
+                if let Some(hr) = remote(x as isize + 1 + DX[d], y as isize + 1 + DY[d]) {
                     self.solve(t, i, hr);
                     t.done[i] = 1;
                     work.push(i as u32);
                 }
             });
         }
+        // The donors of a solved cell: neighbours whose direction is the
+        // opposite of the way to them (E..NE order: d and d + 4 mod 8).
         while let Some(c) = work.pop() {
             let c = c as usize;
-            let q = pd.at(c % pd.w, c / pd.w);
+            let (x, y) = pd.xy(c);
             for d in 0..8 {
-                let qj = pd.nb(q, d);
-                let Some(j) = pd.core(qj) else {
+                let Some(j) = pd.core_nb(x, y, d) else {
                     continue;
                 };
-                if t.done[j] != 0 || t.dir[j] == NONE {
-                    continue;
-                }
-                if pd.nb(qj, t.dir[j] as usize) != q {
+                if t.done[j] != 0 || t.dir[j] as usize != (d + 4) % 8 {
                     continue;
                 }
                 let hr = t.h[c];
@@ -236,7 +232,6 @@ impl TileWork for Erode<'_> {
                 work.push(j as u32);
             }
         }
-        let pl = geo.perimeter(id);
         for_perimeter(win.w, win.h, |i, k| {
             if t.done[i] != 0 && out[OK * pl + k] == 0.0 {
                 out[HN * pl + k] = t.h[i];
@@ -259,20 +254,22 @@ pub(super) struct Diffuse<'a> {
     pub c: f64,
 }
 
-impl TileWork for Diffuse<'_> {
-    type State = Tile;
-    fn pass(
-        &self,
-        id: TileId,
-        _: u64,
-        t: &mut Tile,
-        board: &Board,
-        out: &mut [f64],
-    ) -> Result<bool> {
+impl SpPass for Diffuse<'_> {
+    fn ctx(&self) -> &Ctx {
+        self.ctx
+    }
+    fn run(&self, cx: Cx<'_>) -> Result<bool> {
+        let Cx {
+            t,
+            board,
+            out,
+            win,
+            pd,
+            pl,
+            ..
+        } = cx;
         let geo = &self.ctx.geo;
         let c = self.c;
-        let win = geo.lay.window(id);
-        let pd = Pad::new(win);
         let old = geo.pad(board, &pd, &t.h, H, f64::NAN, |v| v);
         let fl = geo.pad(board, &pd, &t.flags, FLAGS, f64::NAN, as_flags);
         let pw = pd.pw;
@@ -300,7 +297,7 @@ impl TileWork for Diffuse<'_> {
                 t.h[i] = hi + c * lap;
             }
         }
-        publish(out, win.w, win.h, geo.perimeter(id), H, |i| t.h[i]);
+        publish(out, win.w, win.h, pl, H, |i| t.h[i]);
         Ok(true)
     }
 }
