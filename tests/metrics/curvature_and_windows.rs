@@ -5,7 +5,7 @@
 
 #![allow(clippy::needless_range_loop)] // index loops read like the definitions
 
-use crate::common::{get as at, run, source, Rng, CELL, COMPASS8};
+use crate::common::{check, get as at, run, source, Rng, CELL, COMPASS8};
 
 fn close(got: f32, want: f64, rel: f64, abs: f64) -> bool {
     if want.is_nan() {
@@ -18,18 +18,6 @@ fn close(got: f32, want: f64, rel: f64, abs: f64) -> bool {
 #[track_caller]
 fn assert_close(got: f32, want: f64, rel: f64, abs: f64, what: std::fmt::Arguments) {
     assert!(close(got, want, rel, abs), "{what}: {got} vs {want}");
-}
-
-fn assert_all(name: &str, got: &[f32], want: &[f64], w: usize, rel: f64, abs: f64) {
-    assert_eq!(got.len(), want.len());
-    for (i, (g, e)) in got.iter().zip(want).enumerate() {
-        assert!(
-            close(*g, *e, rel, abs),
-            "{name}: cell ({}, {}) got {g}, want {e}",
-            i % w,
-            i / w
-        );
-    }
 }
 
 /// Map coordinates (metres) of the centre of cell (col, row).
@@ -429,14 +417,8 @@ fn windowed_statistics_brute_force() {
         for tile in [1, 7, 64] {
             let out = run(&src, &specs, tile, 2);
             for k in 0..6 {
-                assert_all(
-                    &format!("r{r} tile{tile} m{k}"),
-                    &out[k],
-                    &want[k],
-                    w,
-                    2e-7,
-                    1e-9,
-                );
+                let name = format!("r{r} tile{tile} m{k}");
+                check(&name, &out[k], &want[k], w, 2e-7, 1e-9);
             }
         }
     }
@@ -558,14 +540,8 @@ fn roughness_brute_force() {
     }
     for tile in [1, 6, 64] {
         let out = run(&src, "roughness:radius=3c", tile, 2);
-        assert_all(
-            &format!("roughness tile {tile}"),
-            &out[0],
-            &want,
-            w,
-            1e-6,
-            1e-5,
-        );
+        let name = format!("roughness tile {tile}");
+        check(&name, &out[0], &want, w, 1e-6, 1e-5);
     }
 }
 
@@ -736,22 +712,10 @@ fn top_hats_brute_force() {
                 tile,
                 2,
             );
-            assert_all(
-                &format!("white r{r} tile {tile}"),
-                &out[0],
-                &white,
-                w,
-                0.0,
-                0.0,
-            );
-            assert_all(
-                &format!("black r{r} tile {tile}"),
-                &out[1],
-                &black,
-                w,
-                0.0,
-                0.0,
-            );
+            let name = format!("white r{r} tile {tile}");
+            check(&name, &out[0], &white, w, 0.0, 0.0);
+            let name = format!("black r{r} tile {tile}");
+            check(&name, &out[1], &black, w, 0.0, 0.0);
         }
     }
 }
@@ -789,14 +753,8 @@ fn disk_window_statistics_brute_force() {
         for tile in [1, 8, 64] {
             let out = run(&src, &specs, tile, 2);
             for k in 0..5 {
-                assert_all(
-                    &format!("disk r{r} tile{tile} m{k}"),
-                    &out[k],
-                    &want[k],
-                    w,
-                    2e-7,
-                    1e-9,
-                );
+                let name = format!("disk r{r} tile{tile} m{k}");
+                check(&name, &out[k], &want[k], w, 2e-7, 1e-9);
             }
         }
     }

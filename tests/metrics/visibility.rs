@@ -352,17 +352,22 @@ fn viewshed_matches_exact_line_of_sight() {
     }
 }
 
+/// Options of a viewshed from `height` above the ground within `radius_m`,
+/// targets on the ground, no curvature.
+fn eye(height: f64, radius_m: f64) -> ViewshedOptions {
+    ViewshedOptions {
+        observer_height: height,
+        radius_m,
+        ..Default::default()
+    }
+}
+
 #[test]
 fn viewshed_closed_forms() {
     // Flat plane: everything within the radius is visible, nothing beyond.
     let (w, h) = (41, 35);
     let g = Grid::new(w, h, 100.0f32);
-    let o = ViewshedOptions {
-        observer_height: 1.7,
-        radius_m: 123.0,
-        ..Default::default()
-    };
-    let v = viewshed(&g, (CELL, CELL), (20, 17), &o).unwrap();
+    let v = viewshed(&g, (CELL, CELL), (20, 17), &eye(1.7, 123.0)).unwrap();
     for y in 0..h {
         for x in 0..w {
             let dist = ((x as f64 - 20.0).powi(2) + (y as f64 - 17.0).powi(2)).sqrt() * CELL;
@@ -378,12 +383,7 @@ fn viewshed_closed_forms() {
     for y in 0..h {
         g.set(25, y, 5.0);
     }
-    let o = ViewshedOptions {
-        observer_height: 2.0,
-        radius_m: 1e6,
-        ..Default::default()
-    };
-    let v = viewshed(&g, (CELL, CELL), (10, 17), &o).unwrap();
+    let v = viewshed(&g, (CELL, CELL), (10, 17), &eye(2.0, 1e6)).unwrap();
     for y in 0..h {
         for x in 0..w {
             assert_eq!(v.get(x, y), u8::from(x <= 25), "wall ({x},{y})");
@@ -419,11 +419,7 @@ fn cumulative_and_fuzzy_viewsheds() {
     let (w, h) = (25, 20);
     let d = irregular_grid(w, h, 55, 40, 0);
     let g = Grid::from_vec(w, h, d.clone()).unwrap();
-    let o = ViewshedOptions {
-        observer_height: 3.0,
-        radius_m: 1e6,
-        ..Default::default()
-    };
+    let o = eye(3.0, 1e6);
     let obs = [(3usize, 4usize), (20, 15), (12, 10)];
     let mut count = Grid::new(w, h, 0f32);
     let mut fuzzy = Grid::new(w, h, 0f32);
