@@ -7,19 +7,16 @@
 //! use summed-area tables (radius-independent).
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use orogen::exec::LocalStep;
-use orogen::metrics::{parse_specs, MultiMetric};
-use orogen::raster::{read_view, Grid, RasterSource, TileLayout};
-use orogen::synth::FbmSource;
+
+mod metrics_tile;
+use metrics_tile::{bench_passes, fbm_tiles, N};
 
 fn bench(c: &mut Criterion) {
-    let n = 512;
-    let src = FbmSource::new(Default::default(), 3 * n, 3 * n, 30.0).unwrap();
-    let layout = TileLayout::new(3 * n, 3 * n, n);
+    let (src, layout) = fbm_tiles();
     let mut g = c.benchmark_group("metrics_512x512");
     g.sample_size(10);
-    g.throughput(Throughput::Elements((n * n) as u64));
-    for specs in [
+    g.throughput(Throughput::Elements((N * N) as u64));
+    let specs = [
         "slope",
         "mean_curvature,profile_curvature,plan_curvature,gaussian_curvature",
         "tri,rugosity",
@@ -61,22 +58,15 @@ fn bench(c: &mut Criterion) {
         // descr4: Xu's forms on a sphere (plumb-line heights)
         "jut:radius=10c:planet=6371,rut:radius=10c:planet=6371",
         "dominance:radius=10c:planet=6371,submission:radius=10c:planet=6371",
-    ] {
-        let specs_v = parse_specs(specs).unwrap();
-        let step = MultiMetric::new(&specs_v, src.info()).unwrap();
-        // Tile 4 is the centre tile, so its halo is real terrain.
-        let view = read_view::<f32>(&src, &layout, 4, step.halo()).unwrap();
-        let views = [view];
-        let mut out: Vec<Grid<f32>> = specs_v.iter().map(|_| Grid::new(n, n, 0f32)).collect();
-        g.bench_function(specs, |b| b.iter(|| step.run(&views, &mut out).unwrap()));
-    }
+    ];
+    bench_passes(&mut g, &src, &layout, &specs);
     g.finish();
 
     // Deng & Wilson multi-scale peakedness: whole-raster statistics, so it runs
     // as two global passes over a 3x3-tile raster (engine on one thread).
     let mut g = c.benchmark_group("peakedness_dw_1536x1536");
     g.sample_size(10);
-    g.throughput(Throughput::Elements((9 * n * n) as u64));
+    g.throughput(Throughput::Elements((9 * N * N) as u64));
     let cfg = orogen::exec::EngineConfig {
         threads: 1,
         ..Default::default()

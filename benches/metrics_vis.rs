@@ -6,20 +6,18 @@
 //! (O(r³); rayon over rows).
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use orogen::exec::LocalStep;
 use orogen::metrics::horizon::{horizon_with, HorizonMethod, HorizonOut};
 use orogen::metrics::visibility::{viewshed, ViewshedOptions};
-use orogen::metrics::{parse_specs, MultiMetric};
-use orogen::raster::{read_view, read_window, Grid, RasterSource, TileLayout, Window};
-use orogen::synth::FbmSource;
+use orogen::raster::{read_view, read_window, Grid, Window};
+
+mod metrics_tile;
+use metrics_tile::{bench_passes, fbm_tiles, N};
 
 fn bench(c: &mut Criterion) {
-    let n = 512;
-    let src = FbmSource::new(Default::default(), 3 * n, 3 * n, 30.0).unwrap();
-    let layout = TileLayout::new(3 * n, 3 * n, n);
+    let (src, layout) = fbm_tiles();
     let mut g = c.benchmark_group("vis_512x512");
     g.sample_size(10);
-    g.throughput(Throughput::Elements((n * n) as u64));
+    g.throughput(Throughput::Elements((N * N) as u64));
     for r in [10usize, 50, 200] {
         // Tile 4 is the centre tile, so its halo is real terrain.
         let view = read_view::<f32>(&src, &layout, 4, r).unwrap();
@@ -27,8 +25,8 @@ fn bench(c: &mut Criterion) {
             ("rays", HorizonMethod::Rays),
             ("sweep", HorizonMethod::Sweep),
         ] {
-            let mut pos = Grid::new(n, n, 0f32);
-            let mut neg = Grid::new(n, n, 0f32);
+            let mut pos = Grid::new(N, N, 0f32);
+            let mut neg = Grid::new(N, N, 0f32);
             g.bench_function(format!("openness_pos_neg_8dir_r{r}c_{name}"), |b| {
                 b.iter(|| {
                     horizon_with(
@@ -47,21 +45,15 @@ fn bench(c: &mut Criterion) {
             });
         }
     }
-    for specs in [
+    let specs = [
         "visibility_index:radius=10c",
         "visibility_index:radius=50c",
         "accessibility:radius=50c:directions=16",
         "solar_direct:lat=46:hour=10:radius=50c",
         "solar_global:lat=46:radius=50c",
         "heat_index",
-    ] {
-        let specs_v = parse_specs(specs).unwrap();
-        let step = MultiMetric::new(&specs_v, src.info()).unwrap();
-        let view = read_view::<f32>(&src, &layout, 4, step.halo()).unwrap();
-        let views = [view];
-        let mut out: Vec<Grid<f32>> = specs_v.iter().map(|_| Grid::new(n, n, 0f32)).collect();
-        g.bench_function(specs, |b| b.iter(|| step.run(&views, &mut out).unwrap()));
-    }
+    ];
+    bench_passes(&mut g, &src, &layout, &specs);
     g.finish();
 
     let mut g = c.benchmark_group("viewshed_r3");

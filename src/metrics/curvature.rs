@@ -7,10 +7,12 @@
 //! ch. 4 (n x n windows); the curvature formulas of Florinsky 2016, *Digital
 //! Terrain Analysis in Soil Science and Geology*, 2nd ed., ch. 2.
 
+use super::landform::dikau_class;
 use super::neighbourhood::{walk_3x3, EdgeMode};
 use super::param::RADIUS_QUADRIC;
 use super::quadric::{laplacian, Quadric};
 use super::registry::{metric_def, Metric, MetricDef, MetricKind, Needs, ScratchClass};
+use super::shary::shary_class;
 use super::spec::Resolved;
 use super::tile::Tile;
 use crate::error::Result;
@@ -50,10 +52,21 @@ impl Metric for Laplacian {
     }
 }
 
-/// A curvature of the local quadric.
-pub struct Curvature(MetricDef);
+/// A metric read from the local quadric alone: the seven curvatures here,
+/// Dikau's forms ([`super::landform::dikau_class`]) and Shary's landforms
+/// ([`super::shary::shary_class`]). Nodata where the fit is.
+pub struct FromQuadric(pub MetricDef);
 
-impl Metric for Curvature {
+/// Write `f` of every fitted quadric of the tile into `o` (nodata where the
+/// cell has no fit); one monomorphic loop per metric.
+#[inline]
+fn map_fits(qg: &Grid<Quadric>, o: &mut Grid<f32>, f: impl Fn(&Quadric) -> f32) {
+    for (o, c) in o.data_mut().iter_mut().zip(qg.data()) {
+        *o = if c.p.is_nan() { f32::NAN } else { f(c) };
+    }
+}
+
+impl Metric for FromQuadric {
     fn def(&self) -> &MetricDef {
         &self.0
     }
@@ -67,6 +80,11 @@ impl Metric for Curvature {
         }
     }
     fn scratch(&self, m: &Resolved, tile: usize) -> Option<(ScratchClass, u64)> {
+        // Only the curvatures declare the quadric grid (as before the
+        // landform classes shared this type).
+        if !is_curvature(self.0.kind) {
+            return None;
+        }
         let core = (tile * tile) as u64;
         Some((
             ("quadric", m.radius_cells.max(1)),
@@ -78,23 +96,20 @@ impl Metric for Curvature {
     }
     fn run(&self, t: &mut Tile<'_>, m: &Resolved, o: &mut Grid<f32>) -> Result<()> {
         let qg = t.quadric(m.radius_cells.max(1))?;
-        let kind = self.0.kind;
-        let nan = f32::NAN;
+        let th = m.spec.threshold.unwrap_or(0.0);
         use MetricKind::*;
-        for (o, c) in o.data_mut().iter_mut().zip(qg.data()) {
-            *o = if c.p.is_nan() {
-                nan
-            } else {
-                (match kind {
-                    ProfileCurvature => c.profile(),
-                    PlanCurvature => c.plan(),
-                    TangentialCurvature => c.tangential(),
-                    MeanCurvature => c.mean(),
-                    GaussianCurvature => c.gaussian(),
-                    MinCurvature => c.min_max().0,
-                    _ => c.min_max().1,
-                }) as f32
-            };
+        match self.0.kind {
+            ProfileCurvature => map_fits(qg, o, |c| c.profile() as f32),
+            PlanCurvature => map_fits(qg, o, |c| c.plan() as f32),
+            TangentialCurvature => map_fits(qg, o, |c| c.tangential() as f32),
+            MeanCurvature => map_fits(qg, o, |c| c.mean() as f32),
+            GaussianCurvature => map_fits(qg, o, |c| c.gaussian() as f32),
+            MinCurvature => map_fits(qg, o, |c| c.min_max().0 as f32),
+            DikauForm => map_fits(qg, o, |c| dikau_class(c.profile(), c.plan(), th)),
+            SharyLandform => map_fits(qg, o, |c| {
+                shary_class(c.gaussian(), c.mean(), c.tangential(), c.profile(), th)
+            }),
+            _ => map_fits(qg, o, |c| c.min_max().1 as f32),
         }
         Ok(())
     }
@@ -115,7 +130,7 @@ pub static LAPLACIAN: Laplacian = Laplacian(metric_def!(
 /// `profile_curvature`: vertical (profile) curvature kv; convex positive; 0 where flat.
 ///
 /// Source: [`EVANS`].
-pub static PROFILE_CURVATURE: Curvature = Curvature(metric_def!(
+pub static PROFILE_CURVATURE: FromQuadric = FromQuadric(metric_def!(
     ProfileCurvature,
     "profile_curvature",
     &[RADIUS_QUADRIC],
@@ -127,7 +142,7 @@ pub static PROFILE_CURVATURE: Curvature = Curvature(metric_def!(
 /// `plan_curvature`: plan (contour) curvature kp; convex positive; 0 where flat.
 ///
 /// Source: [`EVANS`].
-pub static PLAN_CURVATURE: Curvature = Curvature(metric_def!(
+pub static PLAN_CURVATURE: FromQuadric = FromQuadric(metric_def!(
     PlanCurvature,
     "plan_curvature",
     &[RADIUS_QUADRIC],
@@ -139,7 +154,7 @@ pub static PLAN_CURVATURE: Curvature = Curvature(metric_def!(
 /// `tangential_curvature`: horizontal (tangential) curvature kh; convex positive; 0 where flat.
 ///
 /// Source: [`EVANS`].
-pub static TANGENTIAL_CURVATURE: Curvature = Curvature(metric_def!(
+pub static TANGENTIAL_CURVATURE: FromQuadric = FromQuadric(metric_def!(
     TangentialCurvature,
     "tangential_curvature",
     &[RADIUS_QUADRIC],
@@ -151,7 +166,7 @@ pub static TANGENTIAL_CURVATURE: Curvature = Curvature(metric_def!(
 /// `mean_curvature`: mean curvature H; convex positive.
 ///
 /// Source: [`EVANS`].
-pub static MEAN_CURVATURE: Curvature = Curvature(metric_def!(
+pub static MEAN_CURVATURE: FromQuadric = FromQuadric(metric_def!(
     MeanCurvature,
     "mean_curvature",
     &[RADIUS_QUADRIC],
@@ -163,7 +178,7 @@ pub static MEAN_CURVATURE: Curvature = Curvature(metric_def!(
 /// `gaussian_curvature`: Gaussian curvature K.
 ///
 /// Source: [`EVANS`].
-pub static GAUSSIAN_CURVATURE: Curvature = Curvature(metric_def!(
+pub static GAUSSIAN_CURVATURE: FromQuadric = FromQuadric(metric_def!(
     GaussianCurvature,
     "gaussian_curvature",
     &[RADIUS_QUADRIC],
@@ -175,7 +190,7 @@ pub static GAUSSIAN_CURVATURE: Curvature = Curvature(metric_def!(
 /// `min_curvature`: minimal curvature H - sqrt(H^2-K).
 ///
 /// Source: [`EVANS`].
-pub static MIN_CURVATURE: Curvature = Curvature(metric_def!(
+pub static MIN_CURVATURE: FromQuadric = FromQuadric(metric_def!(
     MinCurvature,
     "min_curvature",
     &[RADIUS_QUADRIC],
@@ -187,7 +202,7 @@ pub static MIN_CURVATURE: Curvature = Curvature(metric_def!(
 /// `max_curvature`: maximal curvature H + sqrt(H^2-K).
 ///
 /// Source: [`EVANS`].
-pub static MAX_CURVATURE: Curvature = Curvature(metric_def!(
+pub static MAX_CURVATURE: FromQuadric = FromQuadric(metric_def!(
     MaxCurvature,
     "max_curvature",
     &[RADIUS_QUADRIC],

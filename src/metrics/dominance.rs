@@ -158,11 +158,13 @@ pub fn position(
     }
 }
 
-/// Dominance, submission, peakedness or domination in a disk (dominance
-/// and submission on a sphere with `planet`).
-pub struct PositionMetric(MetricDef);
+/// The descriptors of relative position in a disk: dominance, submission,
+/// peakedness and domination (here), ORS, jut and rut
+/// ([`super::relief_shape`]); dominance, submission, jut and rut in Xu's
+/// spherical form ([`super::xu`]) when `planet` gives a radius (km).
+pub struct DiskPosition(pub MetricDef);
 
-impl Metric for PositionMetric {
+impl Metric for DiskPosition {
     fn def(&self) -> &MetricDef {
         &self.0
     }
@@ -170,34 +172,30 @@ impl Metric for PositionMetric {
         m.radius_cells
     }
     fn run(&self, t: &mut Tile<'_>, m: &Resolved, o: &mut Grid<f32>) -> Result<()> {
+        use super::relief_shape::{relief_shape, ReliefShape};
+        use super::xu::{spherical, Xu};
+        use MetricKind::*;
+        let (view, rc, rm) = (t.view, m.radius_cells, m.radius_m);
         let kind = self.0.kind;
-        if let (Some(planet), MetricKind::Dominance | MetricKind::Submission) =
-            (m.spec.value("planet"), kind)
-        {
-            // Xu's spherical forms when a planet radius is given.
-            use super::xu::{spherical, Xu};
-            let which = if kind == MetricKind::Dominance {
-                Xu::Dominance
-            } else {
-                Xu::Submission
+        if let (Some(planet), Dominance | Submission | Jut | Rut) = (m.spec.value("planet"), kind) {
+            let which = match kind {
+                Dominance => Xu::Dominance,
+                Submission => Xu::Submission,
+                Jut => Xu::Jut,
+                _ => Xu::Rut,
             };
-            spherical(
-                t.view,
-                m.radius_cells,
-                m.radius_m,
-                planet * 1000.0,
-                which,
-                o,
-            );
+            spherical(view, rc, rm, planet * 1000.0, which, o);
             return Ok(());
         }
-        let which = match kind {
-            MetricKind::Dominance => Position::Dominance,
-            MetricKind::Submission => Position::Submission,
-            MetricKind::Peakedness => Position::Peakedness,
-            _ => Position::Domination,
-        };
-        position(t.view, m.radius_cells, m.radius_m, which, o);
+        match kind {
+            Ors => relief_shape(view, rc, rm, ReliefShape::Ors, o),
+            Jut => relief_shape(view, rc, rm, ReliefShape::Jut, o),
+            Rut => relief_shape(view, rc, rm, ReliefShape::Rut, o),
+            Dominance => position(view, rc, rm, Position::Dominance, o),
+            Submission => position(view, rc, rm, Position::Submission, o),
+            Peakedness => position(view, rc, rm, Position::Peakedness, o),
+            _ => position(view, rc, rm, Position::Domination, o),
+        }
         Ok(())
     }
 }
@@ -205,7 +203,7 @@ impl Metric for PositionMetric {
 /// `dominance`: how far the cell rises above the lowest valid cell of the disk: max(0, max (z - z_q)) (planar; planet=R km: height above the horizon plane of q on a sphere); 0 = submissive.
 ///
 /// Source: Xu 2022, Beyond elevation / datumless topography (arXiv 2208.01600); planar, or spherical with planet=R km; disk cutoff.
-pub static DOMINANCE: PositionMetric = PositionMetric(metric_def!(
+pub static DOMINANCE: DiskPosition = DiskPosition(metric_def!(
         Dominance,
         "dominance",
         &[RADIUS_CUTOFF, PLANET],
@@ -217,7 +215,7 @@ pub static DOMINANCE: PositionMetric = PositionMetric(metric_def!(
 /// `submission`: how far the cell dips below the highest valid cell of the disk: max(0, max (z_q - z)) (planar; planet=R km: height of q above the horizon plane of the cell); 0 = dominant.
 ///
 /// Source: Xu 2022, Beyond elevation / datumless topography (arXiv 2208.01600); planar, or spherical with planet=R km; disk cutoff.
-pub static SUBMISSION: PositionMetric = PositionMetric(metric_def!(
+pub static SUBMISSION: DiskPosition = DiskPosition(metric_def!(
         Submission,
         "submission",
         &[RADIUS_CUTOFF, PLANET],
@@ -229,7 +227,7 @@ pub static SUBMISSION: PositionMetric = PositionMetric(metric_def!(
 /// `peakedness`: share of the other valid cells of the disk strictly lower than the cell.
 ///
 /// Source: Deng & Wilson 2008, IJGIS 22(1-2) (elevation-percentile criterion at one scale); Llobera 2001 as the survey code; disk cutoff.
-pub static PEAKEDNESS: PositionMetric = PositionMetric(metric_def!(
+pub static PEAKEDNESS: DiskPosition = DiskPosition(metric_def!(
         Peakedness,
         "peakedness",
         &[RADIUS_CUTOFF],
@@ -241,7 +239,7 @@ pub static PEAKEDNESS: PositionMetric = PositionMetric(metric_def!(
 /// `domination`: geographical domination: distance to the nearest strictly higher valid cell; the cutoff if none within it.
 ///
 /// Source: 'Dominanz' of German orometry (isolation of a point); disk cutoff.
-pub static DOMINATION: PositionMetric = PositionMetric(metric_def!(
+pub static DOMINATION: DiskPosition = DiskPosition(metric_def!(
         Domination,
         "domination",
         &[RADIUS_CUTOFF],

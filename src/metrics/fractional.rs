@@ -90,6 +90,67 @@ pub fn disk_offsets(
     (off, dist)
 }
 
+/// The disk around one valid core cell, as [`disk_map`] hands it to a kernel.
+#[derive(Clone, Copy)]
+pub struct Disk<'a> {
+    data: &'a [f32],
+    centre: usize,
+    off: &'a [isize],
+    per: &'a [f64],
+}
+
+impl<'a> Disk<'a> {
+    /// Every cell of the disk: its value (NaN = nodata) and its per-offset
+    /// number (the distance in metres, or what the row's closure made of it).
+    #[inline(always)]
+    pub fn cells(self) -> impl Iterator<Item = (f64, f64)> + 'a {
+        let (data, c) = (self.data, self.centre as isize);
+        self.off
+            .iter()
+            .zip(self.per)
+            .map(move |(&k, &p)| (data[(c + k) as usize] as f64, p))
+    }
+}
+
+/// The driver of the disk kernels (fractional Laplacian, ORS/jut/rut, Xu's
+/// spherical forms): for every core row, the disk of [`disk_offsets`] with
+/// its distances, which `per_row(row, distances)` may turn in place into
+/// per-offset weights and from which it returns the row's constant; for
+/// every core cell, nodata at a nodata centre, else
+/// `cell(row constant, z, disk)`. Monomorphic: no per-cell dispatch.
+#[inline(always)]
+pub fn disk_map<R: Copy>(
+    view: &TileView<f32>,
+    rc: usize,
+    radius_m: f64,
+    o: &mut Grid<f32>,
+    mut per_row: impl FnMut(i64, &mut [f64]) -> R,
+    mut cell: impl FnMut(R, f64, Disk<'_>) -> f64,
+) {
+    let (h, gw) = (view.halo, view.grid.width());
+    let data = view.grid.data();
+    for y in 0..view.core.h {
+        let row = view.core.y + y as i64;
+        let (off, mut per) = disk_offsets(view, rc, radius_m, row);
+        let r = per_row(row, &mut per);
+        for x in 0..view.core.w {
+            let centre = (y + h) * gw + x + h;
+            let z = data[centre] as f64;
+            if z.is_nan() {
+                o.set(x, y, f32::NAN);
+                continue;
+            }
+            let disk = Disk {
+                data,
+                centre,
+                off: &off,
+                per: &per,
+            };
+            o.set(x, y, cell(r, z, disk) as f32);
+        }
+    }
+}
+
 /// Fractional Laplacian of every core cell (cutoff `radius_m`, at most `rc`
 /// cells per axis, `rc ≤` the view's halo), exponent `s` in (0, 1).
 pub fn fractional_laplacian(
@@ -100,32 +161,21 @@ pub fn fractional_laplacian(
     o: &mut Grid<f32>,
 ) {
     let c = frac_constant(s);
-    let (h, gw) = (view.halo, view.grid.width());
-    let data = view.grid.data();
-    let mut weights = Vec::new();
-    for y in 0..view.core.h {
-        let row = view.core.y + y as i64;
-        let (off, dist) = disk_offsets(view, rc, radius_m, row);
+    let weigh = |row: i64, dist: &mut [f64]| {
         let (ew, ns) = view.georef.cell_size_m(row);
-        weights.clear();
-        weights.extend(dist.iter().map(|d| c * ew * ns / d.powf(2.0 + 2.0 * s)));
-        for x in 0..view.core.w {
-            let ci = (y + h) * gw + x + h;
-            let z = data[ci] as f64;
-            if z.is_nan() {
-                o.set(x, y, f32::NAN);
-                continue;
-            }
-            let mut acc = 0.0;
-            for (&k, &wgt) in off.iter().zip(&weights) {
-                let v = data[(ci as isize + k) as usize] as f64;
-                if !v.is_nan() {
-                    acc += (z - v) * wgt;
-                }
-            }
-            o.set(x, y, acc as f32);
+        for d in dist.iter_mut() {
+            *d = c * ew * ns / d.powf(2.0 + 2.0 * s);
         }
-    }
+    };
+    disk_map(view, rc, radius_m, o, weigh, |(), z, disk| {
+        let mut acc = 0.0;
+        for (v, wgt) in disk.cells() {
+            if !v.is_nan() {
+                acc += (z - v) * wgt;
+            }
+        }
+        acc
+    });
 }
 
 /// The fractional Laplacian with a disk cutoff.

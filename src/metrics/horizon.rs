@@ -103,7 +103,7 @@ pub fn step_azimuth(dx: i64, dy: i64, ew: f64, ns: f64) -> f64 {
 
 /// Step length (metres) and number of steps within the cutoff of direction
 /// `dir` for cells of `ew` x `ns` metres, with at most `steps` cells per axis.
-fn plan(dir: usize, ew: f64, ns: f64, steps: usize, cutoff_m: f64) -> (f64, usize) {
+pub(crate) fn plan(dir: usize, ew: f64, ns: f64, steps: usize, cutoff_m: f64) -> (f64, usize) {
     let (dx, dy) = DIRS[dir];
     let limit = cutoff_m * (1.0 + 1e-12);
     let d = ((dx as f64 * ew).powi(2) + (dy as f64 * ns).powi(2)).sqrt();
@@ -113,6 +113,23 @@ fn plan(dir: usize, ew: f64, ns: f64, steps: usize, cutoff_m: f64) -> (f64, usiz
         k -= 1;
     }
     (d, k)
+}
+
+/// The valid cells of a lattice ray from the grid index `c`, `off` per
+/// step, steps `1..=k`: (step, z), nodata skipped.
+#[inline(always)]
+pub(crate) fn ray_cells(
+    data: &[f32],
+    c: usize,
+    off: isize,
+    k: usize,
+) -> impl Iterator<Item = (usize, f64)> + '_ {
+    let mut i = c as isize;
+    (1..=k).filter_map(move |s| {
+        i += off;
+        let z = data[i as usize] as f64;
+        (!z.is_nan()).then_some((s, z))
+    })
 }
 
 /// True if the slope from `(0, z0)` to `(sa, za)` is strictly below the
@@ -178,13 +195,7 @@ fn rays(view: &TileView<f32>, dir: usize, lower: bool, rows: &[(f64, usize)], ou
                 continue;
             }
             let (mut bs, mut bz) = (0usize, 0.0f64);
-            let mut i = c as isize;
-            for s in 1..=k {
-                i += off;
-                let z = data[i as usize] as f64;
-                if z.is_nan() {
-                    continue;
-                }
+            for (s, z) in ray_cells(data, c, off, k) {
                 if bs == 0 || below(sign * z0, bs, sign * bz, s, sign * z) {
                     bs = s;
                     bz = z;

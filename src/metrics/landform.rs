@@ -9,6 +9,8 @@
 //!
 //! Class outputs are small integers stored in f32 (NaN = nodata).
 
+use super::curvature::FromQuadric;
+use super::horizon::DIRS;
 use super::local_stats::windowed_stat;
 use super::param::{
     CURV_T, FLAT_T, RADIUS_GEOMORPHON, RADIUS_LARGE, RADIUS_QUADRIC, RADIUS_SMALL, SLOPE_T,
@@ -21,17 +23,9 @@ use crate::exec::LocalStep;
 use crate::raster::{Grid, TileView};
 
 /// The 8 geomorphon directions (dx east, dy south in rows), clockwise from
-/// north: N, NE, E, SE, S, SW, W, NW. Pattern digit `i` is direction `i`.
-pub const GEOMORPHON_DIRS: [(i64, i64); 8] = [
-    (0, -1),
-    (1, -1),
-    (1, 0),
-    (1, 1),
-    (0, 1),
-    (-1, 1),
-    (-1, 0),
-    (-1, -1),
-];
+/// north: N, NE, E, SE, S, SW, W, NW (the axes and diagonals that open the
+/// horizon scan's [`DIRS`]). Pattern digit `i` is direction `i`.
+pub const GEOMORPHON_DIRS: [(i64, i64); 8] = *DIRS.first_chunk::<8>().unwrap();
 
 /// Geomorphon class numbers, as GRASS r.geomorphon numbers them.
 pub const FLAT: u8 = 1;
@@ -402,39 +396,6 @@ impl Metric for WeissLandform {
     }
 }
 
-/// Dikau's form classes from the quadric's profile and plan curvatures.
-pub struct DikauForm(MetricDef);
-
-impl Metric for DikauForm {
-    fn def(&self) -> &MetricDef {
-        &self.0
-    }
-    fn halo(&self, m: &Resolved) -> usize {
-        m.radius_cells.max(1)
-    }
-    fn needs(&self, m: &Resolved) -> Needs {
-        Needs {
-            quadric: Some(m.radius_cells.max(1)),
-            ..Needs::default()
-        }
-    }
-    fn plain_at_one_cell(&self) -> bool {
-        true
-    }
-    fn run(&self, t: &mut Tile<'_>, m: &Resolved, o: &mut Grid<f32>) -> Result<()> {
-        let qg = t.quadric(m.radius_cells.max(1))?;
-        let th = m.spec.threshold.unwrap_or(0.0);
-        for (o, c) in o.data_mut().iter_mut().zip(qg.data()) {
-            *o = if c.p.is_nan() {
-                f32::NAN
-            } else {
-                dikau_class(c.profile(), c.plan(), th)
-            };
-        }
-        Ok(())
-    }
-}
-
 /// `geomorphon`: geomorphon landform: 1 flat, 2 peak, 3 ridge, 4 shoulder, 5 spur, 6 slope, 7 hollow, 8 footslope, 9 valley, 10 pit.
 ///
 /// Source: Jasiewicz & Stepinski 2013, Geomorphology 182 (classes numbered as GRASS r.geomorphon).
@@ -490,7 +451,7 @@ pub static WEISS_LANDFORM: WeissLandform = WeissLandform(metric_def!(
 /// `dikau_form`: Dikau form 3p+q+1 from profile (p) and plan (q) curvature: 0 concave, 1 straight, 2 convex.
 ///
 /// Source: Dikau 1989 (in Raper, 3D applications in GIS); curvatures of Evans/Wood as profile_curvature/plan_curvature.
-pub static DIKAU_FORM: DikauForm = DikauForm(metric_def!(
+pub static DIKAU_FORM: FromQuadric = FromQuadric(metric_def!(
         DikauForm,
         "dikau_form",
         &[RADIUS_QUADRIC, CURV_T],

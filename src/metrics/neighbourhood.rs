@@ -69,7 +69,7 @@ pub fn walk_3x3<O: Copy>(
 
 /// The 3x3 window at column `x` of three row slices that start one cell left.
 #[inline(always)]
-fn window(up: &[f32], mid: &[f32], dn: &[f32], x: usize) -> [f64; 9] {
+pub(crate) fn window(up: &[f32], mid: &[f32], dn: &[f32], x: usize) -> [f64; 9] {
     [
         up[x] as f64,
         up[x + 1] as f64,

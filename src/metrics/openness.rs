@@ -15,7 +15,7 @@ use super::registry::{metric_def, Metric, MetricDef, MetricKind, ScratchClass};
 use super::spec::Resolved;
 use super::tile::Tile;
 use crate::error::Result;
-use crate::raster::Grid;
+use crate::raster::{Grid, TileView};
 
 /// Scratch of the horizon scans with tangents (f64, up and down),
 /// per-direction solar horizons (f32) and sky-view sums, shared with the
@@ -28,6 +28,35 @@ pub fn horizon_scratch(tile: usize) -> (ScratchClass, u64) {
 /// The rays of a horizon metric: radius in cells, cutoff, directions.
 fn rays(m: &Resolved) -> (usize, u64, usize) {
     (m.radius_cells, m.radius_m.to_bits(), m.spec.directions)
+}
+
+/// Write `m`'s output from the one horizon scan per tile that every metric
+/// of the pass in `family` with `m`'s rays shares: the first to ask runs
+/// `scan(view, (radius cells, cutoff m, directions), kinds, grids)`, which
+/// fills one grid per distinct kind.
+fn shared_scan(
+    t: &mut Tile<'_>,
+    m: &Resolved,
+    name: &'static str,
+    family: fn(MetricKind) -> bool,
+    o: &mut Grid<f32>,
+    scan: impl FnOnce(&TileView<f32>, (usize, f64, usize), &[MetricKind], &mut [Grid<f32>]),
+) {
+    let key = rays(m);
+    let r = (m.radius_cells, m.radius_m, m.spec.directions);
+    t.grouped(
+        (name, key.0, key.1, key.2 as u64),
+        m,
+        |n| family(n.spec.kind) && rays(n) == key,
+        |view, kinds| {
+            let (cw, ch) = (view.core.w, view.core.h);
+            let mut grids: Vec<Grid<f32>> =
+                kinds.iter().map(|_| Grid::new(cw, ch, f32::NAN)).collect();
+            scan(view, r, kinds, &mut grids);
+            grids
+        },
+        o,
+    );
 }
 
 /// Openness (positive or negative) or sky view.
@@ -47,16 +76,13 @@ impl Metric for Openness {
     }
     fn run(&self, t: &mut Tile<'_>, m: &Resolved, o: &mut Grid<f32>) -> Result<()> {
         // One scan for every openness / sky view with the same rays.
-        let key = rays(m);
-        let (r, rm, dirs) = (m.radius_cells, m.radius_m, m.spec.directions);
-        t.grouped(
-            ("openness", key.0, key.1, key.2 as u64),
+        shared_scan(
+            t,
             m,
-            |n| is_openness(n.spec.kind) && rays(n) == key,
-            |view, kinds| {
-                let (cw, ch) = (view.core.w, view.core.h);
-                let mut grids: Vec<Grid<f32>> =
-                    kinds.iter().map(|_| Grid::new(cw, ch, f32::NAN)).collect();
+            "openness",
+            is_openness,
+            o,
+            |view, (r, rm, dirs), kinds, grids| {
                 let mut hout = HorizonOut {
                     positive: None,
                     negative: None,
@@ -70,9 +96,7 @@ impl Metric for Openness {
                     }
                 }
                 horizon(view, r, rm, dirs, hout);
-                grids
             },
-            o,
         );
         Ok(())
     }
@@ -129,16 +153,13 @@ impl Metric for Zenith {
     }
     fn run(&self, t: &mut Tile<'_>, m: &Resolved, o: &mut Grid<f32>) -> Result<()> {
         // One scan for every zenith/nadir/accessibility with the same rays.
-        let key = rays(m);
-        let (r, rm, dirs) = (m.radius_cells, m.radius_m, m.spec.directions);
-        t.grouped(
-            ("zenith", key.0, key.1, key.2 as u64),
+        shared_scan(
+            t,
             m,
-            |n| is_zenith(n.spec.kind) && rays(n) == key,
-            |view, kinds| {
-                let (cw, ch) = (view.core.w, view.core.h);
-                let mut grids: Vec<Grid<f32>> =
-                    kinds.iter().map(|_| Grid::new(cw, ch, f32::NAN)).collect();
+            "zenith",
+            is_zenith,
+            o,
+            |view, (r, rm, dirs), kinds, grids| {
                 let mut ho = HorizonExtra::default();
                 for (kind, g) in kinds.iter().zip(grids.iter_mut()) {
                     match kind {
@@ -148,9 +169,7 @@ impl Metric for Zenith {
                     }
                 }
                 horizon_extra(view, r, rm, dirs, HorizonMethod::Sweep, ho);
-                grids
             },
-            o,
         );
         Ok(())
     }

@@ -277,6 +277,22 @@ fn cell_values(sf: &ScaleFactors, i: usize) -> Option<[f64; NF]> {
     (!v[0].is_nan()).then_some(v)
 }
 
+/// The one input view of a pass, or an error naming the step (`what`)
+/// when the engine passed none.
+fn one_input<'a>(inputs: &'a [TileView<f32>], what: &str) -> Result<&'a TileView<f32>> {
+    inputs
+        .first()
+        .ok_or_else(|| Error::invalid(format!("{what} needs one input")))
+}
+
+/// The parameters every output of Deng & Wilson's statistics records (the
+/// scales, the peak relief and the weights), with `key` = `value` added.
+fn dw_params(key: &str, value: serde_json::Value) -> serde_json::Value {
+    let mut p = json!({ "scales": SCALES, "peak_relief": PEAK_RELIEF, "weights": WEIGHTS });
+    p[key] = value;
+    p
+}
+
 /// The one input view and the one output grid of an `apply`, or an error
 /// naming the step (`what`) when the engine passed none.
 fn one_in_out<'a, 'b>(
@@ -284,9 +300,7 @@ fn one_in_out<'a, 'b>(
     out: &'b mut [Grid<f32>],
     what: &str,
 ) -> Result<(&'a TileView<f32>, &'b mut Grid<f32>)> {
-    let view = inputs
-        .first()
-        .ok_or_else(|| Error::invalid(format!("{what} needs one input")))?;
+    let view = one_input(inputs, what)?;
     let o = out
         .first_mut()
         .ok_or_else(|| Error::invalid(format!("{what}: no output")))?;
@@ -303,15 +317,13 @@ impl GlobalStep for PeakStats {
         "peak_prototypicality".into()
     }
     fn params(&self) -> serde_json::Value {
-        json!({ "scales": SCALES, "peak_relief": PEAK_RELIEF, "weights": WEIGHTS, "top": self.top })
+        dw_params("top", json!(self.top))
     }
     fn halo(&self) -> usize {
         HALO
     }
     fn map(&self, inputs: &[TileView<f32>]) -> Result<Self::Summary> {
-        let view = inputs
-            .first()
-            .ok_or_else(|| Error::invalid("peak statistics need one input"))?;
+        let view = one_input(inputs, "peak statistics")?;
         let mut out = Vec::with_capacity(SCALES.len());
         for si in 0..SCALES.len() {
             let sf = factors(view, si, &self.path)?;
@@ -498,15 +510,13 @@ impl GlobalStep for PeakSimilarity {
         "peakedness_dw".into()
     }
     fn params(&self) -> serde_json::Value {
-        json!({ "scales": SCALES, "peak_relief": PEAK_RELIEF, "weights": WEIGHTS, "stats": self.stats })
+        dw_params("stats", json!(self.stats))
     }
     fn halo(&self) -> usize {
         HALO
     }
     fn map(&self, inputs: &[TileView<f32>]) -> Result<Self::Summary> {
-        let view = inputs
-            .first()
-            .ok_or_else(|| Error::invalid("peakedness_dw needs one input"))?;
+        let view = one_input(inputs, "peakedness_dw")?;
         let ds = self.distances(view)?;
         Ok(ds
             .iter()
@@ -688,7 +698,7 @@ pub fn compute_paths(
         let sink = |j: usize| -> Result<Box<dyn TileSink>> {
             let prov = crate::store::Provenance::new(
                 specs[j].def().name.to_string(),
-                json!({ "metric": specs[j], "scales": SCALES, "peak_relief": PEAK_RELIEF, "weights": WEIGHTS }),
+                dw_params("metric", json!(specs[j])),
                 vec![info.path.display().to_string()],
             );
             crate::io::create_sink(

@@ -369,20 +369,7 @@ mod tests {
         for d in METRICS {
             assert_eq!(METRICS.iter().filter(|e| e.kind == d.kind).count(), 1);
             assert_eq!(METRICS.iter().filter(|e| e.name == d.name).count(), 1);
-            let mut s = MetricSpec {
-                kind: d.kind,
-                radius: None,
-                directions: 8,
-                units: super::super::terrain::SlopeUnits::Degrees,
-                disk: false,
-                radius2: None,
-                threshold: None,
-                values: Default::default(),
-                azimuth: None,
-                exponent: None,
-                feature: None,
-                scales: None,
-            };
+            let mut s = MetricSpec::unset(d.kind);
             for p in d.params {
                 s.set(p, p.default).unwrap();
             }

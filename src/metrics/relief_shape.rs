@@ -17,12 +17,10 @@
 //!
 //! Halo = cutoff, so the values within the cutoff are exact in tiles.
 
-use super::fractional::disk_offsets;
+use super::dominance::DiskPosition;
+use super::fractional::disk_map;
 use super::param::{PLANET, RADIUS_CUTOFF};
-use super::registry::{metric_def, Metric, MetricDef, MetricKind};
-use super::spec::Resolved;
-use super::tile::Tile;
-use crate::error::Result;
+use super::registry::metric_def;
 use crate::raster::{Grid, TileView};
 
 /// Earl & Metzler's ORS kernel `f(u)`, clamped at 0 against rounding.
@@ -50,99 +48,47 @@ pub fn relief_shape(
     which: ReliefShape,
     o: &mut Grid<f32>,
 ) {
-    let (h, gw) = (view.halo, view.grid.width());
-    let data = view.grid.data();
-    for y in 0..view.core.h {
-        let row = view.core.y + y as i64;
-        let (off, dist) = disk_offsets(view, rc, radius_m, row);
+    let area_of = |row: i64, _: &mut [f64]| {
         let (ew, ns) = view.georef.cell_size_m(row);
-        let area = ew * ns;
-        for x in 0..view.core.w {
-            let ci = (y + h) * gw + x + h;
-            let z = data[ci] as f64;
-            if z.is_nan() {
-                o.set(x, y, f32::NAN);
-                continue;
-            }
-            let mut acc = 0.0f64;
-            for (&k, &d) in off.iter().zip(&dist) {
-                let v = data[(ci as isize + k) as usize] as f64;
-                // NaN neighbours fail every comparison below.
-                let dz = z - v;
-                match which {
-                    ReliefShape::Ors => {
-                        if dz > 0.0 {
-                            acc += ors_kernel(dz / d);
-                        }
+        ew * ns
+    };
+    disk_map(view, rc, radius_m, o, area_of, |area, z, disk| {
+        let mut acc = 0.0f64;
+        for (v, d) in disk.cells() {
+            // NaN neighbours fail every comparison below.
+            let dz = z - v;
+            match which {
+                ReliefShape::Ors => {
+                    if dz > 0.0 {
+                        acc += ors_kernel(dz / d);
                     }
-                    // dz²/√(d²+dz²) < |dz|: a cell with |dz| ≤ acc cannot
-                    // raise the maximum, so the division is skipped (exact).
-                    ReliefShape::Jut => {
-                        if dz > acc {
-                            acc = acc.max(dz * dz / (d * d + dz * dz).sqrt());
-                        }
+                }
+                // dz²/√(d²+dz²) < |dz|: a cell with |dz| ≤ acc cannot
+                // raise the maximum, so the division is skipped (exact).
+                ReliefShape::Jut => {
+                    if dz > acc {
+                        acc = acc.max(dz * dz / (d * d + dz * dz).sqrt());
                     }
-                    ReliefShape::Rut => {
-                        if -dz > acc {
-                            acc = acc.max(dz * dz / (d * d + dz * dz).sqrt());
-                        }
+                }
+                ReliefShape::Rut => {
+                    if -dz > acc {
+                        acc = acc.max(dz * dz / (d * d + dz * dz).sqrt());
                     }
                 }
             }
-            let v = if which == ReliefShape::Ors {
-                (acc * area).sqrt()
-            } else {
-                acc
-            };
-            o.set(x, y, v as f32);
         }
-    }
-}
-
-/// ORS, jut or rut in a disk (jut and rut on a sphere with `planet`).
-pub struct ReliefShapeMetric(MetricDef);
-
-impl Metric for ReliefShapeMetric {
-    fn def(&self) -> &MetricDef {
-        &self.0
-    }
-    fn halo(&self, m: &Resolved) -> usize {
-        m.radius_cells
-    }
-    fn run(&self, t: &mut Tile<'_>, m: &Resolved, o: &mut Grid<f32>) -> Result<()> {
-        let kind = self.0.kind;
-        if let (Some(planet), MetricKind::Jut | MetricKind::Rut) = (m.spec.value("planet"), kind) {
-            // Xu's spherical forms when a planet radius is given.
-            use super::xu::{spherical, Xu};
-            let which = if kind == MetricKind::Jut {
-                Xu::Jut
-            } else {
-                Xu::Rut
-            };
-            spherical(
-                t.view,
-                m.radius_cells,
-                m.radius_m,
-                planet * 1000.0,
-                which,
-                o,
-            );
-            return Ok(());
+        if which == ReliefShape::Ors {
+            (acc * area).sqrt()
+        } else {
+            acc
         }
-        let which = match kind {
-            MetricKind::Ors => ReliefShape::Ors,
-            MetricKind::Jut => ReliefShape::Jut,
-            _ => ReliefShape::Rut,
-        };
-        relief_shape(t.view, m.radius_cells, m.radius_m, which, o);
-        Ok(())
-    }
+    });
 }
 
 /// `ors`: omni-directional relief and steepness sqrt(sum over lower cells in the disk of f(drop/distance) * cell area).
 ///
 /// Source: Earl & Metzler 2015, Quaestiones Geographicae 34(4) (ORS); disk cutoff.
-pub static ORS: ReliefShapeMetric = ReliefShapeMetric(metric_def!(
+pub static ORS: DiskPosition = DiskPosition(metric_def!(
         Ors,
         "ors",
         &[RADIUS_CUTOFF],
@@ -154,7 +100,7 @@ pub static ORS: ReliefShapeMetric = ReliefShapeMetric(metric_def!(
 /// `jut`: max over the disk of the angle-reduced height dz*|dz|/d3 of the cell above others (planar; with planet=R km heights above the base horizon on a sphere; >= 0).
 ///
 /// Source: Xu 2022, Beyond elevation / datumless topography (arXiv 2208.01600); planar, or spherical with planet=R km; disk cutoff.
-pub static JUT: ReliefShapeMetric = ReliefShapeMetric(metric_def!(
+pub static JUT: DiskPosition = DiskPosition(metric_def!(
         Jut,
         "jut",
         &[RADIUS_CUTOFF, PLANET],
@@ -166,7 +112,7 @@ pub static JUT: ReliefShapeMetric = ReliefShapeMetric(metric_def!(
 /// `rut`: max over the disk of the angle-reduced height dz*|dz|/d3 of others above the cell (planar; with planet=R km heights above the base horizon on a sphere; >= 0).
 ///
 /// Source: Xu 2022, Beyond elevation / datumless topography (arXiv 2208.01600); planar, or spherical with planet=R km; disk cutoff.
-pub static RUT: ReliefShapeMetric = ReliefShapeMetric(metric_def!(
+pub static RUT: DiskPosition = DiskPosition(metric_def!(
         Rut,
         "rut",
         &[RADIUS_CUTOFF, PLANET],

@@ -6,7 +6,7 @@
 //! et al. 2007, Marine Geodesy 30; Jenness 2004, Wildlife Society Bulletin
 //! 32(3); Lindsay, Newman & Francioni 2019, Geosciences 9(7) 322.
 
-use super::neighbourhood::{walk_3x3, EdgeMode};
+use super::neighbourhood::{walk_3x3, window, EdgeMode};
 use super::param::RADIUS;
 use super::quadric::{rugosity, tri_riley, tri_wilson};
 use super::registry::{metric_def, Metric, MetricDef, MetricKind, Needs, ScratchClass};
@@ -158,17 +158,7 @@ pub fn normal_field(view: &TileView<f32>, r: usize) -> NormalField {
         // Two passes per row: the floating-point normals (branch-free, so
         // the divisions and square roots vectorise), then their fixed point.
         for x in 0..w {
-            let win = [
-                a[x] as f64,
-                a[x + 1] as f64,
-                a[x + 2] as f64,
-                b[x] as f64,
-                b[x + 1] as f64,
-                b[x + 2] as f64,
-                c[x] as f64,
-                c[x + 1] as f64,
-                c[x + 2] as f64,
-            ];
+            let win = window(a, b, c, x);
             ok[x] = !win.iter().sum::<f64>().is_nan();
             let (p, q) = horn_gradient(&win, ew, ns);
             let d = (1.0 + p * p + q * q).sqrt();

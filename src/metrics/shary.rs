@@ -30,12 +30,9 @@
 //! |H| ≤ t, |K| ≤ t²), e.g. a plane or a flat summit, or (rounding at
 //! H ≈ 0) the signs contradict `H = (kh + kv)/2`.
 
+use super::curvature::FromQuadric;
 use super::param::{RADIUS_QUADRIC, SHARY_T};
-use super::registry::{metric_def, Metric, MetricDef, Needs};
-use super::spec::Resolved;
-use super::tile::Tile;
-use crate::error::Result;
-use crate::raster::Grid;
+use super::registry::metric_def;
 
 /// Shary class 0..=12 from the curvatures (NaN if any is NaN).
 pub fn shary_class(k: f64, h: f64, kh: f64, kv: f64, t: f64) -> f32 {
@@ -60,43 +57,10 @@ pub fn shary_class(k: f64, h: f64, kh: f64, kv: f64, t: f64) -> f32 {
     (if k > 0.0 { idx + 6 } else { idx }) as f32
 }
 
-/// Shary's twelve landform types from the quadric's curvatures.
-pub struct SharyLandform(MetricDef);
-
-impl Metric for SharyLandform {
-    fn def(&self) -> &MetricDef {
-        &self.0
-    }
-    fn halo(&self, m: &Resolved) -> usize {
-        m.radius_cells.max(1)
-    }
-    fn needs(&self, m: &Resolved) -> Needs {
-        Needs {
-            quadric: Some(m.radius_cells.max(1)),
-            ..Needs::default()
-        }
-    }
-    fn plain_at_one_cell(&self) -> bool {
-        true
-    }
-    fn run(&self, t: &mut Tile<'_>, m: &Resolved, o: &mut Grid<f32>) -> Result<()> {
-        let qg = t.quadric(m.radius_cells.max(1))?;
-        let th = m.spec.threshold.unwrap_or(0.0);
-        for (o, c) in o.data_mut().iter_mut().zip(qg.data()) {
-            *o = if c.p.is_nan() {
-                f32::NAN
-            } else {
-                shary_class(c.gaussian(), c.mean(), c.tangential(), c.profile(), th)
-            };
-        }
-        Ok(())
-    }
-}
-
 /// `shary_landform`: Shary's 12 types from the signs of K, H, kh (tangential) and kv (profile): see metrics::shary; 0 where one is zero.
 ///
 /// Source: Shary 1995, Mathematical Geology 27(3); Shary, Sharaya & Mitusov 2002, Geoderma 107; curvatures of Evans/Wood.
-pub static SHARY_LANDFORM: SharyLandform = SharyLandform(metric_def!(
+pub static SHARY_LANDFORM: FromQuadric = FromQuadric(metric_def!(
         SharyLandform,
         "shary_landform",
         &[RADIUS_QUADRIC, SHARY_T],

@@ -126,6 +126,8 @@ pub const ALPHA_MAX: ParamDef = ParamDef {
     range: "azimuth of maximal heating, degrees 0..=360",
 };
 
+/// Units of `solar_direct` and `solar_global`: a daily sum or one hour's irradiance.
+const DAY_OR_HOUR_UNITS: &str = "Wh/m2 (day), W/m2 (hour)";
 /// Parameters of `solar_direct` and `solar_global`.
 pub const SOLAR_PARAMS: &[ParamDef] = &[DAY, HOUR, STEP, TAU, LAT, RADIUS, DIRECTIONS16];
 /// Parameters of `solar_annual`.
@@ -535,10 +537,10 @@ impl Metric for HeatIndex {
 pub static SOLAR_DIRECT: Solar = Solar(metric_def!(
         SolarDirect,
         "solar_direct",
-        super::solar::SOLAR_PARAMS,
-        "Wh/m2 (day), W/m2 (hour)",
+        SOLAR_PARAMS,
+        DAY_OR_HOUR_UNITS,
         "clear-sky direct (beam) irradiation on the slope with cast shadows, for one solar hour or the whole day",
-        super::solar::SOLAR_CITE
+        SOLAR_CITE
     ));
 
 /// `solar_global`: clear-sky direct + isotropic diffuse (x sky-view factor) irradiation, one solar hour or the whole day.
@@ -547,10 +549,10 @@ pub static SOLAR_DIRECT: Solar = Solar(metric_def!(
 pub static SOLAR_GLOBAL: Solar = Solar(metric_def!(
         SolarGlobal,
         "solar_global",
-        super::solar::SOLAR_PARAMS,
-        "Wh/m2 (day), W/m2 (hour)",
+        SOLAR_PARAMS,
+        DAY_OR_HOUR_UNITS,
         "clear-sky direct + isotropic diffuse (x sky-view factor) irradiation, one solar hour or the whole day",
-        super::solar::SOLAR_CITE
+        SOLAR_CITE
     ));
 
 /// `solar_annual`: clear-sky direct + isotropic diffuse irradiation over a year (sampled days, scaled to 365).
@@ -559,10 +561,10 @@ pub static SOLAR_GLOBAL: Solar = Solar(metric_def!(
 pub static SOLAR_ANNUAL: Solar = Solar(metric_def!(
     SolarAnnual,
     "solar_annual",
-    super::solar::ANNUAL_PARAMS,
+    ANNUAL_PARAMS,
     "kWh/m2",
     "clear-sky direct + isotropic diffuse irradiation over a year (sampled days, scaled to 365)",
-    super::solar::SOLAR_CITE
+    SOLAR_CITE
 ));
 
 /// `heat_index`: diurnal anisotropic heating cos(alpha_max - aspect) * atan(slope in radians); flat = 0.
@@ -571,7 +573,7 @@ pub static SOLAR_ANNUAL: Solar = Solar(metric_def!(
 pub static HEAT_INDEX: HeatIndex = HeatIndex(metric_def!(
     HeatIndex,
     "heat_index",
-    &[super::solar::ALPHA_MAX],
+    &[ALPHA_MAX],
     "-1.57..1.57",
     "diurnal anisotropic heating cos(alpha_max - aspect) * atan(slope in radians); flat = 0",
     "Böhner & Antonić 2009 (in Hengl & Reuter, Geomorphometry, ch. 8), as SAGA"

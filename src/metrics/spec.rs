@@ -48,8 +48,17 @@ pub struct MetricSpec {
 impl MetricSpec {
     /// The metric with its default parameters.
     pub fn new(kind: MetricKind) -> MetricSpec {
-        let d = def(kind);
-        let mut s = MetricSpec {
+        let mut s = MetricSpec::unset(kind);
+        for p in def(kind).params {
+            // Defaults are registry constants, parsed by the unit tests.
+            let _ = s.set(p, p.default);
+        }
+        s
+    }
+
+    /// The metric before any parameter is set (8 directions, degrees).
+    pub(crate) fn unset(kind: MetricKind) -> MetricSpec {
+        MetricSpec {
             kind,
             radius: None,
             directions: 8,
@@ -62,12 +71,7 @@ impl MetricSpec {
             exponent: None,
             feature: None,
             scales: None,
-        };
-        for p in d.params {
-            // Defaults are registry constants, parsed by the unit tests.
-            let _ = s.set(p, p.default);
         }
-        s
     }
 
     /// Registry entry.

@@ -38,7 +38,7 @@
 
 #![allow(clippy::needless_range_loop)] // index loops over parallel per-cell arrays
 
-use super::horizon::{step_azimuth, DIRS};
+use super::horizon::{plan as ray_plan, ray_cells, step_azimuth, DIRS};
 use super::param::{DIRECTIONS, RADIUS_HORIZON};
 use super::registry::{metric_def, Metric, MetricDef, MetricKind};
 use super::registry::{ParamDef, ParamKind};
@@ -397,17 +397,11 @@ pub fn visibility_index(
     let gw = view.grid.width();
     let data = view.grid.data();
     let dirs = &DIRS[..directions.min(16)];
-    let limit = cutoff_m * (1.0 + 1e-12);
     for y in 0..view.core.h {
         let (ew, ns) = view.georef.cell_size_m(view.core.y + y as i64);
         let mut plan = [(0isize, 0.0f64, 0usize); 16];
-        for (p, &(dx, dy)) in plan.iter_mut().zip(dirs) {
-            let d = ((dx as f64 * ew).powi(2) + (dy as f64 * ns).powi(2)).sqrt();
-            let axis = dx.unsigned_abs().max(dy.unsigned_abs()) as usize;
-            let mut k = steps / axis;
-            while k > 0 && k as f64 * d > limit {
-                k -= 1;
-            }
+        for (j, (p, &(dx, dy))) in plan.iter_mut().zip(dirs).enumerate() {
+            let (d, k) = ray_plan(j, ew, ns, steps, cutoff_m);
             *p = (dy as isize * gw as isize + dx as isize, d, k);
         }
         for x in 0..view.core.w {
@@ -421,13 +415,7 @@ pub fn visibility_index(
             let (mut seen, mut n) = (0u32, 0u32);
             for &(off, d, k) in &plan[..dirs.len()] {
                 let mut block = f64::NEG_INFINITY;
-                let mut i = c as isize;
-                for s in 1..=k {
-                    i += off;
-                    let z = data[i as usize] as f64;
-                    if z.is_nan() {
-                        continue;
-                    }
+                for (s, z) in ray_cells(data, c, off, k) {
                     let dist = s as f64 * d;
                     n += 1;
                     if (z + target - eye) / dist >= block {
@@ -563,8 +551,8 @@ pub static VISIBILITY_INDEX: VisibilityIndex = VisibilityIndex(metric_def!(
         &[
             RADIUS_HORIZON,
             DIRECTIONS,
-            super::visibility::HEIGHT,
-            super::visibility::TARGET
+            HEIGHT,
+            TARGET
         ],
         "0..1",
         "share of the cells on the lattice rays within the cutoff that the observer (height above the cell) sees",
@@ -578,9 +566,9 @@ pub static VISIBILITY_INDEX_EXACT: VisibilityIndex = VisibilityIndex(metric_def!
         VisibilityIndexExact,
         "visibility_index_exact",
         &[
-            super::visibility::RADIUS_EXACT,
-            super::visibility::HEIGHT,
-            super::visibility::TARGET
+            RADIUS_EXACT,
+            HEIGHT,
+            TARGET
         ],
         "0..1",
         "share of all cells within the cutoff disk visible (R3 line of sight) from the observer; O(r^3) per cell",

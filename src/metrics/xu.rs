@@ -27,7 +27,7 @@
 //! which does not match `H sin e`; orogen uses the base's for both.
 //! Nodata cells are nodata and left out. O(r²) per cell.
 
-use super::fractional::disk_offsets;
+use super::fractional::disk_map;
 use crate::raster::{Grid, TileView};
 
 /// Which of Xu's four measures.
@@ -50,52 +50,38 @@ pub fn spherical(
     which: Xu,
     o: &mut Grid<f32>,
 ) {
-    let (h, gw) = (view.halo, view.grid.width());
-    let data = view.grid.data();
-    for y in 0..view.core.h {
-        let row = view.core.y + y as i64;
-        let (off, dist) = disk_offsets(view, rc, radius_m, row);
-        // 2 sin²(θ/2) = 1 − cos θ per offset.
-        let s2: Vec<f64> = dist
-            .iter()
-            .map(|d| {
-                let t = (d / planet_m / 2.0).sin();
-                2.0 * t * t
-            })
-            .collect();
-        for x in 0..view.core.w {
-            let ci = (y + h) * gw + x + h;
-            let z = data[ci] as f64;
-            if z.is_nan() {
-                o.set(x, y, f32::NAN);
+    // 2 sin²(θ/2) = 1 − cos θ per offset, in place of the distance.
+    let half_versine = |_: i64, dist: &mut [f64]| {
+        for d in dist.iter_mut() {
+            let t = (*d / planet_m / 2.0).sin();
+            *d = 2.0 * t * t;
+        }
+    };
+    disk_map(view, rc, radius_m, o, half_versine, |(), z, disk| {
+        let a = planet_m + z;
+        let mut acc = 0.0f64;
+        for (v, s) in disk.cells() {
+            if v.is_nan() {
                 continue;
             }
-            let a = planet_m + z;
-            let mut acc = 0.0f64;
-            for (&k, &s) in off.iter().zip(&s2) {
-                let v = data[(ci as isize + k) as usize] as f64;
-                if v.is_nan() {
-                    continue;
-                }
-                let b = planet_m + v;
-                // (summit, base) and the summit's height above the base's horizon.
-                let (dz, hh, ab) = match which {
-                    Xu::Dominance | Xu::Jut => (z - v, (z - v) - a * s, a * b),
-                    Xu::Submission | Xu::Rut => (v - z, (v - z) - b * s, a * b),
-                };
-                match which {
-                    Xu::Dominance | Xu::Submission => acc = acc.max(hh),
-                    // H' = H²/L ≤ H (L is the chord, H its projection): a
-                    // height ≤ acc cannot raise the maximum.
-                    Xu::Jut | Xu::Rut => {
-                        if hh > acc {
-                            let l = (dz * dz + 2.0 * ab * s).sqrt();
-                            acc = acc.max(hh * hh / l);
-                        }
+            let b = planet_m + v;
+            // (summit, base) and the summit's height above the base's horizon.
+            let (dz, hh, ab) = match which {
+                Xu::Dominance | Xu::Jut => (z - v, (z - v) - a * s, a * b),
+                Xu::Submission | Xu::Rut => (v - z, (v - z) - b * s, a * b),
+            };
+            match which {
+                Xu::Dominance | Xu::Submission => acc = acc.max(hh),
+                // H' = H²/L ≤ H (L is the chord, H its projection): a
+                // height ≤ acc cannot raise the maximum.
+                Xu::Jut | Xu::Rut => {
+                    if hh > acc {
+                        let l = (dz * dz + 2.0 * ab * s).sqrt();
+                        acc = acc.max(hh * hh / l);
                     }
                 }
             }
-            o.set(x, y, acc as f32);
         }
-    }
+        acc
+    });
 }

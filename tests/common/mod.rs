@@ -255,3 +255,84 @@ pub fn u16_store(
     orogen::exec::ingest(&src, dir, opts, &EngineConfig::default()).unwrap();
     src
 }
+
+/// Steps `a` and `b` (dx east, dy south in rows), then both turned
+/// clockwise by one, two and three quarter turns, interleaved.
+const fn quarter_turns(a: (i64, i64), b: (i64, i64)) -> [(i64, i64); 8] {
+    let mut out = [(0, 0); 8];
+    let (mut a, mut b) = (a, b);
+    let mut q = 0;
+    while q < 4 {
+        out[2 * q] = a;
+        out[2 * q + 1] = b;
+        a = (-a.1, a.0);
+        b = (-b.1, b.0);
+        q += 1;
+    }
+    out
+}
+
+/// The 8 neighbour steps clockwise from north: N, NE, E, SE, S, SW, W, NW.
+pub const COMPASS8: [(i64, i64); 8] = quarter_turns((0, -1), (1, -1));
+
+/// The 16 lattice rays of the horizon metrics: [`COMPASS8`], then the
+/// knight moves clockwise from north-north-east.
+pub const RAYS16: [(i64, i64); 16] = {
+    let knights = quarter_turns((1, -2), (2, -1));
+    let mut out = [(0, 0); 16];
+    let mut i = 0;
+    while i < 8 {
+        out[i] = COMPASS8[i];
+        out[8 + i] = knights[i];
+        i += 1;
+    }
+    out
+};
+
+/// Aspect (azimuth of steepest descent, clockwise from north, degrees) of
+/// the gradient `(p, q)` = (dz/dx east, dz/dy north).
+pub fn aspect_deg(p: f64, q: f64) -> f64 {
+    let a = (-p).atan2(-q).to_degrees();
+    if a < 0.0 {
+        a + 360.0
+    } else {
+        a
+    }
+}
+
+/// The Horn gradient norms of the cells of the square of half-side `r`
+/// around (x, y) that face `az` ± `tol` degrees and those that face the
+/// opposite way, among the cells steeper than 5 % (the split of the
+/// hillslope asymmetry of Poulos et al. 2012), in row-major order.
+#[allow(clippy::too_many_arguments)]
+pub fn facing_gradients(
+    d: &[f32],
+    w: usize,
+    h: usize,
+    (x, y): (i64, i64),
+    r: i64,
+    az: f64,
+    tol: f64,
+) -> (Vec<f64>, Vec<f64>) {
+    let (mut toward, mut away) = (Vec::new(), Vec::new());
+    for yy in y - r..=y + r {
+        for xx in x - r..=x + r {
+            let (p, q) = horn(d, w, h, xx, yy);
+            let g = (p * p + q * q).sqrt();
+            if g.is_nan() || g <= 0.05 {
+                continue;
+            }
+            let a = aspect_deg(p, q);
+            let dist = |t: f64| {
+                let d = (a - t).abs() % 360.0;
+                d.min(360.0 - d)
+            };
+            if dist(az) < tol {
+                toward.push(g);
+            } else if dist(az + 180.0) < tol {
+                away.push(g);
+            }
+        }
+    }
+    (toward, away)
+}

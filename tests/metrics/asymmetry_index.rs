@@ -6,7 +6,7 @@
 #![allow(clippy::needless_range_loop)] // index loops read like the definitions
 
 use crate::common::{
-    assert_tiled_equals_untiled, check, horn, random_terrain_by, ridge, run1, source,
+    assert_tiled_equals_untiled, check, facing_gradients, random_terrain_by, ridge, run1, source,
     spec_err as err, CELL,
 };
 
@@ -16,16 +16,6 @@ fn random_grid(w: usize, h: usize, seed: u64, holes: f64) -> Vec<f32> {
     random_terrain_by(w, h, seed, holes, 8.0, |x, y| {
         30.0 * (0.9 * x + 0.3 * y).sin() + 20.0 * (0.8 * y - 0.2 * x).cos()
     })
-}
-
-/// Aspect (azimuth of steepest descent, clockwise from north) in degrees.
-fn aspect(p: f64, q: f64) -> f64 {
-    let a = (-p).atan2(-q).to_degrees();
-    if a < 0.0 {
-        a + 360.0
-    } else {
-        a
-    }
 }
 
 /// Median by a full sort (mean of the two middle values for an even count).
@@ -51,26 +41,7 @@ fn asymmetry_oracle(data: &[f32], w: usize, h: usize, r: i64, az: f64, tol: f64)
             if data[i].is_nan() {
                 return f64::NAN;
             }
-            let (mut pos, mut neg) = (Vec::new(), Vec::new());
-            for yy in y - r..=y + r {
-                for xx in x - r..=x + r {
-                    let (p, q) = horn(data, w, h, xx, yy);
-                    let g = (p * p + q * q).sqrt();
-                    if g.is_nan() || g <= 0.05 {
-                        continue;
-                    }
-                    let a = aspect(p, q);
-                    let dist = |t: f64| {
-                        let d = (a - t).abs() % 360.0;
-                        d.min(360.0 - d)
-                    };
-                    if dist(az) < tol {
-                        pos.push(g);
-                    } else if dist(az + 180.0) < tol {
-                        neg.push(g);
-                    }
-                }
-            }
+            let (pos, neg) = facing_gradients(data, w, h, (x, y), r, az, tol);
             match (median(pos), median(neg)) {
                 (Some(a), Some(b)) => (a / b).log10(),
                 _ => f64::NAN,

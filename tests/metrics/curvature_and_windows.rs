@@ -5,7 +5,7 @@
 
 #![allow(clippy::needless_range_loop)] // index loops read like the definitions
 
-use crate::common::{get as at, run, source, Rng, CELL};
+use crate::common::{check, get as at, run, source, Rng, CELL, COMPASS8};
 
 fn close(got: f32, want: f64, rel: f64, abs: f64) -> bool {
     if want.is_nan() {
@@ -14,16 +14,10 @@ fn close(got: f32, want: f64, rel: f64, abs: f64) -> bool {
     (got as f64 - want).abs() <= abs + rel * want.abs()
 }
 
-fn assert_all(name: &str, got: &[f32], want: &[f64], w: usize, rel: f64, abs: f64) {
-    assert_eq!(got.len(), want.len());
-    for (i, (g, e)) in got.iter().zip(want).enumerate() {
-        assert!(
-            close(*g, *e, rel, abs),
-            "{name}: cell ({}, {}) got {g}, want {e}",
-            i % w,
-            i / w
-        );
-    }
+/// Fails with `what`, the value and the expectation unless [`close`].
+#[track_caller]
+fn assert_close(got: f32, want: f64, rel: f64, abs: f64, what: std::fmt::Arguments) {
+    assert!(close(got, want, rel, abs), "{what}: {got} vs {want}");
 }
 
 /// Map coordinates (metres) of the centre of cell (col, row).
@@ -59,16 +53,7 @@ fn tilted_plane_closed_forms() {
     }
     let riley = (6.0f64 * (a * a + b * b)).sqrt() * CELL;
     let mut wilson = 0.0;
-    for (dx, dy) in [
-        (-1, -1),
-        (0, -1),
-        (1, -1),
-        (-1, 0),
-        (1, 0),
-        (-1, 1),
-        (0, 1),
-        (1, 1),
-    ] {
+    for (dx, dy) in COMPASS8 {
         wilson += (a * dx as f64 + b * dy as f64).abs() * CELL / 8.0;
     }
     let rug = (1.0 + a * a + b * b).sqrt();
@@ -86,10 +71,7 @@ fn tilted_plane_closed_forms() {
                     assert!(g.is_nan(), "metric {k} at edge ({x},{y}) = {g}");
                     return;
                 }
-                assert!(
-                    close(g, want, rel, abs),
-                    "metric {k} at ({x},{y}): {g} vs {want}"
-                );
+                assert_close(g, want, rel, abs, format_args!("metric {k} at ({x},{y})"));
             };
             chk(0, a, 1e-6, 1e-9);
             chk(1, b, 1e-6, 1e-9);
@@ -154,10 +136,12 @@ fn paraboloid_laplacian_and_apex_curvatures() {
     for y in 1..h - 1 {
         for x in 1..w - 1 {
             // f32 storage of z limits the second difference to ~1e-5 / 100.
-            assert!(
-                close(out[0][y * w + x], lap, 1e-4, 1e-6),
-                "({x},{y}) {}",
-                out[0][y * w + x]
+            assert_close(
+                out[0][y * w + x],
+                lap,
+                1e-4,
+                1e-6,
+                format_args!("({x},{y})"),
             );
         }
     }
@@ -223,26 +207,10 @@ fn wood_quadric_exact_on_paraboloid_with_holes() {
             // Contour curvature: second derivative across the gradient over |∇z|.
             let dtt = zxx * ey * ey - 2.0 * zxy * ex * ey + zyy * ex * ex;
             let kp = -dtt / gn;
-            assert!(
-                close(out[0][i], hh, 1e-5, 1e-12),
-                "H ({x},{y}) {} vs {hh}",
-                out[0][i]
-            );
-            assert!(
-                close(out[1][i], kk, 1e-5, 1e-14),
-                "K ({x},{y}) {} vs {kk}",
-                out[1][i]
-            );
-            assert!(
-                close(out[2][i], kv, 1e-5, 1e-12),
-                "kv ({x},{y}) {} vs {kv}",
-                out[2][i]
-            );
-            assert!(
-                close(out[3][i], kp, 1e-5, 1e-12),
-                "kp ({x},{y}) {} vs {kp}",
-                out[3][i]
-            );
+            assert_close(out[0][i], hh, 1e-5, 1e-12, format_args!("H ({x},{y})"));
+            assert_close(out[1][i], kk, 1e-5, 1e-14, format_args!("K ({x},{y})"));
+            assert_close(out[2][i], kv, 1e-5, 1e-12, format_args!("kv ({x},{y})"));
+            assert_close(out[3][i], kp, 1e-5, 1e-12, format_args!("kp ({x},{y})"));
         }
     }
 }
@@ -272,31 +240,32 @@ fn sphere_cap_curvature_is_one_over_r() {
             let i = y * w + x;
             let (px, py) = xy(x, y);
             let rho = ((px - cx).powi(2) + (py - cy).powi(2)).sqrt();
-            assert!(
-                close(out[0][i], 1.0 / rr, 2e-3, 0.0),
-                "H ({x},{y}) {}",
-                out[0][i]
-            );
-            assert!(
-                close(out[1][i], 1.0 / (rr * rr), 4e-3, 0.0),
-                "K ({x},{y}) {}",
-                out[1][i]
+            assert_close(out[0][i], 1.0 / rr, 2e-3, 0.0, format_args!("H ({x},{y})"));
+            assert_close(
+                out[1][i],
+                1.0 / (rr * rr),
+                4e-3,
+                0.0,
+                format_args!("K ({x},{y})"),
             );
             if rho > 50.0 {
                 // Principal, normal-section curvatures all 1/R; the contour is
                 // a circle of radius ρ: plan curvature 1/ρ.
                 for k in 2..=5 {
-                    assert!(
-                        close(out[k][i], 1.0 / rr, 5e-2, 0.0),
-                        "k{k} ({x},{y}) {}",
-                        out[k][i]
+                    assert_close(
+                        out[k][i],
+                        1.0 / rr,
+                        5e-2,
+                        0.0,
+                        format_args!("k{k} ({x},{y})"),
                     );
                 }
-                assert!(
-                    close(out[6][i], 1.0 / rho, 2e-2, 0.0),
-                    "kp ({x},{y}) {} vs {}",
+                assert_close(
                     out[6][i],
-                    1.0 / rho
+                    1.0 / rho,
+                    2e-2,
+                    0.0,
+                    format_args!("kp ({x},{y})"),
                 );
             }
         }
@@ -325,22 +294,22 @@ fn pit_and_cone_openness_and_sky_view() {
         let c = 15 * w + 15;
         // Every ray from the apex rises (pit) or falls (cone) at angle atan k.
         let beta = sign * k.atan().to_degrees();
-        assert!(
-            close(out[0][c], 90.0 - beta, 1e-6, 0.0),
-            "pos {sign} {dirs}: {}",
-            out[0][c]
+        assert_close(
+            out[0][c],
+            90.0 - beta,
+            1e-6,
+            0.0,
+            format_args!("pos {sign} {dirs}"),
         );
-        assert!(
-            close(out[1][c], 90.0 + beta, 1e-6, 0.0),
-            "neg {sign} {dirs}: {}",
-            out[1][c]
+        assert_close(
+            out[1][c],
+            90.0 + beta,
+            1e-6,
+            0.0,
+            format_args!("neg {sign} {dirs}"),
         );
         let svf = 1.0 - beta.max(0.0).to_radians().sin();
-        assert!(
-            close(out[2][c], svf, 1e-6, 0.0),
-            "svf {sign} {dirs}: {}",
-            out[2][c]
-        );
+        assert_close(out[2][c], svf, 1e-6, 0.0, format_args!("svf {sign} {dirs}"));
     }
     // Flat ground: openness 90°, sky view 1 everywhere.
     let src = source(&vec![7.0; 100], 10, 10);
@@ -448,14 +417,8 @@ fn windowed_statistics_brute_force() {
         for tile in [1, 7, 64] {
             let out = run(&src, &specs, tile, 2);
             for k in 0..6 {
-                assert_all(
-                    &format!("r{r} tile{tile} m{k}"),
-                    &out[k],
-                    &want[k],
-                    w,
-                    2e-7,
-                    1e-9,
-                );
+                let name = format!("r{r} tile{tile} m{k}");
+                check(&name, &out[k], &want[k], w, 2e-7, 1e-9);
             }
         }
     }
@@ -489,20 +452,12 @@ fn tri_laplacian_rugosity_brute_force() {
             let lap = (z(-1, 0) + z(1, 0) - 2.0 * c + z(0, -1) + z(0, 1) - 2.0 * c) / (CELL * CELL);
             // Jenness 2004: 8 triangles (centre, neighbour, next neighbour)
             // with half-length edges; area from the cross product.
-            let ring = [
-                (-1, -1),
-                (0, -1),
-                (1, -1),
-                (1, 0),
-                (1, 1),
-                (0, 1),
-                (-1, 1),
-                (-1, 0),
-            ];
+            // The ring clockwise from the north-west corner.
+            let ring = |k: usize| COMPASS8[(k + 7) % 8];
             let mut area = 0.0;
             for k in 0..8 {
-                let (ax, ay) = ring[k];
-                let (bx, by) = ring[(k + 1) % 8];
+                let (ax, ay) = ring(k);
+                let (bx, by) = ring(k + 1);
                 let u = [
                     ax as f64 * CELL / 2.0,
                     ay as f64 * CELL / 2.0,
@@ -524,10 +479,12 @@ fn tri_laplacian_rugosity_brute_force() {
             assert!(close(out[0][i], riley, 2e-7, 0.0), "riley ({x},{y})");
             assert!(close(out[1][i], wilson, 2e-7, 0.0), "wilson ({x},{y})");
             assert!(close(out[2][i], lap, 2e-7, 1e-12), "lap ({x},{y})");
-            assert!(
-                close(out[3][i], rug, 1e-6, 0.0),
-                "rugosity ({x},{y}) {} vs {rug}",
-                out[3][i]
+            assert_close(
+                out[3][i],
+                rug,
+                1e-6,
+                0.0,
+                format_args!("rugosity ({x},{y})"),
             );
         }
     }
@@ -583,14 +540,8 @@ fn roughness_brute_force() {
     }
     for tile in [1, 6, 64] {
         let out = run(&src, "roughness:radius=3c", tile, 2);
-        assert_all(
-            &format!("roughness tile {tile}"),
-            &out[0],
-            &want,
-            w,
-            1e-6,
-            1e-5,
-        );
+        let name = format!("roughness tile {tile}");
+        check(&name, &out[0], &want, w, 1e-6, 1e-5);
     }
 }
 
@@ -673,20 +624,26 @@ fn horizon_brute_force() {
                 } else {
                     (f64::NAN, f64::NAN, f64::NAN)
                 };
-                assert!(
-                    close(out[0][i], p, 1e-6, 1e-6),
-                    "pos {dirs} ({x},{y}) {} vs {p}",
-                    out[0][i]
+                assert_close(
+                    out[0][i],
+                    p,
+                    1e-6,
+                    1e-6,
+                    format_args!("pos {dirs} ({x},{y})"),
                 );
-                assert!(
-                    close(out[1][i], n, 1e-6, 1e-6),
-                    "neg {dirs} ({x},{y}) {} vs {n}",
-                    out[1][i]
+                assert_close(
+                    out[1][i],
+                    n,
+                    1e-6,
+                    1e-6,
+                    format_args!("neg {dirs} ({x},{y})"),
                 );
-                assert!(
-                    close(out[2][i], s, 1e-6, 1e-7),
-                    "svf {dirs} ({x},{y}) {} vs {s}",
-                    out[2][i]
+                assert_close(
+                    out[2][i],
+                    s,
+                    1e-6,
+                    1e-7,
+                    format_args!("svf {dirs} ({x},{y})"),
                 );
             }
         }
@@ -755,22 +712,10 @@ fn top_hats_brute_force() {
                 tile,
                 2,
             );
-            assert_all(
-                &format!("white r{r} tile {tile}"),
-                &out[0],
-                &white,
-                w,
-                0.0,
-                0.0,
-            );
-            assert_all(
-                &format!("black r{r} tile {tile}"),
-                &out[1],
-                &black,
-                w,
-                0.0,
-                0.0,
-            );
+            let name = format!("white r{r} tile {tile}");
+            check(&name, &out[0], &white, w, 0.0, 0.0);
+            let name = format!("black r{r} tile {tile}");
+            check(&name, &out[1], &black, w, 0.0, 0.0);
         }
     }
 }
@@ -808,14 +753,8 @@ fn disk_window_statistics_brute_force() {
         for tile in [1, 8, 64] {
             let out = run(&src, &specs, tile, 2);
             for k in 0..5 {
-                assert_all(
-                    &format!("disk r{r} tile{tile} m{k}"),
-                    &out[k],
-                    &want[k],
-                    w,
-                    2e-7,
-                    1e-9,
-                );
+                let name = format!("disk r{r} tile{tile} m{k}");
+                check(&name, &out[k], &want[k], w, 2e-7, 1e-9);
             }
         }
     }

@@ -10,7 +10,7 @@ use orogen::io::{open_raster, OpenOptions};
 use orogen::metrics::parse_specs;
 use std::path::Path;
 
-use crate::common::{run, source, CELL};
+use crate::common::{run, run_bits, source, CELL, COMPASS8};
 
 /// The paper's landform table, written as (class number, name, the
 /// (number of −, number of +) cells of Fig. 4 holding it).
@@ -208,16 +208,6 @@ fn random_grid(w: usize, h: usize, seed: u64) -> Vec<f32> {
 /// centre distance stays within the radius (metres), elevation angles by
 /// atan2, the independent Fig. 4 table.
 fn brute(d: &[f32], w: usize, h: usize, radius_m: f64, flat: f64) -> (Vec<f32>, Vec<f32>) {
-    let dirs = [
-        (0i64, -1i64),
-        (1, -1),
-        (1, 0),
-        (1, 1),
-        (0, 1),
-        (-1, 1),
-        (-1, 0),
-        (-1, -1),
-    ];
     let mut cls = vec![f32::NAN; w * h];
     let mut pat = vec![f32::NAN; w * h];
     for y in 0..h as i64 {
@@ -227,7 +217,7 @@ fn brute(d: &[f32], w: usize, h: usize, radius_m: f64, flat: f64) -> (Vec<f32>, 
                 continue;
             }
             let mut digits = [0u32; 8];
-            for (k, &(dx, dy)) in dirs.iter().enumerate() {
+            for (k, &(dx, dy)) in COMPASS8.iter().enumerate() {
                 let mut angles = Vec::new();
                 let mut s = 1i64;
                 loop {
@@ -450,28 +440,19 @@ fn tiled_equals_untiled_bigtujunga() {
     let src = src.as_ref();
     let specs = "geomorphon:radius=300m,geomorphon_pattern:radius=6c:flat=2,geomorphon_pattern:radius=300m,geomorphon_canonical:radius=5c,weiss_landform:radius=3c:large=400m,dikau_form,dikau_form:radius=2c:threshold=0.0005";
     let info = src.info().clone();
-    let bits = |v: &Vec<Vec<f32>>| -> Vec<Vec<u32>> {
-        v.iter()
-            .map(|g| {
-                g.iter()
-                    .map(|x| if x.is_nan() { u32::MAX } else { x.to_bits() })
-                    .collect()
-            })
-            .collect()
-    };
-    let whole = bits(&run(src, specs, info.width.max(info.height), 1));
+    let whole = run_bits(src, specs, info.width.max(info.height), 1);
     for g in &whole {
         assert!(g.iter().filter(|&&v| v != u32::MAX).count() > info.width * info.height / 2);
     }
     for (tile, threads) in [(1, 2), (7, 2), (64, 1), (64, 2)] {
-        let got = bits(&run(src, specs, tile, threads));
+        let got = run_bits(src, specs, tile, threads);
         for k in 0..whole.len() {
             assert!(got[k] == whole[k], "metric {k} differs with tile {tile}");
         }
     }
     // Each metric alone equals the multi pass.
     for (k, s) in specs.split(',').enumerate() {
-        assert!(bits(&run(src, s, 64, 1))[0] == whole[k], "{s} alone");
+        assert!(run_bits(src, s, 64, 1)[0] == whole[k], "{s} alone");
     }
 }
 

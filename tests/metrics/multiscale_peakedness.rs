@@ -12,6 +12,7 @@ use orogen::metrics::registry::{MetricKind, METRICS};
 use orogen::metrics::{parse_specs, MetricSpec};
 use orogen::raster::{MemRaster, RasterSource, TileLayout};
 
+use crate::common::cli::{ok, orogen};
 use crate::common::{check_abs as check, run, source, Rng, CELL};
 
 /// Hills (Gaussian bumps of 60..400 m) plus noise, with nodata holes.
@@ -89,6 +90,12 @@ fn oracle(d: &[f32], w: usize, h: usize, top: f64) -> (Vec<f64>, Vec<f64>) {
         }
         (mx, mn, s, n)
     };
+    // The cells with a value: (column, row, value).
+    let valid_cells = || {
+        (0..w * h)
+            .map(|i| (i % w, i / w, z[i]))
+            .filter(|c| !c.2.is_nan())
+    };
     let mut proto = vec![0.0; w * h];
     let mut sim = vec![0.0; w * h];
     let mut valid = vec![true; w * h];
@@ -97,38 +104,26 @@ fn oracle(d: &[f32], w: usize, h: usize, top: f64) -> (Vec<f64>, Vec<f64>) {
         let r = SCALES[si];
         let e = 3 * r;
         let mut is_peak = vec![false; w * h];
-        for y in 0..h {
-            for x in 0..w {
-                let v = z[y * w + x];
-                if v.is_nan() {
-                    continue;
-                }
-                let (mx, mn, _, _) = stat(&z, x, y, r);
-                is_peak[y * w + x] = v == mx && mx - mn > RELIEF[si];
-            }
+        for (x, y, v) in valid_cells() {
+            let (mx, mn, _, _) = stat(&z, x, y, r);
+            is_peak[y * w + x] = v == mx && mx - mn > RELIEF[si];
         }
         let mut f: Vec<Option<[f64; 4]>> = vec![None; w * h];
-        for y in 0..h {
-            for x in 0..w {
-                let v = z[y * w + x];
-                if v.is_nan() {
-                    continue;
+        for (x, y, v) in valid_cells() {
+            let (mx, mn, _, _) = stat(&z, x, y, r);
+            let (_, _, ss, sn) = stat(&slope, x, y, r);
+            let (ex, en, _, _) = stat(&z, x, y, e);
+            let mut peaks = 0;
+            for yy in y.saturating_sub(e)..(y + e + 1).min(h) {
+                for xx in x.saturating_sub(e)..(x + e + 1).min(w) {
+                    peaks += is_peak[yy * w + xx] as usize;
                 }
-                let (mx, mn, _, _) = stat(&z, x, y, r);
-                let (_, _, ss, sn) = stat(&slope, x, y, r);
-                let (ex, en, _, _) = stat(&z, x, y, e);
-                let mut peaks = 0;
-                for yy in y.saturating_sub(e)..(y + e + 1).min(h) {
-                    for xx in x.saturating_sub(e)..(x + e + 1).min(w) {
-                        peaks += is_peak[yy * w + xx] as usize;
-                    }
-                }
-                if sn == 0 {
-                    continue;
-                }
-                let rel = if ex > en { (v - en) / (ex - en) } else { 0.0 };
-                f[y * w + x] = Some([mx - mn, ss / sn as f64, rel, 1.0 / (1.0 + peaks as f64)]);
             }
+            if sn == 0 {
+                continue;
+            }
+            let rel = if ex > en { (v - en) / (ex - en) } else { 0.0 };
+            f[y * w + x] = Some([mx - mn, ss / sn as f64, rel, 1.0 / (1.0 + peaks as f64)]);
         }
         let (mut lo, mut hi) = ([f64::INFINITY; 4], [f64::NEG_INFINITY; 4]);
         for v in f.iter().flatten() {
@@ -324,7 +319,7 @@ fn peakedness_dw_bad_parameters_and_flat_dem() {
 #[test]
 fn peakedness_dw_cli() {
     let dir = tempfile::tempdir().unwrap();
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_orogen"))
+    ok(orogen()
         .args([
             "metric",
             "tests/data/bigtujunga_crop.tif",
@@ -333,14 +328,7 @@ fn peakedness_dw_cli() {
             "-o",
         ])
         .arg(dir.path())
-        .args(["--tile", "64", "-q"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+        .args(["--tile", "64", "-q"]));
     let mut grids = Vec::new();
     for f in [
         "slope.tif",

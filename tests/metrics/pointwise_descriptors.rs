@@ -11,13 +11,46 @@ use orogen::metrics::fractional::{frac_constant, gamma};
 use orogen::metrics::table;
 
 use crate::common::{
-    assert_tiled_equals_untiled, check, get, horn, random_terrain, ridge, run, run1, run_bits,
-    source, spec_err as err, Rng, CELL,
+    assert_tiled_equals_untiled, check, facing_gradients, get, horn, random_terrain, ridge, run,
+    run1, run_bits, source, spec_err as err, Rng, CELL,
 };
 
 /// Random terrain (smooth + noise, values rounded to 1/8) with nodata holes.
 fn random_grid(w: usize, h: usize, seed: u64, holes: f64) -> Vec<f32> {
     random_terrain(w, h, seed, holes, 8.0)
+}
+
+/// `f(z, disk)` at every valid cell (nodata elsewhere), `disk` the valid
+/// cells (distance in metres, value) with `0 < d ≤ cut` within `r` cells of
+/// it on each axis, in row-major order.
+fn disk_oracle(
+    data: &[f32],
+    w: usize,
+    h: usize,
+    r: i64,
+    cut: f64,
+    f: impl Fn(f64, &[(f64, f64)]) -> f64,
+) -> Vec<f64> {
+    (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as i64, (i / w) as i64);
+            let z = data[i] as f64;
+            if z.is_nan() {
+                return f64::NAN;
+            }
+            let mut disk = Vec::new();
+            for yy in y - r..=y + r {
+                for xx in x - r..=x + r {
+                    let d = (((xx - x).pow(2) + (yy - y).pow(2)) as f64).sqrt() * CELL;
+                    let v = get(data, w, h, xx, yy);
+                    if d > 0.0 && d <= cut && !v.is_nan() {
+                        disk.push((d, v));
+                    }
+                }
+            }
+            f(z, &disk)
+        })
+        .collect()
 }
 
 // ---------- directional slope ----------
@@ -175,26 +208,13 @@ fn fractional_laplacian_brute_force() {
     let (r, s) = (4i64, 0.3);
     let got = run1(&src, &format!("fractional_laplacian:radius={r}c:s={s}"));
     let c = frac_constant(s);
-    let want: Vec<f64> = (0..w * h)
-        .map(|i| {
-            let (x, y) = ((i % w) as i64, (i / w) as i64);
-            let z = data[i] as f64;
-            if z.is_nan() {
-                return f64::NAN;
-            }
-            let mut acc = 0.0;
-            for yy in y - r..=y + r {
-                for xx in x - r..=x + r {
-                    let d = (((xx - x) * (xx - x) + (yy - y) * (yy - y)) as f64).sqrt() * CELL;
-                    let v = get(&data, w, h, xx, yy);
-                    if d > 0.0 && d <= r as f64 * CELL && !v.is_nan() {
-                        acc += (z - v) / d.powf(2.0 + 2.0 * s);
-                    }
-                }
-            }
-            c * CELL * CELL * acc
-        })
-        .collect();
+    let want = disk_oracle(&data, w, h, r, r as f64 * CELL, |z, disk| {
+        let acc: f64 = disk
+            .iter()
+            .map(|&(d, v)| (z - v) / d.powf(2.0 + 2.0 * s))
+            .sum();
+        c * CELL * CELL * acc
+    });
     check("fractional_laplacian", &got, &want, w, 1e-5, 1e-6);
 }
 
@@ -258,16 +278,6 @@ fn hillslope_asymmetry_plane_and_ridges() {
     }
 }
 
-/// Aspect (azimuth of steepest descent, clockwise from north) in degrees.
-fn aspect(p: f64, q: f64) -> f64 {
-    let a = (-p).atan2(-q).to_degrees();
-    if a < 0.0 {
-        a + 360.0
-    } else {
-        a
-    }
-}
-
 #[test]
 fn hillslope_asymmetry_brute_force() {
     let (w, h) = (27, 25);
@@ -284,28 +294,9 @@ fn hillslope_asymmetry_brute_force() {
                 if data[i].is_nan() {
                     return f64::NAN;
                 }
-                let (mut sp, mut np, mut sn, mut nn) = (0.0, 0, 0.0, 0);
-                for yy in y - r..=y + r {
-                    for xx in x - r..=x + r {
-                        let (p, q) = horn(&data, w, h, xx, yy);
-                        let g = (p * p + q * q).sqrt();
-                        if g.is_nan() || g <= 0.05 {
-                            continue;
-                        }
-                        let a = aspect(p, q);
-                        let dist = |t: f64| {
-                            let d = (a - t).abs() % 360.0;
-                            d.min(360.0 - d)
-                        };
-                        if dist(az) < tol {
-                            sp += g;
-                            np += 1;
-                        } else if dist(az + 180.0) < tol {
-                            sn += g;
-                            nn += 1;
-                        }
-                    }
-                }
+                let (toward, away) = facing_gradients(&data, w, h, (x, y), r, az, tol);
+                let (np, nn) = (toward.len(), away.len());
+                let (sp, sn) = (toward.iter().sum::<f64>(), away.iter().sum::<f64>());
                 if np == 0 || nn == 0 {
                     f64::NAN
                 } else {
@@ -418,42 +409,28 @@ fn ors_jut_rut_brute_force() {
         2,
     );
     for (k, cut) in [(0usize, r as f64 * CELL), (1, r as f64 * CELL), (2, 45.0)] {
-        let want: Vec<f64> = (0..w * h)
-            .map(|i| {
-                let (x, y) = ((i % w) as i64, (i / w) as i64);
-                let z = data[i] as f64;
-                if z.is_nan() {
-                    return f64::NAN;
-                }
-                let mut acc = 0.0f64;
-                for yy in y - r..=y + r {
-                    for xx in x - r..=x + r {
-                        let d = (((xx - x).pow(2) + (yy - y).pow(2)) as f64).sqrt() * CELL;
-                        let v = get(&data, w, h, xx, yy);
-                        if d == 0.0 || d > cut || v.is_nan() {
-                            continue;
-                        }
-                        let dz = z - v;
-                        match k {
-                            0 if dz > 0.0 => {
-                                let u = dz / d;
-                                let f = 4.0 / pi.powi(3)
-                                    * (2.0 * u * u.atan() - (1.0 + u * u).ln() - u.atan().powi(2));
-                                acc += f.max(0.0) * CELL * CELL;
-                            }
-                            1 if dz > 0.0 => acc = acc.max(dz * dz / (d * d + dz * dz).sqrt()),
-                            2 if dz < 0.0 => acc = acc.max(dz * dz / (d * d + dz * dz).sqrt()),
-                            _ => {}
-                        }
+        let want = disk_oracle(&data, w, h, r, cut, |z, disk| {
+            let mut acc = 0.0f64;
+            for &(d, v) in disk {
+                let dz = z - v;
+                match k {
+                    0 if dz > 0.0 => {
+                        let u = dz / d;
+                        let f = 4.0 / pi.powi(3)
+                            * (2.0 * u * u.atan() - (1.0 + u * u).ln() - u.atan().powi(2));
+                        acc += f.max(0.0) * CELL * CELL;
                     }
+                    1 if dz > 0.0 => acc = acc.max(dz * dz / (d * d + dz * dz).sqrt()),
+                    2 if dz < 0.0 => acc = acc.max(dz * dz / (d * d + dz * dz).sqrt()),
+                    _ => {}
                 }
-                if k == 0 {
-                    acc.sqrt()
-                } else {
-                    acc
-                }
-            })
-            .collect();
+            }
+            if k == 0 {
+                acc.sqrt()
+            } else {
+                acc
+            }
+        });
         check(["ors", "jut", "rut"][k], &got[k], &want, w, 1e-5, 1e-5);
     }
 }

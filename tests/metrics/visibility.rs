@@ -28,32 +28,24 @@ fn random_grid(w: usize, h: usize, seed: u64, range: u64, nd: u64) -> Vec<f32> {
         .collect()
 }
 
-use crate::common::{get as at, run, source, Rng, CELL};
+/// [`random_grid`] scaled and shifted off the half-metre lattice: no exact
+/// ties between terrain and sight lines, where two formulations of the
+/// line of sight could round differently.
+fn irregular_grid(w: usize, h: usize, seed: u64, range: u64, nd: u64) -> Vec<f32> {
+    random_grid(w, h, seed, range, nd)
+        .iter()
+        .enumerate()
+        .map(|(i, v)| v * 1.01317 + 0.0173 * (i % 7) as f32)
+        .collect()
+}
 
-const STEPS16: [(i64, i64); 16] = [
-    (0, -1),
-    (1, -1),
-    (1, 0),
-    (1, 1),
-    (0, 1),
-    (-1, 1),
-    (-1, 0),
-    (-1, -1),
-    (1, -2),
-    (2, -1),
-    (2, 1),
-    (1, 2),
-    (-1, 2),
-    (-2, 1),
-    (-2, -1),
-    (-1, -2),
-];
+use crate::common::{get as at, run, run_bits, source, Rng, CELL, RAYS16};
 
 /// Brute-force largest and smallest elevation angle (radians) of ray `dir`
 /// from (x, y) within `cutoff` metres: every cell of the square, kept if it
 /// lies on the ray.
 fn brute_ray(d: &[f32], w: usize, h: usize, x: i64, y: i64, dir: usize, cutoff: f64) -> (f64, f64) {
-    let (sx, sy) = STEPS16[dir];
+    let (sx, sy) = RAYS16[dir];
     let z0 = at(d, w, h, x, y);
     let (mut hi, mut lo) = (f64::NEG_INFINITY, f64::INFINITY);
     let r = (cutoff / CELL).ceil() as i64 + 1;
@@ -195,7 +187,7 @@ fn zenith_nadir_accessibility_horizon_brute_force() {
                         want[k]
                     );
                 }
-                // dir=135 is STEPS16[3] = (1, 1); 26.565 is (1, -2) = STEPS16[8].
+                // dir=135 is RAYS16[3] = (1, 1); 26.565 is (1, -2) = RAYS16[8].
                 for (k, dir) in [(3usize, 3usize), (4, 8)] {
                     let (hi, _) = brute_ray(&d, w, h, x, y, dir, cutoff);
                     let want = if z0.is_nan() || hi == f64::NEG_INFINITY {
@@ -231,6 +223,34 @@ fn zenith_nadir_accessibility_horizon_brute_force() {
     let c = 15 * w + 15;
     assert!((out[0][c] as f64 - (90.0 - k.atan().to_degrees())).abs() < 1e-4);
     assert!((out[1][c] as f64 - 1.0 / (1.0 + k * k)).abs() < 1e-6);
+}
+
+/// Per cell, nodata: `None`; else `(seen, of)`: how many of the valid cells
+/// `targets(x, y)` lists the R3 line of sight [`los_exact`] sees from the
+/// eye `heights.0` above the cell, targets `heights.1` above theirs.
+fn visible_counts<I: Iterator<Item = (i64, i64)>>(
+    d: &[f32],
+    w: usize,
+    h: usize,
+    heights: (f64, f64),
+    targets: impl Fn(i64, i64) -> I,
+) -> Vec<Option<(usize, usize)>> {
+    (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as i64, (i / w) as i64);
+            if d[i].is_nan() {
+                return None;
+            }
+            let valid: Vec<(i64, i64)> = targets(x, y)
+                .filter(|&(tx, ty)| !at(d, w, h, tx, ty).is_nan())
+                .collect();
+            let seen = valid
+                .iter()
+                .filter(|&&t| los_exact(d, w, (x, y), t, heights.0, heights.1))
+                .count();
+            Some((seen, valid.len()))
+        })
+        .collect()
 }
 
 /// R3 line of sight with exact integer crossings (an independent
@@ -332,17 +352,22 @@ fn viewshed_matches_exact_line_of_sight() {
     }
 }
 
+/// Options of a viewshed from `height` above the ground within `radius_m`,
+/// targets on the ground, no curvature.
+fn eye(height: f64, radius_m: f64) -> ViewshedOptions {
+    ViewshedOptions {
+        observer_height: height,
+        radius_m,
+        ..Default::default()
+    }
+}
+
 #[test]
 fn viewshed_closed_forms() {
     // Flat plane: everything within the radius is visible, nothing beyond.
     let (w, h) = (41, 35);
     let g = Grid::new(w, h, 100.0f32);
-    let o = ViewshedOptions {
-        observer_height: 1.7,
-        radius_m: 123.0,
-        ..Default::default()
-    };
-    let v = viewshed(&g, (CELL, CELL), (20, 17), &o).unwrap();
+    let v = viewshed(&g, (CELL, CELL), (20, 17), &eye(1.7, 123.0)).unwrap();
     for y in 0..h {
         for x in 0..w {
             let dist = ((x as f64 - 20.0).powi(2) + (y as f64 - 17.0).powi(2)).sqrt() * CELL;
@@ -358,12 +383,7 @@ fn viewshed_closed_forms() {
     for y in 0..h {
         g.set(25, y, 5.0);
     }
-    let o = ViewshedOptions {
-        observer_height: 2.0,
-        radius_m: 1e6,
-        ..Default::default()
-    };
-    let v = viewshed(&g, (CELL, CELL), (10, 17), &o).unwrap();
+    let v = viewshed(&g, (CELL, CELL), (10, 17), &eye(2.0, 1e6)).unwrap();
     for y in 0..h {
         for x in 0..w {
             assert_eq!(v.get(x, y), u8::from(x <= 25), "wall ({x},{y})");
@@ -397,19 +417,9 @@ fn viewshed_closed_forms() {
 #[test]
 fn cumulative_and_fuzzy_viewsheds() {
     let (w, h) = (25, 20);
-    // Irregular heights: no exact ties between terrain and sight lines, where
-    // the two formulations could round differently.
-    let d: Vec<f32> = random_grid(w, h, 55, 40, 0)
-        .iter()
-        .enumerate()
-        .map(|(i, v)| v * 1.01317 + 0.0173 * (i % 7) as f32)
-        .collect();
+    let d = irregular_grid(w, h, 55, 40, 0);
     let g = Grid::from_vec(w, h, d.clone()).unwrap();
-    let o = ViewshedOptions {
-        observer_height: 3.0,
-        radius_m: 1e6,
-        ..Default::default()
-    };
+    let o = eye(3.0, 1e6);
     let obs = [(3usize, 4usize), (20, 15), (12, 10)];
     let mut count = Grid::new(w, h, 0f32);
     let mut fuzzy = Grid::new(w, h, 0f32);
@@ -461,36 +471,35 @@ fn visibility_index_matches_r3_on_the_rays() {
     for (height, target) in [(1.7, 0.0), (0.0, 3.0)] {
         let spec = format!("visibility_index:radius=50m:height={height}:target={target}");
         let out = run(&src, &spec, 7, 2);
-        for y in 0..h as i64 {
-            for x in 0..w as i64 {
-                let i = y as usize * w + x as usize;
-                if at(&d, w, h, x, y).is_nan() {
-                    assert!(out[0][i].is_nan());
-                    continue;
-                }
-                let (mut seen, mut n) = (0, 0);
-                for &(sx, sy) in &STEPS16[..8] {
-                    for s in 1..=5i64 {
-                        let (tx, ty) = (x + s * sx, y + s * sy);
-                        let dist = (((s * sx).pow(2) + (s * sy).pow(2)) as f64).sqrt() * CELL;
-                        if dist > 50.0 * (1.0 + 1e-12) || at(&d, w, h, tx, ty).is_nan() {
-                            continue;
-                        }
-                        n += 1;
-                        seen += usize::from(los_exact(&d, w, (x, y), (tx, ty), height, target));
-                    }
-                }
-                let want = if n == 0 {
-                    f64::NAN
-                } else {
-                    seen as f64 / n as f64
-                };
-                let g = out[0][i] as f64;
-                assert!(
-                    (want.is_nan() && g.is_nan()) || (g - want).abs() < 1e-6,
-                    "({x},{y}) h={height}: {g} vs {want}"
-                );
-            }
+        // The targets on the axes and diagonals within 50 m.
+        let on_rays = |x: i64, y: i64| {
+            RAYS16
+                .into_iter()
+                .take(8)
+                .flat_map(|(sx, sy)| (1..=5i64).map(move |s| (s * sx, s * sy)))
+                .filter(|&(dx, dy)| {
+                    ((dx * dx + dy * dy) as f64).sqrt() * CELL <= 50.0 * (1.0 + 1e-12)
+                })
+                .map(move |(dx, dy)| (x + dx, y + dy))
+        };
+        let counts = visible_counts(&d, w, h, (height, target), on_rays);
+        for (i, c) in counts.iter().enumerate() {
+            let g = out[0][i] as f64;
+            let Some((seen, n)) = *c else {
+                assert!(g.is_nan());
+                continue;
+            };
+            let want = if n == 0 {
+                f64::NAN
+            } else {
+                seen as f64 / n as f64
+            };
+            assert!(
+                (want.is_nan() && g.is_nan()) || (g - want).abs() < 1e-6,
+                "({}, {}) h={height}: {g} vs {want}",
+                i % w,
+                i / w
+            );
         }
     }
 }
@@ -500,11 +509,7 @@ fn visibility_index_matches_r3_on_the_rays() {
 #[test]
 fn visibility_index_exact_brute_force() {
     let (w, h) = (19, 17);
-    let d: Vec<f32> = random_grid(w, h, 31, 80, 10)
-        .iter()
-        .enumerate()
-        .map(|(i, v)| v * 1.01317 + 0.0173 * (i % 7) as f32)
-        .collect();
+    let d = irregular_grid(w, h, 31, 80, 10);
     let src = source(&d, w, h);
     let out = run(
         &src,
@@ -512,56 +517,47 @@ fn visibility_index_exact_brute_force() {
         6,
         2,
     );
+    // Every other cell within 42 m.
+    let in_disk = |x: i64, y: i64| {
+        (0..h as i64)
+            .flat_map(move |ty| (0..w as i64).map(move |tx| (tx, ty)))
+            .filter(move |&(tx, ty)| {
+                let dist2 = (((tx - x).pow(2) + (ty - y).pow(2)) as f64) * CELL * CELL;
+                (tx, ty) != (x, y) && dist2 <= 42.0 * 42.0
+            })
+    };
+    let counts = visible_counts(&d, w, h, (1.3, 0.4), in_disk);
     let mut distinct = std::collections::BTreeSet::new();
-    for y in 0..h as i64 {
-        for x in 0..w as i64 {
-            let i = y as usize * w + x as usize;
-            if at(&d, w, h, x, y).is_nan() {
-                assert!(out[0][i].is_nan());
-                continue;
-            }
-            let (mut seen, mut n) = (0, 0);
-            for ty in 0..h as i64 {
-                for tx in 0..w as i64 {
-                    let dist2 = (((tx - x).pow(2) + (ty - y).pow(2)) as f64) * CELL * CELL;
-                    if (tx, ty) == (x, y) || dist2 > 42.0 * 42.0 || at(&d, w, h, tx, ty).is_nan() {
-                        continue;
-                    }
-                    n += 1;
-                    seen += usize::from(los_exact(&d, w, (x, y), (tx, ty), 1.3, 0.4));
-                }
-            }
-            let want = seen as f64 / n as f64;
-            let g = out[0][i] as f64;
-            assert!((g - want).abs() < 1e-6, "({x},{y}): {g} vs {want}");
-            distinct.insert(seen);
-        }
+    for (i, c) in counts.iter().enumerate() {
+        let g = out[0][i] as f64;
+        let Some((seen, n)) = *c else {
+            assert!(g.is_nan());
+            continue;
+        };
+        let want = seen as f64 / n as f64;
+        assert!(
+            (g - want).abs() < 1e-6,
+            "({}, {}): {g} vs {want}",
+            i % w,
+            i / w
+        );
+        distinct.insert(seen);
     }
     assert!(distinct.len() > 10, "a varied test: {distinct:?}");
 }
 
 const NEW: &str = "visibility_index_exact:radius=3c,horizon:radius=4c:dir=45,zenith:radius=40m,nadir:radius=4c:directions=16,accessibility:radius=4c,visibility_index:radius=3c:directions=16,solar_direct:lat=34.3:radius=4c:hour=9.5,solar_global:lat=34.3:radius=4c:step=60:day=355,solar_annual:lat=34.3:radius=3c:days=60:step=120:directions=8,heat_index";
 
-fn bits(v: &[Vec<f32>]) -> Vec<Vec<u32>> {
-    v.iter()
-        .map(|g| {
-            g.iter()
-                .map(|x| if x.is_nan() { u32::MAX } else { x.to_bits() })
-                .collect()
-        })
-        .collect()
-}
-
 fn check_tiled(src: &dyn RasterSource, specs: &str, tiles: &[usize]) {
     let i = src.info();
-    let whole = bits(&run(src, specs, i.width.max(i.height), 1));
+    let whole = run_bits(src, specs, i.width.max(i.height), 1);
     for (k, g) in whole.iter().enumerate() {
         let valid = g.iter().filter(|&&v| v != u32::MAX).count();
         assert!(valid > g.len() / 2, "metric {k} mostly nodata");
         assert!(g.iter().any(|&v| v != g[0]), "metric {k} constant");
     }
     for &tile in tiles {
-        let got = bits(&run(src, specs, tile, 2));
+        let got = run_bits(src, specs, tile, 2);
         for k in 0..whole.len() {
             if let Some(c) = (0..whole[k].len()).find(|&c| got[k][c] != whole[k][c]) {
                 panic!(
@@ -589,9 +585,9 @@ fn tiled_equals_untiled_new_metrics() {
     check_tiled(&small, NEW, &[1, 5]);
     // One pass (shared horizon scans) == each metric alone, duplicates included.
     let specs = format!("{NEW},zenith:radius=4c,accessibility:radius=4c,nadir:radius=4c");
-    let whole = bits(&run(&small, &specs, 8, 1));
+    let whole = run_bits(&small, &specs, 8, 1);
     for (k, s) in specs.split(',').enumerate() {
-        let alone = bits(&run(&small, s, 8, 1));
+        let alone = run_bits(&small, s, 8, 1);
         assert!(
             alone[0] == whole[k],
             "{s} alone differs from the multi pass"
