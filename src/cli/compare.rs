@@ -1,6 +1,7 @@
 //! `orogen compare A B -o DIR`: realism report of two terrains (see
 //! `orogen::ops::compare`).
 
+use crate::distance;
 use anyhow::Result;
 use clap::Args;
 use orogen::ops::compare::{self, CompareOptions};
@@ -42,7 +43,6 @@ pub struct CompareArgs {
     pub run: crate::Run,
 }
 
-/// A distance such as `5km`, `5000m` or `5000` (metres).
 /// Compare the two terrains into the output folder (`ops::compare`).
 pub fn run(a: CompareArgs) -> Result<()> {
     let cfg = crate::engine(&a.run)?;
@@ -51,7 +51,7 @@ pub fn run(a: CompareArgs) -> Result<()> {
         radius: a
             .radius
             .as_deref()
-            .map(compare::parse_distance)
+            .map(|r| distance("--radius", r))
             .transpose()?,
         channel_area: a.channel_area,
         seed: a.seed,

@@ -2,6 +2,7 @@
 //! profile), `classify` (random forest over feature vectors) and `ridges`
 //! (`orogen::ops::orostats`, `ops::classify`, `ops::ridges`).
 
+use crate::distance;
 use anyhow::Result;
 use clap::{Args, Subcommand};
 use orogen::ops::classify::{self, EvaluateOptions, ForestOptions};
@@ -51,11 +52,11 @@ pub struct OrostatsArgs {
 /// Feature vectors (and the profile) of the input.
 pub fn run_orostats(a: OrostatsArgs) -> Result<()> {
     let opts = OrostatsOptions {
-        radius: orostats::parse_distance(&a.radius)?,
+        radius: distance("--radius", &a.radius)?,
         separation: a
             .separation
             .as_deref()
-            .map(orostats::parse_distance)
+            .map(|s| distance("--separation", s))
             .transpose()?,
         label: a.label.clone(),
         seed: a.seed,

@@ -40,30 +40,6 @@ impl Default for CompareOptions {
     }
 }
 
-/// `--radius` of `orogen compare`: a distance such as `5km`, `2000m` or
-/// `2000` (metres).
-pub fn parse_distance(s: &str) -> Result<f64> {
-    let t = s.trim();
-    let (num, mul) = if let Some(n) = t.strip_suffix("km") {
-        (n, 1000.0)
-    } else if let Some(n) = t.strip_suffix('m') {
-        (n, 1.0)
-    } else {
-        (t, 1.0)
-    };
-    let v: f64 = num.trim().parse().map_err(|e| {
-        Error::invalid(format!(
-            "--radius {s}: give a distance such as 5km or 2000m: {e}"
-        ))
-    })?;
-    if !(v.is_finite() && v > 0.0) {
-        return Err(Error::invalid(format!(
-            "--radius {s}: give a positive distance"
-        )));
-    }
-    Ok(v * mul)
-}
-
 impl CompareOptions {
     /// Check the parameters (the channel area).
     pub fn validate(&self) -> Result<()> {

@@ -10,26 +10,6 @@ use crate::oro::EdgeConvention;
 use crate::raster::{GeoRef, Grid, RasterSource, Window};
 use std::path::{Path, PathBuf};
 
-/// A distance like `10km`, `500m` or `2500` (metres).
-pub fn parse_distance(s: &str) -> Result<f64> {
-    let t = s.trim().to_ascii_lowercase();
-    let (num, mult) = if let Some(v) = t.strip_suffix("km") {
-        (v, 1000.0)
-    } else if let Some(v) = t.strip_suffix('m') {
-        (v, 1.0)
-    } else {
-        (t.as_str(), 1.0)
-    };
-    let v: f64 = num.trim().parse().map_err(|e| {
-        Error::invalid(format!("{s:?}: expected a distance like 10km or 500m: {e}"))
-    })?;
-    let d = v * mult;
-    if !(d.is_finite() && d > 0.0) {
-        return Err(Error::invalid(format!("{s:?}: give a positive distance")));
-    }
-    Ok(d)
-}
-
 /// Read a whole DEM as f32 (NaN = nodata), refusing what the memory budget
 /// cannot hold (`bytes_per_cell` of working set).
 pub fn read_dem(
