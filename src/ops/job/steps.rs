@@ -1,0 +1,201 @@
+//! The typed commands of a job: each builder turns a step into its
+//! operation's options (checked here, in `prepare`) and a closure running
+//! `ops::<cmd>::run`, doing what the command does (open the input with its
+//! georeference warning, write the target, note what was written).
+
+use super::commands::{
+    join_lists, one_input, output, step_error, typed_keys, StepCall, Takes, TypedStep,
+};
+use crate::error::Result;
+use crate::exec::EngineConfig;
+use crate::ops::note::{open_input, warn_georef, Note, Notify};
+use crate::ops::parse::RunOptions;
+use crate::ops::{self, Target};
+use crate::raster::RasterSource;
+use serde::de::DeserializeOwned;
+use serde::Serialize;
+
+/// The options of a command that has none of its own (`ingest`, `export`).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct NoOptions {}
+
+/// What a one-input raster operation runs once its input is open.
+type RasterOp<O> =
+    fn(&dyn RasterSource, &O, &Target, &EngineConfig, &RunOptions, Notify<'_>) -> Result<()>;
+
+fn engine_config(run: &RunOptions) -> Result<EngineConfig> {
+    use std::io::IsTerminal;
+    run.engine_config(std::io::stderr().is_terminal())
+}
+
+/// A command reading one raster and writing one target: its options `O`
+/// checked by `check`, then `op` run on the opened input.
+fn raster_step<O>(
+    call: &StepCall<'_>,
+    check: fn(&O) -> Result<()>,
+    op: RasterOp<O>,
+) -> Result<TypedStep>
+where
+    O: DeserializeOwned + Serialize + Send + Sync + 'static,
+{
+    let s = call.step;
+    let t = typed_keys::<O>(
+        call,
+        Takes {
+            format: true,
+            png: true,
+        },
+    )?;
+    check(&t.options).map_err(|e| step_error(s, e))?;
+    let input = one_input(s)?;
+    let path = output(s)?;
+    let target = Target {
+        path: path.clone(),
+        options: t.format.output_options()?,
+        tile: t.run.tile,
+    };
+    let (run, png, opts) = (t.run, t.png.open_options(), t.options);
+    Ok(TypedStep::new(opts, move |opts, notify| {
+        let cfg = engine_config(&run)?;
+        let src = open_input(&input, &png, notify)?;
+        op(src.as_ref(), opts, &target, &cfg, &run, notify)?;
+        notify(Note::Wrote(path.clone()));
+        Ok(())
+    }))
+}
+
+fn unchecked<O>(_: &O) -> Result<()> {
+    Ok(())
+}
+
+pub(super) fn fill(call: &StepCall<'_>) -> Result<TypedStep> {
+    raster_step(call, unchecked, |src, o, t, cfg, _, _| {
+        ops::fill::run(src, o, t, cfg)
+    })
+}
+
+pub(super) fn fill_epsilon(call: &StepCall<'_>) -> Result<TypedStep> {
+    raster_step(call, unchecked, |src, o, t, cfg, _, _| {
+        ops::fill_epsilon::run(src, o, t, cfg)
+    })
+}
+
+pub(super) fn watersheds(call: &StepCall<'_>) -> Result<TypedStep> {
+    raster_step(call, unchecked, |src, o, t, cfg, _, _| {
+        ops::watersheds::run(src, o, t, cfg)
+    })
+}
+
+pub(super) fn flow(call: &StepCall<'_>) -> Result<TypedStep> {
+    raster_step(call, unchecked, |src, o, t, cfg, _, _| {
+        ops::flow::run(src, o, t, cfg)
+    })
+}
+
+pub(super) fn slope(call: &StepCall<'_>) -> Result<TypedStep> {
+    raster_step(call, unchecked, |src, o, t, cfg, _, _| {
+        ops::slope::run(src, o, t, cfg)
+    })
+}
+
+pub(super) fn aspect(call: &StepCall<'_>) -> Result<TypedStep> {
+    raster_step(call, unchecked, |src, o, t, cfg, _, _| {
+        ops::aspect::run(src, o, t, cfg)
+    })
+}
+
+pub(super) fn hillshade(call: &StepCall<'_>) -> Result<TypedStep> {
+    raster_step(
+        call,
+        ops::hillshade::HillshadeOptions::validate,
+        |src, o, t, cfg, _, _| ops::hillshade::run(src, o, t, cfg),
+    )
+}
+
+pub(super) fn accumulate(call: &StepCall<'_>) -> Result<TypedStep> {
+    raster_step(call, unchecked, |src, o, t, cfg, run, notify| {
+        let outcome = ops::accumulate::run(src, o, t, cfg)?;
+        if !run.quiet && outcome.rounds > 0 {
+            notify(Note::Info(format!(
+                "accumulate: {} rounds over tiles to the exact fixed point",
+                outcome.rounds
+            )));
+        }
+        Ok(())
+    })
+}
+
+pub(super) fn export(call: &StepCall<'_>) -> Result<TypedStep> {
+    raster_step::<NoOptions>(call, unchecked, |src, _, t, cfg, _, _| {
+        ops::convert::run(src, t, cfg)
+    })
+}
+
+/// `ingest`: one or more inputs (one mosaic) into the output.
+pub(super) fn ingest(call: &StepCall<'_>) -> Result<TypedStep> {
+    let s = call.step;
+    let t = typed_keys::<NoOptions>(
+        call,
+        Takes {
+            format: true,
+            png: true,
+        },
+    )?;
+    if s.inputs.is_empty() {
+        one_input(s)?;
+    }
+    let inputs = s.inputs.clone();
+    let path = output(s)?;
+    let target = Target {
+        path: path.clone(),
+        options: t.format.output_options()?,
+        tile: t.run.tile,
+    };
+    let (run, png) = (t.run, t.png.open_options());
+    Ok(TypedStep::new(t.options, move |_, notify| {
+        let src = crate::io::open_inputs(&inputs, &png)?;
+        warn_georef(src.as_ref(), notify);
+        ops::convert::run(src.as_ref(), &target, &engine_config(&run)?)?;
+        notify(Note::Wrote(path.clone()));
+        Ok(())
+    }))
+}
+
+/// `metric`: the metrics (a comma-separated string or a list) into the
+/// output folder, one file each.
+pub(super) fn metric(call: &StepCall<'_>) -> Result<TypedStep> {
+    let mut joined = call.step.clone();
+    joined.args = join_lists(&joined.args, "metric");
+    let call = StepCall {
+        step: &joined,
+        quiet: call.quiet,
+    };
+    let s = call.step;
+    let t = typed_keys::<ops::metric::MetricOptions>(
+        &call,
+        Takes {
+            format: true,
+            png: true,
+        },
+    )?;
+    if t.options.metric.is_empty() {
+        return Err(step_error(
+            s,
+            "`metric` needs its metrics: args = { metric = [\"slope\", ...] } (see `orogen metric list`)",
+        ));
+    }
+    t.options.specs().map_err(|e| step_error(s, e))?;
+    let input = one_input(s)?;
+    let dir = output(s)?;
+    let oo = t.format.output_options()?;
+    let (run, png, opts) = (t.run, t.png.open_options(), t.options);
+    Ok(TypedStep::new(opts, move |opts, notify| {
+        let cfg = engine_config(&run)?;
+        let src = open_input(&input, &png, notify)?;
+        for p in ops::metric::run(src.as_ref(), &dir, opts, &oo, run.tile, &cfg)? {
+            notify(Note::Wrote(p));
+        }
+        Ok(())
+    }))
+}
