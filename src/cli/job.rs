@@ -154,3 +154,23 @@ pub fn run(a: RunArgs) -> Result<()> {
     job::run_with(&job, Some(&table), &opts, &mut printer(false))?;
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use clap::CommandFactory;
+
+    /// The job registry names exactly the CLI's commands (a group's methods
+    /// as "group method"), so a new command cannot be forgotten.
+    #[test]
+    fn the_job_registry_names_every_cli_command() {
+        let cli = super::ClapTable(crate::Cli::command());
+        let mut from_clap = orogen::ops::job::CommandTable::names(&cli);
+        let mut registered: Vec<String> = orogen::ops::job::COMMANDS
+            .iter()
+            .map(|c| c.name.to_string())
+            .collect();
+        from_clap.sort();
+        registered.sort();
+        assert_eq!(registered, from_clap);
+    }
+}

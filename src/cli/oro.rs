@@ -69,27 +69,13 @@ pub fn run_orostats(a: OrostatsArgs) -> Result<()> {
     orostats::check_output(&a.output)?;
     let cfg = crate::engine(&a.run)?;
     let src = crate::open(&a.input)?;
-    let st = orostats::compute(src.as_ref(), &opts, &cfg)?;
-    if st.profile.n_peaks == 0 && !a.run.quiet {
-        eprintln!(
-            "warning: {}: no peaks with prominence >= {} (flat or all-nodata DEM?); the histograms are all zero",
-            a.input.input.display(),
-            a.min_prominence
-        );
-    }
-    let files = orostats::write(&st, src.as_ref(), &a.output, &opts)?;
-    if !a.run.quiet {
-        eprintln!(
-            "{} disks of radius {} m, {} peaks (prominence >= {})",
-            st.disks.len(),
-            opts.radius,
-            st.profile.n_peaks,
-            a.min_prominence
-        );
-    }
-    for f in &files {
-        crate::wrote(f);
-    }
+    orostats::run_noted(
+        src.as_ref(),
+        &a.output,
+        &opts,
+        &cfg,
+        &mut super::erode::printer(a.run.quiet),
+    )?;
     Ok(())
 }
 

@@ -65,6 +65,56 @@ pub fn distance(s: &str) -> Result<f64> {
     Ok(d)
 }
 
+/// A number or text, as a job file may write a distance.
+#[derive(serde::Deserialize)]
+#[serde(untagged)]
+enum NumberOrText {
+    Number(f64),
+    Text(String),
+}
+
+impl NumberOrText {
+    fn distance<E: serde::de::Error>(self) -> std::result::Result<f64, E> {
+        match self {
+            NumberOrText::Number(v) if v.is_finite() && v > 0.0 => Ok(v),
+            NumberOrText::Number(v) => Err(E::custom(format!("{v}: give a positive distance"))),
+            NumberOrText::Text(t) => distance(&t).map_err(E::custom),
+        }
+    }
+}
+
+/// Serde form of a distance field: metres as a number, or text parsed by
+/// [`distance`] (`radius = "10km"`); written as metres.
+pub mod serde_distance {
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(v: &f64, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_f64(*v)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        super::NumberOrText::deserialize(d)?.distance()
+    }
+}
+
+/// [`serde_distance`] for an optional distance.
+pub mod serde_distance_opt {
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(v: &Option<f64>, s: S) -> Result<S::Ok, S::Error> {
+        match v {
+            Some(v) => s.serialize_some(v),
+            None => s.serialize_none(),
+        }
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
+        Option::<super::NumberOrText>::deserialize(d)?
+            .map(|v| v.distance())
+            .transpose()
+    }
+}
+
 /// Run settings of every command (`--threads --memory --tile --quiet
 /// --engine`; a job's `threads`, `memory`, `tile`, `engine`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]

@@ -199,3 +199,64 @@ pub(super) fn metric(call: &StepCall<'_>) -> Result<TypedStep> {
         Ok(())
     }))
 }
+
+pub(super) fn breach(call: &StepCall<'_>) -> Result<TypedStep> {
+    raster_step(
+        call,
+        |o: &ops::breach::BreachOptions| o.resolve().map(|_| ()),
+        |src, o, t, cfg, _, _| ops::breach::run(src, o, t, cfg),
+    )
+}
+
+/// A command reading one raster and writing files of its own (no raster
+/// format keys): its options checked by `check`, then `op` run with the
+/// output path.
+fn files_step<O>(
+    call: &StepCall<'_>,
+    check: fn(&O, &std::path::Path) -> Result<()>,
+    op: fn(&dyn RasterSource, &std::path::Path, &O, &EngineConfig, Notify<'_>) -> Result<()>,
+) -> Result<TypedStep>
+where
+    O: DeserializeOwned + Serialize + Send + Sync + 'static,
+{
+    let s = call.step;
+    let t = typed_keys::<O>(
+        call,
+        Takes {
+            format: false,
+            png: true,
+        },
+    )?;
+    let input = one_input(s)?;
+    let path = output(s)?;
+    check(&t.options, &path).map_err(|e| step_error(s, e))?;
+    let (run, png) = (t.run, t.png.open_options());
+    Ok(TypedStep::new(t.options, move |opts, notify| {
+        let cfg = engine_config(&run)?;
+        let src = open_input(&input, &png, notify)?;
+        let mut quiet_notes = |n: Note| match n {
+            Note::Info(_) if run.quiet => {}
+            n => notify(n),
+        };
+        op(src.as_ref(), &path, opts, &cfg, &mut quiet_notes)
+    }))
+}
+
+pub(super) fn peaks(call: &StepCall<'_>) -> Result<TypedStep> {
+    files_step(
+        call,
+        |o: &ops::peaks::PeaksOptions, _| o.validate(),
+        |src, dir, o, cfg, notify| ops::peaks::run_noted(src, dir, o, cfg, notify).map(|_| ()),
+    )
+}
+
+pub(super) fn orostats(call: &StepCall<'_>) -> Result<TypedStep> {
+    files_step(
+        call,
+        |o: &ops::orostats::OrostatsOptions, out| {
+            o.stats_options()?;
+            ops::orostats::check_output(out)
+        },
+        |src, out, o, cfg, notify| ops::orostats::run_noted(src, out, o, cfg, notify).map(|_| ()),
+    )
+}
