@@ -193,8 +193,8 @@ fn each_mistake_is_refused_in_prepare_naming_step_and_key() {
         ),
         (
             "not typed",
-            step("synth noise", "", ""),
-            vec!["`synth noise` does not run from the library yet"],
+            step("erode", "input = \"dem\"", ""),
+            vec!["`erode` does not run from the library yet"],
         ),
     ];
     for (what, text, want) in cases {

@@ -69,15 +69,15 @@ pub const COMMANDS: &[Command] = &[
     typed("fill-epsilon", steps::fill_epsilon),
     typed("watersheds", steps::watersheds),
     typed("accumulate", steps::accumulate),
-    line("basins"),
-    line("streams"),
+    typed("basins", steps::basins),
+    typed("streams", steps::streams),
     line("hydro-index"),
     line("render"),
     line("tiles"),
     line("view"),
     line("viewshed"),
     line("erode"),
-    line("synth noise"),
+    typed("synth noise", steps::synth_noise),
     line("synth optimise"),
     line("synth rivers"),
     line("synth tectonic"),
@@ -281,8 +281,25 @@ fn from_table<T: DeserializeOwned>(s: &Planned, table: &toml::Table) -> Result<T
 /// groups, refusing an unknown key (listing the accepted ones and the
 /// nearest) and a value of the wrong kind (naming the key).
 pub fn typed_keys<O: DeserializeOwned>(call: &StepCall<'_>, takes: Takes) -> Result<Typed<O>> {
+    typed_keys_with(call, takes, vec![])
+}
+
+/// [`typed_keys`], with `set` fields of `O` given by the job rather than by
+/// the step's keys (an operation whose options hold its output path: a
+/// step's `args` may not set those).
+pub fn typed_keys_with<O: DeserializeOwned>(
+    call: &StepCall<'_>,
+    takes: Takes,
+    set: Vec<(&'static str, toml::Value)>,
+) -> Result<Typed<O>> {
     let s = call.step;
-    let own = field_names::<O>();
+    let all_own = field_names::<O>();
+    let own_vec: Vec<&'static str> = all_own
+        .iter()
+        .copied()
+        .filter(|f| !set.iter().any(|(k, _)| k == f))
+        .collect();
+    let own = own_vec.as_slice();
     let run_keys = field_names::<RunOptions>();
     let format_keys = if takes.format {
         field_names::<FormatOptions>()
@@ -296,15 +313,26 @@ pub fn typed_keys<O: DeserializeOwned>(call: &StepCall<'_>, takes: Takes) -> Res
     };
     let mut tables: [toml::Table; 4] = Default::default();
     for (k, v) in &s.args {
-        let group = [own, run_keys, format_keys, png_keys]
+        // Keys are in `_` form; a struct may name its fields in kebab case.
+        let found = [own, run_keys, format_keys, png_keys]
             .iter()
-            .position(|keys| keys.contains(&k.as_str()));
-        match group {
-            Some(g) => {
-                tables[g].insert(k.clone(), v.clone());
+            .enumerate()
+            .find_map(|(g, keys)| {
+                keys.iter()
+                    .find(|f| f.replace('-', "_") == *k)
+                    .map(|f| (g, *f))
+            });
+        match found {
+            Some((g, field)) => {
+                tables[g].insert(field.to_string(), v.clone());
             }
             None => {
-                let accepted: Vec<&str> = [own, format_keys, png_keys, run_keys].concat();
+                let accepted: Vec<String> = [own, format_keys, png_keys, run_keys]
+                    .concat()
+                    .iter()
+                    .map(|f| f.replace('-', "_"))
+                    .collect();
+                let accepted: Vec<&str> = accepted.iter().map(String::as_str).collect();
                 let hint = nearest(k, &accepted)
                     .map(|n| format!(" (did you mean {n}?)"))
                     .unwrap_or_default();
@@ -320,7 +348,10 @@ pub fn typed_keys<O: DeserializeOwned>(call: &StepCall<'_>, takes: Takes) -> Res
             }
         }
     }
-    let [o, r, f, p] = tables;
+    let [mut o, r, f, p] = tables;
+    for (k, v) in set {
+        o.insert(k.to_string(), v);
+    }
     let mut run: RunOptions = from_table(s, &r)?;
     run.quiet |= call.quiet;
     crate::ops::parse::bytes(&run.memory).map_err(|e| step_error(s, e))?;

@@ -23,11 +23,18 @@
 //! separated by a space: `run = "synth noise"`; `run = "synth"` alone is an
 //! error listing the methods.
 //!
-//! Option values: strings and numbers are passed as `--key value`, `true`
-//! as a flag `--key` (`false` leaves it out), arrays joined with commas
-//! (`metric = ["slope", "tpi:radius=500m"]`); a string `"@name"` is the path
-//! of the input or step called `name` (an extra dependency). Keys may use
-//! `_` or `-`.
+//! Option values: a typed command's keys are the fields of its
+//! `ops::<cmd>::<Cmd>Options` (the CLI's long options, `_` or `-`), the run
+//! settings (`memory`, `threads`, `tile`, `quiet`, `engine`), and for commands
+//! writing rasters the output format (`compress`, `cog`, `block`, ...), each
+//! read with its type: numbers as numbers, `true`/`false`, choices and
+//! distances as text (`units = "percent"`, `radius = "10km"`), a list where
+//! the CLI takes a comma-separated one (`metric = ["slope",
+//! "tpi:radius=500m"]`). A string `"@name"` is the path of the input or step
+//! called `name` (an extra dependency). The equivalent command line of a
+//! step (strings and numbers as `--key value`, `true` as a flag, arrays
+//! joined with commas) is what the log and report show and what commands
+//! not typed yet are run as.
 //!
 //! Resume: after each step the job records, in `output_dir/.orogen-job.json`,
 //! a fingerprint of the step's command line and of its input files (size and

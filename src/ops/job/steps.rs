@@ -4,7 +4,8 @@
 //! georeference warning, write the target, note what was written).
 
 use super::commands::{
-    join_lists, one_input, output, step_error, typed_keys, StepCall, Takes, TypedStep,
+    join_lists, one_input, output, step_error, typed_keys, typed_keys_with, StepCall, Takes,
+    TypedStep,
 };
 use crate::error::Result;
 use crate::exec::EngineConfig;
@@ -234,11 +235,13 @@ where
     Ok(TypedStep::new(t.options, move |opts, notify| {
         let cfg = engine_config(&run)?;
         let src = open_input(&input, &png, notify)?;
-        let mut quiet_notes = |n: Note| match n {
-            Note::Info(_) if run.quiet => {}
-            n => notify(n),
-        };
-        op(src.as_ref(), &path, opts, &cfg, &mut quiet_notes)
+        op(
+            src.as_ref(),
+            &path,
+            opts,
+            &cfg,
+            &mut quiet_filter(run.quiet, notify),
+        )
     }))
 }
 
@@ -259,4 +262,104 @@ pub(super) fn orostats(call: &StepCall<'_>) -> Result<TypedStep> {
         },
         |src, out, o, cfg, notify| ops::orostats::run_noted(src, out, o, cfg, notify).map(|_| ()),
     )
+}
+
+/// A command reading D8 directions (no PNG keys) and writing a target.
+fn dirs_step<O>(
+    call: &StepCall<'_>,
+    check: fn(&O) -> Result<()>,
+    op: fn(&dyn RasterSource, &O, &Target, &EngineConfig, &RunOptions, Notify<'_>) -> Result<()>,
+) -> Result<TypedStep>
+where
+    O: DeserializeOwned + Serialize + Send + Sync + 'static,
+{
+    let s = call.step;
+    let t = typed_keys::<O>(
+        call,
+        Takes {
+            format: true,
+            png: false,
+        },
+    )?;
+    check(&t.options).map_err(|e| step_error(s, e))?;
+    let input = one_input(s)?;
+    let target = Target {
+        path: output(s)?,
+        options: t.format.output_options()?,
+        tile: t.run.tile,
+    };
+    let run = t.run;
+    Ok(TypedStep::new(t.options, move |opts, notify| {
+        let cfg = engine_config(&run)?;
+        let dirs = crate::io::open_raster(&input, &Default::default())?;
+        op(dirs.as_ref(), opts, &target, &cfg, &run, notify)
+    }))
+}
+
+pub(super) fn basins(call: &StepCall<'_>) -> Result<TypedStep> {
+    dirs_step(call, unchecked, |dirs, o, t, cfg, _, notify| {
+        let labels = ops::basins::write_labels(dirs, o, t, cfg)?;
+        notify(Note::Wrote(t.path.clone()));
+        for f in ops::basins::write_metrics(dirs, o, &labels, cfg)? {
+            notify(Note::Wrote(f));
+        }
+        Ok(())
+    })
+}
+
+pub(super) fn streams(call: &StepCall<'_>) -> Result<TypedStep> {
+    dirs_step(
+        call,
+        |o: &ops::streams::StreamsOptions| o.rule().map(|_| ()),
+        |dirs, o, t, cfg, run, notify| {
+            // The format options apply to the stream raster only.
+            let mut t = t.clone();
+            if o.raster.is_none() {
+                t.options = Default::default();
+            }
+            let net = ops::streams::run(dirs, o, &t, cfg)?;
+            for f in &net.files {
+                notify(Note::Wrote(f.clone()));
+            }
+            if !run.quiet {
+                notify(Note::Info(format!(
+                    "{} links, {} nodes, highest Strahler order {}",
+                    net.links, net.nodes, net.max_order
+                )));
+            }
+            Ok(())
+        },
+    )
+}
+
+/// Notes of a step, summaries (`Info`) left out when it is quiet.
+fn quiet_filter<'a>(quiet: bool, notify: Notify<'a>) -> impl FnMut(Note) + 'a {
+    move |n| match n {
+        Note::Info(_) if quiet => {}
+        n => notify(n),
+    }
+}
+
+/// `synth noise`: no input; the output path is part of its options.
+pub(super) fn synth_noise(call: &StepCall<'_>) -> Result<TypedStep> {
+    let s = call.step;
+    if !s.inputs.is_empty() {
+        return Err(step_error(s, "`synth noise` takes no input"));
+    }
+    let path = output(s)?;
+    let t = typed_keys_with::<ops::synth::noise::NoiseOptions>(
+        call,
+        Takes {
+            format: true,
+            png: false,
+        },
+        vec![("output", toml::Value::String(path.display().to_string()))],
+    )?;
+    crate::ops::synth::parse_size(&t.options.size).map_err(|e| step_error(s, e))?;
+    let oo = t.format.output_options()?;
+    let run = t.run;
+    Ok(TypedStep::new(t.options, move |opts, notify| {
+        let cfg = engine_config(&run)?;
+        ops::synth::noise::run(opts, &oo, &cfg, &mut quiet_filter(run.quiet, notify))
+    }))
 }
