@@ -58,25 +58,7 @@ pub fn run(a: CompareArgs) -> Result<()> {
         label_a: a.label_a.clone(),
         label_b: a.label_b.clone(),
     };
-    let done = compare::run(&a.a, &a.b, &a.output, &opts, &cfg)?;
-    let (cmp, files) = (&done.comparison, &done.files);
-    for f in files
-        .iter()
-        .filter(|f| f.extension().is_some_and(|e| e != "png"))
-    {
-        crate::wrote(f);
-    }
-    if !a.run.quiet {
-        for an in [&cmp.a, &cmp.b] {
-            if let Some(n) = &an.oro_note {
-                eprintln!("warning: orometry of {}: {n}", an.name);
-            }
-        }
-        eprintln!(
-            "{} charts in {}",
-            files.len().saturating_sub(2),
-            a.output.display()
-        );
-    }
+    let mut notify = super::erode::printer(a.run.quiet);
+    compare::run_noted(&a.a, &a.b, &a.output, &opts, &cfg, &mut notify)?;
     Ok(())
 }

@@ -69,13 +69,8 @@ pub fn run_orostats(a: OrostatsArgs) -> Result<()> {
     orostats::check_output(&a.output)?;
     let cfg = crate::engine(&a.run)?;
     let src = crate::open(&a.input)?;
-    orostats::run_noted(
-        src.as_ref(),
-        &a.output,
-        &opts,
-        &cfg,
-        &mut super::erode::printer(a.run.quiet),
-    )?;
+    let mut notify = super::erode::printer(a.run.quiet);
+    orostats::run_noted(src.as_ref(), &a.output, &opts, &cfg, &mut notify)?;
     Ok(())
 }
 

@@ -19,13 +19,8 @@ pub fn run(a: PeaksArgs) -> Result<()> {
     opts.validate()?;
     let cfg = engine(&a.run)?;
     let src = open(&a.input)?;
-    peaks::run_noted(
-        src.as_ref(),
-        &a.output,
-        &opts,
-        &cfg,
-        &mut super::erode::printer(a.run.quiet),
-    )?;
+    let mut notify = super::erode::printer(a.run.quiet);
+    peaks::run_noted(src.as_ref(), &a.output, &opts, &cfg, &mut notify)?;
     Ok(())
 }
 

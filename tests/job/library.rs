@@ -29,35 +29,13 @@ fn a_job_from_the_library_equals_the_operations_called_directly() {
             r#"memory = "128MiB"
 threads = 2
 output_dir = "out"
-
-[inputs]
-dem = "{}"
-
-[[step]]
-name = "acc"
-run = "accumulate"
-input = "d8"
-output = "acc.tif"
-
-[[step]]
-name = "filled"
-run = "fill"
-input = "dem"
-output = "filled.tif"
-args = {{ compress = "zstd", tile = 100 }}
-
-[[step]]
-name = "d8"
-run = "flow"
-input = "filled"
-output = "d8.tif"
-
-[[step]]
-name = "slope"
-run = "slope"
-input = "dem"
-output = "slope.tif"
-args = {{ units = "percent", z-factor = 2 }}
+inputs = {{ dem = "{}" }}
+step = [
+    {{ name = "acc", run = "accumulate", input = "d8", output = "acc.tif" }},
+    {{ name = "filled", run = "fill", input = "dem", output = "filled.tif", args = {{ compress = "zstd", tile = 100 }} }},
+    {{ name = "d8", run = "flow", input = "filled", output = "d8.tif" }},
+    {{ name = "slope", run = "slope", input = "dem", output = "slope.tif", args = {{ units = "percent", z-factor = 2 }} }},
+]
 "#,
             dem().display()
         ),

@@ -85,7 +85,7 @@ pub const COMMANDS: &[Command] = &[
     line("synth divide-tree"),
     line("synth from-tree"),
     line("synth orometric"),
-    line("compare"),
+    typed("compare", steps::compare),
     line("demo"),
 ];
 

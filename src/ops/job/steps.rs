@@ -70,40 +70,23 @@ fn unchecked<O>(_: &O) -> Result<()> {
     Ok(())
 }
 
-pub(super) fn fill(call: &StepCall<'_>) -> Result<TypedStep> {
-    raster_step(call, unchecked, |src, o, t, cfg, _, _| {
-        ops::fill::run(src, o, t, cfg)
-    })
+/// Builders of the commands whose operation is
+/// `ops::<cmd>::run(input, options, target, engine)` as it is.
+macro_rules! plain_raster_steps {
+    ($($name:ident => $run:path),* $(,)?) => {$(
+        pub(super) fn $name(call: &StepCall<'_>) -> Result<TypedStep> {
+            raster_step(call, unchecked, |src, o, t, cfg, _, _| $run(src, o, t, cfg))
+        }
+    )*};
 }
 
-pub(super) fn fill_epsilon(call: &StepCall<'_>) -> Result<TypedStep> {
-    raster_step(call, unchecked, |src, o, t, cfg, _, _| {
-        ops::fill_epsilon::run(src, o, t, cfg)
-    })
-}
-
-pub(super) fn watersheds(call: &StepCall<'_>) -> Result<TypedStep> {
-    raster_step(call, unchecked, |src, o, t, cfg, _, _| {
-        ops::watersheds::run(src, o, t, cfg)
-    })
-}
-
-pub(super) fn flow(call: &StepCall<'_>) -> Result<TypedStep> {
-    raster_step(call, unchecked, |src, o, t, cfg, _, _| {
-        ops::flow::run(src, o, t, cfg)
-    })
-}
-
-pub(super) fn slope(call: &StepCall<'_>) -> Result<TypedStep> {
-    raster_step(call, unchecked, |src, o, t, cfg, _, _| {
-        ops::slope::run(src, o, t, cfg)
-    })
-}
-
-pub(super) fn aspect(call: &StepCall<'_>) -> Result<TypedStep> {
-    raster_step(call, unchecked, |src, o, t, cfg, _, _| {
-        ops::aspect::run(src, o, t, cfg)
-    })
+plain_raster_steps! {
+    fill => ops::fill::run,
+    fill_epsilon => ops::fill_epsilon::run,
+    watersheds => ops::watersheds::run,
+    flow => ops::flow::run,
+    slope => ops::slope::run,
+    aspect => ops::aspect::run,
 }
 
 pub(super) fn hillshade(call: &StepCall<'_>) -> Result<TypedStep> {
@@ -361,5 +344,37 @@ pub(super) fn synth_noise(call: &StepCall<'_>) -> Result<TypedStep> {
     Ok(TypedStep::new(t.options, move |opts, notify| {
         let cfg = engine_config(&run)?;
         ops::synth::noise::run(opts, &oo, &cfg, &mut quiet_filter(run.quiet, notify))
+    }))
+}
+
+/// `compare`: two inputs (terrain a, terrain b) into the output folder.
+pub(super) fn compare(call: &StepCall<'_>) -> Result<TypedStep> {
+    let s = call.step;
+    let t = typed_keys::<ops::compare::CompareOptions>(
+        call,
+        Takes {
+            format: false,
+            png: false,
+        },
+    )?;
+    t.options.validate().map_err(|e| step_error(s, e))?;
+    let [a, b] = match s.inputs.as_slice() {
+        [a, b] => [a.clone(), b.clone()],
+        v => {
+            return Err(step_error(
+                s,
+                format!(
+                    "`compare` takes two inputs, input = [\"a\", \"b\"], not {}",
+                    v.len()
+                ),
+            ))
+        }
+    };
+    let dir = output(s)?;
+    let run = t.run;
+    Ok(TypedStep::new(t.options, move |opts, notify| {
+        let cfg = engine_config(&run)?;
+        let mut notify = quiet_filter(run.quiet, notify);
+        ops::compare::run_noted(&a, &b, &dir, opts, &cfg, &mut notify).map(|_| ())
     }))
 }
