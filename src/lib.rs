@@ -16,8 +16,10 @@
 //! `ops::synth` stay under [`ops`]: their names are the algorithm modules'
 //! [`flow`], [`compare`], [`tiles`], [`synth`]); the modules hold the
 //! algorithms behind them.
-//! (The batch-job runner [`ops::job`] still takes its step runner from the
-//! caller: `orogen run` parses each step as a command line.)
+//! The batch-job runner [`ops::job`] runs the typed commands of a job file
+//! (fill, flow, accumulate, slope, metric, peaks, ...: see
+//! [`ops::job::COMMANDS`]) by calling these operations; the others still need
+//! the caller's step runner (`orogen run` parses them as command lines).
 //!
 //! ```
 //! use orogen::{fill, Grid, MemRaster, GeoRef, Target, EngineConfig};

@@ -4,11 +4,11 @@
 //! library's `EngineConfig`, `OutputOptions` and `ops::Target`. `main.rs`
 //! re-exports them at the crate root (`crate::Run`, `crate::engine`, ...).
 
-use anyhow::{bail, Context, Result};
+use anyhow::Result;
 use clap::{Args, ValueEnum};
 use orogen::exec::EngineConfig;
-use orogen::io::geotiff::{Compression, WriteOptions};
 use orogen::io::{self, OpenOptions, OutputOptions};
+use orogen::ops::parse::{self, FormatOptions, PngOptions, RunOptions};
 use orogen::raster::RasterSource;
 use std::path::{Path, PathBuf};
 
@@ -40,13 +40,12 @@ pub(crate) enum EngineArg {
 }
 
 impl EngineArg {
-    /// Make this the engine of the process (MPI starts here).
-    pub(crate) fn select(self) -> Result<()> {
-        orogen::exec::select_engine(match self {
+    /// The library's engine kind.
+    pub(crate) fn kind(self) -> orogen::exec::EngineKind {
+        match self {
             EngineArg::Local => orogen::exec::EngineKind::Local,
             EngineArg::Mpi => orogen::exec::EngineKind::Mpi,
-        })?;
-        Ok(())
+        }
     }
 }
 
@@ -111,10 +110,11 @@ pub(crate) struct PngArgs {
 
 impl PngArgs {
     pub(crate) fn open_options(&self) -> OpenOptions {
-        OpenOptions {
+        PngOptions {
             png_scale: self.png_scale,
             png_offset: self.png_offset,
         }
+        .open_options()
     }
 }
 
@@ -126,95 +126,56 @@ pub(crate) enum Compress {
     Zstd,
 }
 
-pub(crate) fn parse_bytes(s: &str) -> Result<u64> {
-    let t = s.trim();
-    let split = t
-        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
-        .unwrap_or(t.len());
-    let (num, unit) = t.split_at(split);
-    let v: f64 = num
-        .parse()
-        .with_context(|| format!("--memory {s:?}: expected a size like 512MiB or 2GiB"))?;
-    let mult = match unit.trim().to_ascii_lowercase().as_str() {
-        "" | "b" => 1.0,
-        "k" | "kb" | "kib" => 1024.0,
-        "m" | "mb" | "mib" => 1024.0 * 1024.0,
-        "g" | "gb" | "gib" => 1024.0 * 1024.0 * 1024.0,
-        "t" | "tb" | "tib" => 1024.0f64.powi(4),
-        u => bail!("--memory {s:?}: unknown unit {u:?} (use KiB, MiB, GiB)"),
-    };
-    let b = v * mult;
-    if b.is_nan() || b < 16.0 * 1024.0 * 1024.0 {
-        bail!("--memory {s:?} is too small: give at least 16MiB");
+impl Run {
+    /// The library's run settings (parsed by `orogen::ops::parse`).
+    pub(crate) fn options(&self) -> RunOptions {
+        RunOptions {
+            threads: self.threads,
+            memory: self.memory.clone(),
+            tile: self.tile,
+            quiet: self.quiet,
+            engine: self.engine.map(EngineArg::kind),
+        }
     }
-    Ok(b as u64)
 }
 
 pub(crate) fn engine(run: &Run) -> Result<EngineConfig> {
     use std::io::IsTerminal;
-    QUIET.store(run.quiet, std::sync::atomic::Ordering::Relaxed);
-    if let Some(e) = run.engine {
-        e.select()?;
+    set_quiet(run.quiet);
+    Ok(run
+        .options()
+        .engine_config(std::io::stderr().is_terminal())?)
+}
+
+impl OutFmt {
+    /// The library's format settings (checked by `orogen::ops::parse`).
+    pub(crate) fn options(&self) -> FormatOptions {
+        FormatOptions {
+            compress: match self.compress {
+                Compress::None => parse::Compress::None,
+                Compress::Deflate => parse::Compress::Deflate,
+                Compress::Lzw => parse::Compress::Lzw,
+                Compress::Zstd => parse::Compress::Zstd,
+            },
+            predictor: self.predictor,
+            block: self.block,
+            bigtiff: self.bigtiff.clone(),
+            store_tile: self.store_tile,
+            zstd: self.zstd,
+            overwrite: self.overwrite,
+            cog: self.cog,
+            overviews: self.overviews.clone(),
+        }
     }
-    Ok(EngineConfig {
-        threads: run.threads,
-        memory_budget: parse_bytes(&run.memory)?,
-        progress: !run.quiet && std::io::stderr().is_terminal(),
-        engine: orogen::exec::EngineKind::current(),
-    })
+}
+
+/// `option`'s distance (`orogen::ops::parse::distance`), the error naming it.
+pub(crate) fn distance(option: &str, s: &str) -> Result<f64> {
+    parse::distance(s).map_err(|e| anyhow::anyhow!("{option} {e}"))
 }
 
 pub(crate) fn output_options(o: &OutFmt) -> Result<OutputOptions> {
-    let compression = match o.compress {
-        Compress::None => Compression::None,
-        Compress::Deflate => Compression::Deflate { level: 6 },
-        Compress::Lzw => Compression::Lzw,
-        Compress::Zstd => Compression::Zstd { level: 9 },
-    };
-    let bigtiff = match o.bigtiff.as_str() {
-        "auto" => None,
-        "yes" | "true" => Some(true),
-        "no" | "false" => Some(false),
-        b => bail!("--bigtiff {b:?}: use yes, no or auto"),
-    };
-    if let Some(p) = o.predictor {
-        if !(1..=3).contains(&p) {
-            bail!("--predictor {p}: use 1 (none), 2 (horizontal) or 3 (floating point)");
-        }
-    }
-    if o.block < 16 || !o.block.is_multiple_of(16) {
-        bail!(
-            "--block {}: GeoTIFF tiles must be a multiple of 16 (e.g. 256, 512)",
-            o.block
-        );
-    }
-    if o.store_tile < 16 {
-        bail!("--store-tile {}: use at least 16 (e.g. 1024)", o.store_tile);
-    }
-    let tiff = WriteOptions {
-        compression,
-        predictor: o.predictor,
-        block: o.block,
-        bigtiff,
-    };
-    let mut store = orogen::store::StoreOptions::default();
-    store.tile = o.store_tile;
-    store.compression = if o.zstd {
-        orogen::store::Compression::Zstd { level: 3 }
-    } else {
-        orogen::store::Compression::None
-    };
-    store.overwrite = o.overwrite;
-    let cog = if o.cog {
-        Some(match o.overviews.as_str() {
-            "average" => orogen::io::geotiff::Resampling::Average,
-            "nearest" => orogen::io::geotiff::Resampling::Nearest,
-            r => bail!("--overviews {r:?}: use average (continuous data) or nearest (classes)"),
-        })
-    } else {
-        None
-    };
-    Ok(OutputOptions { tiff, store, cog })
+    Ok(o.options().output_options()?)
 }
 
 pub(crate) fn open(i: &In) -> Result<Box<dyn RasterSource>> {
@@ -234,6 +195,11 @@ pub(crate) fn warn_georef(src: &dyn RasterSource) {
 }
 
 static QUIET: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// `wrote PATH` lines off (`--quiet`) or on.
+pub(crate) fn set_quiet(quiet: bool) {
+    QUIET.store(quiet, std::sync::atomic::Ordering::Relaxed);
+}
 
 pub(crate) fn wrote(p: &Path) {
     if !QUIET.load(std::sync::atomic::Ordering::Relaxed) {

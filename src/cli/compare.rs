@@ -1,6 +1,7 @@
 //! `orogen compare A B -o DIR`: realism report of two terrains (see
 //! `orogen::ops::compare`).
 
+use crate::distance;
 use anyhow::Result;
 use clap::Args;
 use orogen::ops::compare::{self, CompareOptions};
@@ -42,7 +43,6 @@ pub struct CompareArgs {
     pub run: crate::Run,
 }
 
-/// A distance such as `5km`, `5000m` or `5000` (metres).
 /// Compare the two terrains into the output folder (`ops::compare`).
 pub fn run(a: CompareArgs) -> Result<()> {
     let cfg = crate::engine(&a.run)?;
@@ -51,32 +51,14 @@ pub fn run(a: CompareArgs) -> Result<()> {
         radius: a
             .radius
             .as_deref()
-            .map(compare::parse_distance)
+            .map(|r| distance("--radius", r))
             .transpose()?,
         channel_area: a.channel_area,
         seed: a.seed,
         label_a: a.label_a.clone(),
         label_b: a.label_b.clone(),
     };
-    let done = compare::run(&a.a, &a.b, &a.output, &opts, &cfg)?;
-    let (cmp, files) = (&done.comparison, &done.files);
-    for f in files
-        .iter()
-        .filter(|f| f.extension().is_some_and(|e| e != "png"))
-    {
-        crate::wrote(f);
-    }
-    if !a.run.quiet {
-        for an in [&cmp.a, &cmp.b] {
-            if let Some(n) = &an.oro_note {
-                eprintln!("warning: orometry of {}: {n}", an.name);
-            }
-        }
-        eprintln!(
-            "{} charts in {}",
-            files.len().saturating_sub(2),
-            a.output.display()
-        );
-    }
+    let mut notify = super::erode::printer(a.run.quiet);
+    compare::run_noted(&a.a, &a.b, &a.output, &opts, &cfg, &mut notify)?;
     Ok(())
 }

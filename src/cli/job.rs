@@ -1,5 +1,6 @@
 //! `orogen run job.toml`: batch jobs (see `orogen::ops::job` for the file
-//! format); the steps' command lines are parsed and run by this CLI.
+//! format). Typed steps run in the library; the steps of commands not typed
+//! yet have their command lines parsed and run by this CLI (`ClapTable`).
 
 use super::erode::printer;
 use anyhow::Result;
@@ -125,7 +126,8 @@ pub fn run(a: RunArgs) -> Result<()> {
             crate::EngineArg::Mpi => orogen::exec::EngineKind::Mpi,
         }),
     };
-    let job = job::prepare(&a.job, &table, &opts)?;
+    crate::cli::args::set_quiet(a.quiet);
+    let job = job::prepare_with(&a.job, Some(&table), &opts)?;
     if a.dry_run {
         for (i, s) in job.steps.iter().enumerate() {
             println!(
@@ -135,9 +137,40 @@ pub fn run(a: RunArgs) -> Result<()> {
                 s.name,
                 s.argv.join(" ")
             );
+            match job::typed_options(s) {
+                Some(Ok(t)) if t.is_empty() => println!("    options: none"),
+                Some(Ok(t)) => {
+                    println!("    options:");
+                    for l in t.lines() {
+                        println!("      {l}");
+                    }
+                }
+                Some(Err(e)) => println!("    options: {e}"),
+                None => println!("    options: parsed by the command line"),
+            }
         }
         return Ok(());
     }
-    job::run(&job, &table, &opts, &mut printer(false))?;
+    job::run_with(&job, Some(&table), &opts, &mut printer(false))?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::CommandFactory;
+
+    /// The job registry names exactly the CLI's commands (a group's methods
+    /// as "group method"), so a new command cannot be forgotten.
+    #[test]
+    fn the_job_registry_names_every_cli_command() {
+        let cli = super::ClapTable(crate::Cli::command());
+        let mut from_clap = orogen::ops::job::CommandTable::names(&cli);
+        let mut registered: Vec<String> = orogen::ops::job::COMMANDS
+            .iter()
+            .map(|c| c.name.to_string())
+            .collect();
+        from_clap.sort();
+        registered.sort();
+        assert_eq!(registered, from_clap);
+    }
 }

@@ -2,6 +2,7 @@
 //! profile), `classify` (random forest over feature vectors) and `ridges`
 //! (`orogen::ops::orostats`, `ops::classify`, `ops::ridges`).
 
+use crate::distance;
 use anyhow::Result;
 use clap::{Args, Subcommand};
 use orogen::ops::classify::{self, EvaluateOptions, ForestOptions};
@@ -51,11 +52,11 @@ pub struct OrostatsArgs {
 /// Feature vectors (and the profile) of the input.
 pub fn run_orostats(a: OrostatsArgs) -> Result<()> {
     let opts = OrostatsOptions {
-        radius: orostats::parse_distance(&a.radius)?,
+        radius: distance("--radius", &a.radius)?,
         separation: a
             .separation
             .as_deref()
-            .map(orostats::parse_distance)
+            .map(|s| distance("--separation", s))
             .transpose()?,
         label: a.label.clone(),
         seed: a.seed,
@@ -68,27 +69,8 @@ pub fn run_orostats(a: OrostatsArgs) -> Result<()> {
     orostats::check_output(&a.output)?;
     let cfg = crate::engine(&a.run)?;
     let src = crate::open(&a.input)?;
-    let st = orostats::compute(src.as_ref(), &opts, &cfg)?;
-    if st.profile.n_peaks == 0 && !a.run.quiet {
-        eprintln!(
-            "warning: {}: no peaks with prominence >= {} (flat or all-nodata DEM?); the histograms are all zero",
-            a.input.input.display(),
-            a.min_prominence
-        );
-    }
-    let files = orostats::write(&st, src.as_ref(), &a.output, &opts)?;
-    if !a.run.quiet {
-        eprintln!(
-            "{} disks of radius {} m, {} peaks (prominence >= {})",
-            st.disks.len(),
-            opts.radius,
-            st.profile.n_peaks,
-            a.min_prominence
-        );
-    }
-    for f in &files {
-        crate::wrote(f);
-    }
+    let mut notify = super::erode::printer(a.run.quiet);
+    orostats::run_noted(src.as_ref(), &a.output, &opts, &cfg, &mut notify)?;
     Ok(())
 }
 

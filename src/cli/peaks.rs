@@ -1,9 +1,9 @@
 //! `orogen peaks`: peaks, saddles and the divide tree (`ops::peaks`).
 
-use crate::{engine, open, wrote, In, Run};
+use crate::{engine, open, In, Run};
 use anyhow::Result;
 use clap::Args;
-use orogen::ops::peaks::{self, PeaksMode, PeaksOptions};
+use orogen::ops::peaks::{self, PeaksOptions};
 use std::path::PathBuf;
 
 /// Find the peaks of the input and write them into the output folder.
@@ -19,26 +19,8 @@ pub fn run(a: PeaksArgs) -> Result<()> {
     opts.validate()?;
     let cfg = engine(&a.run)?;
     let src = open(&a.input)?;
-    let mode = peaks::mode(src.as_ref(), &opts, &cfg)?;
-    if let PeaksMode::Tiled { tile } = mode {
-        if !a.run.quiet {
-            let info = src.info();
-            eprintln!(
-                "peaks: {}x{} cells, tile by tile ({tile}-cell tiles)",
-                info.width, info.height
-            );
-        }
-    }
-    let found = peaks::run_in(src.as_ref(), &a.output, &opts, mode, &cfg)?;
-    if !a.run.quiet {
-        eprintln!(
-            "{} peaks with prominence >= {}",
-            found.peaks, a.min_prominence
-        );
-    }
-    for f in &found.files {
-        wrote(f);
-    }
+    let mut notify = super::erode::printer(a.run.quiet);
+    peaks::run_noted(src.as_ref(), &a.output, &opts, &cfg, &mut notify)?;
     Ok(())
 }
 

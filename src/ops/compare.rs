@@ -6,6 +6,7 @@ use crate::compare::{self, Comparison};
 use crate::error::{Error, Result};
 use crate::exec::EngineConfig;
 use crate::io::{open_raster, OpenOptions};
+use crate::ops::note::{Note, Notify};
 use std::path::{Path, PathBuf};
 
 /// Options of `orogen compare`.
@@ -15,7 +16,9 @@ pub struct CompareOptions {
     /// Peaks with at least this prominence (m).
     pub min_prominence: f64,
     /// Disk radius of the orometric statistics in metres (`None`: 10 km, or a
-    /// quarter of the shorter side of the smaller terrain if less).
+    /// quarter of the shorter side of the smaller terrain if less; a job may
+    /// write `"5km"`).
+    #[serde(with = "crate::ops::parse::serde_distance_opt")]
     pub radius: Option<f64>,
     /// Channels start where the drainage area reaches this (km²).
     pub channel_area: f64,
@@ -38,30 +41,6 @@ impl Default for CompareOptions {
             label_b: None,
         }
     }
-}
-
-/// `--radius` of `orogen compare`: a distance such as `5km`, `2000m` or
-/// `2000` (metres).
-pub fn parse_distance(s: &str) -> Result<f64> {
-    let t = s.trim();
-    let (num, mul) = if let Some(n) = t.strip_suffix("km") {
-        (n, 1000.0)
-    } else if let Some(n) = t.strip_suffix('m') {
-        (n, 1.0)
-    } else {
-        (t, 1.0)
-    };
-    let v: f64 = num.trim().parse().map_err(|e| {
-        Error::invalid(format!(
-            "--radius {s}: give a distance such as 5km or 2000m: {e}"
-        ))
-    })?;
-    if !(v.is_finite() && v > 0.0) {
-        return Err(Error::invalid(format!(
-            "--radius {s}: give a positive distance"
-        )));
-    }
-    Ok(v * mul)
 }
 
 impl CompareOptions {
@@ -123,4 +102,36 @@ pub fn run(
     let comparison = compare::compare(&ta, &tb, &copts)?;
     let files = compare::output::write_outputs(&comparison, &ta, &tb, dir)?;
     Ok(CompareOutcome { comparison, files })
+}
+
+/// [`run`], telling `notify` the files written (not the charts), a
+/// warning-level summary for a terrain whose orometry was cut short, and
+/// how many charts it drew.
+pub fn run_noted(
+    a: &Path,
+    b: &Path,
+    dir: &Path,
+    opts: &CompareOptions,
+    cfg: &EngineConfig,
+    notify: Notify<'_>,
+) -> Result<CompareOutcome> {
+    let done = run(a, b, dir, opts, cfg)?;
+    let (cmp, files) = (&done.comparison, &done.files);
+    for f in files
+        .iter()
+        .filter(|f| f.extension().is_some_and(|e| e != "png"))
+    {
+        notify(Note::Wrote(f.clone()));
+    }
+    for an in [&cmp.a, &cmp.b] {
+        if let Some(n) = &an.oro_note {
+            notify(Note::Info(format!("warning: orometry of {}: {n}", an.name)));
+        }
+    }
+    notify(Note::Info(format!(
+        "{} charts in {}",
+        files.len().saturating_sub(2),
+        dir.display()
+    )));
+    Ok(done)
 }

@@ -26,6 +26,7 @@ pub mod info;
 pub mod metric;
 pub mod metric_table;
 pub mod orostats;
+pub mod parse;
 pub mod peaks;
 pub mod render;
 pub mod ridges;

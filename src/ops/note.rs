@@ -41,6 +41,13 @@ pub fn open_input(
     notify: Notify<'_>,
 ) -> Result<Box<dyn RasterSource>> {
     let src = io::open_raster(path, opts)?;
+    warn_georef(src.as_ref(), notify);
+    Ok(src)
+}
+
+/// A warning when `src` has no georeferencing (pixel coordinates, 1 x 1
+/// cells).
+pub fn warn_georef(src: &dyn RasterSource, notify: Notify<'_>) {
     let info = src.info();
     if !info.georef.georeferenced {
         notify(Note::Warning(format!(
@@ -48,7 +55,6 @@ pub fn open_input(
             info.path.display()
         )));
     }
-    Ok(src)
 }
 
 /// Render the hillshaded preview of `src` to `path` and note it.

@@ -5,30 +5,11 @@
 use crate::error::{Error, Result};
 use crate::exec::EngineConfig;
 use crate::exec::MemoryFit;
+use crate::ops::note::{Note, Notify};
 use crate::oro::stats::{self, OroStats, StatsOptions};
 use crate::oro::EdgeConvention;
 use crate::raster::{GeoRef, Grid, RasterSource, Window};
 use std::path::{Path, PathBuf};
-
-/// A distance like `10km`, `500m` or `2500` (metres).
-pub fn parse_distance(s: &str) -> Result<f64> {
-    let t = s.trim().to_ascii_lowercase();
-    let (num, mult) = if let Some(v) = t.strip_suffix("km") {
-        (v, 1000.0)
-    } else if let Some(v) = t.strip_suffix('m') {
-        (v, 1.0)
-    } else {
-        (t.as_str(), 1.0)
-    };
-    let v: f64 = num.trim().parse().map_err(|e| {
-        Error::invalid(format!("{s:?}: expected a distance like 10km or 500m: {e}"))
-    })?;
-    let d = v * mult;
-    if !(d.is_finite() && d > 0.0) {
-        return Err(Error::invalid(format!("{s:?}: give a positive distance")));
-    }
-    Ok(d)
-}
 
 /// Read a whole DEM as f32 (NaN = nodata), refusing what the memory budget
 /// cannot hold (`bytes_per_cell` of working set).
@@ -59,9 +40,11 @@ pub const OROSTATS_BYTES_PER_CELL: u64 = 40;
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct OrostatsOptions {
-    /// Disk radius in metres.
+    /// Disk radius in metres (a job may write `"10km"`).
+    #[serde(with = "crate::ops::parse::serde_distance")]
     pub radius: f64,
     /// Minimum distance between disk centres in metres (at least R/2; `None`: R/2).
+    #[serde(with = "crate::ops::parse::serde_distance_opt")]
     pub separation: Option<f64>,
     /// Region label stored with every feature vector (for `orogen classify`).
     pub label: String,
@@ -69,7 +52,8 @@ pub struct OrostatsOptions {
     pub seed: u64,
     /// Peaks with at least this prominence.
     pub min_prominence: f64,
-    /// Edge and nodata convention.
+    /// Edge and nodata convention (`sea-level` or `unknown`).
+    #[serde(with = "crate::ops::peaks::edge_text")]
     pub edge: EdgeConvention,
     /// Skip disks with a smaller fraction of valid cells.
     pub min_valid: f64,
@@ -151,6 +135,39 @@ pub fn compute(
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
     stats::orostats(&grid, &georef, &sopts, &opts.label, &source)
+}
+
+/// Compute the feature vectors of `dem` ([`compute`]) and write them to
+/// `output` ([`write`]), telling `notify` a summary line, a warning-level
+/// summary when no peak qualifies (the histograms are then all zero) and
+/// the files written.
+pub fn run_noted(
+    dem: &dyn RasterSource,
+    output: &Path,
+    opts: &OrostatsOptions,
+    cfg: &EngineConfig,
+    notify: Notify<'_>,
+) -> Result<Vec<PathBuf>> {
+    let st = compute(dem, opts, cfg)?;
+    if st.profile.n_peaks == 0 {
+        notify(Note::Info(format!(
+            "warning: {}: no peaks with prominence >= {} (flat or all-nodata DEM?); the histograms are all zero",
+            dem.info().path.display(),
+            opts.min_prominence
+        )));
+    }
+    let files = write(&st, dem, output, opts)?;
+    notify(Note::Info(format!(
+        "{} disks of radius {} m, {} peaks (prominence >= {})",
+        st.disks.len(),
+        opts.radius,
+        st.profile.n_peaks,
+        opts.min_prominence
+    )));
+    for f in &files {
+        notify(Note::Wrote(f.clone()));
+    }
+    Ok(files)
 }
 
 /// Write the feature vectors of `st` to `output` (`.csv` or `.json`) and the

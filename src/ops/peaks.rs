@@ -5,6 +5,7 @@
 use crate::error::{Error, Result};
 use crate::exec::EngineConfig;
 use crate::exec::MemoryFit;
+use crate::ops::note::{Note, Notify};
 use crate::oro::EdgeConvention;
 use crate::raster::RasterSource;
 use std::path::{Path, PathBuf};
@@ -18,7 +19,8 @@ pub const PEAKS_BYTES_PER_CELL: u64 = 28;
 pub struct PeaksOptions {
     /// Keep peaks with at least this prominence (DEM units, usually metres).
     pub min_prominence: f64,
-    /// Edge and nodata convention.
+    /// Edge and nodata convention (`sea-level` or `unknown`).
+    #[serde(with = "edge_text")]
     pub edge: EdgeConvention,
     /// Skip isolation (distance to higher ground).
     pub no_isolation: bool,
@@ -52,6 +54,24 @@ pub fn parse_edge(s: &str) -> Result<EdgeConvention> {
         e => Err(Error::invalid(format!(
             "--edge {e:?}: use sea-level or unknown"
         ))),
+    }
+}
+
+/// Serde form of an [`EdgeConvention`]: the text of `--edge`
+/// ([`parse_edge`]).
+pub mod edge_text {
+    use crate::oro::EdgeConvention;
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(e: &EdgeConvention, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(match e {
+            EdgeConvention::SeaLevel => "sea-level",
+            EdgeConvention::Unknown => "unknown",
+        })
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<EdgeConvention, D::Error> {
+        super::parse_edge(&String::deserialize(d)?).map_err(serde::de::Error::custom)
     }
 }
 
@@ -149,6 +169,35 @@ pub fn run(
     opts.validate()?;
     let m = mode(dem, opts, cfg)?;
     run_in(dem, dir, opts, m, cfg)
+}
+
+/// [`run`], telling `notify` how it runs (tile by tile), how many peaks it
+/// found and the files it wrote.
+pub fn run_noted(
+    dem: &dyn RasterSource,
+    dir: &Path,
+    opts: &PeaksOptions,
+    cfg: &EngineConfig,
+    notify: Notify<'_>,
+) -> Result<PeaksOutcome> {
+    opts.validate()?;
+    let m = mode(dem, opts, cfg)?;
+    if let PeaksMode::Tiled { tile } = m {
+        let info = dem.info();
+        notify(Note::Info(format!(
+            "peaks: {}x{} cells, tile by tile ({tile}-cell tiles)",
+            info.width, info.height
+        )));
+    }
+    let found = run_in(dem, dir, opts, m, cfg)?;
+    notify(Note::Info(format!(
+        "{} peaks with prominence >= {}",
+        found.peaks, opts.min_prominence
+    )));
+    for f in &found.files {
+        notify(Note::Wrote(f.clone()));
+    }
+    Ok(found)
 }
 
 /// [`run`] in the given mode (from [`mode`]).

@@ -90,7 +90,7 @@ fn group_mistakes_are_clear_errors() {
         (
             "run = \"synth noise\"",
             "args = { bogus = 1 }",
-            "`synth noise` has no option --bogus; see `orogen synth noise --help`",
+            "`synth noise` has no option --bogus; it accepts: kind, size, cell, seed",
         ),
         ("run = \"nosuch\"", "", "synth noise"),
     ];

@@ -1,5 +1,7 @@
 //! Job files (`orogen run job.toml`): steps equal the commands run by hand,
-//! resume after kill, group commands as steps, clear errors.
+//! resume after kill, group commands as steps, clear errors; jobs run from
+//! the library with the bytes of the operations called directly.
 
 mod group_steps;
+mod library;
 mod run_file;

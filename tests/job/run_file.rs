@@ -208,7 +208,7 @@ fn each_mistake_in_a_job_file_is_one_clear_error() {
         ("unknown command", "[[step]]\nname=\"a\"\nrun=\"fil\"\n".into(), "unknown command \"fil\"; a step may run: "),
         ("missing input", "[[step]]\nname=\"a\"\nrun=\"fill\"\ninput=\"nope\"\noutput=\"a.tif\"\n".into(), "\"nope\" is neither an input nor a step"),
         ("cycle", "[[step]]\nname=\"a\"\nrun=\"fill\"\ninput=\"b\"\noutput=\"a.tif\"\n[[step]]\nname=\"b\"\nrun=\"flow\"\ninput=\"a\"\noutput=\"b.tif\"\n".into(), "cycle: a -> b -> a"),
-        ("wrong type", format!("[inputs]\ndem=\"{d}\"\n[[step]]\nname=\"a\"\nrun=\"slope\"\ninput=\"dem\"\noutput=\"a.tif\"\nargs={{z_factor=\"big\"}}\n"), "step \"a\": invalid value 'big' for '--z-factor"),
+        ("wrong type", format!("[inputs]\ndem=\"{d}\"\n[[step]]\nname=\"a\"\nrun=\"slope\"\ninput=\"dem\"\noutput=\"a.tif\"\nargs={{z_factor=\"big\"}}\n"), "step \"a\": `slope` option z_factor = \"big\": invalid type: string \"big\", expected f64"),
         ("unknown option", format!("[inputs]\ndem=\"{d}\"\n[[step]]\nname=\"a\"\nrun=\"slope\"\ninput=\"dem\"\noutput=\"a.tif\"\nargs={{zfactor=2}}\n"), "`slope` has no option --zfactor"),
         ("duplicate", "[inputs]\na=\"x.tif\"\n[[step]]\nname=\"a\"\nrun=\"fill\"\n".into(), "\"a\" is used twice"),
         ("no steps", "threads = 1\n".into(), "no [[step]]"),

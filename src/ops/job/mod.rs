@@ -23,11 +23,18 @@
 //! separated by a space: `run = "synth noise"`; `run = "synth"` alone is an
 //! error listing the methods.
 //!
-//! Option values: strings and numbers are passed as `--key value`, `true`
-//! as a flag `--key` (`false` leaves it out), arrays joined with commas
-//! (`metric = ["slope", "tpi:radius=500m"]`); a string `"@name"` is the path
-//! of the input or step called `name` (an extra dependency). Keys may use
-//! `_` or `-`.
+//! Option values: a typed command's keys are the fields of its
+//! `ops::<cmd>::<Cmd>Options` (the CLI's long options, `_` or `-`), the run
+//! settings (`memory`, `threads`, `tile`, `quiet`, `engine`), and for commands
+//! writing rasters the output format (`compress`, `cog`, `block`, ...), each
+//! read with its type: numbers as numbers, `true`/`false`, choices and
+//! distances as text (`units = "percent"`, `radius = "10km"`), a list where
+//! the CLI takes a comma-separated one (`metric = ["slope",
+//! "tpi:radius=500m"]`). A string `"@name"` is the path of the input or step
+//! called `name` (an extra dependency). The equivalent command line of a
+//! step (strings and numbers as `--key value`, `true` as a flag, arrays
+//! joined with commas) is what the log and report show and what commands
+//! not typed yet are run as.
 //!
 //! Resume: after each step the job records, in `output_dir/.orogen-job.json`,
 //! a fingerprint of the step's command line and of its input files (size and
@@ -39,14 +46,27 @@
 
 //!
 //! Running a job is a library call: [`prepare`] reads and checks the file
-//! (every step's command line included) and [`run`] runs the steps in
-//! order, skipping those done in an earlier run, keeps the resume state and
-//! the JSON-lines log, and writes `report.html`. How one step's command line
-//! runs is the caller's [`StepRunner`] (the CLI parses it with its own
-//! argument parser and calls the matching operation).
+//! and turns every step into its operation's typed options (the registry
+//! [`COMMANDS`]: the step's `args` become `ops::<cmd>::<Cmd>Options`, the
+//! run settings and the output format), refusing an unknown key (with the
+//! accepted keys and the nearest one), a value of the wrong kind or a
+//! missing input before anything runs; [`run`] runs the steps in order by
+//! calling `ops` directly, skipping those done in an earlier run, keeps the
+//! resume state and the JSON-lines log, and writes `report.html`.
+//!
+//! Commands not typed yet ([`Form::CommandLine`] in [`COMMANDS`]) run as
+//! their command line through a [`StepRunner`] the caller passes to
+//! [`prepare_with`] and [`run_with`] (the CLI's argument parser); without
+//! one, [`prepare`] refuses such a step. Each step still has its
+//! equivalent command line ([`Planned::argv`]): the log, the report and
+//! `orogen run --dry-run` show it, and the resume fingerprint is taken
+//! from it, so the fingerprints of earlier runs stay valid.
 
+mod commands;
 mod plan;
+mod steps;
 
+pub use commands::{command, field_names, nearest, typed_step, Command, Form, TypedStep, COMMANDS};
 pub use plan::*;
 
 use crate::error::{Error, Result};
@@ -110,21 +130,68 @@ pub fn command_line(s: &Planned, table: &dyn CommandTable, quiet: bool) -> Vec<S
     v
 }
 
-/// Read and check the job file at `path` (see [`load`]), then check every
-/// step's command line with `runner` before anything runs.
-pub fn prepare<R: StepRunner>(path: &Path, runner: &R, opts: &JobOptions) -> Result<Job> {
-    let job = load(path, runner, opts.memory.as_deref(), opts.threads)?;
+/// Read and check the job file at `path` (see [`load`]) and type every
+/// step (see the module doc); every step must be of a typed command.
+pub fn prepare(path: &Path, opts: &JobOptions) -> Result<Job> {
+    prepare_with(path, None, opts)
+}
+
+/// [`prepare`], with `fallback` checking the steps of commands not typed
+/// yet as command lines.
+pub fn prepare_with(
+    path: &Path,
+    fallback: Option<&dyn StepRunner>,
+    opts: &JobOptions,
+) -> Result<Job> {
+    let table = commands::Registry {
+        fallback: fallback.map(|f| f as &dyn CommandTable),
+    };
+    let job = load(path, &table, opts.memory.as_deref(), opts.threads)?;
+    let produced: Vec<&PathBuf> = job.steps.iter().filter_map(|s| s.output.as_ref()).collect();
+    let in_file = |e: Error| Error::invalid(format!("{}: {e}", path.display()));
     for s in &job.steps {
-        if let Err(e) = runner.check(s, &command_line(s, runner, opts.quiet)) {
-            return Err(Error::invalid(format!(
-                "{}: step {:?}: {e}\n  command: orogen {}",
-                path.display(),
-                s.name,
-                s.argv.join(" ")
-            )));
+        match typed_step(s, opts.quiet) {
+            Some(t) => {
+                t.map_err(in_file)?;
+                for p in &s.inputs {
+                    if !p.exists() && !produced.contains(&p) {
+                        return Err(in_file(commands::step_error(
+                            s,
+                            format!(
+                                "input {} does not exist (and no step writes it)",
+                                p.display()
+                            ),
+                        )));
+                    }
+                }
+            }
+            None => {
+                let checked = match fallback {
+                    Some(r) => r.check(s, &command_line(s, &table, opts.quiet)),
+                    None => Err(Error::invalid(format!(
+                        "`{}` does not run from the library yet (only under `orogen run`)",
+                        s.command
+                    ))),
+                };
+                if let Err(e) = checked {
+                    return Err(Error::invalid(format!(
+                        "{}: step {:?}: {e}\n  command: orogen {}",
+                        path.display(),
+                        s.name,
+                        s.argv.join(" ")
+                    )));
+                }
+            }
         }
     }
     Ok(job)
+}
+
+/// What `orogen run --dry-run` shows of step `s`: its typed options as
+/// TOML (empty for an option-less command), or `None` for a command that
+/// runs as its command line.
+pub fn typed_options(s: &Planned) -> Option<Result<String>> {
+    typed_step(s, false).map(|t| t.map(|t| t.options))
 }
 
 /// Files named by a step's option values (not its inputs or `-o` output)
@@ -163,12 +230,20 @@ fn log_line(log: &mut Option<std::fs::File>, v: serde_json::Value) {
 /// saved after each step, and `report.html` is written into the job's
 /// output folder (unless the job or `opts` turn it off), also when a step
 /// failed. The first failing step ends the run with an error naming it.
-pub fn run<R: StepRunner>(
+pub fn run(job: &Job, opts: &JobOptions, notify: Notify<'_>) -> Result<JobReport> {
+    run_with(job, None, opts, notify)
+}
+
+/// [`run`], with `fallback` running the steps of commands not typed yet.
+pub fn run_with(
     job: &Job,
-    runner: &R,
+    fallback: Option<&dyn StepRunner>,
     opts: &JobOptions,
     notify: Notify<'_>,
 ) -> Result<JobReport> {
+    let table = commands::Registry {
+        fallback: fallback.map(|f| f as &dyn CommandTable),
+    };
     if let Some(e) = opts.engine {
         crate::exec::select_engine(e)?;
     }
@@ -239,7 +314,14 @@ pub fn run<R: StepRunner>(
         let t0 = Instant::now();
         // File times come from a coarse kernel clock: allow a margin.
         let started = std::time::SystemTime::now() - std::time::Duration::from_secs(2);
-        let result = runner.run(s, &command_line(s, runner, opts.quiet));
+        let result = match (typed_step(s, opts.quiet), fallback) {
+            (Some(t), _) => t.and_then(|t| t.run(&mut *notify)),
+            (None, Some(r)) => r.run(s, &command_line(s, &table, opts.quiet)),
+            (None, None) => Err(Error::invalid(format!(
+                "`{}` does not run from the library yet",
+                s.command
+            ))),
+        };
         let seconds = t0.elapsed().as_secs_f64();
         let peak = peak_rss();
         outcomes[i].seconds = seconds;

@@ -100,6 +100,11 @@ pub struct Planned {
     pub argv: Vec<String>,
     pub inputs: Vec<PathBuf>,
     pub output: Option<PathBuf>,
+    /// The step's `args` with keys in `_` form, `"@name"` values replaced
+    /// by the paths they name, and the job's `memory`, `threads`, `tile`
+    /// and `engine` where the step does not set them: what a typed command
+    /// builds its options from (see `commands`).
+    pub args: BTreeMap<String, toml::Value>,
     /// Indices (into [`Job::steps`]) of the steps this one needs.
     pub deps: Vec<usize>,
 }
@@ -257,6 +262,7 @@ pub fn plan(
             argv.push("-o".into());
             argv.push(o.display().to_string());
         }
+        let mut args = BTreeMap::new();
         for (k, v) in &s.args {
             let key = k.replace('_', "-");
             if !table.accepts(&command, &key) {
@@ -287,14 +293,28 @@ pub fn plan(
                     }
                 })
             };
-            match v {
-                toml::Value::Boolean(true) => argv.push(format!("--{key}")),
-                toml::Value::Boolean(false) => {}
+            // The typed value: `@name` strings become the paths they name.
+            let resolved = |v: &toml::Value, p: Option<String>| match v {
+                toml::Value::String(t) if t.starts_with('@') => {
+                    toml::Value::String(p.unwrap_or_default())
+                }
+                v => v.clone(),
+            };
+            let typed = match v {
+                toml::Value::Boolean(true) => {
+                    argv.push(format!("--{key}"));
+                    v.clone()
+                }
+                toml::Value::Boolean(false) => v.clone(),
                 toml::Value::Array(items) => {
                     let mut parts = vec![];
+                    let mut list = vec![];
                     for it in items {
                         match value(it)? {
-                            Some(p) => parts.push(p),
+                            Some(p) => {
+                                list.push(resolved(it, Some(p.clone())));
+                                parts.push(p);
+                            }
                             None => {
                                 return Err(at(format!("option {k}: booleans cannot be listed")))
                             }
@@ -302,24 +322,31 @@ pub fn plan(
                     }
                     argv.push(format!("--{key}"));
                     argv.push(parts.join(","));
+                    toml::Value::Array(list)
                 }
                 v => {
                     let p = value(v)?.unwrap_or_default();
                     argv.push(format!("--{key}"));
-                    argv.push(p);
+                    argv.push(p.clone());
+                    resolved(v, Some(p))
                 }
-            }
+            };
+            args.insert(k.replace('-', "_"), typed);
         }
         for (opt, val) in [
-            ("memory", memory.clone()),
-            ("threads", threads.map(|t| t.to_string())),
-            ("tile", file.tile.map(|t| t.to_string())),
-            ("engine", file.engine.clone()),
+            ("memory", memory.clone().map(toml::Value::String)),
+            ("threads", threads.map(|t| toml::Value::Integer(t as i64))),
+            ("tile", file.tile.map(|t| toml::Value::Integer(t as i64))),
+            ("engine", file.engine.clone().map(toml::Value::String)),
         ] {
             if let Some(v) = val {
                 if table.accepts(&command, opt) && !s.args.contains_key(opt) {
                     argv.push(format!("--{opt}"));
-                    argv.push(v);
+                    argv.push(match &v {
+                        toml::Value::String(t) => t.clone(),
+                        v => v.to_string(),
+                    });
+                    args.insert(opt.to_string(), v);
                 }
             }
         }
@@ -331,6 +358,7 @@ pub fn plan(
             argv,
             inputs,
             output,
+            args,
             deps,
         });
     }

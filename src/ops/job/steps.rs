@@ -1,0 +1,380 @@
+//! The typed commands of a job: each builder turns a step into its
+//! operation's options (checked here, in `prepare`) and a closure running
+//! `ops::<cmd>::run`, doing what the command does (open the input with its
+//! georeference warning, write the target, note what was written).
+
+use super::commands::{
+    join_lists, one_input, output, step_error, typed_keys, typed_keys_with, StepCall, Takes,
+    TypedStep,
+};
+use crate::error::Result;
+use crate::exec::EngineConfig;
+use crate::ops::note::{open_input, warn_georef, Note, Notify};
+use crate::ops::parse::RunOptions;
+use crate::ops::{self, Target};
+use crate::raster::RasterSource;
+use serde::de::DeserializeOwned;
+use serde::Serialize;
+
+/// The options of a command that has none of its own (`ingest`, `export`).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct NoOptions {}
+
+/// What a one-input raster operation runs once its input is open.
+type RasterOp<O> =
+    fn(&dyn RasterSource, &O, &Target, &EngineConfig, &RunOptions, Notify<'_>) -> Result<()>;
+
+fn engine_config(run: &RunOptions) -> Result<EngineConfig> {
+    use std::io::IsTerminal;
+    run.engine_config(std::io::stderr().is_terminal())
+}
+
+/// A command reading one raster and writing one target: its options `O`
+/// checked by `check`, then `op` run on the opened input.
+fn raster_step<O>(
+    call: &StepCall<'_>,
+    check: fn(&O) -> Result<()>,
+    op: RasterOp<O>,
+) -> Result<TypedStep>
+where
+    O: DeserializeOwned + Serialize + Send + Sync + 'static,
+{
+    let s = call.step;
+    let t = typed_keys::<O>(
+        call,
+        Takes {
+            format: true,
+            png: true,
+        },
+    )?;
+    check(&t.options).map_err(|e| step_error(s, e))?;
+    let input = one_input(s)?;
+    let path = output(s)?;
+    let target = Target {
+        path: path.clone(),
+        options: t.format.output_options()?,
+        tile: t.run.tile,
+    };
+    let (run, png, opts) = (t.run, t.png.open_options(), t.options);
+    Ok(TypedStep::new(opts, move |opts, notify| {
+        let cfg = engine_config(&run)?;
+        let src = open_input(&input, &png, notify)?;
+        op(src.as_ref(), opts, &target, &cfg, &run, notify)?;
+        notify(Note::Wrote(path.clone()));
+        Ok(())
+    }))
+}
+
+fn unchecked<O>(_: &O) -> Result<()> {
+    Ok(())
+}
+
+/// Builders of the commands whose operation is
+/// `ops::<cmd>::run(input, options, target, engine)` as it is.
+macro_rules! plain_raster_steps {
+    ($($name:ident => $run:path),* $(,)?) => {$(
+        pub(super) fn $name(call: &StepCall<'_>) -> Result<TypedStep> {
+            raster_step(call, unchecked, |src, o, t, cfg, _, _| $run(src, o, t, cfg))
+        }
+    )*};
+}
+
+plain_raster_steps! {
+    fill => ops::fill::run,
+    fill_epsilon => ops::fill_epsilon::run,
+    watersheds => ops::watersheds::run,
+    flow => ops::flow::run,
+    slope => ops::slope::run,
+    aspect => ops::aspect::run,
+}
+
+pub(super) fn hillshade(call: &StepCall<'_>) -> Result<TypedStep> {
+    raster_step(
+        call,
+        ops::hillshade::HillshadeOptions::validate,
+        |src, o, t, cfg, _, _| ops::hillshade::run(src, o, t, cfg),
+    )
+}
+
+pub(super) fn accumulate(call: &StepCall<'_>) -> Result<TypedStep> {
+    raster_step(call, unchecked, |src, o, t, cfg, run, notify| {
+        let outcome = ops::accumulate::run(src, o, t, cfg)?;
+        if !run.quiet && outcome.rounds > 0 {
+            notify(Note::Info(format!(
+                "accumulate: {} rounds over tiles to the exact fixed point",
+                outcome.rounds
+            )));
+        }
+        Ok(())
+    })
+}
+
+pub(super) fn export(call: &StepCall<'_>) -> Result<TypedStep> {
+    raster_step::<NoOptions>(call, unchecked, |src, _, t, cfg, _, _| {
+        ops::convert::run(src, t, cfg)
+    })
+}
+
+/// `ingest`: one or more inputs (one mosaic) into the output.
+pub(super) fn ingest(call: &StepCall<'_>) -> Result<TypedStep> {
+    let s = call.step;
+    let t = typed_keys::<NoOptions>(
+        call,
+        Takes {
+            format: true,
+            png: true,
+        },
+    )?;
+    if s.inputs.is_empty() {
+        one_input(s)?;
+    }
+    let inputs = s.inputs.clone();
+    let path = output(s)?;
+    let target = Target {
+        path: path.clone(),
+        options: t.format.output_options()?,
+        tile: t.run.tile,
+    };
+    let (run, png) = (t.run, t.png.open_options());
+    Ok(TypedStep::new(t.options, move |_, notify| {
+        let src = crate::io::open_inputs(&inputs, &png)?;
+        warn_georef(src.as_ref(), notify);
+        ops::convert::run(src.as_ref(), &target, &engine_config(&run)?)?;
+        notify(Note::Wrote(path.clone()));
+        Ok(())
+    }))
+}
+
+/// `metric`: the metrics (a comma-separated string or a list) into the
+/// output folder, one file each.
+pub(super) fn metric(call: &StepCall<'_>) -> Result<TypedStep> {
+    let mut joined = call.step.clone();
+    joined.args = join_lists(&joined.args, "metric");
+    let call = StepCall {
+        step: &joined,
+        quiet: call.quiet,
+    };
+    let s = call.step;
+    let t = typed_keys::<ops::metric::MetricOptions>(
+        &call,
+        Takes {
+            format: true,
+            png: true,
+        },
+    )?;
+    if t.options.metric.is_empty() {
+        return Err(step_error(
+            s,
+            "`metric` needs its metrics: args = { metric = [\"slope\", ...] } (see `orogen metric list`)",
+        ));
+    }
+    t.options.specs().map_err(|e| step_error(s, e))?;
+    let input = one_input(s)?;
+    let dir = output(s)?;
+    let oo = t.format.output_options()?;
+    let (run, png, opts) = (t.run, t.png.open_options(), t.options);
+    Ok(TypedStep::new(opts, move |opts, notify| {
+        let cfg = engine_config(&run)?;
+        let src = open_input(&input, &png, notify)?;
+        for p in ops::metric::run(src.as_ref(), &dir, opts, &oo, run.tile, &cfg)? {
+            notify(Note::Wrote(p));
+        }
+        Ok(())
+    }))
+}
+
+pub(super) fn breach(call: &StepCall<'_>) -> Result<TypedStep> {
+    raster_step(
+        call,
+        |o: &ops::breach::BreachOptions| o.resolve().map(|_| ()),
+        |src, o, t, cfg, _, _| ops::breach::run(src, o, t, cfg),
+    )
+}
+
+/// A command reading one raster and writing files of its own (no raster
+/// format keys): its options checked by `check`, then `op` run with the
+/// output path.
+fn files_step<O>(
+    call: &StepCall<'_>,
+    check: fn(&O, &std::path::Path) -> Result<()>,
+    op: fn(&dyn RasterSource, &std::path::Path, &O, &EngineConfig, Notify<'_>) -> Result<()>,
+) -> Result<TypedStep>
+where
+    O: DeserializeOwned + Serialize + Send + Sync + 'static,
+{
+    let s = call.step;
+    let t = typed_keys::<O>(
+        call,
+        Takes {
+            format: false,
+            png: true,
+        },
+    )?;
+    let input = one_input(s)?;
+    let path = output(s)?;
+    check(&t.options, &path).map_err(|e| step_error(s, e))?;
+    let (run, png) = (t.run, t.png.open_options());
+    Ok(TypedStep::new(t.options, move |opts, notify| {
+        let cfg = engine_config(&run)?;
+        let src = open_input(&input, &png, notify)?;
+        op(
+            src.as_ref(),
+            &path,
+            opts,
+            &cfg,
+            &mut quiet_filter(run.quiet, notify),
+        )
+    }))
+}
+
+pub(super) fn peaks(call: &StepCall<'_>) -> Result<TypedStep> {
+    files_step(
+        call,
+        |o: &ops::peaks::PeaksOptions, _| o.validate(),
+        |src, dir, o, cfg, notify| ops::peaks::run_noted(src, dir, o, cfg, notify).map(|_| ()),
+    )
+}
+
+pub(super) fn orostats(call: &StepCall<'_>) -> Result<TypedStep> {
+    files_step(
+        call,
+        |o: &ops::orostats::OrostatsOptions, out| {
+            o.stats_options()?;
+            ops::orostats::check_output(out)
+        },
+        |src, out, o, cfg, notify| ops::orostats::run_noted(src, out, o, cfg, notify).map(|_| ()),
+    )
+}
+
+/// A command reading D8 directions (no PNG keys) and writing a target.
+fn dirs_step<O>(
+    call: &StepCall<'_>,
+    check: fn(&O) -> Result<()>,
+    op: fn(&dyn RasterSource, &O, &Target, &EngineConfig, &RunOptions, Notify<'_>) -> Result<()>,
+) -> Result<TypedStep>
+where
+    O: DeserializeOwned + Serialize + Send + Sync + 'static,
+{
+    let s = call.step;
+    let t = typed_keys::<O>(
+        call,
+        Takes {
+            format: true,
+            png: false,
+        },
+    )?;
+    check(&t.options).map_err(|e| step_error(s, e))?;
+    let input = one_input(s)?;
+    let target = Target {
+        path: output(s)?,
+        options: t.format.output_options()?,
+        tile: t.run.tile,
+    };
+    let run = t.run;
+    Ok(TypedStep::new(t.options, move |opts, notify| {
+        let cfg = engine_config(&run)?;
+        let dirs = crate::io::open_raster(&input, &Default::default())?;
+        op(dirs.as_ref(), opts, &target, &cfg, &run, notify)
+    }))
+}
+
+pub(super) fn basins(call: &StepCall<'_>) -> Result<TypedStep> {
+    dirs_step(call, unchecked, |dirs, o, t, cfg, _, notify| {
+        let labels = ops::basins::write_labels(dirs, o, t, cfg)?;
+        notify(Note::Wrote(t.path.clone()));
+        for f in ops::basins::write_metrics(dirs, o, &labels, cfg)? {
+            notify(Note::Wrote(f));
+        }
+        Ok(())
+    })
+}
+
+pub(super) fn streams(call: &StepCall<'_>) -> Result<TypedStep> {
+    dirs_step(
+        call,
+        |o: &ops::streams::StreamsOptions| o.rule().map(|_| ()),
+        |dirs, o, t, cfg, run, notify| {
+            // The format options apply to the stream raster only.
+            let mut t = t.clone();
+            if o.raster.is_none() {
+                t.options = Default::default();
+            }
+            let net = ops::streams::run(dirs, o, &t, cfg)?;
+            for f in &net.files {
+                notify(Note::Wrote(f.clone()));
+            }
+            if !run.quiet {
+                notify(Note::Info(format!(
+                    "{} links, {} nodes, highest Strahler order {}",
+                    net.links, net.nodes, net.max_order
+                )));
+            }
+            Ok(())
+        },
+    )
+}
+
+/// Notes of a step, summaries (`Info`) left out when it is quiet.
+fn quiet_filter<'a>(quiet: bool, notify: Notify<'a>) -> impl FnMut(Note) + 'a {
+    move |n| match n {
+        Note::Info(_) if quiet => {}
+        n => notify(n),
+    }
+}
+
+/// `synth noise`: no input; the output path is part of its options.
+pub(super) fn synth_noise(call: &StepCall<'_>) -> Result<TypedStep> {
+    let s = call.step;
+    if !s.inputs.is_empty() {
+        return Err(step_error(s, "`synth noise` takes no input"));
+    }
+    let path = output(s)?;
+    let t = typed_keys_with::<ops::synth::noise::NoiseOptions>(
+        call,
+        Takes {
+            format: true,
+            png: false,
+        },
+        vec![("output", toml::Value::String(path.display().to_string()))],
+    )?;
+    crate::ops::synth::parse_size(&t.options.size).map_err(|e| step_error(s, e))?;
+    let oo = t.format.output_options()?;
+    let run = t.run;
+    Ok(TypedStep::new(t.options, move |opts, notify| {
+        let cfg = engine_config(&run)?;
+        ops::synth::noise::run(opts, &oo, &cfg, &mut quiet_filter(run.quiet, notify))
+    }))
+}
+
+/// `compare`: two inputs (terrain a, terrain b) into the output folder.
+pub(super) fn compare(call: &StepCall<'_>) -> Result<TypedStep> {
+    let s = call.step;
+    let t = typed_keys::<ops::compare::CompareOptions>(
+        call,
+        Takes {
+            format: false,
+            png: false,
+        },
+    )?;
+    t.options.validate().map_err(|e| step_error(s, e))?;
+    let [a, b] = match s.inputs.as_slice() {
+        [a, b] => [a.clone(), b.clone()],
+        v => {
+            return Err(step_error(
+                s,
+                format!(
+                    "`compare` takes two inputs, input = [\"a\", \"b\"], not {}",
+                    v.len()
+                ),
+            ))
+        }
+    };
+    let dir = output(s)?;
+    let run = t.run;
+    Ok(TypedStep::new(t.options, move |opts, notify| {
+        let cfg = engine_config(&run)?;
+        let mut notify = quiet_filter(run.quiet, notify);
+        ops::compare::run_noted(&a, &b, &dir, opts, &cfg, &mut notify).map(|_| ())
+    }))
+}

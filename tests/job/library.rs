@@ -1,0 +1,193 @@
+//! A job run from the library (`orogen::ops::job`, no CLI): the same bytes
+//! as calling the operations directly, and each mistake refused in
+//! `prepare`, before anything is written.
+
+use orogen::ops::job::{self, JobOptions};
+use orogen::ops::parse::{Compress, FormatOptions, RunOptions};
+use orogen::ops::{accumulate, fill, flow, slope, Target};
+use std::path::{Path, PathBuf};
+
+fn dem() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/bigtujunga_crop.tif")
+}
+
+fn quiet() -> JobOptions {
+    JobOptions {
+        quiet: true,
+        no_report: true,
+        ..Default::default()
+    }
+}
+
+#[test]
+fn a_job_from_the_library_equals_the_operations_called_directly() {
+    let tmp = tempfile::tempdir().unwrap();
+    let path = tmp.path().join("job.toml");
+    std::fs::write(
+        &path,
+        format!(
+            r#"memory = "128MiB"
+threads = 2
+output_dir = "out"
+inputs = {{ dem = "{}" }}
+step = [
+    {{ name = "acc", run = "accumulate", input = "d8", output = "acc.tif" }},
+    {{ name = "filled", run = "fill", input = "dem", output = "filled.tif", args = {{ compress = "zstd", tile = 100 }} }},
+    {{ name = "d8", run = "flow", input = "filled", output = "d8.tif" }},
+    {{ name = "slope", run = "slope", input = "dem", output = "slope.tif", args = {{ units = "percent", z-factor = 2 }} }},
+]
+"#,
+            dem().display()
+        ),
+    )
+    .unwrap();
+    let opts = quiet();
+    let j = job::prepare(&path, &opts).unwrap();
+    let mut notes = vec![];
+    let done = job::run(&j, &opts, &mut |n| notes.push(n)).unwrap();
+    assert_eq!(done.outcomes.len(), 4);
+    // The same operations called directly.
+    let hand = tmp.path().join("hand");
+    std::fs::create_dir_all(&hand).unwrap();
+    let run = RunOptions {
+        threads: 2,
+        memory: "128MiB".into(),
+        quiet: true,
+        ..Default::default()
+    };
+    let cfg = run.engine_config(false).unwrap();
+    let target = |name: &str, f: FormatOptions, tile| Target {
+        path: hand.join(name),
+        options: f.output_options().unwrap(),
+        tile,
+    };
+    let open = |p: &Path| orogen::io::open_raster(p, &Default::default()).unwrap();
+    let zstd = FormatOptions {
+        compress: Compress::Zstd,
+        ..Default::default()
+    };
+    let d = open(&dem());
+    fill::run(
+        d.as_ref(),
+        &Default::default(),
+        &target("filled.tif", zstd, Some(100)),
+        &cfg,
+    )
+    .unwrap();
+    let f = open(&hand.join("filled.tif"));
+    flow::run(
+        f.as_ref(),
+        &Default::default(),
+        &target("d8.tif", Default::default(), None),
+        &cfg,
+    )
+    .unwrap();
+    let d8 = open(&hand.join("d8.tif"));
+    accumulate::run(
+        d8.as_ref(),
+        &Default::default(),
+        &target("acc.tif", Default::default(), None),
+        &cfg,
+    )
+    .unwrap();
+    let s = slope::SlopeOptions {
+        units: orogen::metrics::SlopeUnits::Percent,
+        z_factor: 2.0,
+        ..Default::default()
+    };
+    slope::run(
+        d.as_ref(),
+        &s,
+        &target("slope.tif", Default::default(), None),
+        &cfg,
+    )
+    .unwrap();
+    for name in ["filled.tif", "d8.tif", "acc.tif", "slope.tif"] {
+        let a = std::fs::read(tmp.path().join("out").join(name)).unwrap();
+        let b = std::fs::read(hand.join(name)).unwrap();
+        assert!(
+            a == b,
+            "{name}: the job's bytes differ from the operation's"
+        );
+    }
+    let wrote: Vec<_> = notes
+        .iter()
+        .filter_map(|n| match n {
+            orogen::ops::note::Note::Wrote(p) => p.file_name(),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(wrote, ["filled.tif", "d8.tif", "acc.tif", "slope.tif"]);
+}
+
+#[test]
+fn each_mistake_is_refused_in_prepare_naming_step_and_key() {
+    let d = dem().display().to_string();
+    let step = |run: &str, input: &str, args: &str| {
+        format!(
+            "output_dir = \"out\"\n[inputs]\ndem = \"{d}\"\nlost = \"no-such.tif\"\n[[step]]\nname = \"s\"\nrun = \"{run}\"\n{input}\noutput = \"x.csv\"\n{args}\n"
+        )
+    };
+    let cases = [
+        (
+            "unknown key",
+            step("slope", "input = \"dem\"", "args = { zfactor = 2 }"),
+            vec![
+                "step \"s\"",
+                "`slope` has no option --zfactor (did you mean z_factor?)",
+                "it accepts: units, z_factor, compute_edges, compress",
+            ],
+        ),
+        (
+            "bad value",
+            step(
+                "orostats",
+                "input = \"dem\"",
+                "args = { radius = \"ten km\" }",
+            ),
+            vec![
+                "step \"s\"",
+                "`orostats` option radius = \"ten km\"",
+                "expected a distance like 10km or 500m",
+            ],
+        ),
+        (
+            "bad choice",
+            step("slope", "input = \"dem\"", "args = { units = \"radians\" }"),
+            vec!["option units = \"radians\"", "degrees", "percent"],
+        ),
+        (
+            "missing input file",
+            step("fill", "input = \"lost\"", ""),
+            vec![
+                "step \"s\"",
+                "no-such.tif does not exist (and no step writes it)",
+            ],
+        ),
+        (
+            "no input",
+            step("fill", "", ""),
+            vec!["step \"s\"", "`fill` needs an input"],
+        ),
+        (
+            "not typed",
+            step("erode", "input = \"dem\"", ""),
+            vec!["`erode` does not run from the library yet"],
+        ),
+    ];
+    for (what, text, want) in cases {
+        let tmp = tempfile::tempdir().unwrap();
+        let path = tmp.path().join("bad.toml");
+        std::fs::write(&path, &text).unwrap();
+        let err = match job::prepare(&path, &quiet()) {
+            Ok(_) => panic!("{what}: accepted"),
+            Err(e) => e.to_string(),
+        };
+        assert!(err.contains("bad.toml"), "{what}: {err}");
+        for w in want {
+            assert!(err.contains(w), "{what}: no {w:?} in: {err}");
+        }
+        // Nothing was written: not even the output folder.
+        assert!(!tmp.path().join("out").exists(), "{what}");
+    }
+}
