@@ -16,6 +16,7 @@ pub use fbm::{Fbm, FbmSource};
 
 use crate::error::{Error, Result};
 use crate::raster::{AnyGrid, Crs, DType, GeoRef, Grid, RasterInfo, RasterSource, Window};
+use crate::synth::source_info;
 use serde::{Deserialize, Serialize};
 
 /// SplitMix64 finaliser (Steele, Lea & Flood 2014): a bijective 64-bit mixer
@@ -218,6 +219,17 @@ impl Default for Noise {
     }
 }
 
+/// `Ok` if `ok`, else the error "noise (KIND): RULE (got VALUE)".
+fn check(ok: bool, kind: &str, rule: &str, got: impl std::fmt::Display) -> Result<()> {
+    if ok {
+        Ok(())
+    } else {
+        Err(Error::invalid(format!(
+            "noise ({kind}): {rule} (got {got})"
+        )))
+    }
+}
+
 /// Octaves of the warp field of [`NoiseKind::Warped`].
 const WARP_OCTAVES: u32 = 4;
 
@@ -225,31 +237,30 @@ impl Noise {
     /// Check parameters; the error says which one is wrong and what is allowed.
     pub fn validate(&self) -> Result<()> {
         let k = self.kind.name();
-        if !(1..=24).contains(&self.octaves) {
-            return Err(Error::invalid(format!(
-                "noise ({k}): octaves must be between 1 and 24 (got {})",
-                self.octaves
-            )));
-        }
-        if !(self.gain.is_finite() && self.gain > 0.0 && self.gain < 1.0) {
-            return Err(Error::invalid(format!(
-                "noise ({k}): gain must be in (0, 1) (got {})",
-                self.gain
-            )));
-        }
-        if !(self.lacunarity.is_finite() && self.lacunarity > 1.0 && self.lacunarity <= 16.0) {
-            return Err(Error::invalid(format!(
-                "noise ({k}): lacunarity must be in (1, 16] (got {})",
-                self.lacunarity
-            )));
-        }
-        if !(self.wavelength.is_finite() && (2.0..=(1u64 << 30) as f64).contains(&self.wavelength))
-        {
-            return Err(Error::invalid(format!(
-                "noise ({k}): wavelength must be between 2 and 2^30 cells (got {})",
-                self.wavelength
-            )));
-        }
+        check(
+            (1..=24).contains(&self.octaves),
+            k,
+            "octaves must be between 1 and 24",
+            self.octaves,
+        )?;
+        check(
+            self.gain.is_finite() && self.gain > 0.0 && self.gain < 1.0,
+            k,
+            "gain must be in (0, 1)",
+            self.gain,
+        )?;
+        check(
+            self.lacunarity.is_finite() && self.lacunarity > 1.0 && self.lacunarity <= 16.0,
+            k,
+            "lacunarity must be in (1, 16]",
+            self.lacunarity,
+        )?;
+        check(
+            self.wavelength.is_finite() && (2.0..=(1u64 << 30) as f64).contains(&self.wavelength),
+            k,
+            "wavelength must be between 2 and 2^30 cells",
+            self.wavelength,
+        )?;
         if !(self.base.is_finite() && self.amplitude.is_finite()) {
             return Err(Error::invalid(format!(
                 "noise ({k}): base and amplitude must be finite numbers"
@@ -257,12 +268,12 @@ impl Noise {
         }
         match self.kind {
             NoiseKind::DiamondSquare | NoiseKind::Spectral => {
-                if self.lacunarity != 2.0 {
-                    return Err(Error::invalid(format!(
-                        "noise ({k}): levels are octaves, so lacunarity must be 2 (got {})",
-                        self.lacunarity
-                    )));
-                }
+                check(
+                    self.lacunarity == 2.0,
+                    k,
+                    "levels are octaves, so lacunarity must be 2",
+                    self.lacunarity,
+                )?;
             }
             _ => {
                 // The finest octave must stay above half a cell: finer octaves
@@ -278,49 +289,48 @@ impl Noise {
             }
         }
         if self.kind == NoiseKind::Ridged || self.kind == NoiseKind::Warped {
-            if !(self.ridge_offset.is_finite()
-                && self.ridge_offset > 0.0
-                && self.ridge_offset <= 2.0)
-            {
-                return Err(Error::invalid(format!(
-                    "noise ({k}): ridge offset must be in (0, 2] (got {})",
-                    self.ridge_offset
-                )));
-            }
-            if !(self.ridge_gain.is_finite() && self.ridge_gain > 0.0 && self.ridge_gain <= 100.0) {
-                return Err(Error::invalid(format!(
-                    "noise ({k}): ridge gain must be in (0, 100] (got {})",
-                    self.ridge_gain
-                )));
-            }
+            check(
+                self.ridge_offset.is_finite()
+                    && self.ridge_offset > 0.0
+                    && self.ridge_offset <= 2.0,
+                k,
+                "ridge offset must be in (0, 2]",
+                self.ridge_offset,
+            )?;
+            check(
+                self.ridge_gain.is_finite() && self.ridge_gain > 0.0 && self.ridge_gain <= 100.0,
+                k,
+                "ridge gain must be in (0, 100]",
+                self.ridge_gain,
+            )?;
         }
         if self.kind == NoiseKind::Warped {
-            if !(self.warp.is_finite() && (0.0..=1e6).contains(&self.warp)) {
-                return Err(Error::invalid(format!(
-                    "noise ({k}): warp must be between 0 and 1e6 cells (got {})",
-                    self.warp
-                )));
-            }
-            if !(self.blend.is_finite() && (0.0..=1.0).contains(&self.blend)) {
-                return Err(Error::invalid(format!(
-                    "noise ({k}): blend must be between 0 and 1 (got {})",
-                    self.blend
-                )));
-            }
+            check(
+                self.warp.is_finite() && (0.0..=1e6).contains(&self.warp),
+                k,
+                "warp must be between 0 and 1e6 cells",
+                self.warp,
+            )?;
+            check(
+                self.blend.is_finite() && (0.0..=1.0).contains(&self.blend),
+                k,
+                "blend must be between 0 and 1",
+                self.blend,
+            )?;
         }
         if self.kind == NoiseKind::Spectral {
-            if !(self.beta.is_finite() && (0.0..=6.0).contains(&self.beta)) {
-                return Err(Error::invalid(format!(
-                    "noise ({k}): beta must be between 0 and 6 (got {})",
-                    self.beta
-                )));
-            }
-            if self.wavelength > (1u64 << 24) as f64 {
-                return Err(Error::invalid(format!(
-                    "noise ({k}): wavelength must be at most 2^24 cells (got {})",
-                    self.wavelength
-                )));
-            }
+            check(
+                self.beta.is_finite() && (0.0..=6.0).contains(&self.beta),
+                k,
+                "beta must be between 0 and 6",
+                self.beta,
+            )?;
+            check(
+                self.wavelength <= (1u64 << 24) as f64,
+                k,
+                "wavelength must be at most 2^24 cells",
+                self.wavelength,
+            )?;
         }
         Ok(())
     }
@@ -641,14 +651,13 @@ impl NoiseSource {
         }
         let georef = GeoRef::north_up(0.0, height as f64 * cell, cell, Crs::default());
         Ok(NoiseSource {
-            info: RasterInfo {
+            info: source_info(
                 width,
                 height,
-                dtype: DType::F32,
+                DType::F32,
                 georef,
-                block: (256, 256),
-                path: format!("<noise:{}>", noise.kind.name()).into(),
-            },
+                format!("<noise:{}>", noise.kind.name()),
+            ),
             noise,
         })
     }
