@@ -484,15 +484,6 @@ fn pasted_real_fragment_is_kept_and_completed() {
     assert!(ok as f64 >= 0.85 * fp.len() as f64, "{ok} of {}", fp.len());
 }
 
-fn shipped(name: &str) -> SynthProfile {
-    SynthProfile::load(
-        &PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-            .join("configs/profiles")
-            .join(name),
-    )
-    .unwrap()
-}
-
 #[test]
 fn type_map_regions_follow_their_profiles() {
     let alps = shipped("alps_montblanc.json");
