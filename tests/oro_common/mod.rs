@@ -219,3 +219,13 @@ pub fn assert_windows_equal_whole<T: orogen::raster::Cell>(
         }
     }
 }
+
+/// Run `cmd`, which must succeed (its stderr in the failure message).
+pub fn succeeds(cmd: &mut std::process::Command) {
+    let st = cmd.output().unwrap();
+    assert!(
+        st.status.success(),
+        "{cmd:?}: {}",
+        String::from_utf8_lossy(&st.stderr)
+    );
+}

@@ -220,36 +220,26 @@ fn cli_profile_divide_tree_from_tree() {
     toy_profile().save(&prof).unwrap();
     let tree = dir.path().join("tree.json");
     let gj = dir.path().join("tree.geojson");
-    let st = Command::new(exe)
-        .args(["synth", "divide-tree", "--profile"])
-        .arg(&prof)
-        .args(["--size", "200x160", "--cell", "50", "--peaks", "40", "-o"])
-        .arg(&tree)
-        .arg("--geojson")
-        .arg(&gj)
-        .output()
-        .unwrap();
-    assert!(
-        st.status.success(),
-        "{}",
-        String::from_utf8_lossy(&st.stderr)
+    succeeds(
+        Command::new(exe)
+            .args(["synth", "divide-tree", "--profile"])
+            .arg(&prof)
+            .args(["--size", "200x160", "--cell", "50", "--peaks", "40", "-o"])
+            .arg(&tree)
+            .arg("--geojson")
+            .arg(&gj),
     );
     let t = SynthTree::load(&tree).unwrap();
     assert_eq!(t.peaks.len(), 40);
     assert!(std::fs::read_to_string(&gj).unwrap().contains("\"ridge\""));
     let tif = dir.path().join("t.tif");
-    let st = Command::new(exe)
-        .args(["synth", "from-tree"])
-        .arg(&tree)
-        .arg("-o")
-        .arg(&tif)
-        .args(["--tile", "64", "-q", "--terrain", "tents"])
-        .output()
-        .unwrap();
-    assert!(
-        st.status.success(),
-        "{}",
-        String::from_utf8_lossy(&st.stderr)
+    succeeds(
+        Command::new(exe)
+            .args(["synth", "from-tree"])
+            .arg(&tree)
+            .arg("-o")
+            .arg(&tif)
+            .args(["--tile", "64", "-q", "--terrain", "tents"]),
     );
     // The file holds the terrain, cell for cell.
     let src = open_raster(&tif, &OpenOptions::default()).unwrap();
@@ -272,30 +262,20 @@ fn cli_profile_divide_tree_from_tree() {
     assert!(!st.status.success());
     assert!(String::from_utf8_lossy(&st.stderr).contains("disconnected"));
     // The one-step form and a profile from a DEM.
-    let st = Command::new(exe)
-        .args(["synth", "orometric", "--profile"])
-        .arg(&prof)
-        .args(["--size", "120", "--cell", "50", "-q", "-o"])
-        .arg(dir.path().join("o.tif"))
-        .output()
-        .unwrap();
-    assert!(
-        st.status.success(),
-        "{}",
-        String::from_utf8_lossy(&st.stderr)
+    succeeds(
+        Command::new(exe)
+            .args(["synth", "orometric", "--profile"])
+            .arg(&prof)
+            .args(["--size", "120", "--cell", "50", "-q", "-o"])
+            .arg(dir.path().join("o.tif")),
     );
     let dem = dir.path().join("o.tif");
-    let st = Command::new(exe)
-        .args(["synth", "profile"])
-        .arg(&dem)
-        .args(["--min-prominence", "20", "-o"])
-        .arg(dir.path().join("again.json"))
-        .output()
-        .unwrap();
-    assert!(
-        st.status.success(),
-        "{}",
-        String::from_utf8_lossy(&st.stderr)
+    succeeds(
+        Command::new(exe)
+            .args(["synth", "profile"])
+            .arg(&dem)
+            .args(["--min-prominence", "20", "-o"])
+            .arg(dir.path().join("again.json")),
     );
     SynthProfile::load(&dir.path().join("again.json")).unwrap();
 }

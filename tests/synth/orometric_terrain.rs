@@ -6,7 +6,6 @@
 
 use crate::oro_common::*;
 use orogen::io::{open_raster, OpenOptions};
-use orogen::oro::{EdgeConvention, PeakOptions};
 use orogen::raster::{read_window, Grid, Window};
 use orogen::synth::orometric::*;
 use std::process::Command;
@@ -390,17 +389,12 @@ fn cli_terrain_models_and_erosion() {
         ),
     ] {
         let tif = dir.path().join(format!("{model}.tif"));
-        let st = Command::new(exe)
-            .args(["synth", "from-tree"])
-            .arg(&tree)
-            .args(["--terrain", model, "--tile", "37", "-q", "-o"])
-            .arg(&tif)
-            .output()
-            .unwrap();
-        assert!(
-            st.status.success(),
-            "{}",
-            String::from_utf8_lossy(&st.stderr)
+        succeeds(
+            Command::new(exe)
+                .args(["synth", "from-tree"])
+                .arg(&tree)
+                .args(["--terrain", model, "--tile", "37", "-q", "-o"])
+                .arg(&tif),
         );
         let src = open_raster(&tif, &OpenOptions::default()).unwrap();
         let got = read_window::<f32>(&*src, Window::full(150, 130)).unwrap();
@@ -408,17 +402,12 @@ fn cli_terrain_models_and_erosion() {
     }
     // Constrained erosion on the TIN terrain keeps the tree's elevations.
     let tif = dir.path().join("eroded.tif");
-    let st = Command::new(exe)
-        .args(["synth", "from-tree"])
-        .arg(&tree)
-        .args(["--erode", "2", "--erode-radius", "120", "-q", "-o"])
-        .arg(&tif)
-        .output()
-        .unwrap();
-    assert!(
-        st.status.success(),
-        "{}",
-        String::from_utf8_lossy(&st.stderr)
+    succeeds(
+        Command::new(exe)
+            .args(["synth", "from-tree"])
+            .arg(&tree)
+            .args(["--erode", "2", "--erode-radius", "120", "-q", "-o"])
+            .arg(&tif),
     );
     let src = open_raster(&tif, &OpenOptions::default()).unwrap();
     let got: Grid<f32> = read_window::<f32>(&*src, Window::full(150, 130)).unwrap();
@@ -487,17 +476,7 @@ fn blocks_tile_exactly_across_their_borders() {
         }
     }
     // The tree's peaks and no others (toy profile, 50 m cells).
-    let found = orogen::oro::peaks(
-        &g,
-        whole.georef(),
-        &PeakOptions {
-            min_prominence: tree.min_prominence,
-            convention: EdgeConvention::SeaLevel,
-            isolation: false,
-        },
-    )
-    .unwrap()
-    .tree;
+    let found = found_peaks(&g, whole.georef(), tree.min_prominence);
     let prom = tree.prominences();
     let tc: Vec<(i64, i64)> = tree
         .peaks
