@@ -553,6 +553,18 @@ fn ridge_bases_change_the_trees_they_were_made_for() {
     }
 }
 
+/// The tree the CLI wrote equals the library's: peak positions and
+/// elevations, saddle elevations.
+fn assert_same_tree(got: &SynthTree, want: &SynthTree, what: &str) {
+    assert_eq!(got.peaks.len(), want.peaks.len(), "{what}");
+    for (a, b) in got.peaks.iter().zip(&want.peaks) {
+        assert_eq!((a.x, a.y, a.elevation), (b.x, b.y, b.elevation), "{what}");
+    }
+    for (a, b) in got.saddles.iter().zip(&want.saddles) {
+        assert_eq!(a.elevation, b.elevation, "{what}");
+    }
+}
+
 /// `--ridge-contrast` and `--no-refine` reach the library: the CLI trees equal
 /// `synthesize_tree` with the same options, and a contrast below 1 is refused.
 #[test]
@@ -594,18 +606,11 @@ fn cli_ridge_contrast_and_no_refine_reach_the_library() {
         o.ridge_contrast = contrast;
         o.refine = refine;
         let want = synthesize_tree(&prof, &o).unwrap();
-        let got = SynthTree::load(&out).unwrap();
-        assert_eq!(got.peaks.len(), want.peaks.len(), "{extra:?}");
-        for (a, b) in got.peaks.iter().zip(&want.peaks) {
-            assert_eq!(
-                (a.x, a.y, a.elevation),
-                (b.x, b.y, b.elevation),
-                "{extra:?}"
-            );
-        }
-        for (a, b) in got.saddles.iter().zip(&want.saddles) {
-            assert_eq!(a.elevation, b.elevation, "{extra:?}");
-        }
+        assert_same_tree(
+            &SynthTree::load(&out).unwrap(),
+            &want,
+            &format!("{extra:?}"),
+        );
         seen.push(std::fs::read(&out).unwrap());
     }
     // Each option changes the tree (else this test could not fail).
@@ -677,18 +682,11 @@ fn cli_ridge_base_and_type_blend_reach_the_library() {
             o.type_map = Some(TypeMap::new(labels, vec![(2, dallas.clone())]).unwrap());
         }
         let want = synthesize_tree(&alps, &o).unwrap();
-        let got = SynthTree::load(&out).unwrap();
-        assert_eq!(got.peaks.len(), want.peaks.len(), "{extra:?}");
-        for (a, b) in got.peaks.iter().zip(&want.peaks) {
-            assert_eq!(
-                (a.x, a.y, a.elevation),
-                (b.x, b.y, b.elevation),
-                "{extra:?}"
-            );
-        }
-        for (a, b) in got.saddles.iter().zip(&want.saddles) {
-            assert_eq!(a.elevation, b.elevation, "{extra:?}");
-        }
+        assert_same_tree(
+            &SynthTree::load(&out).unwrap(),
+            &want,
+            &format!("{extra:?}"),
+        );
         seen.push(std::fs::read(&out).unwrap());
     }
     assert_ne!(seen[0], seen[1], "--ridge-base 0 gave the default tree");

@@ -320,22 +320,17 @@ fn cli_from_tree_applies_edits() {
     );
     t.save(&tf).unwrap();
     std::fs::write(&ef, serde_json::to_string_pretty(&edits).unwrap()).unwrap();
-    let st = std::process::Command::new(exe)
-        .args(["synth", "from-tree"])
-        .arg(&tf)
-        .arg("--edits")
-        .arg(&ef)
-        .arg("--edited-tree")
-        .arg(&out)
-        .arg("-o")
-        .arg(&tif)
-        .arg("-q")
-        .output()
-        .unwrap();
-    assert!(
-        st.status.success(),
-        "{}",
-        String::from_utf8_lossy(&st.stderr)
+    succeeds(
+        std::process::Command::new(exe)
+            .args(["synth", "from-tree"])
+            .arg(&tf)
+            .arg("--edits")
+            .arg(&ef)
+            .arg("--edited-tree")
+            .arg(&out)
+            .arg("-o")
+            .arg(&tif)
+            .arg("-q"),
     );
     let want = apply_edits(&t, &edits).unwrap();
     assert_eq!(SynthTree::load(&out).unwrap(), want);
