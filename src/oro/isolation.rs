@@ -15,7 +15,7 @@
 //! windows, so isolation of a mosaic needs O(W·H/256) memory. Both run the
 //! same search and give the same answers.
 
-use super::tree::Isolation;
+use super::tree::{DivideTree, Isolation, Peak};
 use crate::error::Result;
 use crate::raster::{read_window, GeoRef, Grid, RasterSource, Window};
 use std::cell::RefCell;
@@ -232,6 +232,18 @@ impl<'a> IsolationIndex<'a> {
     /// Distance (m) and bearing (degrees from north) between two cells.
     pub fn distance_bearing(&self, c0: usize, r0: usize, c1: usize, r1: usize) -> (f64, f64) {
         self.geo.distance_bearing(c0, r0, c1, r1)
+    }
+
+    /// Distance (m) and bearing (degrees from north) from peak `p` of `tree`
+    /// to its key saddle; `None` if it has none.
+    pub fn to_key_saddle(&self, tree: &DivideTree, p: &Peak) -> Option<(f64, f64)> {
+        let s = tree.saddles.get(p.key_saddle?)?;
+        Some(self.distance_bearing(
+            p.col as usize,
+            p.row as usize,
+            s.col as usize,
+            s.row as usize,
+        ))
     }
 
     /// Nearest cell strictly higher than `elevation`, from cell (col, row).

@@ -19,7 +19,7 @@
 //! Sweep order and tie rule are those of `tree.rs` (elevation decreasing, then
 //! region id decreasing), so "higher" of two equal peaks means the same thing.
 
-use super::regions::{Regions, N8, NONE};
+use super::regions::{neighbours_in, Regions, NONE};
 use crate::error::Result;
 use crate::raster::{Grid, UnionFind};
 
@@ -60,17 +60,7 @@ impl Links {
                 continue;
             }
             let z = reg.elev[r as usize];
-            let (x, y) = ((c % w) as i64, (c / w) as i64);
-            for (dx, dy) in N8 {
-                let (nx, ny) = (x + dx, y + dy);
-                if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
-                    continue;
-                }
-                let n = ny as usize * w + nx as usize;
-                let nz = data[n];
-                if nz.is_nan() || nz <= z {
-                    continue;
-                }
+            for (n, nz) in higher_neighbours(data, w, h, c, z) {
                 let e = &mut exit[r as usize];
                 if *e == NONE
                     || nz > data[*e as usize]
@@ -101,17 +91,7 @@ impl Links {
             let z = reg.elev[r as usize];
             around.clear();
             for &c in reg.cells_of(r as usize) {
-                let (x, y) = ((c as usize % w) as i64, (c as usize / w) as i64);
-                for (dx, dy) in N8 {
-                    let (nx, ny) = (x + dx, y + dy);
-                    if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
-                        continue;
-                    }
-                    let n = ny as usize * w + nx as usize;
-                    let nz = data[n];
-                    if nz.is_nan() || nz <= z {
-                        continue;
-                    }
+                for (n, nz) in higher_neighbours(data, w, h, c as usize, z) {
                     let root = uf.find(reg.label[n]);
                     match around.iter_mut().find(|(rt, _)| *rt == root) {
                         Some((_, e)) => {
@@ -195,4 +175,20 @@ impl Links {
         let e = self.lost_at[p as usize];
         (e != NONE).then(|| self.ascend(self.events[e as usize].winner_entry))
     }
+}
+
+/// The neighbours of cell `c` (of a `w` x `h` grid `data`) that are valid and
+/// strictly higher than `z`, as (cell, elevation).
+#[inline]
+fn higher_neighbours(
+    data: &[f32],
+    w: usize,
+    h: usize,
+    c: usize,
+    z: f32,
+) -> impl Iterator<Item = (usize, f32)> + '_ {
+    neighbours_in(w, h, c).filter_map(move |(n, _, _)| {
+        let nz = data[n];
+        (!nz.is_nan() && nz > z).then_some((n, nz))
+    })
 }

@@ -220,14 +220,7 @@ fn peak_metrics_without_dem(
     tree.peaks
         .iter()
         .map(|p| {
-            let ks = p.key_saddle.and_then(|s| tree.saddles.get(s)).map(|s| {
-                geo.distance_bearing(
-                    p.col as usize,
-                    p.row as usize,
-                    s.col as usize,
-                    s.row as usize,
-                )
-            });
+            let ks = geo.to_key_saddle(tree, p);
             PeakMetrics {
                 line_parent: None,
                 key_saddle_distance_m: ks.map(|k| k.0),

@@ -257,16 +257,9 @@ impl Walk {
 /// longest path of each branch hanging from a level-k path (see module doc).
 /// Ties go to the smaller node or edge index. Errors on cycles.
 pub fn longest_path_levels(n: usize, edges: &[(usize, usize, f64)]) -> Result<Vec<u32>> {
-    let adj = forest(n, edges)?;
-    let mut level = vec![0u32; edges.len()];
-    let mut seen = vec![false; n];
-    let mut walk = Walk::new(n);
-    for start in 0..n {
-        if seen[start] || adj[start].is_empty() {
-            continue;
-        }
+    let farthest_end = |walk: &mut Walk, adj: &[Vec<(usize, usize)>], start: usize| {
         // One end of the longest path: the farthest node from `start`.
-        let (order, parents) = walk.bfs(&adj, start);
+        let (order, parents) = walk.bfs(adj, start);
         let mut dist = vec![0.0f64; order.len()];
         let mut best = (0.0, start);
         for (k, &v) in order.iter().enumerate().skip(1) {
@@ -277,13 +270,10 @@ pub fn longest_path_levels(n: usize, edges: &[(usize, usize, f64)]) -> Result<Ve
                 best = (d, v);
             }
         }
-        let end = best.1;
-        // Root at that end; height = longest path down to a leaf.
-        let (order, parents) = walk.bfs(&adj, end);
-        for &v in &order {
-            seen[v] = true;
-        }
-        let pos = &walk.pos;
+        best.1
+    };
+    label_trees(n, edges, farthest_end, |order, parents, pos, level| {
+        // Rooted at that end; height = longest path down to a leaf.
         let mut height = vec![0.0f64; order.len()];
         let mut best_child = vec![usize::MAX; order.len()]; // position of child on the longest path
         for k in (1..order.len()).rev() {
@@ -310,31 +300,20 @@ pub fn longest_path_levels(n: usize, edges: &[(usize, usize, f64)]) -> Result<Ve
             node_level[k] = l;
             level[e] = l;
         }
-    }
-    Ok(level)
+    })
 }
 
 /// Strahler order of every edge of a forest, each tree rooted at its node of
 /// highest `elev` (ties: smallest index). Errors on cycles.
 pub fn strahler_orders(n: usize, edges: &[(usize, usize, f64)], elev: &[f64]) -> Result<Vec<u32>> {
-    let adj = forest(n, edges)?;
-    let mut order_e = vec![0u32; edges.len()];
-    let mut seen = vec![false; n];
-    let mut walk = Walk::new(n);
-    for start in 0..n {
-        if seen[start] || adj[start].is_empty() {
-            continue;
-        }
-        let (comp, _) = walk.bfs(&adj, start);
-        let root = *comp
+    let highest = |walk: &mut Walk, adj: &[Vec<(usize, usize)>], start: usize| {
+        let (comp, _) = walk.bfs(adj, start);
+        *comp
             .iter()
             .max_by(|&&a, &&b| elev[a].total_cmp(&elev[b]).then(b.cmp(&a)))
-            .expect("non-empty");
-        let (order, parents) = walk.bfs(&adj, root);
-        for &v in &order {
-            seen[v] = true;
-        }
-        let pos = &walk.pos;
+            .expect("non-empty")
+    };
+    label_trees(n, edges, highest, |order, parents, pos, order_e| {
         let mut max_child = vec![0u32; order.len()];
         let mut count_max = vec![0u32; order.len()];
         let mut node_order = vec![0u32; order.len()];
@@ -358,8 +337,36 @@ pub fn strahler_orders(n: usize, edges: &[(usize, usize, f64)], elev: &[f64]) ->
                 }
             }
         }
+    })
+}
+
+/// One label per edge of a forest (`edges` over `n` nodes; errors on
+/// cycles), tree by tree: `root_of(walk, adjacency, any node of the tree)`
+/// picks the tree's root, then `label(order, parents, pos, labels)` sets the
+/// labels of its edges from the BFS from that root (`order`, each position's
+/// (parent, edge), each node's position in `order`).
+fn label_trees(
+    n: usize,
+    edges: &[(usize, usize, f64)],
+    mut root_of: impl FnMut(&mut Walk, &[Vec<(usize, usize)>], usize) -> usize,
+    mut label: impl FnMut(&[usize], &[(usize, usize)], &[usize], &mut [u32]),
+) -> Result<Vec<u32>> {
+    let adj = forest(n, edges)?;
+    let mut labels = vec![0u32; edges.len()];
+    let mut seen = vec![false; n];
+    let mut walk = Walk::new(n);
+    for start in 0..n {
+        if seen[start] || adj[start].is_empty() {
+            continue;
+        }
+        let root = root_of(&mut walk, &adj, start);
+        let (order, parents) = walk.bfs(&adj, root);
+        for &v in &order {
+            seen[v] = true;
+        }
+        label(&order, &parents, &walk.pos, &mut labels);
     }
-    Ok(order_e)
+    Ok(labels)
 }
 
 /// Draw the cells of a path (straight 8-connected lines between points).

@@ -413,14 +413,7 @@ pub fn orostats(
         .iter()
         .map(|p| {
             let (x, y) = frame.xy(p.col as f64, p.row as f64);
-            let ks = p.key_saddle.and_then(|s| tree.saddles.get(s)).map(|s| {
-                geo.distance_bearing(
-                    p.col as usize,
-                    p.row as usize,
-                    s.col as usize,
-                    s.row as usize,
-                )
-            });
+            let ks = geo.to_key_saddle(&tree, p);
             PeakRec {
                 x,
                 y,

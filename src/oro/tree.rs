@@ -290,9 +290,10 @@ pub fn build(dem: &Grid<f32>, convention: EdgeConvention) -> Result<(DivideTree,
         merge(uf, top, lowest, peaks, saddles, &roots, None, 0.0);
     }
 
-    for &r in &order {
-        let r = r as usize;
-        let z = reg.elev[r];
+    // After the last region, one step below every elevation (`None`): there
+    // the sea joins if no region reached it.
+    for r in order.iter().map(|&r| Some(r as usize)).chain([None]) {
+        let z = r.map_or(f32::NEG_INFINITY, |r| reg.elev[r]);
         if convention == EdgeConvention::SeaLevel && !sea_active && z <= 0.0 {
             sea_active = true;
             sea_event(
@@ -305,6 +306,7 @@ pub fn build(dem: &Grid<f32>, convention: EdgeConvention) -> Result<(DivideTree,
                 sea,
             );
         }
+        let Some(r) = r else { break };
         roots.clear();
         let mut pit = true;
         let mut any_valid = false;
@@ -391,17 +393,6 @@ pub fn build(dem: &Grid<f32>, convention: EdgeConvention) -> Result<(DivideTree,
             );
             uf.sets.union_into(win, r as u32);
         }
-    }
-    if convention == EdgeConvention::SeaLevel && !sea_active {
-        sea_event(
-            &reg,
-            &mut uf,
-            &mut top,
-            &mut lowest,
-            &mut peaks,
-            &mut saddles,
-            sea,
-        );
     }
     // Remaining components (Unknown convention; SeaLevel leaves none).
     for r in 0..nreg {

@@ -3,7 +3,7 @@
 //! geographic CRSs, as RFC 7946 GeoJSON expects; projected x/y otherwise).
 
 use super::metrics::{peak_metrics, peak_metrics_tree_only, PeakMetrics};
-use super::tree::DivideTree;
+use super::tree::{DivideTree, Peak, Saddle};
 use super::PeakList;
 use crate::error::{Error, Result};
 use crate::raster::{GeoRef, Grid};
@@ -117,6 +117,22 @@ fn collection(features: Vec<Value>) -> Vec<u8> {
         .expect("GeoJSON of finite numbers serialises")
 }
 
+/// A FeatureCollection with `feature(i, peak, key saddle)` for each peak of
+/// `tree` that has a key saddle (and for which it returns one), written to `path`.
+fn write_key_saddle_features(
+    path: &Path,
+    tree: &DivideTree,
+    feature: impl Fn(usize, &Peak, &Saddle) -> Option<Value>,
+) -> Result<()> {
+    let feats = tree
+        .peaks
+        .iter()
+        .enumerate()
+        .filter_map(|(i, p)| feature(i, p, tree.saddles.get(p.key_saddle?)?))
+        .collect();
+    write(path, &collection(feats))
+}
+
 /// Finite numbers only in JSON: NaN/inf become null.
 fn num(v: f64) -> Value {
     serde_json::Number::from_f64(v)
@@ -177,57 +193,43 @@ pub fn write_peaks_geojson_with(
 /// saddles.geojson: Points of the key saddles, with the peak they are the key
 /// saddle of and its parent.
 pub fn write_saddles_geojson(path: &Path, tree: &DivideTree, georef: &GeoRef) -> Result<()> {
-    let feats = tree
-        .peaks
-        .iter()
-        .enumerate()
-        .filter_map(|(i, p)| {
-            let s = tree.saddles.get(p.key_saddle?)?;
-            let (x, y) = centre(georef, s.col, s.row);
-            Some(json!({
-                "type": "Feature",
-                "geometry": {"type": "Point", "coordinates": [num(x), num(y)]},
-                "properties": {
-                    "elevation": num(s.elevation as f64),
-                    "peak": i,
-                    "parent": p.parent,
-                    "col": s.col,
-                    "row": s.row,
-                }
-            }))
-        })
-        .collect();
-    write(path, &collection(feats))
+    write_key_saddle_features(path, tree, |i, p, s| {
+        let (x, y) = centre(georef, s.col, s.row);
+        Some(json!({
+            "type": "Feature",
+            "geometry": {"type": "Point", "coordinates": [num(x), num(y)]},
+            "properties": {
+                "elevation": num(s.elevation as f64),
+                "peak": i,
+                "parent": p.parent,
+                "col": s.col,
+                "row": s.row,
+            }
+        }))
+    })
 }
 
 /// divide_tree.geojson: one LineString peak → key saddle → parent per edge.
 pub fn write_divide_tree_geojson(path: &Path, tree: &DivideTree, georef: &GeoRef) -> Result<()> {
-    let feats = tree
-        .peaks
-        .iter()
-        .enumerate()
-        .filter_map(|(i, p)| {
-            let s = tree.saddles.get(p.key_saddle?)?;
-            let q = tree.peaks.get(p.parent?)?;
-            let pts: Vec<Value> = [(p.col, p.row), (s.col, s.row), (q.col, q.row)]
-                .iter()
-                .map(|&(c, r)| {
-                    let (x, y) = centre(georef, c, r);
-                    json!([num(x), num(y)])
-                })
-                .collect();
-            Some(json!({
-                "type": "Feature",
-                "geometry": {"type": "LineString", "coordinates": pts},
-                "properties": {
-                    "peak": i,
-                    "parent": p.parent,
-                    "peak_elevation": num(p.elevation as f64),
-                    "saddle_elevation": num(s.elevation as f64),
-                    "prominence": num(p.prominence),
-                }
-            }))
-        })
-        .collect();
-    write(path, &collection(feats))
+    write_key_saddle_features(path, tree, |i, p, s| {
+        let q = tree.peaks.get(p.parent?)?;
+        let pts: Vec<Value> = [(p.col, p.row), (s.col, s.row), (q.col, q.row)]
+            .iter()
+            .map(|&(c, r)| {
+                let (x, y) = centre(georef, c, r);
+                json!([num(x), num(y)])
+            })
+            .collect();
+        Some(json!({
+            "type": "Feature",
+            "geometry": {"type": "LineString", "coordinates": pts},
+            "properties": {
+                "peak": i,
+                "parent": p.parent,
+                "peak_elevation": num(p.elevation as f64),
+                "saddle_elevation": num(s.elevation as f64),
+                "prominence": num(p.prominence),
+            }
+        }))
+    })
 }

@@ -336,3 +336,25 @@ pub fn facing_gradients(
     }
     (toward, away)
 }
+
+/// Write an ESRI ASCII grid of `w` x `h` cells to `path`: lower-left corner
+/// and cell size `(xll, yll, cell)`, value `f(x, y)` of each cell (row 0 the
+/// north row), `None` as the nodata value -9999.
+pub fn write_esri_ascii(
+    path: &std::path::Path,
+    (w, h): (usize, usize),
+    (xll, yll, cell): (f64, f64, f64),
+    f: impl Fn(usize, usize) -> Option<f64>,
+) {
+    let mut s = format!(
+        "ncols {w}\nnrows {h}\nxllcorner {xll}\nyllcorner {yll}\ncellsize {cell}\nNODATA_value -9999\n"
+    );
+    for y in 0..h {
+        let row: Vec<String> = (0..w)
+            .map(|x| f(x, y).map_or("-9999".to_string(), |v| v.to_string()))
+            .collect();
+        s.push_str(&row.join(" "));
+        s.push('\n');
+    }
+    std::fs::write(path, s).unwrap();
+}

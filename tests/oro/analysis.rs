@@ -3,25 +3,11 @@
 //! against an oracle written here independently (brute force, closed forms,
 //! hand computations).
 
+use crate::common::Rng;
 use orogen::oro::metrics::{self, Nni};
 use orogen::oro::{self, EdgeConvention};
 use orogen::raster::{GeoRef, Grid};
 use std::collections::HashSet;
-
-/// SplitMix64 (Steele, Lea & Flood 2014), independent of the crate's RNG.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
 
 /// A grid of distinct heights (a random permutation of 1..=w*h).
 fn distinct_grid(w: usize, h: usize, rng: &mut Rng) -> Grid<f32> {

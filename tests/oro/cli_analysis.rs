@@ -1,18 +1,13 @@
 //! `orogen orostats`, `orogen classify` and `orogen ridges` as a user runs them.
 
 use crate::common::cli::{data, fails, ok, orogen};
+use crate::common::write_esri_ascii;
 use std::path::Path;
 
 fn asc(path: &Path, w: usize, h: usize, f: impl Fn(usize, usize) -> f64) {
-    let mut s = format!(
-        "ncols {w}\nnrows {h}\nxllcorner 500000\nyllcorner 4000000\ncellsize 100\nNODATA_value -9999\n"
-    );
-    for y in 0..h {
-        let row: Vec<String> = (0..w).map(|x| format!("{}", f(x, y))).collect();
-        s.push_str(&row.join(" "));
-        s.push('\n');
-    }
-    std::fs::write(path, s).unwrap();
+    write_esri_ascii(path, (w, h), (500000.0, 4000000.0, 100.0), |x, y| {
+        Some(f(x, y))
+    });
 }
 
 #[test]

@@ -16,6 +16,19 @@ fn grid(w: usize, rows: &[&[f32]]) -> Grid<f32> {
 /// (col, row, elevation, prominence, key saddle elevation, parent).
 type Row = (u32, u32, f32, f64, Option<f32>, Option<usize>);
 
+/// `oro::peaks` with no prominence threshold, in pixel coordinates.
+fn every_peak(g: &Grid<f32>) -> oro::PeakList {
+    oro::peaks(
+        g,
+        &GeoRef::pixel(),
+        &PeakOptions {
+            min_prominence: 0.0,
+            ..Default::default()
+        },
+    )
+    .unwrap()
+}
+
 fn summary(t: &DivideTree) -> Vec<Row> {
     t.peaks
         .iter()
@@ -83,15 +96,7 @@ fn single_peak_cone() {
         summary(&oro::divide_tree(&g, UNK).unwrap()),
         vec![(3, 3, 10.0, 3.0, None, None)]
     );
-    let l = oro::peaks(
-        &g,
-        &GeoRef::pixel(),
-        &PeakOptions {
-            min_prominence: 0.0,
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    let l = every_peak(&g);
     assert_eq!(l.tree.peaks[0].isolation, None);
     assert_eq!(l.tree.peaks[0].dominance(), Some(1.0));
 }
@@ -120,15 +125,7 @@ fn twin_summits_tie_rule() {
     let c = oro::critical_points(&g, UNK).unwrap();
     assert_eq!(c.saddles, vec![(2, 0)]);
     // Isolation of twins: no strictly higher ground.
-    let l = oro::peaks(
-        &g,
-        &GeoRef::pixel(),
-        &PeakOptions {
-            min_prominence: 0.0,
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    let l = every_peak(&g);
     assert!(l.tree.peaks.iter().all(|p| p.isolation.is_none()));
 }
 

@@ -3,8 +3,11 @@
 //! prominences, edge flags), for many tile sizes and both edge conventions.
 //! The oracle is `oro::divide_tree` on the whole grid, itself checked against
 //! brute force (`brute_force.rs`) and akirmse/mountains (`reference.rs`);
-//! the tiled code shares no sweep code with it.
+//! the tiled code shares no sweep code with it (only the neighbour order and
+//! the breadth-first growth of flat regions, which the brute force checks).
 
+use crate::common::cli::{ok, orogen};
+use crate::common::write_esri_ascii;
 use orogen::exec::{EngineConfig, LocalEngine};
 use orogen::oro::{self, divide_tree_tiled, DivideTree, EdgeConvention};
 use orogen::raster::{GeoRef, Grid, MemRaster, RasterSource};
@@ -322,6 +325,11 @@ fn tiled_isolation_equals_in_memory_on_a_geographic_grid() {
 
 // ------------------------------------------------------------------ CLI ----
 
+/// `orogen peaks DEM ARGS -o OUT`, which must succeed: its stdout and stderr.
+fn peaks_cli(dem: &std::path::Path, out: &std::path::Path, args: &[&str]) -> String {
+    ok(orogen().arg("peaks").arg(dem).args(args).arg("-o").arg(out))
+}
+
 #[test]
 fn cli_peaks_tiled_writes_the_same_files_as_in_memory() {
     let dem =
@@ -329,18 +337,10 @@ fn cli_peaks_tiled_writes_the_same_files_as_in_memory() {
     let dir = tempfile::tempdir().unwrap();
     let run = |name: &str, extra: &[&str]| {
         let out = dir.path().join(name);
-        let st = std::process::Command::new(env!("CARGO_BIN_EXE_orogen"))
-            .arg("peaks")
-            .arg(&dem)
-            .args(["--min-prominence", "20", "-q", "-o"])
-            .arg(&out)
-            .args(extra)
-            .output()
-            .unwrap();
-        assert!(
-            st.status.success(),
-            "{}",
-            String::from_utf8_lossy(&st.stderr)
+        peaks_cli(
+            &dem,
+            &out,
+            &[&["--min-prominence", "20", "-q"], extra].concat(),
         );
         out
     };
@@ -365,43 +365,18 @@ fn cli_peaks_goes_tiled_when_the_dem_does_not_fit_the_budget() {
     let dir = tempfile::tempdir().unwrap();
     let dem = dir.path().join("dem.asc");
     let n = 800;
-    let mut text = format!(
-        "ncols {n}\nnrows {n}\nxllcorner 0\nyllcorner 0\ncellsize 30\nNODATA_value -9999\n"
-    );
-    for y in 0..n {
-        let row: Vec<String> = (0..n)
-            .map(|x| {
-                let (xf, yf) = (x as f32, y as f32);
-                let z = 300.0 * (xf * 0.013).sin() * (yf * 0.017).cos()
-                    + 80.0 * (xf * 0.07 + yf * 0.05).sin()
-                    + 500.0;
-                if (x as i64 - 400).pow(2) + (y as i64 - 300).pow(2) < 400 {
-                    "-9999".to_string()
-                } else {
-                    format!("{}", z.round() as i32)
-                }
-            })
-            .collect();
-        text.push_str(&row.join(" "));
-        text.push('\n');
-    }
-    std::fs::write(&dem, text).unwrap();
+    write_esri_ascii(&dem, (n, n), (0.0, 0.0, 30.0), |x, y| {
+        let (xf, yf) = (x as f32, y as f32);
+        let z = 300.0 * (xf * 0.013).sin() * (yf * 0.017).cos()
+            + 80.0 * (xf * 0.07 + yf * 0.05).sin()
+            + 500.0;
+        let hole = (x as i64 - 400).pow(2) + (y as i64 - 300).pow(2) < 400;
+        (!hole).then_some(z.round() as i32 as f64)
+    });
     let run = |name: &str, extra: &[&str]| {
         let out = dir.path().join(name);
-        let st = std::process::Command::new(env!("CARGO_BIN_EXE_orogen"))
-            .arg("peaks")
-            .arg(&dem)
-            .args(["--min-prominence", "30", "-o"])
-            .arg(&out)
-            .args(extra)
-            .output()
-            .unwrap();
-        assert!(
-            st.status.success(),
-            "{}",
-            String::from_utf8_lossy(&st.stderr)
-        );
-        (out, String::from_utf8_lossy(&st.stderr).to_string())
+        let log = peaks_cli(&dem, &out, &[&["--min-prominence", "30"], extra].concat());
+        (out, log)
     };
     let (mem, log_mem) = run("mem", &[]);
     let (budget, log) = run("budget", &["--memory", "16MiB", "--tile", "100"]);

@@ -5,7 +5,6 @@
 
 use crate::oro_common::*;
 use orogen::io::{open_raster, OpenOptions};
-use orogen::oro::{EdgeConvention, PeakOptions};
 use orogen::raster::{read_window, GeoRef, Grid, Window};
 use orogen::synth::orometric::*;
 use std::path::PathBuf;
@@ -68,66 +67,10 @@ fn check_preserved(noise: f64) -> (usize, usize) {
     };
     let ter = OroTerrain::new(&tree, &topt).unwrap();
     let dem = ter.render();
-    let thr = tree.min_prominence;
-    let found = orogen::oro::peaks(
-        &dem,
-        ter.georef(),
-        &PeakOptions {
-            min_prominence: thr,
-            convention: EdgeConvention::SeaLevel,
-            isolation: false,
-        },
-    )
-    .unwrap()
-    .tree;
-    let prom = tree.prominences();
-    let h: Vec<f64> = tree.peaks.iter().map(|p| p.elevation).collect();
-    let hs: Vec<f64> = tree.saddles.iter().map(|s| s.elevation).collect();
-    let own = orogen::synth::orometric::assign::owners(&h, &tree.edges(), &hs);
-    // Raster bound of a key saddle: on a grid the pass is read at cell
-    // centres next to the saddle point, up to one cell along the ridge:
-    // at most the ridge gradient there × one cell above it.
-    let mut sbound = vec![0.0f64; h.len()];
-    for (e, &o) in own.iter().enumerate() {
-        let s = &tree.saddles[e];
-        let g = s
-            .peaks
-            .iter()
-            .map(|&q| {
-                let p = &tree.peaks[q];
-                (p.elevation - s.elevation) / (p.x - s.x).hypot(p.y - s.y)
-            })
-            .fold(0.0, f64::max);
-        sbound[o] = g * tree.cell;
-    }
-    let (mut want, mut ok) = (0, 0);
-    for (i, p) in tree.peaks.iter().enumerate() {
-        // Peaks clearly above the threshold (the noise may move a
-        // borderline one across it).
-        if prom[i] < thr + 2.0 * noise + 1.0 {
-            continue;
-        }
-        want += 1;
-        let (c, r) = ((p.x / tree.cell) as i64, (p.y / tree.cell) as i64);
-        let hit = found
-            .peaks
-            .iter()
-            .find(|q| (q.col as i64 - c).abs() <= 1 && (q.row as i64 - r).abs() <= 1);
-        if let Some(q) = hit {
-            let dz = (q.elevation as f64 - p.elevation).abs();
-            assert!(dz <= noise + 0.01, "peak {i}: elevation off by {dz} m");
-            // The key saddle: prominence within the noise and the raster
-            // bound of the saddle.
-            let dp = (q.prominence - prom[i]).abs();
-            if dp <= 2.0 * noise + sbound[i] + 0.01 {
-                ok += 1;
-            } else {
-                println!("peak {i}: prominence {} vs {}", q.prominence, prom[i]);
-            }
-        } else {
-            println!("peak {i} at ({c}, {r}) not recovered");
-        }
-    }
+    let found = found_peaks(&dem, ter.georef(), tree.min_prominence);
+    let own = saddle_owners(&tree);
+    let sbound = key_saddle_bounds(&tree, &own, 0.0);
+    let (want, ok) = recovered_peaks(&tree, &found, noise, &sbound, |_, _| {});
     (want, ok)
 }
 
@@ -277,36 +220,26 @@ fn cli_profile_divide_tree_from_tree() {
     toy_profile().save(&prof).unwrap();
     let tree = dir.path().join("tree.json");
     let gj = dir.path().join("tree.geojson");
-    let st = Command::new(exe)
-        .args(["synth", "divide-tree", "--profile"])
-        .arg(&prof)
-        .args(["--size", "200x160", "--cell", "50", "--peaks", "40", "-o"])
-        .arg(&tree)
-        .arg("--geojson")
-        .arg(&gj)
-        .output()
-        .unwrap();
-    assert!(
-        st.status.success(),
-        "{}",
-        String::from_utf8_lossy(&st.stderr)
+    succeeds(
+        Command::new(exe)
+            .args(["synth", "divide-tree", "--profile"])
+            .arg(&prof)
+            .args(["--size", "200x160", "--cell", "50", "--peaks", "40", "-o"])
+            .arg(&tree)
+            .arg("--geojson")
+            .arg(&gj),
     );
     let t = SynthTree::load(&tree).unwrap();
     assert_eq!(t.peaks.len(), 40);
     assert!(std::fs::read_to_string(&gj).unwrap().contains("\"ridge\""));
     let tif = dir.path().join("t.tif");
-    let st = Command::new(exe)
-        .args(["synth", "from-tree"])
-        .arg(&tree)
-        .arg("-o")
-        .arg(&tif)
-        .args(["--tile", "64", "-q", "--terrain", "tents"])
-        .output()
-        .unwrap();
-    assert!(
-        st.status.success(),
-        "{}",
-        String::from_utf8_lossy(&st.stderr)
+    succeeds(
+        Command::new(exe)
+            .args(["synth", "from-tree"])
+            .arg(&tree)
+            .arg("-o")
+            .arg(&tif)
+            .args(["--tile", "64", "-q", "--terrain", "tents"]),
     );
     // The file holds the terrain, cell for cell.
     let src = open_raster(&tif, &OpenOptions::default()).unwrap();
@@ -329,30 +262,20 @@ fn cli_profile_divide_tree_from_tree() {
     assert!(!st.status.success());
     assert!(String::from_utf8_lossy(&st.stderr).contains("disconnected"));
     // The one-step form and a profile from a DEM.
-    let st = Command::new(exe)
-        .args(["synth", "orometric", "--profile"])
-        .arg(&prof)
-        .args(["--size", "120", "--cell", "50", "-q", "-o"])
-        .arg(dir.path().join("o.tif"))
-        .output()
-        .unwrap();
-    assert!(
-        st.status.success(),
-        "{}",
-        String::from_utf8_lossy(&st.stderr)
+    succeeds(
+        Command::new(exe)
+            .args(["synth", "orometric", "--profile"])
+            .arg(&prof)
+            .args(["--size", "120", "--cell", "50", "-q", "-o"])
+            .arg(dir.path().join("o.tif")),
     );
     let dem = dir.path().join("o.tif");
-    let st = Command::new(exe)
-        .args(["synth", "profile"])
-        .arg(&dem)
-        .args(["--min-prominence", "20", "-o"])
-        .arg(dir.path().join("again.json"))
-        .output()
-        .unwrap();
-    assert!(
-        st.status.success(),
-        "{}",
-        String::from_utf8_lossy(&st.stderr)
+    succeeds(
+        Command::new(exe)
+            .args(["synth", "profile"])
+            .arg(&dem)
+            .args(["--min-prominence", "20", "-o"])
+            .arg(dir.path().join("again.json")),
     );
     SynthProfile::load(&dir.path().join("again.json")).unwrap();
 }
@@ -467,9 +390,6 @@ fn terrain_errors_scaled(name: &str, thr: f64, scale: usize) -> Option<([f64; 3]
 
 #[test]
 fn distributions_match_the_alps_profile() {
-    let Some((worst, mean)) = terrain_errors(ALPS.0, ALPS.1) else {
-        return;
-    };
     // The paper's figures (isolation ≤ 8 %, prominence and dominance
     // ≤ 3 %): prominence and dominance on every seed (worst = the largest
     // of seeds 1-6), isolation on the mean and within 8.5 % on every seed.
@@ -481,20 +401,11 @@ fn distributions_match_the_alps_profile() {
     // 0.6-1.5 %; docs/design/orometric-synthesis.md#ridge-clearance-clearancers). The Alps' isolation floor for ~578
     // peaks is 3.7 % (the measure's sampling noise); the rest is the
     // isolation model's bias.
-    assert!(
-        worst[0] <= 0.085 && mean[0] <= 0.075,
-        "isolation {mean:?} {worst:?}"
-    );
-    assert!(worst[1] <= 0.03, "prominence {worst:?}");
-    assert!(worst[2] <= 0.03, "dominance {worst:?}");
-    assert!(mean[1] <= 0.025 && mean[2] <= 0.02, "{mean:?}");
+    distributions_within(ALPS, [0.085, 0.03, 0.03], [0.075, 0.025, 0.02]);
 }
 
 #[test]
 fn distributions_match_the_low_relief_profile() {
-    let Some((worst, mean)) = terrain_errors(DALLAS.0, DALLAS.1) else {
-        return;
-    };
     // Measured with the ridge contrast 5 (session 5, seeds 1-6,
     // docs/design/orometric-synthesis.md#ridges): isolation 3.4-7.7 %, 5.3 % mean; prominence
     // 0.1-0.5 %; dominance 0.9-3.0 %, 1.8 % mean (the paper: isolation ≤ 8 %,
@@ -509,18 +420,22 @@ fn distributions_match_the_low_relief_profile() {
     // 8 % holds on the mean, and each seed is held to 10.5 %; the per-seed
     // 8 % is checked on a domain twice the side
     // (`low_relief_isolation_holds_per_seed_on_a_larger_domain`).
-    assert!(
-        worst[0] <= 0.105 && mean[0] <= 0.08,
-        "isolation {mean:?} {worst:?}"
-    );
-    assert!(
-        worst[1] <= 0.01 && mean[1] <= 0.006,
-        "prominence {mean:?} {worst:?}"
-    );
-    assert!(
-        worst[2] <= 0.03 && mean[2] <= 0.021,
-        "dominance {mean:?} {worst:?}"
-    );
+    distributions_within(DALLAS, [0.105, 0.01, 0.03], [0.08, 0.006, 0.021]);
+}
+
+/// Each of the isolation, prominence and dominance errors of the terrains
+/// of profile `(name, thr)` ([`terrain_errors`]) at most `worst_max` on
+/// every seed and `mean_max` on the mean (nothing checked without the DEM).
+fn distributions_within((name, thr): (&str, f64), worst_max: [f64; 3], mean_max: [f64; 3]) {
+    let Some((worst, mean)) = terrain_errors(name, thr) else {
+        return;
+    };
+    for (k, what) in ["isolation", "prominence", "dominance"].iter().enumerate() {
+        assert!(
+            worst[k] <= worst_max[k] && mean[k] <= mean_max[k],
+            "{name}: {what} {mean:?} {worst:?}"
+        );
+    }
 }
 
 /// The low-relief profile on a domain twice the DEM's side (~670 peaks,
@@ -638,6 +553,18 @@ fn ridge_bases_change_the_trees_they_were_made_for() {
     }
 }
 
+/// The tree the CLI wrote equals the library's: peak positions and
+/// elevations, saddle elevations.
+fn assert_same_tree(got: &SynthTree, want: &SynthTree, what: &str) {
+    assert_eq!(got.peaks.len(), want.peaks.len(), "{what}");
+    for (a, b) in got.peaks.iter().zip(&want.peaks) {
+        assert_eq!((a.x, a.y, a.elevation), (b.x, b.y, b.elevation), "{what}");
+    }
+    for (a, b) in got.saddles.iter().zip(&want.saddles) {
+        assert_eq!(a.elevation, b.elevation, "{what}");
+    }
+}
+
 /// `--ridge-contrast` and `--no-refine` reach the library: the CLI trees equal
 /// `synthesize_tree` with the same options, and a contrast below 1 is refused.
 #[test]
@@ -679,18 +606,11 @@ fn cli_ridge_contrast_and_no_refine_reach_the_library() {
         o.ridge_contrast = contrast;
         o.refine = refine;
         let want = synthesize_tree(&prof, &o).unwrap();
-        let got = SynthTree::load(&out).unwrap();
-        assert_eq!(got.peaks.len(), want.peaks.len(), "{extra:?}");
-        for (a, b) in got.peaks.iter().zip(&want.peaks) {
-            assert_eq!(
-                (a.x, a.y, a.elevation),
-                (b.x, b.y, b.elevation),
-                "{extra:?}"
-            );
-        }
-        for (a, b) in got.saddles.iter().zip(&want.saddles) {
-            assert_eq!(a.elevation, b.elevation, "{extra:?}");
-        }
+        assert_same_tree(
+            &SynthTree::load(&out).unwrap(),
+            &want,
+            &format!("{extra:?}"),
+        );
         seen.push(std::fs::read(&out).unwrap());
     }
     // Each option changes the tree (else this test could not fail).
@@ -762,18 +682,11 @@ fn cli_ridge_base_and_type_blend_reach_the_library() {
             o.type_map = Some(TypeMap::new(labels, vec![(2, dallas.clone())]).unwrap());
         }
         let want = synthesize_tree(&alps, &o).unwrap();
-        let got = SynthTree::load(&out).unwrap();
-        assert_eq!(got.peaks.len(), want.peaks.len(), "{extra:?}");
-        for (a, b) in got.peaks.iter().zip(&want.peaks) {
-            assert_eq!(
-                (a.x, a.y, a.elevation),
-                (b.x, b.y, b.elevation),
-                "{extra:?}"
-            );
-        }
-        for (a, b) in got.saddles.iter().zip(&want.saddles) {
-            assert_eq!(a.elevation, b.elevation, "{extra:?}");
-        }
+        assert_same_tree(
+            &SynthTree::load(&out).unwrap(),
+            &want,
+            &format!("{extra:?}"),
+        );
         seen.push(std::fs::read(&out).unwrap());
     }
     assert_ne!(seen[0], seen[1], "--ridge-base 0 gave the default tree");

@@ -90,20 +90,6 @@ fn toy_profile(shift: f64) -> SynthProfile {
     SynthProfile::from_samples(&[s], 30.0, "toy", vec!["hand".into()]).unwrap()
 }
 
-fn peaks_of(dem: &Grid<f32>, geo: &GeoRef, thr: f64) -> orogen::oro::DivideTree {
-    orogen::oro::peaks(
-        dem,
-        geo,
-        &orogen::oro::PeakOptions {
-            min_prominence: thr,
-            convention: orogen::oro::EdgeConvention::SeaLevel,
-            isolation: false,
-        },
-    )
-    .unwrap()
-    .tree
-}
-
 #[test]
 fn prominence_bins_hold_one_two_four_parts() {
     use orogen::synth::orometric::tree_synth::pass_of_rank;
@@ -267,7 +253,7 @@ fn edits_move_insert_delete_and_regenerate() {
     )
     .unwrap();
     let dem = ter.render();
-    let found = peaks_of(&dem, ter.georef(), e.min_prominence);
+    let found = found_peaks(&dem, ter.georef(), e.min_prominence);
     let (c, r) = (
         (e.peaks[ins].x / e.cell) as i64,
         (e.peaks[ins].y / e.cell) as i64,
@@ -334,22 +320,17 @@ fn cli_from_tree_applies_edits() {
     );
     t.save(&tf).unwrap();
     std::fs::write(&ef, serde_json::to_string_pretty(&edits).unwrap()).unwrap();
-    let st = std::process::Command::new(exe)
-        .args(["synth", "from-tree"])
-        .arg(&tf)
-        .arg("--edits")
-        .arg(&ef)
-        .arg("--edited-tree")
-        .arg(&out)
-        .arg("-o")
-        .arg(&tif)
-        .arg("-q")
-        .output()
-        .unwrap();
-    assert!(
-        st.status.success(),
-        "{}",
-        String::from_utf8_lossy(&st.stderr)
+    succeeds(
+        std::process::Command::new(exe)
+            .args(["synth", "from-tree"])
+            .arg(&tf)
+            .arg("--edits")
+            .arg(&ef)
+            .arg("--edited-tree")
+            .arg(&out)
+            .arg("-o")
+            .arg(&tif)
+            .arg("-q"),
     );
     let want = apply_edits(&t, &edits).unwrap();
     assert_eq!(SynthTree::load(&out).unwrap(), want);
@@ -465,7 +446,7 @@ fn pasted_real_fragment_is_kept_and_completed() {
     )
     .unwrap();
     let dem = ter.render();
-    let found = peaks_of(&dem, ter.georef(), 1.0);
+    let found = found_peaks(&dem, ter.georef(), 1.0);
     let ok = fp
         .iter()
         .filter(|p| {
@@ -482,15 +463,6 @@ fn pasted_real_fragment_is_kept_and_completed() {
         fp.len()
     );
     assert!(ok as f64 >= 0.85 * fp.len() as f64, "{ok} of {}", fp.len());
-}
-
-fn shipped(name: &str) -> SynthProfile {
-    SynthProfile::load(
-        &PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-            .join("configs/profiles")
-            .join(name),
-    )
-    .unwrap()
 }
 
 #[test]

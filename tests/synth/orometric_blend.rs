@@ -5,18 +5,9 @@
 //! within the band and only there (oracle: the peaks' elevations; the two
 //! profiles' ranges, 876–4810 m and 165–298 m, do not overlap).
 
+use crate::oro_common::shipped;
 use orogen::raster::Grid;
 use orogen::synth::orometric::*;
-use std::path::PathBuf;
-
-fn shipped(name: &str) -> SynthProfile {
-    SynthProfile::load(
-        &PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-            .join("configs/profiles")
-            .join(name),
-    )
-    .unwrap()
-}
 
 fn two_halves() -> (SynthProfile, TypeMap) {
     let alps = shipped("alps_montblanc.json");

@@ -5,7 +5,6 @@
 //! the synthesis) against the tree's own peak list.
 
 use crate::oro_common::*;
-use orogen::oro::{EdgeConvention, PeakOptions};
 use orogen::synth::orometric::*;
 
 /// Per-kind counts of one render: tree peaks, peaks found above the
@@ -109,17 +108,7 @@ fn tally(name: &str, thr: f64, seed: u64) -> Option<Tally> {
     let t = synthesize_tree(&prof, &o).unwrap();
     let ter = TinTerrain::new(&t, &TerrainOptions::default()).unwrap();
     let dem = ter.render().unwrap();
-    let found = orogen::oro::peaks(
-        &dem,
-        ter.georef(),
-        &PeakOptions {
-            min_prominence: prof.min_prominence,
-            convention: EdgeConvention::SeaLevel,
-            isolation: false,
-        },
-    )
-    .unwrap()
-    .tree;
+    let found = found_peaks(&dem, ter.georef(), prof.min_prominence);
     let tc: Vec<(i64, i64)> = t
         .peaks
         .iter()

@@ -6,7 +6,6 @@
 
 use crate::oro_common::*;
 use orogen::io::{open_raster, OpenOptions};
-use orogen::oro::{EdgeConvention, PeakOptions};
 use orogen::raster::{read_window, Grid, Window};
 use orogen::synth::orometric::*;
 use std::process::Command;
@@ -41,95 +40,48 @@ fn check_preserved(noise: f64) -> (usize, usize, usize, usize) {
     let tree = toy_tree(320, 280, 80, 5);
     let ter = TinTerrain::new(&tree, &tin_opts(noise)).unwrap();
     let dem = ter.render().unwrap();
-    let thr = tree.min_prominence;
-    let found = orogen::oro::peaks(
-        &dem,
-        ter.georef(),
-        &PeakOptions {
-            min_prominence: thr,
-            convention: EdgeConvention::SeaLevel,
-            isolation: false,
-        },
-    )
-    .unwrap()
-    .tree;
-    let prom = tree.prominences();
-    let h: Vec<f64> = tree.peaks.iter().map(|p| p.elevation).collect();
-    let hs: Vec<f64> = tree.saddles.iter().map(|s| s.elevation).collect();
-    let own = assign::owners(&h, &tree.edges(), &hs);
-    // Raster bound of a key saddle: the pass is read at cell centres up to
-    // one cell along the ridge from the saddle point.
-    let mut sbound = vec![0.0f64; h.len()];
-    for (e, &o) in own.iter().enumerate() {
-        let s = &tree.saddles[e];
-        let g = s
-            .peaks
-            .iter()
-            .map(|&q| {
-                let p = &tree.peaks[q];
-                (p.elevation - s.elevation) / (p.x - s.x).hypot(p.y - s.y).max(tree.cell)
-            })
-            .fold(0.0, f64::max);
-        sbound[o] = g * tree.cell;
-    }
-    let mut key_of = vec![usize::MAX; h.len()];
+    let found = found_peaks(&dem, ter.georef(), tree.min_prominence);
+    let own = saddle_owners(&tree);
+    let sbound = key_saddle_bounds(&tree, &own, tree.cell);
+    let mut key_of = vec![usize::MAX; tree.peaks.len()];
     for (e, &o) in own.iter().enumerate() {
         key_of[o] = e;
     }
-    let (mut want, mut ok, mut sad_want, mut sad_ok) = (0, 0, 0, 0);
-    for (i, p) in tree.peaks.iter().enumerate() {
-        if prom[i] < thr + 2.0 * noise + 1.0 {
-            continue;
+    let (mut sad_want, mut sad_ok) = (0, 0);
+    let (want, ok) = recovered_peaks(&tree, &found, noise, &sbound, |i, hit| {
+        if key_of[i] == usize::MAX {
+            return;
         }
-        want += 1;
-        if key_of[i] != usize::MAX {
-            sad_want += 1;
-        }
-        let (c, r) = ((p.x / tree.cell) as i64, (p.y / tree.cell) as i64);
-        let hit = found
-            .peaks
+        sad_want += 1;
+        // Its key saddle: within a cell of the tree's, at its elevation
+        // within the raster bound and the noise.
+        let Some(k) = hit.and_then(|q| q.key_saddle) else {
+            return;
+        };
+        let (fs, ts) = (&found.saddles[k], &tree.saddles[key_of[i]]);
+        let (sc, sr) = ((ts.x / tree.cell) as i64, (ts.y / tree.cell) as i64);
+        // Saddles of equal elevation on the key path tie: any tree
+        // saddle at the key saddle's elevation counts.
+        let dc = tree
+            .saddles
             .iter()
-            .find(|q| (q.col as i64 - c).abs() <= 1 && (q.row as i64 - r).abs() <= 1);
-        if let Some(q) = hit {
-            let dz = (q.elevation as f64 - p.elevation).abs();
-            assert!(dz <= noise + 0.01, "peak {i}: elevation off by {dz} m");
-            let dp = (q.prominence - prom[i]).abs();
-            if dp <= 2.0 * noise + sbound[i] + 0.01 {
-                ok += 1;
-            } else {
-                println!("peak {i}: prominence {} vs {}", q.prominence, prom[i]);
-            }
-            // Its key saddle: within a cell of the tree's, at its elevation
-            // within the raster bound and the noise.
-            if let (Some(k), true) = (q.key_saddle, key_of[i] != usize::MAX) {
-                let (fs, ts) = (&found.saddles[k], &tree.saddles[key_of[i]]);
-                let (sc, sr) = ((ts.x / tree.cell) as i64, (ts.y / tree.cell) as i64);
-                // Saddles of equal elevation on the key path tie: any tree
-                // saddle at the key saddle's elevation counts.
-                let dc = tree
-                    .saddles
-                    .iter()
-                    .filter(|s| (s.elevation - ts.elevation).abs() <= 1e-6)
-                    .map(|s| {
-                        let (c, r) = ((s.x / tree.cell) as i64, (s.y / tree.cell) as i64);
-                        (fs.col as i64 - c).abs().max((fs.row as i64 - r).abs())
-                    })
-                    .min()
-                    .unwrap_or(i64::MAX);
-                let dz = (fs.elevation as f64 - ts.elevation).abs();
-                if dc <= 1 && dz <= 2.0 * noise + sbound[i] + 0.01 {
-                    sad_ok += 1;
-                } else {
-                    println!(
-                        "peak {i}: key saddle at ({}, {}) {} m vs ({sc}, {sr}) {} m",
-                        fs.col, fs.row, fs.elevation, ts.elevation
-                    );
-                }
-            }
+            .filter(|s| (s.elevation - ts.elevation).abs() <= 1e-6)
+            .map(|s| {
+                let (c, r) = ((s.x / tree.cell) as i64, (s.y / tree.cell) as i64);
+                (fs.col as i64 - c).abs().max((fs.row as i64 - r).abs())
+            })
+            .min()
+            .unwrap_or(i64::MAX);
+        let dz = (fs.elevation as f64 - ts.elevation).abs();
+        if dc <= 1 && dz <= 2.0 * noise + sbound[i] + 0.01 {
+            sad_ok += 1;
         } else {
-            println!("peak {i} at ({c}, {r}) not recovered");
+            println!(
+                "peak {i}: key saddle at ({}, {}) {} m vs ({sc}, {sr}) {} m",
+                fs.col, fs.row, fs.elevation, ts.elevation
+            );
         }
-    }
+    });
     println!(
         "{} found above the threshold, {:?}",
         found.peaks.len(),
@@ -249,19 +201,7 @@ fn few_cells_are_raised_by_fill_and_windows_equal_the_render() {
         100.0 * frac
     );
     // Odd tiles, read as windows, equal the whole render bit for bit.
-    for tile in [37usize, 64] {
-        for y in (0..171).step_by(tile) {
-            for x in (0..203).step_by(tile) {
-                let (w, h) = (tile.min(203 - x), tile.min(171 - y));
-                let g = read_window::<f32>(&ter, Window::new(x as i64, y as i64, w, h)).unwrap();
-                for yy in 0..h {
-                    for xx in 0..w {
-                        assert_eq!(g.get(xx, yy).to_bits(), all.get(x + xx, y + yy).to_bits());
-                    }
-                }
-            }
-        }
-    }
+    assert_windows_equal_whole(&ter, &all, &[37, 64], "tin terrain");
     // Same tree → same terrain, built again; a one-thread render agrees.
     let again = TinTerrain::new(&tree, &tin_opts(0.0))
         .unwrap()
@@ -384,37 +324,46 @@ fn real_errors(name: &str, min_prom: f64) -> Option<std::collections::BTreeMap<S
     Some(e)
 }
 
-#[test]
-fn tin_distributions_match_the_alps_profile() {
-    let Some(e) = real_errors("terraindescriptors_alps_montblanc.tif", 30.0) else {
+/// The histogram errors of the TIN terrain of `name` ([`real_errors`]) at
+/// most `max`: isolation, prominence, dominance, elevation and peak density,
+/// in that order (nothing checked without the DEM).
+fn tin_errors_within(name: &str, min_prom: f64, max: [f64; 5]) {
+    let Some(e) = real_errors(name, min_prom) else {
         return;
     };
+    let what = [
+        "isolation_km",
+        "prominence",
+        "dominance",
+        "elevation",
+        "peak_density",
+    ];
+    for (what, max) in what.into_iter().zip(max) {
+        assert!(e[what] <= max, "{what}: {e:?}");
+    }
+}
+
+#[test]
+fn tin_distributions_match_the_alps_profile() {
     // Measured (seed 3, session 7, the render keeps the tree's peaks,
     // isolation stretch 1.2): isolation 0.079, prominence 0.010, dominance
     // 0.005, elevation 0.024, density 0.007 (session 5: 0.053, 0.035,
     // 0.030, 0.026, 0.008).
-    assert!(e["isolation_km"] <= 0.085, "{e:?}");
-    assert!(e["prominence"] <= 0.045, "{e:?}");
-    assert!(e["dominance"] <= 0.04, "{e:?}");
-    assert!(e["elevation"] <= 0.04, "{e:?}");
-    assert!(e["peak_density"] <= 0.02, "{e:?}");
+    tin_errors_within(
+        "terraindescriptors_alps_montblanc.tif",
+        30.0,
+        [0.085, 0.045, 0.04, 0.04, 0.02],
+    );
 }
 
 #[test]
 fn tin_distributions_match_the_low_relief_profile() {
-    let Some(e) = real_errors("pysheds_dem.tif", 5.0) else {
-        return;
-    };
     // Measured (seed 3, session 5, ridge contrast 5): isolation 0.051,
     // prominence 0.005, dominance 0.025, elevation 0.074, density 0.071
     // (169 tree peaks, 182 found on the terrain: extra hills the render
     // raises in large ridge-free areas, see docs/design/orometric-synthesis.md#ridges; with
     // the paper's ridge weights: 0.040, 0.010, 0.051, 0.073, 0.071).
-    assert!(e["isolation_km"] <= 0.055, "{e:?}");
-    assert!(e["prominence"] <= 0.01, "{e:?}");
-    assert!(e["dominance"] <= 0.03, "{e:?}");
-    assert!(e["elevation"] <= 0.08, "{e:?}");
-    assert!(e["peak_density"] <= 0.075, "{e:?}");
+    tin_errors_within("pysheds_dem.tif", 5.0, [0.055, 0.01, 0.03, 0.08, 0.075]);
 }
 
 #[test]
@@ -440,17 +389,12 @@ fn cli_terrain_models_and_erosion() {
         ),
     ] {
         let tif = dir.path().join(format!("{model}.tif"));
-        let st = Command::new(exe)
-            .args(["synth", "from-tree"])
-            .arg(&tree)
-            .args(["--terrain", model, "--tile", "37", "-q", "-o"])
-            .arg(&tif)
-            .output()
-            .unwrap();
-        assert!(
-            st.status.success(),
-            "{}",
-            String::from_utf8_lossy(&st.stderr)
+        succeeds(
+            Command::new(exe)
+                .args(["synth", "from-tree"])
+                .arg(&tree)
+                .args(["--terrain", model, "--tile", "37", "-q", "-o"])
+                .arg(&tif),
         );
         let src = open_raster(&tif, &OpenOptions::default()).unwrap();
         let got = read_window::<f32>(&*src, Window::full(150, 130)).unwrap();
@@ -458,17 +402,12 @@ fn cli_terrain_models_and_erosion() {
     }
     // Constrained erosion on the TIN terrain keeps the tree's elevations.
     let tif = dir.path().join("eroded.tif");
-    let st = Command::new(exe)
-        .args(["synth", "from-tree"])
-        .arg(&tree)
-        .args(["--erode", "2", "--erode-radius", "120", "-q", "-o"])
-        .arg(&tif)
-        .output()
-        .unwrap();
-    assert!(
-        st.status.success(),
-        "{}",
-        String::from_utf8_lossy(&st.stderr)
+    succeeds(
+        Command::new(exe)
+            .args(["synth", "from-tree"])
+            .arg(&tree)
+            .args(["--erode", "2", "--erode-radius", "120", "-q", "-o"])
+            .arg(&tif),
     );
     let src = open_raster(&tif, &OpenOptions::default()).unwrap();
     let got: Grid<f32> = read_window::<f32>(&*src, Window::full(150, 130)).unwrap();
@@ -537,17 +476,7 @@ fn blocks_tile_exactly_across_their_borders() {
         }
     }
     // The tree's peaks and no others (toy profile, 50 m cells).
-    let found = orogen::oro::peaks(
-        &g,
-        whole.georef(),
-        &PeakOptions {
-            min_prominence: tree.min_prominence,
-            convention: EdgeConvention::SeaLevel,
-            isolation: false,
-        },
-    )
-    .unwrap()
-    .tree;
+    let found = found_peaks(&g, whole.georef(), tree.min_prominence);
     let prom = tree.prominences();
     let tc: Vec<(i64, i64)> = tree
         .peaks

@@ -4,6 +4,7 @@
 //! forest of trees rooted in the sea with heights rising upstream, and the
 //! CLI output does not depend on the thread count or work-tile size.
 
+use crate::oro_common::assert_windows_equal_whole;
 use orogen::raster::{read_window, Grid, RasterSource, Window};
 use orogen::synth::rivers::{LandMask, RiverNetwork, RiverParams, RiverTerrain, NO_PARENT};
 use std::process::Command;
@@ -34,25 +35,7 @@ fn whole(src: &dyn RasterSource) -> Grid<f32> {
 fn tiles_equal_whole_bit_for_bit() {
     let t = terrain(203, 171, 5, 5.0, None);
     let g = whole(&t);
-    for tile in [17usize, 64, 100] {
-        for ty in (0..171).step_by(tile) {
-            for tx in (0..203).step_by(tile) {
-                let win = Window::new(tx as i64, ty as i64, tile.min(203 - tx), tile.min(171 - ty));
-                let part: Grid<f32> = read_window(&t, win).unwrap();
-                for y in 0..win.h {
-                    for x in 0..win.w {
-                        assert_eq!(
-                            part.get(x, y).to_bits(),
-                            g.get(tx + x, ty + y).to_bits(),
-                            "tile {tile} at ({}, {})",
-                            tx + x,
-                            ty + y
-                        );
-                    }
-                }
-            }
-        }
-    }
+    assert_windows_equal_whole(&t, &g, &[17, 64, 100], "rivers");
 }
 
 /// Checks that every land cell drains: the fill raises nothing and every

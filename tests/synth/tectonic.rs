@@ -3,6 +3,7 @@
 //! every layer, peaks of the sample map lie near generated crests, bad maps
 //! give clear errors, and the CLI writes the intermediates deterministically.
 
+use crate::oro_common::assert_windows_equal_whole;
 use orogen::raster::{read_window, GeoRef, Grid, Window};
 use orogen::synth::tectonic::{
     map_to_pixels, TectonicLayer, TectonicModel, TectonicParams, TectonicSource,
@@ -121,23 +122,7 @@ fn every_layer_is_tileable() {
     ] {
         let src = TectonicSource::new(model.clone(), layer, g.clone());
         let all: Grid<f64> = read_window(&src, Window::new(0, 0, w, h)).unwrap();
-        for tile in [13usize, 50, 77] {
-            for ty in (0..h).step_by(tile) {
-                for tx in (0..w).step_by(tile) {
-                    let win = Window::new(tx as i64, ty as i64, tile.min(w - tx), tile.min(h - ty));
-                    let part: Grid<f64> = read_window(&src, win).unwrap();
-                    for y in 0..win.h {
-                        for x in 0..win.w {
-                            assert_eq!(
-                                part.get(x, y).to_bits(),
-                                all.get(tx + x, ty + y).to_bits(),
-                                "{layer:?} tile {tile}"
-                            );
-                        }
-                    }
-                }
-            }
-        }
+        assert_windows_equal_whole(&src, &all, &[13, 50, 77], &format!("{layer:?}"));
     }
 }
 

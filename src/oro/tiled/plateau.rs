@@ -2,7 +2,7 @@
 //! tile perimeters labelled by their first cell, joined across seams into
 //! global region representatives.
 
-use super::super::regions::N8;
+use super::super::regions::neighbours_in;
 use super::bits;
 use super::check_finite;
 use super::first_view;
@@ -97,13 +97,7 @@ impl GlobalStep for PlateauStep {
                     let c = queue[head];
                     head += 1;
                     min = min.min(c);
-                    let (cx, cy) = ((c % w) as i64, (c / w) as i64);
-                    for (dx, dy) in N8 {
-                        let (nx, ny) = (cx + dx, cy + dy);
-                        if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
-                            continue;
-                        }
-                        let n = ny as usize * w + nx as usize;
+                    for (n, nx, ny) in neighbours_in(w, h, c) {
                         if label[n] == NONE && v.at(nx, ny) == z {
                             label[n] = id;
                             queue.push(n);

@@ -3,7 +3,7 @@
 //! peaks go straight into the summary), and the reduce that joins the tile
 //! graphs by region id and sweeps them once more.
 
-use super::super::regions::N8;
+use super::super::regions::{grow, neighbours_in};
 use super::super::tree::DivideTree;
 use super::super::tree::EdgeConvention;
 use super::assemble;
@@ -211,46 +211,40 @@ impl GlobalStep for TreeStep<'_> {
                 any_valid: false,
             };
             let mut open_id: Option<u64> = None;
-            let mut head = first;
-            while head < cells.len() {
-                let c = cells[head] as usize;
-                head += 1;
-                let (x, y) = ((c % w) as i64, (c / w) as i64);
-                for (dx, dy) in N8 {
-                    let (nx, ny) = (x + dx, y + dy);
-                    let nz = v.at(nx, ny);
-                    let in_core = nx >= 0 && ny >= 0 && nx < w as i64 && ny < h as i64;
-                    if nz.is_nan() {
-                        p.outside = true;
-                        continue;
+            grow(&mut cells, first, w, |(x, y), (nx, ny)| {
+                let nz = v.at(nx, ny);
+                let in_core = nx >= 0 && ny >= 0 && nx < w as i64 && ny < h as i64;
+                if nz.is_nan() {
+                    p.outside = true;
+                    return Ok(None);
+                }
+                if nz != z {
+                    p.any_valid = true;
+                }
+                if in_core {
+                    let nb = ny as usize * w + nx as usize;
+                    if nz == z && label[nb] == NONE {
+                        label[nb] = r;
+                        return Ok(Some(nb as u32));
                     }
-                    if nz != z {
-                        p.any_valid = true;
+                } else if inside(cx0 + nx, cy0 + ny) {
+                    // A valid neighbour in another tile: the piece is open.
+                    if !p.open {
+                        p.open = true;
+                        open_id = Some(
+                            self.perimeter_id(cx0 + x, cy0 + y)
+                                .ok_or_else(|| self.missing(cx0 + x, cy0 + y))?,
+                        );
                     }
-                    if in_core {
-                        let nb = ny as usize * w + nx as usize;
-                        if nz == z && label[nb] == NONE {
-                            label[nb] = r;
-                            cells.push(nb as u32);
-                        }
-                    } else if inside(cx0 + nx, cy0 + ny) {
-                        // A valid neighbour in another tile: the piece is open.
-                        if !p.open {
-                            p.open = true;
-                            open_id = Some(
-                                self.perimeter_id(cx0 + x, cy0 + y)
-                                    .ok_or_else(|| self.missing(cx0 + x, cy0 + y))?,
-                            );
-                        }
-                        if nz < z {
-                            let nid = self
-                                .perimeter_id(cx0 + nx, cy0 + ny)
-                                .ok_or_else(|| self.missing(cx0 + nx, cy0 + ny))?;
-                            seam.push((r, nid));
-                        }
+                    if nz < z {
+                        let nid = self
+                            .perimeter_id(cx0 + nx, cy0 + ny)
+                            .ok_or_else(|| self.missing(cx0 + nx, cy0 + ny))?;
+                        seam.push((r, nid));
                     }
                 }
-            }
+                Ok(None)
+            })?;
             if let Some(id) = open_id {
                 p.id = id;
             }
@@ -367,13 +361,7 @@ impl GlobalStep for TreeStep<'_> {
             }
             roots.clear();
             for &c in &cells[off[xi] as usize..off[xi + 1] as usize] {
-                let (cx, cy) = ((c as usize % w) as i64, (c as usize / w) as i64);
-                for (dx, dy) in N8 {
-                    let (nx, ny) = (cx + dx, cy + dy);
-                    if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
-                        continue;
-                    }
-                    let nb = ny as usize * w + nx as usize;
+                for (nb, nx, ny) in neighbours_in(w, h, c as usize) {
                     if label[nb] == NONE {
                         continue;
                     }

@@ -13,6 +13,7 @@ use crate::raster::Grid;
 use crate::raster::RasterInfo;
 use crate::raster::RasterSource;
 use crate::raster::Window;
+use crate::synth::source_info;
 use serde::Deserialize;
 use serde::Serialize;
 
@@ -124,14 +125,7 @@ impl FbmSource {
         let georef = GeoRef::north_up(0.0, height as f64 * cell, cell, Crs::default());
         Ok(FbmSource {
             fbm,
-            info: RasterInfo {
-                width,
-                height,
-                dtype: DType::F32,
-                georef,
-                block: (256, 256),
-                path: "<fbm>".into(),
-            },
+            info: source_info(width, height, DType::F32, georef, "<fbm>"),
         })
     }
 }

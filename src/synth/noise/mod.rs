@@ -16,7 +16,9 @@ pub use fbm::{Fbm, FbmSource};
 
 use crate::error::{Error, Result};
 use crate::raster::{AnyGrid, Crs, DType, GeoRef, Grid, RasterInfo, RasterSource, Window};
+use crate::synth::source_info;
 use serde::{Deserialize, Serialize};
+use std::ops::Bound::{Excluded, Included};
 
 /// SplitMix64 finaliser (Steele, Lea & Flood 2014): a bijective 64-bit mixer
 /// used as a counter-based hash of lattice coordinates and seeds.
@@ -218,6 +220,33 @@ impl Default for Noise {
     }
 }
 
+/// `Ok` if `ok`, else the error "noise (KIND): RULE (got VALUE)".
+fn check(ok: bool, kind: &str, rule: &str, got: impl std::fmt::Display) -> Result<()> {
+    if ok {
+        Ok(())
+    } else {
+        Err(Error::invalid(format!(
+            "noise ({kind}): {rule} (got {got})"
+        )))
+    }
+}
+
+/// [`check`] that `v` lies in `range`: "NAME must be ALLOWED".
+fn in_range(
+    kind: &str,
+    name: &str,
+    v: f64,
+    range: impl std::ops::RangeBounds<f64>,
+    allowed: &str,
+) -> Result<()> {
+    check(
+        range.contains(&v),
+        kind,
+        &format!("{name} must be {allowed}"),
+        v,
+    )
+}
+
 /// Octaves of the warp field of [`NoiseKind::Warped`].
 const WARP_OCTAVES: u32 = 4;
 
@@ -225,31 +254,33 @@ impl Noise {
     /// Check parameters; the error says which one is wrong and what is allowed.
     pub fn validate(&self) -> Result<()> {
         let k = self.kind.name();
-        if !(1..=24).contains(&self.octaves) {
-            return Err(Error::invalid(format!(
-                "noise ({k}): octaves must be between 1 and 24 (got {})",
-                self.octaves
-            )));
-        }
-        if !(self.gain.is_finite() && self.gain > 0.0 && self.gain < 1.0) {
-            return Err(Error::invalid(format!(
-                "noise ({k}): gain must be in (0, 1) (got {})",
-                self.gain
-            )));
-        }
-        if !(self.lacunarity.is_finite() && self.lacunarity > 1.0 && self.lacunarity <= 16.0) {
-            return Err(Error::invalid(format!(
-                "noise ({k}): lacunarity must be in (1, 16] (got {})",
-                self.lacunarity
-            )));
-        }
-        if !(self.wavelength.is_finite() && (2.0..=(1u64 << 30) as f64).contains(&self.wavelength))
-        {
-            return Err(Error::invalid(format!(
-                "noise ({k}): wavelength must be between 2 and 2^30 cells (got {})",
-                self.wavelength
-            )));
-        }
+        check(
+            (1..=24).contains(&self.octaves),
+            k,
+            "octaves must be between 1 and 24",
+            self.octaves,
+        )?;
+        in_range(
+            k,
+            "gain",
+            self.gain,
+            (Excluded(0.0), Excluded(1.0)),
+            "in (0, 1)",
+        )?;
+        in_range(
+            k,
+            "lacunarity",
+            self.lacunarity,
+            (Excluded(1.0), Included(16.0)),
+            "in (1, 16]",
+        )?;
+        in_range(
+            k,
+            "wavelength",
+            self.wavelength,
+            2.0..=(1u64 << 30) as f64,
+            "between 2 and 2^30 cells",
+        )?;
         if !(self.base.is_finite() && self.amplitude.is_finite()) {
             return Err(Error::invalid(format!(
                 "noise ({k}): base and amplitude must be finite numbers"
@@ -257,12 +288,12 @@ impl Noise {
         }
         match self.kind {
             NoiseKind::DiamondSquare | NoiseKind::Spectral => {
-                if self.lacunarity != 2.0 {
-                    return Err(Error::invalid(format!(
-                        "noise ({k}): levels are octaves, so lacunarity must be 2 (got {})",
-                        self.lacunarity
-                    )));
-                }
+                check(
+                    self.lacunarity == 2.0,
+                    k,
+                    "levels are octaves, so lacunarity must be 2",
+                    self.lacunarity,
+                )?;
             }
             _ => {
                 // The finest octave must stay above half a cell: finer octaves
@@ -278,49 +309,34 @@ impl Noise {
             }
         }
         if self.kind == NoiseKind::Ridged || self.kind == NoiseKind::Warped {
-            if !(self.ridge_offset.is_finite()
-                && self.ridge_offset > 0.0
-                && self.ridge_offset <= 2.0)
-            {
-                return Err(Error::invalid(format!(
-                    "noise ({k}): ridge offset must be in (0, 2] (got {})",
-                    self.ridge_offset
-                )));
-            }
-            if !(self.ridge_gain.is_finite() && self.ridge_gain > 0.0 && self.ridge_gain <= 100.0) {
-                return Err(Error::invalid(format!(
-                    "noise ({k}): ridge gain must be in (0, 100] (got {})",
-                    self.ridge_gain
-                )));
-            }
+            check(
+                self.ridge_offset.is_finite()
+                    && self.ridge_offset > 0.0
+                    && self.ridge_offset <= 2.0,
+                k,
+                "ridge offset must be in (0, 2]",
+                self.ridge_offset,
+            )?;
+            in_range(
+                k,
+                "ridge gain",
+                self.ridge_gain,
+                (Excluded(0.0), Included(100.0)),
+                "in (0, 100]",
+            )?;
         }
         if self.kind == NoiseKind::Warped {
-            if !(self.warp.is_finite() && (0.0..=1e6).contains(&self.warp)) {
-                return Err(Error::invalid(format!(
-                    "noise ({k}): warp must be between 0 and 1e6 cells (got {})",
-                    self.warp
-                )));
-            }
-            if !(self.blend.is_finite() && (0.0..=1.0).contains(&self.blend)) {
-                return Err(Error::invalid(format!(
-                    "noise ({k}): blend must be between 0 and 1 (got {})",
-                    self.blend
-                )));
-            }
+            in_range(k, "warp", self.warp, 0.0..=1e6, "between 0 and 1e6 cells")?;
+            in_range(k, "blend", self.blend, 0.0..=1.0, "between 0 and 1")?;
         }
         if self.kind == NoiseKind::Spectral {
-            if !(self.beta.is_finite() && (0.0..=6.0).contains(&self.beta)) {
-                return Err(Error::invalid(format!(
-                    "noise ({k}): beta must be between 0 and 6 (got {})",
-                    self.beta
-                )));
-            }
-            if self.wavelength > (1u64 << 24) as f64 {
-                return Err(Error::invalid(format!(
-                    "noise ({k}): wavelength must be at most 2^24 cells (got {})",
-                    self.wavelength
-                )));
-            }
+            in_range(k, "beta", self.beta, 0.0..=6.0, "between 0 and 6")?;
+            check(
+                self.wavelength <= (1u64 << 24) as f64,
+                k,
+                "wavelength must be at most 2^24 cells",
+                self.wavelength,
+            )?;
         }
         Ok(())
     }
@@ -381,29 +397,10 @@ impl Noise {
         let mut scratch = OctScratch::default();
         let mut norm = 0.0;
         match self.kind {
-            NoiseKind::Fbm => {
-                for (oct, amp) in &octs {
-                    octave_rows(oct, win, &mut scratch, |r, n| {
-                        for (o, &v) in out[r * w..(r + 1) * w].iter_mut().zip(n) {
-                            *o += amp * v;
-                        }
-                    });
-                    norm += amp;
-                }
-                let inv = 1.0 / norm;
-                out.iter_mut().for_each(|v| *v *= inv);
-            }
+            // fBm sums the octaves; billow sums their folds 2|n| - 1.
+            NoiseKind::Fbm => sum_octaves(&octs, win, out, &mut scratch, |v| v),
             NoiseKind::Billow => {
-                for (oct, amp) in &octs {
-                    octave_rows(oct, win, &mut scratch, |r, n| {
-                        for (o, &v) in out[r * w..(r + 1) * w].iter_mut().zip(n) {
-                            *o += amp * (2.0 * v.abs() - 1.0);
-                        }
-                    });
-                    norm += amp;
-                }
-                let inv = 1.0 / norm;
-                out.iter_mut().for_each(|v| *v *= inv);
+                sum_octaves(&octs, win, out, &mut scratch, |v| 2.0 * v.abs() - 1.0)
             }
             _ => {
                 // Musgrave's ridged multifractal: signal = (offset - |n|)²,
@@ -536,6 +533,30 @@ struct OctScratch {
 /// lerp, over contiguous runs of cells sharing a lattice cell. Every cell's
 /// value is a fixed sequence of operations on its own global coordinates, so
 /// any window gives the same bits for the same cell.
+/// `out` (zeroed, `win`'s cells) = the amplitude-weighted mean over `octs`
+/// of `shape(n)`, `n` each octave's noise ([`octave_rows`]).
+#[inline]
+fn sum_octaves(
+    octs: &[(Octave, f64)],
+    win: Window,
+    out: &mut [f64],
+    scratch: &mut OctScratch,
+    shape: impl Fn(f64) -> f64,
+) {
+    let w = win.w;
+    let mut norm = 0.0;
+    for (oct, amp) in octs {
+        octave_rows(oct, win, scratch, |r, n| {
+            for (o, &v) in out[r * w..(r + 1) * w].iter_mut().zip(n) {
+                *o += amp * shape(v);
+            }
+        });
+        norm += amp;
+    }
+    let inv = 1.0 / norm;
+    out.iter_mut().for_each(|v| *v *= inv);
+}
+
 fn octave_rows(oct: &Octave, win: Window, s: &mut OctScratch, mut each: impl FnMut(usize, &[f64])) {
     let w = win.w;
     s.fx.clear();
@@ -641,14 +662,13 @@ impl NoiseSource {
         }
         let georef = GeoRef::north_up(0.0, height as f64 * cell, cell, Crs::default());
         Ok(NoiseSource {
-            info: RasterInfo {
+            info: source_info(
                 width,
                 height,
-                dtype: DType::F32,
+                DType::F32,
                 georef,
-                block: (256, 256),
-                path: format!("<noise:{}>", noise.kind.name()).into(),
-            },
+                format!("<noise:{}>", noise.kind.name()),
+            ),
             noise,
         })
     }

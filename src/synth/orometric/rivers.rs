@@ -108,15 +108,7 @@ fn snap(v: f64, cell: f64, n: usize) -> f64 {
 pub fn refine_ridges(tree: &SynthTree, lambda: f64, jitter: f64) -> Result<Ridges> {
     let cell = tree.cell;
     let lambda = lambda.max(cell);
-    let total: f64 = tree
-        .saddles
-        .iter()
-        .map(|s| {
-            let a = &tree.peaks[s.peaks[0]];
-            let b = &tree.peaks[s.peaks[1]];
-            (a.x - s.x).hypot(a.y - s.y) + (b.x - s.x).hypot(b.y - s.y)
-        })
-        .sum();
+    let total = tree.ridge_length();
     if total / lambda + 2.0 * tree.saddles.len() as f64 > MAX_VERTICES {
         return Err(Error::invalid(
             "terrain: the ridges would need over 40 M vertices; give a larger --spacing",
@@ -124,21 +116,15 @@ pub fn refine_ridges(tree: &SynthTree, lambda: f64, jitter: f64) -> Result<Ridge
     }
     let mut pts: Vec<[f64; 3]> = Vec::new();
     let mut anchor: Vec<RidgeAnchor> = Vec::new();
+    let snapped =
+        |x: f64, y: f64, z: f64| [snap(x, cell, tree.width), snap(y, cell, tree.height), z];
     for (i, p) in tree.peaks.iter().enumerate() {
         anchor.push(RidgeAnchor::Peak(i as u32));
-        pts.push([
-            snap(p.x, cell, tree.width),
-            snap(p.y, cell, tree.height),
-            p.elevation,
-        ]);
+        pts.push(snapped(p.x, p.y, p.elevation));
     }
     for (k, s) in tree.saddles.iter().enumerate() {
         anchor.push(RidgeAnchor::Saddle(k as u32));
-        pts.push([
-            snap(s.x, cell, tree.width),
-            snap(s.y, cell, tree.height),
-            s.elevation,
-        ]);
+        pts.push(snapped(s.x, s.y, s.elevation));
     }
     let (lo, hx, hy) = (
         0.5 * cell,

@@ -33,6 +33,7 @@ use super::tree_synth::SynthTree;
 use crate::error::{Error, Result};
 use crate::oro::stats::SplitMix64;
 use crate::raster::{AnyGrid, Crs, DType, GeoRef, Grid, RasterInfo, RasterSource, Window};
+use crate::synth::source_info;
 use crate::synth::Fbm;
 use rayon::prelude::*;
 
@@ -91,6 +92,58 @@ impl Default for TerrainOptions {
             valley_width: 100.0,
             river_slope: 0.2,
         }
+    }
+}
+
+impl TerrainOptions {
+    /// The render's lowest elevation and noise amplitude for `tree` (defaults:
+    /// the lowest saddle − the prominence threshold, ≥ 0, and 0.3 × the
+    /// threshold), checked: an amplitude of half the threshold or more could
+    /// raise peaks the tree does not have.
+    pub(crate) fn floor_and_amplitude(&self, tree: &SynthTree) -> Result<(f64, f64)> {
+        let thr = tree.min_prominence;
+        let min_saddle = tree
+            .saddles
+            .iter()
+            .map(|s| s.elevation)
+            .fold(f64::INFINITY, f64::min);
+        let floor = match self.floor {
+            Some(f) => f,
+            None if min_saddle.is_finite() => (min_saddle - thr).max(0.0),
+            None => 0.0,
+        };
+        let amp = self.noise_amplitude.unwrap_or(0.3 * thr);
+        if !(amp.is_finite() && amp >= 0.0 && floor.is_finite()) {
+            return Err(Error::invalid(
+                "terrain: noise amplitude and floor must be finite, amplitude ≥ 0",
+            ));
+        }
+        if amp >= 0.5 * thr {
+            return Err(Error::invalid(format!(
+                "terrain: a noise amplitude of {amp} m could make peaks of prominence ≥ the threshold {thr} m; keep it below half the threshold"
+            )));
+        }
+        Ok((floor, amp))
+    }
+
+    /// The unit fBm (five octaves, seeded from the tree) the render adds
+    /// scaled by `amp`; `None` when `amp` is 0.
+    pub(crate) fn noise(&self, tree: &SynthTree, amp: f64) -> Option<(Fbm, f64)> {
+        (amp > 0.0).then(|| {
+            (
+                Fbm {
+                    seed: tree.seed ^ 0x006e_6f69_7365,
+                    octaves: 5,
+                    lacunarity: 2.0,
+                    gain: 0.5,
+                    wavelength: self.noise_wavelength.max(2.0),
+                    base: 0.0,
+                    amplitude: 1.0,
+                    warp: 0.0,
+                },
+                amp,
+            )
+        })
     }
 }
 
@@ -366,15 +419,7 @@ impl OroTerrain {
         let mut rng = SplitMix64(tree.seed ^ 0x7465_7272_6169_6e00);
         let mut segs = Vec::new();
         // Bound the refinement: at most 64 M segments.
-        let total_len: f64 = tree
-            .saddles
-            .iter()
-            .map(|s| {
-                let a = &tree.peaks[s.peaks[0]];
-                let b = &tree.peaks[s.peaks[1]];
-                (a.x - s.x).hypot(a.y - s.y) + (b.x - s.x).hypot(b.y - s.y)
-            })
-            .sum();
+        let total_len = tree.ridge_length();
         if total_len / lambda + 2.0 * tree.saddles.len() as f64 > 64e6 {
             return Err(Error::invalid(
                 "terrain: the ridges would need over 64 M segments; give a larger --spacing",
@@ -446,53 +491,11 @@ impl OroTerrain {
         }
         let zmax_all = segs.iter().map(|s| s.zmax).fold(0.0, f64::max);
         let s_min = segs.iter().map(|s| s.s).fold(f64::INFINITY, f64::min);
-        let min_saddle = tree
-            .saddles
-            .iter()
-            .map(|s| s.elevation)
-            .fold(f64::INFINITY, f64::min);
-        let floor = match opts.floor {
-            Some(f) => f,
-            None if min_saddle.is_finite() => (min_saddle - tree.min_prominence).max(0.0),
-            None => 0.0,
-        };
-        let amp = opts.noise_amplitude.unwrap_or(0.3 * tree.min_prominence);
-        if !(amp.is_finite() && amp >= 0.0 && floor.is_finite()) {
-            return Err(Error::invalid(
-                "terrain: noise amplitude and floor must be finite, amplitude ≥ 0",
-            ));
-        }
-        if amp >= 0.5 * tree.min_prominence {
-            return Err(Error::invalid(format!(
-                "terrain: a noise amplitude of {amp} m could make peaks of prominence ≥ the threshold {} m; keep it below half the threshold",
-                tree.min_prominence
-            )));
-        }
-        let noise = (amp > 0.0).then(|| {
-            (
-                Fbm {
-                    seed: tree.seed ^ 0x006e_6f69_7365,
-                    octaves: 5,
-                    lacunarity: 2.0,
-                    gain: 0.5,
-                    wavelength: opts.noise_wavelength.max(2.0),
-                    base: 0.0,
-                    amplitude: 1.0,
-                    warp: 0.0,
-                },
-                amp,
-            )
-        });
+        let (floor, amp) = opts.floor_and_amplitude(tree)?;
+        let noise = opts.noise(tree, amp);
         let georef = GeoRef::north_up(0.0, hm, cell, Crs::default());
         Ok(OroTerrain {
-            info: RasterInfo {
-                width: tree.width,
-                height: tree.height,
-                dtype: DType::F32,
-                georef,
-                block: (256, 256),
-                path: "<orometric>".into(),
-            },
+            info: source_info(tree.width, tree.height, DType::F32, georef, "<orometric>"),
             cell,
             segs,
             bucket,

@@ -12,6 +12,7 @@ use crate::raster::Grid;
 use crate::raster::RasterInfo;
 use crate::raster::RasterSource;
 use crate::raster::Window;
+use crate::synth::source_info;
 
 /// A channel source: a digital line from `a` to `b` (cells) with heights
 /// `ha` → `hb` and cone slope `s` (metres per cell).
@@ -135,14 +136,7 @@ impl RiverTerrain {
             dist,
             nearest,
             sea_depth,
-            info: RasterInfo {
-                width,
-                height,
-                dtype: DType::F32,
-                georef,
-                block: (256, 256),
-                path: "<rivers>".into(),
-            },
+            info: source_info(width, height, DType::F32, georef, "<rivers>"),
         })
     }
 

@@ -41,24 +41,33 @@ pub(super) fn gaussian_blur(f: &mut [f64], w: usize, h: usize, sigma: f64) {
         .collect();
     let norm: f64 = kern.iter().sum();
     let mut tmp = vec![0.0; f.len()];
+    blur_pass::<true>(f, &mut tmp, w, h, &kern, norm);
+    blur_pass::<false>(&tmp, f, w, h, &kern, norm);
+}
+
+/// One pass of [`gaussian_blur`]: `dst` = `src` convolved with `kern`
+/// (odd length, centred) along rows (`ALONG_X`) or columns, divided by `norm`.
+fn blur_pass<const ALONG_X: bool>(
+    src: &[f64],
+    dst: &mut [f64],
+    w: usize,
+    h: usize,
+    kern: &[f64],
+    norm: f64,
+) {
+    let r = (kern.len() / 2) as i64;
     for y in 0..h {
         for x in 0..w {
             let mut s = 0.0;
             for (k, &c) in kern.iter().enumerate() {
-                let xx = (x as i64 + k as i64 - r).clamp(0, w as i64 - 1) as usize;
-                s += c * f[y * w + xx];
+                let i = if ALONG_X {
+                    y * w + (x as i64 + k as i64 - r).clamp(0, w as i64 - 1) as usize
+                } else {
+                    (y as i64 + k as i64 - r).clamp(0, h as i64 - 1) as usize * w + x
+                };
+                s += c * src[i];
             }
-            tmp[y * w + x] = s / norm;
-        }
-    }
-    for y in 0..h {
-        for x in 0..w {
-            let mut s = 0.0;
-            for (k, &c) in kern.iter().enumerate() {
-                let yy = (y as i64 + k as i64 - r).clamp(0, h as i64 - 1) as usize;
-                s += c * tmp[yy * w + x];
-            }
-            f[y * w + x] = s / norm;
+            dst[y * w + x] = s / norm;
         }
     }
 }

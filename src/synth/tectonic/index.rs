@@ -2,6 +2,8 @@
 //! to the nearest river or coast segment), the clipping of segments to the
 //! raster and the peaks' height envelope.
 
+use crate::synth::buckets::for_each_in_ring;
+
 /// Nearest-point queries over a small point set (bucket grid, ring search).
 /// Ties go to the smaller index, so the answer is a pure function of the
 /// query point.
@@ -70,27 +72,15 @@ impl PointIndex {
                     break;
                 }
             }
-            let (x0, x1) = (cx as i64 - r as i64, cx as i64 + r as i64);
-            let (y0, y1) = (cy as i64 - r as i64, cy as i64 + r as i64);
-            for y in y0..=y1 {
-                if y < 0 || y >= self.gh as i64 {
-                    continue;
-                }
-                let edge_row = y == y0 || y == y1;
-                let mut x = x0;
-                while x <= x1 {
-                    if x >= 0 && x < self.gw as i64 {
-                        for &i in &self.cells[y as usize * self.gw + x as usize] {
-                            let p = self.pts[i as usize];
-                            let d = (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]);
-                            if d < best.1 || (d == best.1 && (i as usize) < best.0) {
-                                best = (i as usize, d);
-                            }
-                        }
+            for_each_in_ring((cx, cy), r, (self.gw, self.gh), |b| {
+                for &i in &self.cells[b] {
+                    let p = self.pts[i as usize];
+                    let d = (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]);
+                    if d < best.1 || (d == best.1 && (i as usize) < best.0) {
+                        best = (i as usize, d);
                     }
-                    x = if edge_row || x == x1 { x + 1 } else { x1 };
                 }
-            }
+            });
         }
         best
     }

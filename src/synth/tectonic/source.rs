@@ -13,6 +13,7 @@ use crate::raster::Grid;
 use crate::raster::RasterInfo;
 use crate::raster::RasterSource;
 use crate::raster::Window;
+use crate::synth::source_info;
 use std::sync::Arc;
 
 /// One layer of a [`TectonicModel`] as a tileable raster source.
@@ -30,14 +31,7 @@ impl TectonicSource {
         } else {
             DType::F32
         };
-        let info = RasterInfo {
-            width: model.width,
-            height: model.height,
-            dtype,
-            georef,
-            block: (256, 256),
-            path: "<tectonic>".into(),
-        };
+        let info = source_info(model.width, model.height, dtype, georef, "<tectonic>");
         TectonicSource { model, layer, info }
     }
 }

@@ -25,8 +25,7 @@ use crate::error::Result;
 use crate::raster::Crs;
 use crate::raster::DType;
 use crate::raster::GeoRef;
-use crate::raster::RasterInfo;
-use crate::synth::Fbm;
+use crate::synth::source_info;
 use spade::Triangulation;
 use std::sync::atomic::AtomicUsize;
 
@@ -114,27 +113,7 @@ impl TinTerrain {
             )));
         }
         let thr = tree.min_prominence;
-        let min_saddle = tree
-            .saddles
-            .iter()
-            .map(|s| s.elevation)
-            .fold(f64::INFINITY, f64::min);
-        let floor = match opts.floor {
-            Some(f) => f,
-            None if min_saddle.is_finite() => (min_saddle - thr).max(0.0),
-            None => 0.0,
-        };
-        let amp = opts.noise_amplitude.unwrap_or(0.3 * thr);
-        if !(amp.is_finite() && amp >= 0.0 && floor.is_finite()) {
-            return Err(Error::invalid(
-                "terrain: noise amplitude and floor must be finite, amplitude ≥ 0",
-            ));
-        }
-        if amp >= 0.5 * thr {
-            return Err(Error::invalid(format!(
-                "terrain: a noise amplitude of {amp} m could make peaks of prominence ≥ the threshold {thr} m; keep it below half the threshold"
-            )));
-        }
+        let (floor, amp) = opts.floor_and_amplitude(tree)?;
         let mut rivers = RiverNetwork::new(
             tree,
             &RiverOptions {
@@ -340,21 +319,7 @@ impl TinTerrain {
             }
         }
         drop(fill);
-        let noise = (amp > 0.0).then(|| {
-            (
-                Fbm {
-                    seed: tree.seed ^ 0x006e_6f69_7365,
-                    octaves: 5,
-                    lacunarity: 2.0,
-                    gain: 0.5,
-                    wavelength: opts.noise_wavelength.max(2.0),
-                    base: 0.0,
-                    amplitude: 1.0,
-                    warp: 0.0,
-                },
-                amp,
-            )
-        });
+        let noise = opts.noise(tree, amp);
         let b = BUCKET_CELLS as usize;
         let side = if side_cells > 0 {
             side_cells
@@ -397,14 +362,13 @@ impl TinTerrain {
             bucket_cells(&peak_list, |p| (p.0, p.1), PEAK_CALM as u32, b, lnx, lny);
         rivers.nodes = nodes;
         Ok(TinTerrain {
-            info: RasterInfo {
-                width: tree.width,
-                height: tree.height,
-                dtype: DType::F32,
+            info: source_info(
+                tree.width,
+                tree.height,
+                DType::F32,
                 georef,
-                block: (256, 256),
-                path: "<orometric-tin>".into(),
-            },
+                "<orometric-tin>",
+            ),
             cell,
             wm,
             hm,

@@ -5,6 +5,7 @@
 use super::super::profile::SynthProfile;
 use super::SynthPeak;
 use crate::raster::Grid;
+use crate::synth::buckets::for_each_in_ring;
 
 /// A map stretched over the domain, sampled by nearest cell.
 pub(super) struct DomainMap<'a> {
@@ -68,26 +69,14 @@ impl PeakGrid {
             if ring >= 1 && (ring as f64 - 1.0) * self.cell > best {
                 break;
             }
-            let (x0, x1) = (bx as i64 - ring as i64, bx as i64 + ring as i64);
-            let (y0, y1) = (by as i64 - ring as i64, by as i64 + ring as i64);
-            for yy in y0..=y1 {
-                if yy < 0 || yy >= self.ny as i64 {
-                    continue;
-                }
-                let edge_row = yy == y0 || yy == y1;
-                let mut xx = x0;
-                while xx <= x1 {
-                    if xx >= 0 && xx < self.nx as i64 {
-                        for &i in &self.buckets[yy as usize * self.nx + xx as usize] {
-                            let p = &peaks[i as usize];
-                            if p.elevation >= h {
-                                best = best.min((p.x - x).hypot(p.y - y));
-                            }
-                        }
+            for_each_in_ring((bx, by), ring, (self.nx, self.ny), |b| {
+                for &i in &self.buckets[b] {
+                    let p = &peaks[i as usize];
+                    if p.elevation >= h {
+                        best = best.min((p.x - x).hypot(p.y - y));
                     }
-                    xx += if edge_row || xx == x1 { 1 } else { x1 - x0 };
                 }
-            }
+            });
         }
         best
     }

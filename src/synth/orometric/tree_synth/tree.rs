@@ -11,6 +11,19 @@ use crate::raster::UnionFind;
 use std::path::Path;
 
 impl SynthTree {
+    /// Total planar length (m) of the ridges: each saddle joined straight to
+    /// its two peaks (the bound the terrain models put on their refinement).
+    pub fn ridge_length(&self) -> f64 {
+        self.saddles
+            .iter()
+            .map(|s| {
+                let a = &self.peaks[s.peaks[0]];
+                let b = &self.peaks[s.peaks[1]];
+                (a.x - s.x).hypot(a.y - s.y) + (b.x - s.x).hypot(b.y - s.y)
+            })
+            .sum()
+    }
+
     /// Check an edited or loaded tree: sizes, finite values inside the
     /// domain, n − 1 saddles forming one tree over the peaks, each saddle
     /// between 0 and the lower of its two peaks. Errors name the element.
