@@ -86,25 +86,11 @@ fn sweep_equals_rays_and_brute_force() {
                     let n = view.core.w * view.core.h;
                     for dir in 0..16 {
                         for lower in [false, true] {
-                            let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
-                            tangents(
-                                &view,
-                                cutoff_cells,
-                                cutoff,
-                                dir,
-                                lower,
-                                HorizonMethod::Rays,
-                                &mut a,
-                            );
-                            tangents(
-                                &view,
-                                cutoff_cells,
-                                cutoff,
-                                dir,
-                                lower,
-                                HorizonMethod::Sweep,
-                                &mut b,
-                            );
+                            let [a, b] = [HorizonMethod::Rays, HorizonMethod::Sweep].map(|m| {
+                                let mut t = vec![0.0; n];
+                                tangents(&view, cutoff_cells, cutoff, dir, lower, m, &mut t);
+                                t
+                            });
                             for i in 0..n {
                                 assert!(
                                     a[i].to_bits() == b[i].to_bits(),
