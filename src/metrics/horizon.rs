@@ -116,7 +116,8 @@ pub(crate) fn plan(dir: usize, ew: f64, ns: f64, steps: usize, cutoff_m: f64) ->
 }
 
 /// The valid cells of a lattice ray from the grid index `c`, `off` per
-/// step, steps `1..=k`: (step, z), nodata skipped.
+/// step, steps `1..=k`: (step, z), nodata skipped (the visibility index's
+/// walk; the reference scan [`tangents`] keeps its explicit loop).
 #[inline(always)]
 pub(crate) fn ray_cells(
     data: &[f32],
@@ -195,7 +196,15 @@ fn rays(view: &TileView<f32>, dir: usize, lower: bool, rows: &[(f64, usize)], ou
                 continue;
             }
             let (mut bs, mut bz) = (0usize, 0.0f64);
-            for (s, z) in ray_cells(data, c, off, k) {
+            // The explicit walk: through `ray_cells` this loop measured
+            // about a fifth slower (bench openness_pos_neg_8dir_r50c_rays).
+            let mut i = c as isize;
+            for s in 1..=k {
+                i += off;
+                let z = data[i as usize] as f64;
+                if z.is_nan() {
+                    continue;
+                }
                 if bs == 0 || below(sign * z0, bs, sign * bz, s, sign * z) {
                     bs = s;
                     bz = z;
