@@ -20,6 +20,17 @@
 //!    drains to its equal-`L` neighbour of least `D` (first in E, SE, S, ...
 //!    order), which is one step nearer the outlet. Along every receiver
 //!    path `(L, D)` strictly decreases: no cycles.
+//!
+//! Not shared with hydrology's priority flood (`hydro::fill`): there is no
+//! priority flood here to share (the levels come from the basin graph's
+//! union-find, one pass over the sorted passes), and the two floods that do
+//! exist differ in more than the cell type: `hydro::fill`'s is a one-shot
+//! f32 flood from the outlets that labels watersheds and reports spills,
+//! with its heap key packing the f32 bits and the cell index into one u64;
+//! the tiled stream power's (`erosion::stream_power_tiled`) is a label
+//! correcting f64 flood restarted from a tile's ring of upper bounds. An f64
+//! key cannot share a u64 with the index, so a generic flood would need a
+//! wider key and slow the f32 one.
 
 use super::basin_graph::Lakes;
 use super::float::FlowFloat;

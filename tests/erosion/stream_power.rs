@@ -473,6 +473,15 @@ fn read_asc(path: &std::path::Path) -> Vec<f32> {
         .collect()
 }
 
+/// Panics with the command's error output unless it succeeded.
+fn succeeded(st: &std::process::Output) {
+    assert!(
+        st.status.success(),
+        "{}",
+        String::from_utf8_lossy(&st.stderr)
+    );
+}
+
 #[test]
 fn cli_erode_sp() {
     let dir = tempfile::tempdir().unwrap();
@@ -504,11 +513,7 @@ fn cli_erode_sp() {
         .args(["-o", out.to_str().unwrap()])
         .output()
         .unwrap();
-    assert!(
-        st.status.success(),
-        "{}",
-        String::from_utf8_lossy(&st.stderr)
-    );
+    succeeded(&st);
     let got = read_asc(&out);
     let mut lib = g.map(|v| v as f64);
     let p = StreamPowerParams {
@@ -550,11 +555,7 @@ fn cli_erode_sp() {
         .args(["-o", out2.to_str().unwrap()])
         .output()
         .unwrap();
-    assert!(
-        st.status.success(),
-        "{}",
-        String::from_utf8_lossy(&st.stderr)
-    );
+    succeeded(&st);
     let got = read_asc(&out2);
     for (x, y) in [(10usize, 10usize), (20, 12)] {
         let (a, b) = (got[y * 32 + x], g.get(x, y));

@@ -287,18 +287,46 @@ struct Cx<'a> {
     pub pl: usize,
 }
 
+impl<'a> Cx<'a> {
+    /// The fields, in declaration order (one line in every pass).
+    #[allow(clippy::type_complexity)]
+    fn parts(
+        self,
+    ) -> (
+        u64,
+        &'a mut Tile,
+        &'a Board,
+        &'a mut [f64],
+        Window,
+        Pad,
+        usize,
+    ) {
+        let Cx {
+            round,
+            t,
+            board,
+            out,
+            win,
+            pd,
+            pl,
+        } = self;
+        (round, t, board, out, win, pd, pl)
+    }
+}
+
 /// One pass of the tiled step on a tile ([`TileWork::pass`] through [`Run`]).
 trait SpPass: Sync {
-    /// The run's context.
-    fn ctx(&self) -> &Ctx;
     /// The pass; returns true when the tile is final.
     fn run(&self, c: Cx<'_>) -> Result<bool>;
 }
 
-/// A [`SpPass`] as the round driver's [`TileWork`].
-struct Run<P>(P);
+/// A [`SpPass`] as the round driver's [`TileWork`] (made by [`Ctx::run`]).
+struct Run<'a, P> {
+    geo: &'a Geo,
+    pass: P,
+}
 
-impl<P: SpPass> TileWork for Run<P> {
+impl<P: SpPass> TileWork for Run<'_, P> {
     type State = Tile;
     fn pass(
         &self,
@@ -308,8 +336,7 @@ impl<P: SpPass> TileWork for Run<P> {
         board: &Board,
         out: &mut [f64],
     ) -> Result<bool> {
-        let geo = &self.0.ctx().geo;
-        let win = geo.lay.window(id);
+        let win = self.geo.lay.window(id);
         let c = Cx {
             round,
             t,
@@ -317,9 +344,9 @@ impl<P: SpPass> TileWork for Run<P> {
             out,
             win,
             pd: Pad::new(win),
-            pl: geo.perimeter(id),
+            pl: self.geo.perimeter(id),
         };
-        self.0.run(c)
+        self.pass.run(c)
     }
 }
 
@@ -333,6 +360,14 @@ struct Ctx {
 }
 
 impl Ctx {
+    /// `pass` as work for the round driver.
+    fn run<P: SpPass>(&self, pass: P) -> Run<'_, P> {
+        Run {
+            geo: &self.geo,
+            pass,
+        }
+    }
+
     fn new(src: &dyn RasterSource, cell: f64, p: &StreamPowerParams, tile: usize) -> Result<Ctx> {
         p.validate()?;
         if p.depressions == Depressions::BasinGraph {
@@ -445,38 +480,48 @@ impl Ctx {
     ) -> Result<()> {
         let cycle =
             "stream power (tiled): the receiver graph has a cycle; this is a bug, please report it";
-        rounds.once(&Run(routing::Uplift { ctx: self, uplift }), store)?;
+        rounds.once(&self.run(routing::Uplift { ctx: self, uplift }), store)?;
         // Steepest descent on the uplifted heights; with fill routing, a
         // step without any pit (the usual case on eroded terrain) needs no
         // levels: they equal the heights and no cell is on a flat (the
         // in-memory solver skips its sink resolver the same way).
-        let steepest = Run(routing::Receivers {
+        let steepest = self.run(routing::Receivers {
             ctx: self,
             on_levels: false,
         });
         let lakes = if self.fill {
             let no_pit = rounds.once_all_final(&steepest, store)?;
             if !no_pit {
-                rounds.fixed_point(&Run(routing::Levels { ctx: self }), store, false, cycle)?;
-                rounds.once(&Run(routing::FlatStart { ctx: self }), store)?;
-                rounds.fixed_point(&Run(routing::Flats { ctx: self }), store, false, cycle)?;
+                rounds.fixed_point(
+                    &self.run(routing::Levels { ctx: self }),
+                    store,
+                    false,
+                    cycle,
+                )?;
+                rounds.once(&self.run(routing::FlatStart { ctx: self }), store)?;
+                rounds.fixed_point(&self.run(routing::Flats { ctx: self }), store, false, cycle)?;
                 let on_levels = routing::Receivers {
                     ctx: self,
                     on_levels: true,
                 };
-                rounds.once(&Run(on_levels), store)?;
+                rounds.once(&self.run(on_levels), store)?;
             }
             !no_pit
         } else {
             rounds.once(&steepest, store)?;
             false
         };
-        rounds.fixed_point(&Run(update::Accumulate { ctx: self }), store, true, cycle)?;
+        rounds.fixed_point(
+            &self.run(update::Accumulate { ctx: self }),
+            store,
+            true,
+            cycle,
+        )?;
         let erode = update::Erode { ctx: self, lakes };
-        rounds.fixed_point(&Run(erode), store, true, cycle)?;
+        rounds.fixed_point(&self.run(erode), store, true, cycle)?;
         if let Some((n, c)) = nsub {
             for _ in 0..n {
-                rounds.once(&Run(update::Diffuse { ctx: self, c }), store)?;
+                rounds.once(&self.run(update::Diffuse { ctx: self, c }), store)?;
             }
         }
         Ok(())

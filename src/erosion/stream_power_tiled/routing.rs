@@ -25,13 +25,8 @@ pub(super) struct Uplift<'a> {
 }
 
 impl SpPass for Uplift<'_> {
-    fn ctx(&self) -> &Ctx {
-        self.ctx
-    }
     fn run(&self, c: Cx<'_>) -> Result<bool> {
-        let Cx {
-            t, out, win, pl, ..
-        } = c;
+        let (_, t, _, out, win, _, pl) = c.parts();
         let dt = self.ctx.p.dt;
         let raised = match self.uplift {
             TiledUplift::Uniform(r) => raise(&mut t.h, &t.flags, dt, &Rates::Uniform(*r)),
@@ -68,19 +63,8 @@ pub(super) struct Levels<'a> {
 }
 
 impl SpPass for Levels<'_> {
-    fn ctx(&self) -> &Ctx {
-        self.ctx
-    }
     fn run(&self, c: Cx<'_>) -> Result<bool> {
-        let Cx {
-            round,
-            t,
-            board,
-            out,
-            win,
-            pd,
-            pl,
-        } = c;
+        let (round, t, board, out, win, pd, pl) = c.parts();
         let geo = &self.ctx.geo;
         // The flood runs on padded arrays (no index conversion per
         // neighbour); the ring holds the neighbours' levels and flags.
@@ -173,19 +157,8 @@ pub(super) struct FlatStart<'a> {
 }
 
 impl SpPass for FlatStart<'_> {
-    fn ctx(&self) -> &Ctx {
-        self.ctx
-    }
     fn run(&self, c: Cx<'_>) -> Result<bool> {
-        let Cx {
-            t,
-            board,
-            out,
-            win,
-            pd,
-            pl,
-            ..
-        } = c;
+        let (_, t, board, out, win, pd, pl) = c.parts();
         let geo = &self.ctx.geo;
         let lev = geo.pad(board, &pd, &t.lev, LEV, f64::NAN, |v| v);
         let fl = geo.pad(board, &pd, &t.flags, FLAGS, f64::NAN, as_flags);
@@ -226,19 +199,8 @@ pub(super) struct Flats<'a> {
 }
 
 impl SpPass for Flats<'_> {
-    fn ctx(&self) -> &Ctx {
-        self.ctx
-    }
     fn run(&self, c: Cx<'_>) -> Result<bool> {
-        let Cx {
-            round,
-            t,
-            board,
-            out,
-            win,
-            pd,
-            pl,
-        } = c;
+        let (round, t, board, out, win, pd, pl) = c.parts();
         let geo = &self.ctx.geo;
         let mut heap: BinaryHeap<Reverse<(u32, u32)>> = BinaryHeap::new();
         let as_dd = |v: f64| v as u32;
@@ -342,19 +304,8 @@ pub(super) struct Receivers<'a> {
 }
 
 impl SpPass for Receivers<'_> {
-    fn ctx(&self) -> &Ctx {
-        self.ctx
-    }
     fn run(&self, c: Cx<'_>) -> Result<bool> {
-        let Cx {
-            t,
-            board,
-            out,
-            win,
-            pd,
-            pl,
-            ..
-        } = c;
+        let (_, t, board, out, win, pd, pl) = c.parts();
         let (geo, cell, lev) = (&self.ctx.geo, self.ctx.cell, self.on_levels);
         let z = if lev {
             geo.pad(board, &pd, &t.lev, LEV, f64::NAN, |v| v)

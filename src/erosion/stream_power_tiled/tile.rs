@@ -360,3 +360,20 @@ pub(super) fn for_perimeter(w: usize, h: usize, mut f: impl FnMut(usize, usize))
         f(y * w + x, k);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Divisor;
+
+    #[test]
+    fn divisor_equals_integer_division() {
+        let ns = (0..5000usize).chain([65535, 65536, 1 << 31, (1 << 32) - 1]);
+        let ns: Vec<usize> = ns.collect();
+        for d in (1..300).chain([1023, 1024, 4097, 65535, 65536]) {
+            let dv = Divisor::new(d);
+            for &n in &ns {
+                assert_eq!(dv.divmod(n), (n / d, n % d), "{n} / {d}");
+            }
+        }
+    }
+}

@@ -20,19 +20,8 @@ pub(super) struct Accumulate<'a> {
 }
 
 impl SpPass for Accumulate<'_> {
-    fn ctx(&self) -> &Ctx {
-        self.ctx
-    }
     fn run(&self, c: Cx<'_>) -> Result<bool> {
-        let Cx {
-            round,
-            t,
-            board,
-            out,
-            win,
-            pd,
-            pl,
-        } = c;
+        let (round, t, board, out, win, pd, pl) = c.parts();
         let geo = &self.ctx.geo;
         let n = t.h.len();
         let dir = geo.ring(board, &pd, DIR, NONE as f64);
@@ -153,19 +142,8 @@ impl Erode<'_> {
 }
 
 impl SpPass for Erode<'_> {
-    fn ctx(&self) -> &Ctx {
-        self.ctx
-    }
     fn run(&self, c: Cx<'_>) -> Result<bool> {
-        let Cx {
-            round,
-            t,
-            board,
-            out,
-            win,
-            pd,
-            pl,
-        } = c;
+        let (round, t, board, out, win, pd, pl) = c.parts();
         let geo = &self.ctx.geo;
         let hn = geo.ring(board, &pd, HN, f64::NAN);
         let ok = geo.ring(board, &pd, OK, 0.0);
@@ -255,19 +233,8 @@ pub(super) struct Diffuse<'a> {
 }
 
 impl SpPass for Diffuse<'_> {
-    fn ctx(&self) -> &Ctx {
-        self.ctx
-    }
     fn run(&self, cx: Cx<'_>) -> Result<bool> {
-        let Cx {
-            t,
-            board,
-            out,
-            win,
-            pd,
-            pl,
-            ..
-        } = cx;
+        let (_, t, board, out, win, pd, pl) = cx.parts();
         let geo = &self.ctx.geo;
         let c = self.c;
         let old = geo.pad(board, &pd, &t.h, H, f64::NAN, |v| v);
