@@ -206,3 +206,18 @@ pub fn run(
     drop(scratch);
     result
 }
+
+/// The one-line summary of a pyramid written by [`run`] (zooms, tiles,
+/// bounds in degrees).
+pub fn summary(info: &PyramidInfo) -> String {
+    format!(
+        "zooms {}..{}, {} tiles, bounds {:.5},{:.5},{:.5},{:.5}",
+        info.min_zoom,
+        info.max_zoom,
+        info.tiles,
+        info.bounds[0],
+        info.bounds[1],
+        info.bounds[2],
+        info.bounds[3]
+    )
+}

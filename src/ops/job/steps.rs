@@ -16,6 +16,27 @@ use crate::raster::RasterSource;
 use serde::de::DeserializeOwned;
 use serde::Serialize;
 
+/// Reads a raster, writes rasters.
+const RASTER: Takes = Takes {
+    format: true,
+    png: true,
+};
+/// Reads a raster, writes files of its own.
+const FILES: Takes = Takes {
+    format: false,
+    png: true,
+};
+/// Reads no raster of its own, writes rasters.
+const WRITES: Takes = Takes {
+    format: true,
+    png: false,
+};
+/// Neither.
+const NEITHER: Takes = Takes {
+    format: false,
+    png: false,
+};
+
 /// The options of a command that has none of its own (`ingest`, `export`).
 #[derive(Debug, Clone, Default, PartialEq, Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -41,13 +62,7 @@ where
     O: DeserializeOwned + Serialize + Send + Sync + 'static,
 {
     let s = call.step;
-    let t = typed_keys::<O>(
-        call,
-        Takes {
-            format: true,
-            png: true,
-        },
-    )?;
+    let t = typed_keys::<O>(call, RASTER)?;
     check(&t.options).map_err(|e| step_error(s, e))?;
     let input = one_input(s)?;
     let path = output(s)?;
@@ -119,13 +134,7 @@ pub(super) fn export(call: &StepCall<'_>) -> Result<TypedStep> {
 /// `ingest`: one or more inputs (one mosaic) into the output.
 pub(super) fn ingest(call: &StepCall<'_>) -> Result<TypedStep> {
     let s = call.step;
-    let t = typed_keys::<NoOptions>(
-        call,
-        Takes {
-            format: true,
-            png: true,
-        },
-    )?;
+    let t = typed_keys::<NoOptions>(call, RASTER)?;
     if s.inputs.is_empty() {
         one_input(s)?;
     }
@@ -156,13 +165,7 @@ pub(super) fn metric(call: &StepCall<'_>) -> Result<TypedStep> {
         quiet: call.quiet,
     };
     let s = call.step;
-    let t = typed_keys::<ops::metric::MetricOptions>(
-        &call,
-        Takes {
-            format: true,
-            png: true,
-        },
-    )?;
+    let t = typed_keys::<ops::metric::MetricOptions>(&call, RASTER)?;
     if t.options.metric.is_empty() {
         return Err(step_error(
             s,
@@ -204,13 +207,7 @@ where
     O: DeserializeOwned + Serialize + Send + Sync + 'static,
 {
     let s = call.step;
-    let t = typed_keys::<O>(
-        call,
-        Takes {
-            format: false,
-            png: true,
-        },
-    )?;
+    let t = typed_keys::<O>(call, FILES)?;
     let input = one_input(s)?;
     let path = output(s)?;
     check(&t.options, &path).map_err(|e| step_error(s, e))?;
@@ -257,13 +254,7 @@ where
     O: DeserializeOwned + Serialize + Send + Sync + 'static,
 {
     let s = call.step;
-    let t = typed_keys::<O>(
-        call,
-        Takes {
-            format: true,
-            png: false,
-        },
-    )?;
+    let t = typed_keys::<O>(call, WRITES)?;
     check(&t.options).map_err(|e| step_error(s, e))?;
     let input = one_input(s)?;
     let target = Target {
@@ -343,10 +334,7 @@ where
     let path = output(s)?;
     let t = typed_keys_with::<O>(
         call,
-        Takes {
-            format: true,
-            png: false,
-        },
+        WRITES,
         vec![("output", toml::Value::String(path.display().to_string()))],
     )?;
     check(&t.options).map_err(|e| step_error(s, e))?;
@@ -377,13 +365,7 @@ pub(super) fn synth_tectonic(call: &StepCall<'_>) -> Result<TypedStep> {
 /// `compare`: two inputs (terrain a, terrain b) into the output folder.
 pub(super) fn compare(call: &StepCall<'_>) -> Result<TypedStep> {
     let s = call.step;
-    let t = typed_keys::<ops::compare::CompareOptions>(
-        call,
-        Takes {
-            format: false,
-            png: false,
-        },
-    )?;
+    let t = typed_keys::<ops::compare::CompareOptions>(call, NEITHER)?;
     t.options.validate().map_err(|e| step_error(s, e))?;
     let [a, b] = match s.inputs.as_slice() {
         [a, b] => [a.clone(), b.clone()],
@@ -416,13 +398,7 @@ pub(super) fn hydro_index(call: &StepCall<'_>) -> Result<TypedStep> {
             "`hydro-index` takes its rasters as options (dem = \"@name\", acc, dirs, streams), not as input",
         ));
     }
-    let t = typed_keys::<ops::hydro_index::HydroIndexOptions>(
-        call,
-        Takes {
-            format: true,
-            png: false,
-        },
-    )?;
+    let t = typed_keys::<ops::hydro_index::HydroIndexOptions>(call, WRITES)?;
     if t.options.index.is_empty() {
         return Err(step_error(
             s,
@@ -448,13 +424,7 @@ pub(super) fn hydro_index(call: &StepCall<'_>) -> Result<TypedStep> {
 #[cfg(feature = "archives")]
 pub(super) fn tiles(call: &StepCall<'_>) -> Result<TypedStep> {
     let s = call.step;
-    let t = typed_keys::<ops::tiles::TilesOptions>(
-        call,
-        Takes {
-            format: false,
-            png: true,
-        },
-    )?;
+    let t = typed_keys::<ops::tiles::TilesOptions>(call, FILES)?;
     t.options.pyramid_options().map_err(|e| step_error(s, e))?;
     let input = one_input(s)?;
     let outputs = vec![output(s)?];
@@ -462,16 +432,7 @@ pub(super) fn tiles(call: &StepCall<'_>) -> Result<TypedStep> {
     Ok(TypedStep::new(t.options, move |opts, notify| {
         let src = open_input(&input, &png, notify)?;
         let info = ops::tiles::run(src.as_ref(), &outputs, opts, &engine_config(&run)?)?;
-        notify(Note::Message(format!(
-            "zooms {}..{}, {} tiles, bounds {:.5},{:.5},{:.5},{:.5}",
-            info.min_zoom,
-            info.max_zoom,
-            info.tiles,
-            info.bounds[0],
-            info.bounds[1],
-            info.bounds[2],
-            info.bounds[3]
-        )));
+        notify(Note::Message(ops::tiles::summary(&info)));
         for o in &outputs {
             notify(Note::Wrote(o.clone()));
         }
