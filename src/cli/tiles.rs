@@ -51,16 +51,7 @@ pub fn run(a: TilesArgs) -> Result<()> {
         resampling: a.resampling.clone(),
     };
     let info = tiles::run(src.as_ref(), &a.output, &opts, &cfg)?;
-    eprintln!(
-        "zooms {}..{}, {} tiles, bounds {:.5},{:.5},{:.5},{:.5}",
-        info.min_zoom,
-        info.max_zoom,
-        info.tiles,
-        info.bounds[0],
-        info.bounds[1],
-        info.bounds[2],
-        info.bounds[3]
-    );
+    eprintln!("{}", tiles::summary(&info));
     for o in &a.output {
         crate::wrote(o);
     }

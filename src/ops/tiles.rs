@@ -18,6 +18,7 @@ pub struct TilesOptions {
     /// Colour ramp of `color` tiles.
     pub ramp: String,
     /// Value range of `color` tiles (`None`: the data's min..max).
+    #[serde(with = "range_text")]
     pub range: Option<(f64, f64)>,
     /// Lowest zoom (`None`: chosen from the raster's extent).
     pub min_zoom: Option<u8>,
@@ -53,6 +54,35 @@ pub fn parse_range(r: &str) -> Result<(f64, f64)> {
         )));
     }
     Ok((v[0], v[1]))
+}
+
+/// Serde form of [`TilesOptions::range`]: `"lo,hi"` ([`parse_range`]) or
+/// `[lo, hi]`; written as `[lo, hi]`.
+mod range_text {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Range {
+        Pair(f64, f64),
+        Text(String),
+    }
+
+    pub fn serialize<S: Serializer>(v: &Option<(f64, f64)>, s: S) -> Result<S::Ok, S::Error> {
+        v.serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<(f64, f64)>, D::Error> {
+        match Option::<Range>::deserialize(d)? {
+            None => Ok(None),
+            Some(Range::Pair(lo, hi)) => super::parse_range(&format!("{lo},{hi}"))
+                .map(Some)
+                .map_err(serde::de::Error::custom),
+            Some(Range::Text(t)) => super::parse_range(&t)
+                .map(Some)
+                .map_err(serde::de::Error::custom),
+        }
+    }
 }
 
 impl TilesOptions {
@@ -175,4 +205,19 @@ pub fn run(
     // The scratch folder (if any) is removed when dropped.
     drop(scratch);
     result
+}
+
+/// The one-line summary of a pyramid written by [`run`] (zooms, tiles,
+/// bounds in degrees).
+pub fn summary(info: &PyramidInfo) -> String {
+    format!(
+        "zooms {}..{}, {} tiles, bounds {:.5},{:.5},{:.5},{:.5}",
+        info.min_zoom,
+        info.max_zoom,
+        info.tiles,
+        info.bounds[0],
+        info.bounds[1],
+        info.bounds[2],
+        info.bounds[3]
+    )
 }

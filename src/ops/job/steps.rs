@@ -16,6 +16,27 @@ use crate::raster::RasterSource;
 use serde::de::DeserializeOwned;
 use serde::Serialize;
 
+/// Reads a raster, writes rasters.
+const RASTER: Takes = Takes {
+    format: true,
+    png: true,
+};
+/// Reads a raster, writes files of its own.
+const FILES: Takes = Takes {
+    format: false,
+    png: true,
+};
+/// Reads no raster of its own, writes rasters.
+const WRITES: Takes = Takes {
+    format: true,
+    png: false,
+};
+/// Neither.
+const NEITHER: Takes = Takes {
+    format: false,
+    png: false,
+};
+
 /// The options of a command that has none of its own (`ingest`, `export`).
 #[derive(Debug, Clone, Default, PartialEq, Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -41,13 +62,7 @@ where
     O: DeserializeOwned + Serialize + Send + Sync + 'static,
 {
     let s = call.step;
-    let t = typed_keys::<O>(
-        call,
-        Takes {
-            format: true,
-            png: true,
-        },
-    )?;
+    let t = typed_keys::<O>(call, RASTER)?;
     check(&t.options).map_err(|e| step_error(s, e))?;
     let input = one_input(s)?;
     let path = output(s)?;
@@ -119,13 +134,7 @@ pub(super) fn export(call: &StepCall<'_>) -> Result<TypedStep> {
 /// `ingest`: one or more inputs (one mosaic) into the output.
 pub(super) fn ingest(call: &StepCall<'_>) -> Result<TypedStep> {
     let s = call.step;
-    let t = typed_keys::<NoOptions>(
-        call,
-        Takes {
-            format: true,
-            png: true,
-        },
-    )?;
+    let t = typed_keys::<NoOptions>(call, RASTER)?;
     if s.inputs.is_empty() {
         one_input(s)?;
     }
@@ -156,13 +165,7 @@ pub(super) fn metric(call: &StepCall<'_>) -> Result<TypedStep> {
         quiet: call.quiet,
     };
     let s = call.step;
-    let t = typed_keys::<ops::metric::MetricOptions>(
-        &call,
-        Takes {
-            format: true,
-            png: true,
-        },
-    )?;
+    let t = typed_keys::<ops::metric::MetricOptions>(&call, RASTER)?;
     if t.options.metric.is_empty() {
         return Err(step_error(
             s,
@@ -204,13 +207,7 @@ where
     O: DeserializeOwned + Serialize + Send + Sync + 'static,
 {
     let s = call.step;
-    let t = typed_keys::<O>(
-        call,
-        Takes {
-            format: false,
-            png: true,
-        },
-    )?;
+    let t = typed_keys::<O>(call, FILES)?;
     let input = one_input(s)?;
     let path = output(s)?;
     check(&t.options, &path).map_err(|e| step_error(s, e))?;
@@ -257,13 +254,7 @@ where
     O: DeserializeOwned + Serialize + Send + Sync + 'static,
 {
     let s = call.step;
-    let t = typed_keys::<O>(
-        call,
-        Takes {
-            format: true,
-            png: false,
-        },
-    )?;
+    let t = typed_keys::<O>(call, WRITES)?;
     check(&t.options).map_err(|e| step_error(s, e))?;
     let input = one_input(s)?;
     let target = Target {
@@ -323,40 +314,58 @@ fn quiet_filter<'a>(quiet: bool, notify: Notify<'a>) -> impl FnMut(Note) + 'a {
     }
 }
 
-/// `synth noise`: no input; the output path is part of its options.
-pub(super) fn synth_noise(call: &StepCall<'_>) -> Result<TypedStep> {
+/// What a synthesis method runs: options holding their output path.
+type SynthOp<O> = fn(&O, &crate::io::OutputOptions, &EngineConfig, Notify<'_>) -> Result<()>;
+
+/// A synthesis method (`synth noise`, `synth rivers`, `synth tectonic`):
+/// no input; the output path is part of its options.
+fn synth_step<O>(
+    call: &StepCall<'_>,
+    check: fn(&O) -> Result<()>,
+    op: SynthOp<O>,
+) -> Result<TypedStep>
+where
+    O: DeserializeOwned + Serialize + Send + Sync + 'static,
+{
     let s = call.step;
     if !s.inputs.is_empty() {
-        return Err(step_error(s, "`synth noise` takes no input"));
+        return Err(step_error(s, format!("`{}` takes no input", s.command)));
     }
     let path = output(s)?;
-    let t = typed_keys_with::<ops::synth::noise::NoiseOptions>(
+    let t = typed_keys_with::<O>(
         call,
-        Takes {
-            format: true,
-            png: false,
-        },
+        WRITES,
         vec![("output", toml::Value::String(path.display().to_string()))],
     )?;
-    crate::ops::synth::parse_size(&t.options.size).map_err(|e| step_error(s, e))?;
+    check(&t.options).map_err(|e| step_error(s, e))?;
     let oo = t.format.output_options()?;
     let run = t.run;
     Ok(TypedStep::new(t.options, move |opts, notify| {
         let cfg = engine_config(&run)?;
-        ops::synth::noise::run(opts, &oo, &cfg, &mut quiet_filter(run.quiet, notify))
+        op(opts, &oo, &cfg, &mut quiet_filter(run.quiet, notify))
     }))
+}
+
+pub(super) fn synth_noise(call: &StepCall<'_>) -> Result<TypedStep> {
+    synth_step(
+        call,
+        |o: &ops::synth::noise::NoiseOptions| ops::synth::parse_size(&o.size).map(|_| ()),
+        ops::synth::noise::run,
+    )
+}
+
+pub(super) fn synth_rivers(call: &StepCall<'_>) -> Result<TypedStep> {
+    synth_step(call, unchecked, ops::synth::rivers::run)
+}
+
+pub(super) fn synth_tectonic(call: &StepCall<'_>) -> Result<TypedStep> {
+    synth_step(call, unchecked, ops::synth::tectonic::run)
 }
 
 /// `compare`: two inputs (terrain a, terrain b) into the output folder.
 pub(super) fn compare(call: &StepCall<'_>) -> Result<TypedStep> {
     let s = call.step;
-    let t = typed_keys::<ops::compare::CompareOptions>(
-        call,
-        Takes {
-            format: false,
-            png: false,
-        },
-    )?;
+    let t = typed_keys::<ops::compare::CompareOptions>(call, NEITHER)?;
     t.options.validate().map_err(|e| step_error(s, e))?;
     let [a, b] = match s.inputs.as_slice() {
         [a, b] => [a.clone(), b.clone()],
@@ -377,4 +386,65 @@ pub(super) fn compare(call: &StepCall<'_>) -> Result<TypedStep> {
         let mut notify = quiet_filter(run.quiet, notify);
         ops::compare::run_noted(&a, &b, &dir, opts, &cfg, &mut notify).map(|_| ())
     }))
+}
+
+/// `hydro-index`: no positional input (the rasters are options: `dem`,
+/// `acc`, `dirs`, `streams`, often `"@step"` references) into the output.
+pub(super) fn hydro_index(call: &StepCall<'_>) -> Result<TypedStep> {
+    let s = call.step;
+    if !s.inputs.is_empty() {
+        return Err(step_error(
+            s,
+            "`hydro-index` takes its rasters as options (dem = \"@name\", acc, dirs, streams), not as input",
+        ));
+    }
+    let t = typed_keys::<ops::hydro_index::HydroIndexOptions>(call, WRITES)?;
+    if t.options.index.is_empty() {
+        return Err(step_error(
+            s,
+            "`hydro-index` needs index = \"twi\" (or spi, sti, ls, hand, dtw, branch-length)",
+        ));
+    }
+    let path = output(s)?;
+    let target = Target {
+        path: path.clone(),
+        options: t.format.output_options()?,
+        tile: t.run.tile,
+    };
+    let run = t.run;
+    Ok(TypedStep::new(t.options, move |opts, notify| {
+        ops::hydro_index::run(opts, &target, &engine_config(&run)?)?;
+        notify(Note::Wrote(path.clone()));
+        Ok(())
+    }))
+}
+
+/// `tiles`: one input into a web-map pyramid (the step's output: a z/x/y
+/// folder, `.mbtiles` or `.pmtiles`).
+#[cfg(feature = "archives")]
+pub(super) fn tiles(call: &StepCall<'_>) -> Result<TypedStep> {
+    let s = call.step;
+    let t = typed_keys::<ops::tiles::TilesOptions>(call, FILES)?;
+    t.options.pyramid_options().map_err(|e| step_error(s, e))?;
+    let input = one_input(s)?;
+    let outputs = vec![output(s)?];
+    let (run, png) = (t.run, t.png.open_options());
+    Ok(TypedStep::new(t.options, move |opts, notify| {
+        let src = open_input(&input, &png, notify)?;
+        let info = ops::tiles::run(src.as_ref(), &outputs, opts, &engine_config(&run)?)?;
+        notify(Note::Message(ops::tiles::summary(&info)));
+        for o in &outputs {
+            notify(Note::Wrote(o.clone()));
+        }
+        Ok(())
+    }))
+}
+
+/// `tiles` in a build without the `archives` feature.
+#[cfg(not(feature = "archives"))]
+pub(super) fn tiles(call: &StepCall<'_>) -> Result<TypedStep> {
+    Err(step_error(
+        call.step,
+        "`tiles` needs orogen built with the `archives` feature",
+    ))
 }
