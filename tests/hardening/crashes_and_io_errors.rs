@@ -34,6 +34,15 @@ fn slope_to(input: &Path, out: &Path) -> Output {
     )
 }
 
+/// The reference run `slope_args(input, TMP/ref.tiles)`, which must
+/// succeed; returns the store's folder.
+fn reference_store(tmp: &Path, input: &str) -> PathBuf {
+    let refd = tmp.join("ref.tiles");
+    let o = run(&slope_args(input, refd.to_str().unwrap()), &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    refd
+}
+
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
@@ -109,9 +118,7 @@ fn a_second_process_is_refused_and_readers_see_only_finished_tiles() {
     let tmp = tempfile::tempdir().unwrap();
     let d = dem();
     let dem_s = d.to_str().unwrap();
-    let refd = tmp.path().join("ref.tiles");
-    let o = run(&slope_args(dem_s, refd.to_str().unwrap()), &[]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    let refd = reference_store(tmp.path(), dem_s);
     let want = files(&refd);
     assert_eq!(want.len(), 48 + 1, "48 tiles and the manifest");
 
@@ -187,10 +194,7 @@ fn a_writer_killed_at_any_store_crash_point_resumes_to_the_same_bytes() {
     let tmp = tempfile::tempdir().unwrap();
     let d = dem();
     let dem_s = d.to_str().unwrap();
-    let refd = tmp.path().join("ref.tiles");
-    assert!(run(&slope_args(dem_s, refd.to_str().unwrap()), &[])
-        .status
-        .success());
+    let refd = reference_store(tmp.path(), dem_s);
     let want = files(&refd);
     for point in [
         "store.lock.taken:1",
@@ -440,10 +444,7 @@ fn an_input_truncated_mid_run_fails_cleanly_and_a_rerun_completes() {
     let input = tmp.path().join("in.tif");
     std::fs::write(&input, &bytes).unwrap();
     let in_s = input.to_str().unwrap();
-    let refd = tmp.path().join("ref.tiles");
-    assert!(run(&slope_args(in_s, refd.to_str().unwrap()), &[])
-        .status
-        .success());
+    let refd = reference_store(tmp.path(), in_s);
     let want = files(&refd);
 
     let out = tmp.path().join("s.tiles");
@@ -529,9 +530,7 @@ fn a_stale_lock_naming_a_live_unrelated_pid_does_not_block() {
     let tmp = tempfile::tempdir().unwrap();
     let d = dem();
     let dem_s = d.to_str().unwrap();
-    let refd = tmp.path().join("ref.tiles");
-    let o = run(&slope_args(dem_s, refd.to_str().unwrap()), &[]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    let refd = reference_store(tmp.path(), dem_s);
     let out = tmp.path().join("s.tiles");
     let out_s = out.to_str().unwrap();
     // Interrupt a writer after its first tile, then plant a live pid.

@@ -15,16 +15,7 @@ use proptest::prelude::*;
 use crate::common::hydro::read_raw;
 use std::time::Instant;
 
-const N8: [(i64, i64); 8] = [
-    (1, 0),
-    (1, 1),
-    (0, 1),
-    (-1, 1),
-    (-1, 0),
-    (-1, -1),
-    (0, -1),
-    (1, -1),
-];
+use crate::NB as N8;
 
 fn ok(v: f32) -> bool {
     v.is_finite()

@@ -16,18 +16,9 @@ use orogen::raster::Grid;
 use proptest::prelude::*;
 use std::f64::consts::{FRAC_PI_4, PI, SQRT_2};
 
-/// Neighbour offsets in the crate's order E, SE, S, SW, W, NW, N, NE
-/// (written out here rather than imported).
-const OFF: [(i64, i64); 8] = [
-    (1, 0),
-    (1, 1),
-    (0, 1),
-    (-1, 1),
-    (-1, 0),
-    (-1, -1),
-    (0, -1),
-    (1, -1),
-];
+// Neighbour offsets in the crate's order E, SE, S, SW, W, NW, N, NE (the
+// tests' own table, not the crate's).
+use crate::NB as OFF;
 
 fn nb(x: usize, y: usize, d: usize, w: usize, h: usize) -> Option<(usize, usize)> {
     let (nx, ny) = (x as i64 + OFF[d].0, y as i64 + OFF[d].1);

@@ -92,6 +92,15 @@ const H: usize = 70;
 const TILE: usize = 16; // 7 x 5 = 35 tiles
 const TILES: usize = 35;
 
+/// A temporary folder, the W x H source, and the bytes of its store ingested
+/// there uninterrupted (`ref.tiles`).
+fn with_reference() -> (tempfile::TempDir, MemRaster, Vec<(String, Vec<u8>)>) {
+    let tmp = tempfile::tempdir().unwrap();
+    let src = dem_i16(W, H);
+    let want = reference(tmp.path(), &src);
+    (tmp, src, want)
+}
+
 fn reference(tmp: &Path, src: &MemRaster) -> Vec<(String, Vec<u8>)> {
     let dir = tmp.join("ref.tiles");
     ingest(src, &dir, opts(TILE), &cfg(2)).unwrap();
@@ -113,9 +122,7 @@ fn interrupted(src: &MemRaster, dir: &Path, k: usize, threads: usize) -> usize {
 
 #[test]
 fn resume_after_interruption_skips_finished_tiles_and_matches_uninterrupted() {
-    let tmp = tempfile::tempdir().unwrap();
-    let src = dem_i16(W, H);
-    let want = reference(tmp.path(), &src);
+    let (tmp, src, want) = with_reference();
     assert_eq!(want.len(), TILES + 1);
     // One thread: exactly the tiles before the failing one are finished.
     let dir = tmp.path().join("a.tiles");
@@ -142,9 +149,7 @@ fn resume_after_interruption_skips_finished_tiles_and_matches_uninterrupted() {
 
 #[test]
 fn torn_tile_and_torn_journal_lines_are_not_trusted() {
-    let tmp = tempfile::tempdir().unwrap();
-    let src = dem_i16(W, H);
-    let want = reference(tmp.path(), &src);
+    let (tmp, src, want) = with_reference();
     let dir = tmp.path().join("torn.tiles");
     assert_eq!(interrupted(&src, &dir, 12, 1), 12);
     // Tile 3 = (tx 3, ty 0): truncate it, its journal entry stays.
@@ -385,9 +390,7 @@ fn child_ingest() {
 
 #[test]
 fn killed_ingest_resumes() {
-    let tmp = tempfile::tempdir().unwrap();
-    let src = dem_i16(W, H);
-    let want = reference(tmp.path(), &src);
+    let (tmp, src, want) = with_reference();
     let dir = tmp.path().join("killed.tiles");
     let mut child = std::process::Command::new(std::env::current_exe().unwrap())
         // The test's name inside this binary (`store`): module path + name.

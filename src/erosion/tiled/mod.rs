@@ -248,6 +248,7 @@ pub fn run_ranked<M: LocalModel, X: HaloTransport>(
             Ok(GhostPatch {
                 win: pw,
                 fields: patch.fields,
+                scratch: patch.scratch,
             })
         },
         || pb.inc(1),

@@ -111,6 +111,10 @@ fn store(count: usize, dir: Option<&Path>, results: Vec<(TileId, Vec<f64>)>) -> 
 pub struct GhostPatch {
     pub win: Window,
     pub fields: Vec<Vec<f64>>,
+    /// Working arrays of the step, handed back to be dropped only after the
+    /// core is kept (dropped earlier, their memory would go back to the
+    /// system just before the core takes as much again).
+    pub scratch: Vec<Vec<f64>>,
 }
 
 /// What [`Rounds::ghost_rounds`] leaves: the last round's states of this
@@ -212,7 +216,12 @@ impl<'x, X: HaloTransport> Rounds<'x, X> {
                             }
                         }
                     }
-                    let p = step(round, id, GhostPatch { win: pw, fields })?;
+                    let patch = GhostPatch {
+                        win: pw,
+                        fields,
+                        scratch: Vec::new(),
+                    };
+                    let p = step(round, id, patch)?;
                     let mut v = Vec::with_capacity(core.len() * nf);
                     for f in &p.fields {
                         extract(p.win, f, 1, core, &mut v);
