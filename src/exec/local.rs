@@ -288,15 +288,28 @@ fn out_meta<I, O>(
 }
 
 /// `compute()`, unless the run was stopped (another tile failed): then the
-/// error `cancelled`, which is never reported (the first failure is).
+/// error `cancelled`, which is never reported (the first failure is). A
+/// panic in `compute` becomes the tile's error.
 #[inline]
 pub(super) fn unless_stopped<R>(
     stop: &AtomicBool,
     compute: impl FnOnce() -> Result<R>,
 ) -> Result<R> {
     if stop.load(Ordering::Acquire) {
-        Err(Error::invalid("cancelled"))
-    } else {
-        compute()
+        return Err(Error::invalid("cancelled"));
     }
+    // A panic in a tile's work must reach the consumer as this tile's
+    // result: unwinding past the worker would drop its result without a
+    // send, and the consumer, which takes results in tile order and returns
+    // the permits that let new tiles start, would wait for it for ever.
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(compute)).unwrap_or_else(|p| {
+        let msg = p
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| p.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown cause".into());
+        Err(Error::invalid(format!(
+            "internal error (a bug: please report it): the tile's work panicked: {msg}"
+        )))
+    })
 }

@@ -464,6 +464,63 @@ fn step_error_stops_the_run_and_leaves_no_finished_store() {
     }
 }
 
+/// A step that panics on one tile (a bug in a step).
+struct PanicAt(usize);
+impl LocalStep for PanicAt {
+    type In = f32;
+    type Out = f32;
+    fn name(&self) -> String {
+        "panic".into()
+    }
+    fn params(&self) -> serde_json::Value {
+        serde_json::Value::Null
+    }
+    fn halo(&self) -> usize {
+        0
+    }
+    fn run(&self, inputs: &[TileView<f32>], out: &mut [Grid<f32>]) -> Result<()> {
+        assert!(
+            inputs[0].id != self.0,
+            "deliberate panic in tile {}",
+            self.0
+        );
+        out[0] = inputs[0].core_grid();
+        Ok(())
+    }
+}
+
+#[test]
+fn step_panic_is_the_run_error_not_a_hang() {
+    // Before the fix the consumer waited for ever for the panicked tile's
+    // result; the run goes on a thread so a hang fails the test.
+    let (w, h) = (100, 100);
+    let data = random_grid(w, h, 3);
+    for threads in [1, 2] {
+        let data = data.clone();
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let src = source(&data, w, h);
+            let layout = TileLayout::new(w, h, 10);
+            let (sink, _handle) = orogen::store::sink::MemSink::new(w, h, DType::F32, None);
+            let r = engine(threads).run_local(
+                &PanicAt(42),
+                &[&src as &dyn RasterSource],
+                layout,
+                vec![Box::new(sink)],
+            );
+            let _ = tx.send(r.map_err(|e| e.to_string()));
+        });
+        let r = rx
+            .recv_timeout(std::time::Duration::from_secs(120))
+            .expect("the run hung after a tile's work panicked");
+        let e = r.unwrap_err();
+        assert!(
+            e.contains("tile 42") && e.contains("deliberate panic in tile 42"),
+            "{e}"
+        );
+    }
+}
+
 #[test]
 fn wrong_layout_or_sink_count_is_refused() {
     let (w, h) = (40, 30);
