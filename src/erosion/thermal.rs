@@ -20,17 +20,7 @@ use super::{check_cell, check_range, check_steps, valid, CellSize, LocalModel, P
 use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};
 
-/// Neighbour offsets (E, SE, S, SW, W, NW, N, NE); opposite of k is k ^ 4.
-pub const OFFSETS: [(i64, i64); 8] = [
-    (1, 0),
-    (1, 1),
-    (0, 1),
-    (-1, 1),
-    (-1, 0),
-    (-1, -1),
-    (0, -1),
-    (1, -1),
-];
+use crate::raster::neighbours::OFFSETS;
 
 /// Parameters of thermal erosion.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -6,6 +6,17 @@
 pub const DX: [i64; 8] = [1, 1, 0, -1, -1, -1, 0, 1];
 /// Row offsets of the 8 neighbours (y grows southwards).
 pub const DY: [i64; 8] = [0, 1, 1, 1, 0, -1, -1, -1];
+/// The 8 neighbours' `(dx, dy)` in the same order (`DX`, `DY` zipped); the
+/// opposite of neighbour `k` is `k ^ 4`.
+pub const OFFSETS: [(i64, i64); 8] = {
+    let mut o = [(0, 0); 8];
+    let mut k = 0;
+    while k < 8 {
+        o[k] = (DX[k], DY[k]);
+        k += 1;
+    }
+    o
+};
 
 /// Distance to each neighbour in cell sizes, order E..NE.
 pub const DIST: [f64; 8] = [

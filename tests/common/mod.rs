@@ -275,6 +275,9 @@ const fn quarter_turns(a: (i64, i64), b: (i64, i64)) -> [(i64, i64); 8] {
 /// The 8 neighbour steps clockwise from north: N, NE, E, SE, S, SW, W, NW.
 pub const COMPASS8: [(i64, i64); 8] = quarter_turns((0, -1), (1, -1));
 
+/// The 8 neighbour steps clockwise from east: E, SE, S, SW, W, NW, N, NE.
+pub const EAST8: [(i64, i64); 8] = quarter_turns((1, 0), (1, 1));
+
 /// The 16 lattice rays of the horizon metrics: [`COMPASS8`], then the
 /// knight moves clockwise from north-north-east.
 pub const RAYS16: [(i64, i64); 16] = {

@@ -33,16 +33,7 @@ fn noisy_block(w: usize, h: usize, amp: f64, seed: u64) -> Grid<f64> {
 /// lower 8-neighbours) recomputed from the final heights.
 fn oracle_receiver(g: &Grid<f64>, x: usize, y: usize, cell: f64) -> Option<(usize, usize, f64)> {
     let mut best: Option<(usize, usize, f64, f64)> = None;
-    for (dx, dy) in [
-        (1, 0),
-        (1, 1),
-        (0, 1),
-        (-1, 1),
-        (-1, 0),
-        (-1, -1),
-        (0, -1),
-        (1, -1),
-    ] {
+    for (dx, dy) in crate::common::EAST8 {
         let (nx, ny) = (x as i64 + dx, y as i64 + dy);
         if nx < 0 || ny < 0 || nx >= g.width() as i64 || ny >= g.height() as i64 {
             continue;

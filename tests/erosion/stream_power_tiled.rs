@@ -357,24 +357,15 @@ fn sp_fill_definition() {
     let hv = g.data();
     let nb = |i: usize| {
         let (x, y) = ((i % w) as i64, (i / w) as i64);
-        [
-            (1, 0),
-            (1, 1),
-            (0, 1),
-            (-1, 1),
-            (-1, 0),
-            (-1, -1),
-            (0, -1),
-            (1, -1),
-        ]
-        .iter()
-        .enumerate()
-        .filter_map(move |(d, (dx, dy))| {
-            let (nx, ny) = (x + dx, y + dy);
-            (nx >= 0 && ny >= 0 && nx < w as i64 && ny < h as i64)
-                .then(|| (d, ny as usize * w + nx as usize))
-        })
-        .collect::<Vec<_>>()
+        crate::common::EAST8
+            .iter()
+            .enumerate()
+            .filter_map(move |(d, (dx, dy))| {
+                let (nx, ny) = (x + dx, y + dy);
+                (nx >= 0 && ny >= 0 && nx < w as i64 && ny < h as i64)
+                    .then(|| (d, ny as usize * w + nx as usize))
+            })
+            .collect::<Vec<_>>()
     };
     let valid = |i: usize| hv[i].is_finite();
     let mut lev: Vec<f64> = (0..w * h)

@@ -559,16 +559,7 @@ fn horizon_brute_force() {
             2,
         );
         let steps: Vec<(i64, i64)> = if dirs == 8 {
-            vec![
-                (1, 0),
-                (1, 1),
-                (0, 1),
-                (-1, 1),
-                (-1, 0),
-                (-1, -1),
-                (0, -1),
-                (1, -1),
-            ]
+            crate::common::EAST8.to_vec()
         } else {
             vec![
                 (1, 0),
