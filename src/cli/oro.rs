@@ -258,15 +258,7 @@ pub fn run_ridges(a: RidgesArgs) -> Result<()> {
     let cfg = crate::engine(&a.run)?;
     let src = crate::open(&a.input)?;
     let oo = crate::output_options(&a.fmt)?;
-    let done = ridges::run(src.as_ref(), &a.output, &opts, &oo, &cfg)?;
-    for f in &done.files {
-        crate::wrote(f);
-    }
-    if !a.run.quiet {
-        eprintln!(
-            "{} peaks (prominence >= {}), {} ridge segments, {} levels",
-            done.peaks, a.min_prominence, done.segments, done.levels
-        );
-    }
+    let mut notify = super::erode::printer(a.run.quiet);
+    ridges::run_noted(src.as_ref(), &a.output, &opts, &oo, &cfg, &mut notify)?;
     Ok(())
 }

@@ -121,6 +121,64 @@ step = [
 }
 
 #[test]
+fn ridges_and_viewshed_steps_equal_their_operations() {
+    use orogen::ops::{ridges, viewshed};
+    let tmp = tempfile::tempdir().unwrap();
+    let path = tmp.path().join("job.toml");
+    std::fs::write(
+        &path,
+        format!(
+            r#"output_dir = "out"
+inputs = {{ dem = "{}" }}
+step = [
+    {{ name = "r", run = "ridges", input = "dem", output = "ridges", args = {{ min-prominence = 20, edge = "unknown", no_ppa = true }} }},
+    {{ name = "v", run = "viewshed", input = "dem", output = "vis.tif", args = {{ at = ["10,12", "30,8"], pixel = true, radius = "40c", fuzzy = "100,200" }} }},
+]
+"#,
+            dem().display()
+        ),
+    )
+    .unwrap();
+    let opts = quiet();
+    let j = job::prepare(&path, &opts).unwrap();
+    job::run(&j, &opts, &mut |_| {}).unwrap();
+    let hand = tmp.path().join("hand");
+    let cfg = RunOptions::default().engine_config(false).unwrap();
+    let d = orogen::io::open_raster(&dem(), &Default::default()).unwrap();
+    let r = ridges::RidgesOptions {
+        min_prominence: 20.0,
+        edge: orogen::oro::EdgeConvention::Unknown,
+        no_ppa: true,
+        ..Default::default()
+    };
+    let done = ridges::run(d.as_ref(), &hand, &r, &Default::default(), &cfg).unwrap();
+    let v = viewshed::ViewshedOptions {
+        at: vec![(10.0, 12.0), (30.0, 8.0)],
+        pixel: true,
+        radius: "40c".into(),
+        fuzzy: Some((100.0, 200.0)),
+        ..Default::default()
+    };
+    let target = Target {
+        path: hand.join("vis.tif"),
+        options: Default::default(),
+        tile: None,
+    };
+    viewshed::run(d.as_ref(), &v, &target, &cfg).unwrap();
+    let mut names: Vec<PathBuf> = done
+        .files
+        .iter()
+        .map(|f| Path::new("ridges").join(f.file_name().unwrap()))
+        .collect();
+    names.push("vis.tif".into());
+    for name in names {
+        let a = std::fs::read(tmp.path().join("out").join(&name)).unwrap();
+        let b = std::fs::read(hand.join(name.strip_prefix("ridges").unwrap_or(&name))).unwrap();
+        assert!(a == b, "{}: the job's bytes differ", name.display());
+    }
+}
+
+#[test]
 fn each_mistake_is_refused_in_prepare_naming_step_and_key() {
     let d = dem().display().to_string();
     let step = |run: &str, input: &str, args: &str| {
@@ -168,6 +226,15 @@ fn each_mistake_is_refused_in_prepare_naming_step_and_key() {
             "no input",
             step("fill", "", ""),
             vec!["step \"s\"", "`fill` needs an input"],
+        ),
+        (
+            "bad pair",
+            step("viewshed", "input = \"dem\"", "args = { at = \"ten,20\" }"),
+            vec![
+                "step \"s\"",
+                "`viewshed` option at = \"ten,20\"",
+                "expected two numbers separated by a comma",
+            ],
         ),
         (
             "not typed",

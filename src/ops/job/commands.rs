@@ -50,7 +50,7 @@ const fn line(name: &'static str) -> Command {
 
 /// Every command a job may run, in the CLI's order.
 pub const COMMANDS: &[Command] = &[
-    line("info"),
+    typed("info", steps::info),
     typed("ingest", steps::ingest),
     typed("export", steps::export),
     typed("slope", steps::slope),
@@ -62,7 +62,7 @@ pub const COMMANDS: &[Command] = &[
     line("classify train"),
     line("classify predict"),
     line("classify evaluate"),
-    line("ridges"),
+    typed("ridges", steps::ridges),
     typed("fill", steps::fill),
     typed("flow", steps::flow),
     typed("breach", steps::breach),
@@ -72,10 +72,10 @@ pub const COMMANDS: &[Command] = &[
     typed("basins", steps::basins),
     typed("streams", steps::streams),
     typed("hydro-index", steps::hydro_index),
-    line("render"),
+    typed("render", steps::render),
     typed("tiles", steps::tiles),
     line("view"),
-    line("viewshed"),
+    typed("viewshed", steps::viewshed),
     line("erode"),
     typed("synth noise", steps::synth_noise),
     line("synth optimise"),

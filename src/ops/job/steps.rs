@@ -244,6 +244,62 @@ pub(super) fn orostats(call: &StepCall<'_>) -> Result<TypedStep> {
     )
 }
 
+/// `ridges`: one input into the output folder (ridges.geojson and its
+/// rasters, in the output format).
+pub(super) fn ridges(call: &StepCall<'_>) -> Result<TypedStep> {
+    let s = call.step;
+    let t = typed_keys::<ops::ridges::RidgesOptions>(call, RASTER)?;
+    t.options.validate().map_err(|e| step_error(s, e))?;
+    let input = one_input(s)?;
+    let dir = output(s)?;
+    let oo = t.format.output_options()?;
+    let (run, png) = (t.run, t.png.open_options());
+    Ok(TypedStep::new(t.options, move |opts, notify| {
+        let cfg = engine_config(&run)?;
+        let src = open_input(&input, &png, notify)?;
+        let mut notify = quiet_filter(run.quiet, notify);
+        ops::ridges::run_noted(src.as_ref(), &dir, opts, &oo, &cfg, &mut notify).map(|_| ())
+    }))
+}
+
+pub(super) fn viewshed(call: &StepCall<'_>) -> Result<TypedStep> {
+    raster_step(
+        call,
+        ops::viewshed::ViewshedOptions::validate,
+        |src, o, t, cfg, _, _| ops::viewshed::run(src, o, t, cfg),
+    )
+}
+
+pub(super) fn render(call: &StepCall<'_>) -> Result<TypedStep> {
+    files_step(
+        call,
+        |_: &ops::render::RenderOptions, _| Ok(()),
+        |src, out, o, _, notify| {
+            ops::render::run(src, out, o)?;
+            notify(Note::Wrote(out.to_path_buf()));
+            Ok(())
+        },
+    )
+}
+
+/// `info`: the report of one input on standard output (no output file).
+pub(super) fn info(call: &StepCall<'_>) -> Result<TypedStep> {
+    let s = call.step;
+    let t = typed_keys::<ops::info::InfoOptions>(call, FILES)?;
+    let input = one_input(s)?;
+    if s.output.is_some() {
+        return Err(step_error(s, "`info` writes no file: leave out output"));
+    }
+    let (run, png) = (t.run, t.png.open_options());
+    Ok(TypedStep::new(t.options, move |opts, notify| {
+        let cfg = engine_config(&run)?;
+        let src = open_input(&input, &png, notify)?;
+        let d = ops::info::run(src.as_ref(), opts, &cfg)?;
+        notify(Note::Print(ops::info::report_text(&d, opts)?));
+        Ok(())
+    }))
+}
+
 /// A command reading D8 directions (no PNG keys) and writing a target.
 fn dirs_step<O>(
     call: &StepCall<'_>,
