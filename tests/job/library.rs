@@ -237,6 +237,11 @@ fn each_mistake_is_refused_in_prepare_naming_step_and_key() {
             ],
         ),
         (
+            "interactive",
+            step("view", "input = \"dem\"", ""),
+            vec!["step \"s\"", "`view` starts an interactive map server"],
+        ),
+        (
             "not typed",
             step("erode", "input = \"dem\"", ""),
             vec!["`erode` does not run from the library yet"],

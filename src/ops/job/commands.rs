@@ -59,9 +59,9 @@ pub const COMMANDS: &[Command] = &[
     typed("metric", steps::metric),
     typed("peaks", steps::peaks),
     typed("orostats", steps::orostats),
-    line("classify train"),
-    line("classify predict"),
-    line("classify evaluate"),
+    typed("classify train", steps::classify_train),
+    typed("classify predict", steps::classify_predict),
+    typed("classify evaluate", steps::classify_evaluate),
     typed("ridges", steps::ridges),
     typed("fill", steps::fill),
     typed("flow", steps::flow),
@@ -74,7 +74,7 @@ pub const COMMANDS: &[Command] = &[
     typed("hydro-index", steps::hydro_index),
     typed("render", steps::render),
     typed("tiles", steps::tiles),
-    line("view"),
+    typed("view", steps::view),
     typed("viewshed", steps::viewshed),
     line("erode"),
     typed("synth noise", steps::synth_noise),
@@ -86,7 +86,7 @@ pub const COMMANDS: &[Command] = &[
     line("synth from-tree"),
     line("synth orometric"),
     typed("compare", steps::compare),
-    line("demo"),
+    typed("demo", steps::demo),
 ];
 
 /// The registry entry of `name` (words separated by one space).

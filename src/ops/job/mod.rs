@@ -54,6 +54,9 @@
 //! calling `ops` directly, skipping those done in an earlier run, keeps the
 //! resume state and the JSON-lines log, and writes `report.html`.
 //!
+//! `view` is in the registry but refused by [`prepare`]: it serves an
+//! interactive map until stopped, which a batch step cannot be.
+//!
 //! Commands not typed yet ([`Form::CommandLine`] in [`COMMANDS`]) run as
 //! their command line through a [`StepRunner`] the caller passes to
 //! [`prepare_with`] and [`run_with`] (the CLI's argument parser); without

@@ -300,6 +300,115 @@ pub(super) fn info(call: &StepCall<'_>) -> Result<TypedStep> {
     }))
 }
 
+/// The step's inputs as feature files, refused when there are none.
+fn feature_inputs(s: &crate::ops::job::Planned, from: usize) -> Result<Vec<std::path::PathBuf>> {
+    match s.inputs.get(from..) {
+        Some(f) if !f.is_empty() => Ok(f.to_vec()),
+        _ => Err(step_error(
+            s,
+            format!(
+                "`{}` needs feature files: input = [{}\"a.csv\", ...]",
+                s.command,
+                if from == 1 { "\"model\", " } else { "" }
+            ),
+        )),
+    }
+}
+
+pub(super) fn classify_train(call: &StepCall<'_>) -> Result<TypedStep> {
+    let s = call.step;
+    let t = typed_keys::<ops::classify::ForestOptions>(call, NEITHER)?;
+    let features = feature_inputs(s, 0)?;
+    let model = output(s)?;
+    Ok(TypedStep::new(t.options, move |opts, notify| {
+        ops::classify::train_noted(&features, opts, &model, notify).map(|_| ())
+    }))
+}
+
+pub(super) fn classify_predict(call: &StepCall<'_>) -> Result<TypedStep> {
+    let s = call.step;
+    let t = typed_keys::<NoOptions>(call, NEITHER)?;
+    let features = feature_inputs(s, 1)?;
+    let model = s.inputs[0].clone();
+    let out = s.output.clone();
+    Ok(TypedStep::new(t.options, move |_, notify| {
+        ops::classify::predict_noted(&model, &features, out.as_deref(), notify)
+    }))
+}
+
+/// The keys of `classify evaluate`: [`ops::classify::EvaluateOptions`]
+/// with its forest's fields at the top (a flattened serde struct cannot
+/// refuse unknown keys).
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct EvaluateKeys {
+    trees: u16,
+    seed: u64,
+    mtry: Option<usize>,
+    max_depth: Option<u16>,
+    repeats: usize,
+    test_fraction: f64,
+}
+
+impl Default for EvaluateKeys {
+    fn default() -> Self {
+        let e = ops::classify::EvaluateOptions::default();
+        EvaluateKeys {
+            trees: e.forest.trees,
+            seed: e.forest.seed,
+            mtry: e.forest.mtry,
+            max_depth: e.forest.max_depth,
+            repeats: e.repeats,
+            test_fraction: e.test_fraction,
+        }
+    }
+}
+
+pub(super) fn classify_evaluate(call: &StepCall<'_>) -> Result<TypedStep> {
+    let s = call.step;
+    let k = typed_keys::<EvaluateKeys>(call, NEITHER)?.options;
+    let features = feature_inputs(s, 0)?;
+    let out = s.output.clone();
+    let opts = ops::classify::EvaluateOptions {
+        forest: ops::classify::ForestOptions {
+            trees: k.trees,
+            seed: k.seed,
+            mtry: k.mtry,
+            max_depth: k.max_depth,
+        },
+        repeats: k.repeats,
+        test_fraction: k.test_fraction,
+    };
+    Ok(TypedStep::new(opts, move |opts, notify| {
+        ops::classify::evaluate_noted(&features, opts, out.as_deref(), notify).map(|_| ())
+    }))
+}
+
+/// `demo`: no input; into the step's output folder (the CLI's default,
+/// `orogen-demo`, without one).
+pub(super) fn demo(call: &StepCall<'_>) -> Result<TypedStep> {
+    let s = call.step;
+    if !s.inputs.is_empty() {
+        return Err(step_error(s, "`demo` takes no input"));
+    }
+    let t = typed_keys::<ops::demo::DemoOptions>(call, NEITHER)?;
+    let dir = s.output.clone().unwrap_or_else(|| "orogen-demo".into());
+    let run = t.run;
+    Ok(TypedStep::new(t.options, move |opts, notify| {
+        let files = ops::demo::run(&dir, opts, &engine_config(&run)?)?;
+        notify(Note::Print(ops::demo::listing(&dir, opts, &files)));
+        Ok(())
+    }))
+}
+
+/// `view` serves an interactive map until stopped: never a job's step.
+pub(super) fn view(call: &StepCall<'_>) -> Result<TypedStep> {
+    Err(step_error(
+        call.step,
+        "`view` starts an interactive map server that runs until stopped, so a job cannot run it; run `orogen view` on the step's output yourself",
+    ))
+}
+
 /// A command reading D8 directions (no PNG keys) and writing a target.
 fn dirs_step<O>(
     call: &StepCall<'_>,
