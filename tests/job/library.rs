@@ -179,6 +179,55 @@ step = [
 }
 
 #[test]
+fn an_erode_step_equals_the_operation() {
+    use orogen::ops::erode::{self, ErodeOptions, Model};
+    let tmp = tempfile::tempdir().unwrap();
+    let path = tmp.path().join("job.toml");
+    std::fs::write(
+        &path,
+        format!(
+            r#"output_dir = "out"
+inputs = {{ dem = "{}" }}
+step = [
+    {{ name = "e", run = "erode", input = "dem", output = "eroded.tif", args = {{ model = "thermal", steps = 3, talus = 30, set = "rate=0.4", tile = 64 }} }},
+]
+"#,
+            dem().display()
+        ),
+    )
+    .unwrap();
+    let opts = quiet();
+    let j = job::prepare(&path, &opts).unwrap();
+    job::run(&j, &opts, &mut |_| {}).unwrap();
+    let hand = tmp.path().join("hand.tif");
+    let e = ErodeOptions {
+        input: dem(),
+        model: Model::Thermal,
+        steps: Some(3),
+        talus: Some(30.0),
+        set: vec!["rate=0.4".into()],
+        output: hand.clone(),
+        tile: Some(64),
+        ..Default::default()
+    };
+    let run = RunOptions {
+        tile: Some(64),
+        ..Default::default()
+    };
+    let cfg = run.engine_config(false).unwrap();
+    erode::run(
+        &e,
+        &Default::default(),
+        &Default::default(),
+        &cfg,
+        &mut |_| {},
+    )
+    .unwrap();
+    let a = std::fs::read(tmp.path().join("out/eroded.tif")).unwrap();
+    assert!(a == std::fs::read(&hand).unwrap(), "the job's bytes differ");
+}
+
+#[test]
 fn each_mistake_is_refused_in_prepare_naming_step_and_key() {
     let d = dem().display().to_string();
     let step = |run: &str, input: &str, args: &str| {
@@ -237,14 +286,19 @@ fn each_mistake_is_refused_in_prepare_naming_step_and_key() {
             ],
         ),
         (
+            "no model",
+            step("erode", "input = \"dem\"", "args = { steps = 3 }"),
+            vec!["step \"s\"", "`erode` needs its model"],
+        ),
+        (
             "interactive",
             step("view", "input = \"dem\"", ""),
             vec!["step \"s\"", "`view` starts an interactive map server"],
         ),
         (
             "not typed",
-            step("erode", "input = \"dem\"", ""),
-            vec!["`erode` does not run from the library yet"],
+            step("synth profile", "", ""),
+            vec!["`synth profile` does not run from the library yet"],
         ),
     ];
     for (what, text, want) in cases {

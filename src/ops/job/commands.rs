@@ -76,7 +76,7 @@ pub const COMMANDS: &[Command] = &[
     typed("tiles", steps::tiles),
     typed("view", steps::view),
     typed("viewshed", steps::viewshed),
-    line("erode"),
+    typed("erode", steps::erode),
     typed("synth noise", steps::synth_noise),
     line("synth optimise"),
     typed("synth rivers", steps::synth_rivers),

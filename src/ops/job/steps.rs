@@ -409,6 +409,65 @@ pub(super) fn view(call: &StepCall<'_>) -> Result<TypedStep> {
     ))
 }
 
+/// `erode`: one input into the output (both, and the work tile, part of
+/// its options); `set` a `"KEY=VALUE"` or a list of them, `levels` a list
+/// of numbers or `"100,50,30"`, `base_level` a list or `"north,south"`.
+pub(super) fn erode(call: &StepCall<'_>) -> Result<TypedStep> {
+    let s = call.step;
+    let mut step = s.clone();
+    step.args = join_lists(&step.args, "base_level");
+    if let Some(toml::Value::String(t)) = step.args.get("set") {
+        let one = toml::Value::Array(vec![toml::Value::String(t.clone())]);
+        step.args.insert("set".into(), one);
+    }
+    if let Some(toml::Value::String(t)) = step.args.get("levels") {
+        let mut list = vec![];
+        for v in t.split(',') {
+            match v.trim().parse::<f64>() {
+                Ok(x) => list.push(toml::Value::Float(x)),
+                Err(_) => {
+                    return Err(step_error(
+                        s,
+                        format!(
+                        "`erode` option levels = {t:?}: expected cell sizes such as \"100,50,30\""
+                    ),
+                    ))
+                }
+            }
+        }
+        step.args.insert("levels".into(), toml::Value::Array(list));
+    }
+    if !step.args.contains_key("model") {
+        return Err(step_error(
+            s,
+            "`erode` needs its model: model = \"hydraulic\" (or thermal, diffusion, stream-power)",
+        ));
+    }
+    let path = output(s)?;
+    let mut set = vec![
+        (
+            "input",
+            toml::Value::String(one_input(s)?.display().to_string()),
+        ),
+        ("output", toml::Value::String(path.display().to_string())),
+    ];
+    if let Some(t) = step.args.get("tile") {
+        set.push(("tile", t.clone()));
+    }
+    let call = StepCall {
+        step: &step,
+        quiet: call.quiet,
+    };
+    let t = typed_keys_with::<ops::erode::ErodeOptions>(&call, RASTER, set)?;
+    t.options.validate().map_err(|e| step_error(s, e))?;
+    let oo = t.format.output_options()?;
+    let (run, png) = (t.run, t.png.open_options());
+    Ok(TypedStep::new(t.options, move |opts, notify| {
+        let cfg = engine_config(&run)?;
+        ops::erode::run(opts, &png, &oo, &cfg, &mut quiet_filter(run.quiet, notify))
+    }))
+}
+
 /// A command reading D8 directions (no PNG keys) and writing a target.
 fn dirs_step<O>(
     call: &StepCall<'_>,
