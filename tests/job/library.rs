@@ -228,6 +228,68 @@ step = [
 }
 
 #[test]
+fn orometric_synthesis_steps_equal_the_operations() {
+    use orogen::ops::synth::orometric as oro;
+    let tmp = tempfile::tempdir().unwrap();
+    let path = tmp.path().join("job.toml");
+    std::fs::write(
+        &path,
+        format!(
+            r#"output_dir = "out"
+inputs = {{ dem = "{}" }}
+step = [
+    {{ name = "p", run = "synth profile", input = "dem", output = "p.json", args = {{ min_prominence = 10 }} }},
+    {{ name = "t", run = "synth divide-tree", output = "t.json", args = {{ profile = "@p", size = "64", cell = 30, seed = 2 }} }},
+    {{ name = "f", run = "synth from-tree", input = "t", output = "f.tif", args = {{ terrain = "tents" }} }},
+]
+"#,
+            dem().display()
+        ),
+    )
+    .unwrap();
+    let opts = quiet();
+    let j = job::prepare(&path, &opts).unwrap();
+    job::run(&j, &opts, &mut |_| {}).unwrap();
+    let hand = tmp.path().join("hand");
+    std::fs::create_dir_all(&hand).unwrap();
+    let cfg = RunOptions::default().engine_config(false).unwrap();
+    let p = oro::ProfileOptions {
+        input: dem(),
+        min_prominence: 10.0,
+        output: hand.join("p.json"),
+        ..Default::default()
+    };
+    oro::run_profile(&p, &Default::default(), &mut |_| {}).unwrap();
+    let t = oro::DivideTreeOptions {
+        tree: oro::TreeSynthOptions {
+            profile: hand.join("p.json"),
+            size: "64".into(),
+            cell: 30.0,
+            seed: 2,
+            ..Default::default()
+        },
+        output: hand.join("t.json"),
+        geojson: None,
+    };
+    oro::run_divide_tree(&t, &mut |_| {}).unwrap();
+    let f = oro::FromTreeOptions {
+        tree: hand.join("t.json"),
+        terrain: oro::TerrainSynthOptions {
+            terrain: oro::TerrainKind::Tents,
+            ..Default::default()
+        },
+        output: hand.join("f.tif"),
+        ..Default::default()
+    };
+    oro::run_from_tree(&f, &Default::default(), &cfg, &mut |_| {}).unwrap();
+    for name in ["p.json", "t.json", "f.tif"] {
+        let a = std::fs::read(tmp.path().join("out").join(name)).unwrap();
+        let b = std::fs::read(hand.join(name)).unwrap();
+        assert!(a == b, "{name}: the job's bytes differ");
+    }
+}
+
+#[test]
 fn each_mistake_is_refused_in_prepare_naming_step_and_key() {
     let d = dem().display().to_string();
     let step = |run: &str, input: &str, args: &str| {
@@ -297,8 +359,8 @@ fn each_mistake_is_refused_in_prepare_naming_step_and_key() {
         ),
         (
             "not typed",
-            step("synth profile", "", ""),
-            vec!["`synth profile` does not run from the library yet"],
+            step("synth optimise", "", ""),
+            vec!["`synth optimise` does not run from the library yet"],
         ),
     ];
     for (what, text, want) in cases {

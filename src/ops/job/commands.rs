@@ -81,10 +81,10 @@ pub const COMMANDS: &[Command] = &[
     line("synth optimise"),
     typed("synth rivers", steps::synth_rivers),
     typed("synth tectonic", steps::synth_tectonic),
-    line("synth profile"),
-    line("synth divide-tree"),
-    line("synth from-tree"),
-    line("synth orometric"),
+    typed("synth profile", steps::synth_profile),
+    typed("synth divide-tree", steps::synth_divide_tree),
+    typed("synth from-tree", steps::synth_from_tree),
+    typed("synth orometric", steps::synth_orometric),
     typed("compare", steps::compare),
     typed("demo", steps::demo),
 ];
@@ -292,8 +292,18 @@ pub fn typed_keys_with<O: DeserializeOwned>(
     takes: Takes,
     set: Vec<(&'static str, toml::Value)>,
 ) -> Result<Typed<O>> {
+    typed_keys_named(call, takes, set, field_names::<O>())
+}
+
+/// [`typed_keys_with`] for options whose keys are `all_own` (a struct with
+/// flattened parts, whose field names serde does not list).
+pub fn typed_keys_named<O: DeserializeOwned>(
+    call: &StepCall<'_>,
+    takes: Takes,
+    set: Vec<(&'static str, toml::Value)>,
+    all_own: &[&'static str],
+) -> Result<Typed<O>> {
     let s = call.step;
-    let all_own = field_names::<O>();
     let own_vec: Vec<&'static str> = all_own
         .iter()
         .copied()

@@ -4,8 +4,8 @@
 //! georeference warning, write the target, note what was written).
 
 use super::commands::{
-    join_lists, one_input, output, step_error, typed_keys, typed_keys_with, StepCall, Takes,
-    TypedStep,
+    field_names, join_lists, one_input, output, step_error, typed_keys, typed_keys_named,
+    typed_keys_with, StepCall, Takes, TypedStep,
 };
 use crate::error::Result;
 use crate::exec::EngineConfig;
@@ -15,6 +15,7 @@ use crate::ops::{self, Target};
 use crate::raster::RasterSource;
 use serde::de::DeserializeOwned;
 use serde::Serialize;
+use std::sync::OnceLock;
 
 /// Reads a raster, writes rasters.
 const RASTER: Takes = Takes {
@@ -584,6 +585,121 @@ pub(super) fn synth_rivers(call: &StepCall<'_>) -> Result<TypedStep> {
 
 pub(super) fn synth_tectonic(call: &StepCall<'_>) -> Result<TypedStep> {
     synth_step(call, unchecked, ops::synth::tectonic::run)
+}
+
+fn path_value(p: &std::path::Path) -> toml::Value {
+    toml::Value::String(p.display().to_string())
+}
+
+/// `synth profile`: one input (a DEM to measure or a profile to edit)
+/// into the output profile.
+pub(super) fn synth_profile(call: &StepCall<'_>) -> Result<TypedStep> {
+    use ops::synth::orometric as oro;
+    let s = call.step;
+    let set = vec![
+        ("input", path_value(&one_input(s)?)),
+        ("output", path_value(&output(s)?)),
+    ];
+    let t = typed_keys_with::<oro::ProfileOptions>(call, FILES, set)?;
+    let png = t.png.open_options();
+    Ok(TypedStep::new(t.options, move |opts, notify| {
+        oro::run_profile(opts, &png, notify)
+    }))
+}
+
+/// The keys of a synthesis from a divide tree, made once into `keys`: the
+/// tree synthesis options (when `tree`), the terrain options (when
+/// `terrain`) and `extra`.
+fn oro_keys(
+    keys: &'static OnceLock<Vec<&'static str>>,
+    tree: bool,
+    terrain: bool,
+    extra: &[&'static str],
+) -> &'static [&'static str] {
+    use ops::synth::orometric as oro;
+    keys.get_or_init(|| {
+        let mut v: Vec<&'static str> = extra.to_vec();
+        if tree {
+            v.extend(field_names::<oro::TreeSynthOptions>());
+        }
+        if terrain {
+            v.extend(field_names::<oro::TerrainSynthOptions>());
+        }
+        v
+    })
+}
+
+/// `synth divide-tree`: no input; the tree (.json) into the output.
+pub(super) fn synth_divide_tree(call: &StepCall<'_>) -> Result<TypedStep> {
+    use ops::synth::orometric as oro;
+    let s = call.step;
+    if !s.inputs.is_empty() {
+        return Err(step_error(
+            s,
+            "`synth divide-tree` takes no input (its profile is an option: profile = \"@name\")",
+        ));
+    }
+    let set = vec![("output", path_value(&output(s)?))];
+    static KEYS: OnceLock<Vec<&str>> = OnceLock::new();
+    let keys = oro_keys(&KEYS, true, false, &["output", "geojson"]);
+    let t = typed_keys_named::<oro::DivideTreeOptions>(call, NEITHER, set, keys)?;
+    Ok(TypedStep::new(t.options, move |opts, notify| {
+        oro::run_divide_tree(opts, notify)
+    }))
+}
+
+/// `synth from-tree`: the tree (.json) as input, the terrain into the
+/// output.
+pub(super) fn synth_from_tree(call: &StepCall<'_>) -> Result<TypedStep> {
+    use ops::synth::orometric as oro;
+    let s = call.step;
+    let mut set = vec![
+        ("tree", path_value(&one_input(s)?)),
+        ("output", path_value(&output(s)?)),
+    ];
+    if let Some(t) = s.args.get("tile") {
+        set.push(("tile", t.clone()));
+    }
+    static KEYS: OnceLock<Vec<&str>> = OnceLock::new();
+    let keys = oro_keys(
+        &KEYS,
+        false,
+        true,
+        &["tree", "edits", "edited-tree", "output", "tile"],
+    );
+    let t = typed_keys_named::<oro::FromTreeOptions>(call, WRITES, set, keys)?;
+    let oo = t.format.output_options()?;
+    let run = t.run;
+    Ok(TypedStep::new(t.options, move |opts, notify| {
+        let cfg = engine_config(&run)?;
+        oro::run_from_tree(opts, &oo, &cfg, &mut quiet_filter(run.quiet, notify))
+    }))
+}
+
+/// `synth orometric`: no input (its profile is an option); profile ->
+/// divide tree -> terrain into the output.
+pub(super) fn synth_orometric(call: &StepCall<'_>) -> Result<TypedStep> {
+    use ops::synth::orometric as oro;
+    let s = call.step;
+    if !s.inputs.is_empty() {
+        return Err(step_error(
+            s,
+            "`synth orometric` takes no input (its profile is an option: profile = \"@name\")",
+        ));
+    }
+    let mut set = vec![("output", path_value(&output(s)?))];
+    if let Some(t) = s.args.get("tile") {
+        set.push(("tile", t.clone()));
+    }
+    static KEYS: OnceLock<Vec<&str>> = OnceLock::new();
+    let keys = oro_keys(&KEYS, true, true, &["tree-out", "output", "tile"]);
+    let t = typed_keys_named::<oro::OrometricOptions>(call, WRITES, set, keys)?;
+    let oo = t.format.output_options()?;
+    let run = t.run;
+    Ok(TypedStep::new(t.options, move |opts, notify| {
+        let cfg = engine_config(&run)?;
+        oro::run_orometric(opts, &oo, &cfg, &mut quiet_filter(run.quiet, notify))
+    }))
 }
 
 /// `compare`: two inputs (terrain a, terrain b) into the output folder.
