@@ -358,9 +358,9 @@ fn each_mistake_is_refused_in_prepare_naming_step_and_key() {
             vec!["step \"s\"", "`view` starts an interactive map server"],
         ),
         (
-            "not typed",
-            step("synth optimise", "", ""),
-            vec!["`synth optimise` does not run from the library yet"],
+            "required option",
+            step("synth optimise", "", "args = { guide = \"g.tif\" }"),
+            vec!["step \"s\"", "`synth optimise` needs source"],
         ),
     ];
     for (what, text, want) in cases {

@@ -41,13 +41,6 @@ const fn typed(name: &'static str, f: fn(&StepCall<'_>) -> Result<TypedStep>) ->
     }
 }
 
-const fn line(name: &'static str) -> Command {
-    Command {
-        name,
-        form: Form::CommandLine,
-    }
-}
-
 /// Every command a job may run, in the CLI's order.
 pub const COMMANDS: &[Command] = &[
     typed("info", steps::info),
@@ -78,7 +71,7 @@ pub const COMMANDS: &[Command] = &[
     typed("viewshed", steps::viewshed),
     typed("erode", steps::erode),
     typed("synth noise", steps::synth_noise),
-    line("synth optimise"),
+    typed("synth optimise", steps::synth_optimise),
     typed("synth rivers", steps::synth_rivers),
     typed("synth tectonic", steps::synth_tectonic),
     typed("synth profile", steps::synth_profile),

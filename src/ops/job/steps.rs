@@ -702,6 +702,44 @@ pub(super) fn synth_orometric(call: &StepCall<'_>) -> Result<TypedStep> {
     }))
 }
 
+/// `synth optimise`: no positional input (the exemplar and the guide are
+/// options: `source`, `guide`, often `"@name"`); into the output.
+pub(super) fn synth_optimise(call: &StepCall<'_>) -> Result<TypedStep> {
+    let s = call.step;
+    if !s.inputs.is_empty() {
+        return Err(step_error(
+            s,
+            "`synth optimise` takes its rasters as options (source = \"@name\", guide), not as input",
+        ));
+    }
+    for key in ["source", "guide"] {
+        if !s.args.contains_key(key) {
+            return Err(step_error(
+                s,
+                format!("`synth optimise` needs {key} = \"FILE\" (or \"@name\")"),
+            ));
+        }
+    }
+    if s.args.contains_key("falloff") && s.args.get("uniform") == Some(&toml::Value::Boolean(true))
+    {
+        return Err(step_error(
+            s,
+            "`synth optimise`: uniform = true and falloff exclude each other",
+        ));
+    }
+    let mut set = vec![("output", path_value(&output(s)?))];
+    if let Some(t) = s.args.get("tile") {
+        set.push(("tile", t.clone()));
+    }
+    let t = typed_keys_with::<ops::synth::optimise::OptimiseOptions>(call, WRITES, set)?;
+    let oo = t.format.output_options()?;
+    let run = t.run;
+    Ok(TypedStep::new(t.options, move |opts, notify| {
+        let cfg = engine_config(&run)?;
+        ops::synth::optimise::run(opts, &oo, &cfg, &mut quiet_filter(run.quiet, notify))
+    }))
+}
+
 /// `compare`: two inputs (terrain a, terrain b) into the output folder.
 pub(super) fn compare(call: &StepCall<'_>) -> Result<TypedStep> {
     let s = call.step;
