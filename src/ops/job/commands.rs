@@ -1,13 +1,12 @@
 //! The commands a job may run ([`COMMANDS`]: every `orogen` command but
-//! `run` and `help`, a group's methods as `"synth noise"`), and for the
-//! typed ones the turning of a step's `args` table into the operation's
-//! options: the command's `ops::<cmd>::<Cmd>Options` (serde, unknown keys
+//! `run` and `help`, a group's methods as `"synth noise"`), and the
+//! turning of a step's `args` table into the operation's options: the command's `ops::<cmd>::<Cmd>Options` (serde, unknown keys
 //! refused), the run settings ([`RunOptions`]: memory, threads, tile,
 //! quiet, engine), the output format ([`FormatOptions`]) and the PNG reading
 //! options ([`PngOptions`]), each key checked with one message naming the
 //! key, what the command accepts and the nearest accepted name.
 
-use super::plan::{CommandTable, Planned};
+use super::plan::Planned;
 use super::steps;
 use crate::error::{Error, Result};
 use crate::ops::note::Notify;
@@ -15,30 +14,17 @@ use crate::ops::parse::{FormatOptions, PngOptions, RunOptions};
 use serde::de::DeserializeOwned;
 use std::collections::BTreeMap;
 
-/// How a command of the registry is run.
-#[derive(Clone, Copy)]
-pub enum Form {
-    /// Built from the step's keys into typed options by this function.
-    Typed(fn(&StepCall<'_>) -> Result<TypedStep>),
-    /// Not typed yet: run as its command line by the caller's
-    /// [`super::StepRunner`] (the CLI's parser).
-    CommandLine,
-}
-
 /// One command a job may name.
 #[derive(Clone, Copy)]
 pub struct Command {
     /// The command as a step names it (`"fill"`, `"synth noise"`).
     pub name: &'static str,
-    /// How it runs.
-    pub form: Form,
+    /// Builds a step's typed options and its run from the step's keys.
+    pub build: fn(&StepCall<'_>) -> Result<TypedStep>,
 }
 
-const fn typed(name: &'static str, f: fn(&StepCall<'_>) -> Result<TypedStep>) -> Command {
-    Command {
-        name,
-        form: Form::Typed(f),
-    }
+const fn typed(name: &'static str, build: fn(&StepCall<'_>) -> Result<TypedStep>) -> Command {
+    Command { name, build }
 }
 
 /// Every command a job may run, in the CLI's order.
@@ -120,46 +106,36 @@ impl TypedStep {
     }
 }
 
-/// The typed step of `s`, `None` when its command runs as a command line.
-pub fn typed_step(s: &Planned, quiet: bool) -> Option<Result<TypedStep>> {
-    match command(&s.command)?.form {
-        Form::Typed(f) => Some(f(&StepCall { step: s, quiet })),
-        Form::CommandLine => None,
+/// The typed step of `s` (a step of a registered command: the planner
+/// checked its name).
+pub fn typed_step(s: &Planned, quiet: bool) -> Result<TypedStep> {
+    match command(&s.command) {
+        Some(c) => (c.build)(&StepCall { step: s, quiet }),
+        None => Err(step_error(s, format!("unknown command `{}`", s.command))),
     }
 }
 
-/// The registry as the planner sees it: the commands, their methods, and
-/// the keys of typed commands (checked when the step is typed, in
-/// [`super::prepare`]); what an untyped command accepts is asked of
-/// `fallback` (none: [`super::prepare`] says it cannot run without the CLI).
-pub struct Registry<'a> {
-    /// Asked about the commands that run as command lines.
-    pub fallback: Option<&'a dyn CommandTable>,
+/// True if `name` is a command of the registry or a group of them.
+pub fn has(name: &str) -> bool {
+    COMMANDS
+        .iter()
+        .any(|c| c.name == name || c.name.split(' ').next() == Some(name))
 }
 
-impl CommandTable for Registry<'_> {
-    fn has(&self, name: &str) -> bool {
-        COMMANDS
-            .iter()
-            .any(|c| c.name == name || c.name.split(' ').next() == Some(name))
-    }
-    fn names(&self) -> Vec<String> {
-        COMMANDS.iter().map(|c| c.name.to_string()).collect()
-    }
-    fn accepts(&self, command: &str, opt: &str) -> bool {
-        match self::command(command).map(|c| c.form) {
-            Some(Form::Typed(_)) => true,
-            _ => self.fallback.is_none_or(|f| f.accepts(command, opt)),
-        }
-    }
-    fn methods(&self, command: &str) -> Vec<String> {
-        let prefix = format!("{command} ");
-        COMMANDS
-            .iter()
-            .filter_map(|c| c.name.strip_prefix(&prefix))
-            .map(str::to_string)
-            .collect()
-    }
+/// The names of every command of the registry.
+pub fn names() -> Vec<String> {
+    COMMANDS.iter().map(|c| c.name.to_string()).collect()
+}
+
+/// The methods of the command group `command` (`synth` -> `noise`, ...);
+/// empty for a command that is no group.
+pub fn methods(command: &str) -> Vec<String> {
+    let prefix = format!("{command} ");
+    COMMANDS
+        .iter()
+        .filter_map(|c| c.name.strip_prefix(&prefix))
+        .map(str::to_string)
+        .collect()
 }
 
 /// The names of a serde struct's fields (a derived `Deserialize` hands
