@@ -7,7 +7,7 @@
 //! key, what the command accepts and the nearest accepted name.
 
 use super::plan::Planned;
-use super::steps;
+use super::{steps, synth_steps};
 use crate::error::{Error, Result};
 use crate::ops::note::Notify;
 use crate::ops::parse::{FormatOptions, PngOptions, RunOptions};
@@ -56,14 +56,14 @@ pub const COMMANDS: &[Command] = &[
     typed("view", steps::view),
     typed("viewshed", steps::viewshed),
     typed("erode", steps::erode),
-    typed("synth noise", steps::synth_noise),
-    typed("synth optimise", steps::synth_optimise),
-    typed("synth rivers", steps::synth_rivers),
-    typed("synth tectonic", steps::synth_tectonic),
-    typed("synth profile", steps::synth_profile),
-    typed("synth divide-tree", steps::synth_divide_tree),
-    typed("synth from-tree", steps::synth_from_tree),
-    typed("synth orometric", steps::synth_orometric),
+    typed("synth noise", synth_steps::synth_noise),
+    typed("synth optimise", synth_steps::synth_optimise),
+    typed("synth rivers", synth_steps::synth_rivers),
+    typed("synth tectonic", synth_steps::synth_tectonic),
+    typed("synth profile", synth_steps::synth_profile),
+    typed("synth divide-tree", synth_steps::synth_divide_tree),
+    typed("synth from-tree", synth_steps::synth_from_tree),
+    typed("synth orometric", synth_steps::synth_orometric),
     typed("compare", steps::compare),
     typed("demo", steps::demo),
 ];

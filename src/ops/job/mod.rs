@@ -64,6 +64,7 @@
 mod commands;
 mod plan;
 mod steps;
+mod synth_steps;
 
 pub use commands::{command, field_names, nearest, typed_step, Command, TypedStep, COMMANDS};
 pub use plan::*;

@@ -4,8 +4,8 @@
 //! georeference warning, write the target, note what was written).
 
 use super::commands::{
-    field_names, join_lists, one_input, output, step_error, typed_keys, typed_keys_named,
-    typed_keys_with, StepCall, Takes, TypedStep,
+    join_lists, one_input, output, step_error, typed_keys, typed_keys_with, StepCall, Takes,
+    TypedStep,
 };
 use crate::error::Result;
 use crate::exec::EngineConfig;
@@ -15,25 +15,24 @@ use crate::ops::{self, Target};
 use crate::raster::RasterSource;
 use serde::de::DeserializeOwned;
 use serde::Serialize;
-use std::sync::OnceLock;
 
 /// Reads a raster, writes rasters.
-const RASTER: Takes = Takes {
+pub(super) const RASTER: Takes = Takes {
     format: true,
     png: true,
 };
 /// Reads a raster, writes files of its own.
-const FILES: Takes = Takes {
+pub(super) const FILES: Takes = Takes {
     format: false,
     png: true,
 };
 /// Reads no raster of its own, writes rasters.
-const WRITES: Takes = Takes {
+pub(super) const WRITES: Takes = Takes {
     format: true,
     png: false,
 };
 /// Neither.
-const NEITHER: Takes = Takes {
+pub(super) const NEITHER: Takes = Takes {
     format: false,
     png: false,
 };
@@ -41,13 +40,13 @@ const NEITHER: Takes = Takes {
 /// The options of a command that has none of its own (`ingest`, `export`).
 #[derive(Debug, Clone, Default, PartialEq, Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
-struct NoOptions {}
+pub(super) struct NoOptions {}
 
 /// What a one-input raster operation runs once its input is open.
 type RasterOp<O> =
     fn(&dyn RasterSource, &O, &Target, &EngineConfig, &RunOptions, Notify<'_>) -> Result<()>;
 
-fn engine_config(run: &RunOptions) -> Result<EngineConfig> {
+pub(super) fn engine_config(run: &RunOptions) -> Result<EngineConfig> {
     use std::io::IsTerminal;
     run.engine_config(std::io::stderr().is_terminal())
 }
@@ -82,7 +81,7 @@ where
     }))
 }
 
-fn unchecked<O>(_: &O) -> Result<()> {
+pub(super) fn unchecked<O>(_: &O) -> Result<()> {
     Ok(())
 }
 
@@ -532,212 +531,11 @@ pub(super) fn streams(call: &StepCall<'_>) -> Result<TypedStep> {
 }
 
 /// Notes of a step, summaries (`Info`) left out when it is quiet.
-fn quiet_filter<'a>(quiet: bool, notify: Notify<'a>) -> impl FnMut(Note) + 'a {
+pub(super) fn quiet_filter<'a>(quiet: bool, notify: Notify<'a>) -> impl FnMut(Note) + 'a {
     move |n| match n {
         Note::Info(_) if quiet => {}
         n => notify(n),
     }
-}
-
-/// What a synthesis method runs: options holding their output path.
-type SynthOp<O> = fn(&O, &crate::io::OutputOptions, &EngineConfig, Notify<'_>) -> Result<()>;
-
-/// A synthesis method (`synth noise`, `synth rivers`, `synth tectonic`):
-/// no input; the output path is part of its options.
-fn synth_step<O>(
-    call: &StepCall<'_>,
-    check: fn(&O) -> Result<()>,
-    op: SynthOp<O>,
-) -> Result<TypedStep>
-where
-    O: DeserializeOwned + Serialize + Send + Sync + 'static,
-{
-    let s = call.step;
-    if !s.inputs.is_empty() {
-        return Err(step_error(s, format!("`{}` takes no input", s.command)));
-    }
-    let path = output(s)?;
-    let t = typed_keys_with::<O>(
-        call,
-        WRITES,
-        vec![("output", toml::Value::String(path.display().to_string()))],
-    )?;
-    check(&t.options).map_err(|e| step_error(s, e))?;
-    let oo = t.format.output_options()?;
-    let run = t.run;
-    Ok(TypedStep::new(t.options, move |opts, notify| {
-        let cfg = engine_config(&run)?;
-        op(opts, &oo, &cfg, &mut quiet_filter(run.quiet, notify))
-    }))
-}
-
-pub(super) fn synth_noise(call: &StepCall<'_>) -> Result<TypedStep> {
-    synth_step(
-        call,
-        |o: &ops::synth::noise::NoiseOptions| ops::synth::parse_size(&o.size).map(|_| ()),
-        ops::synth::noise::run,
-    )
-}
-
-pub(super) fn synth_rivers(call: &StepCall<'_>) -> Result<TypedStep> {
-    synth_step(call, unchecked, ops::synth::rivers::run)
-}
-
-pub(super) fn synth_tectonic(call: &StepCall<'_>) -> Result<TypedStep> {
-    synth_step(call, unchecked, ops::synth::tectonic::run)
-}
-
-fn path_value(p: &std::path::Path) -> toml::Value {
-    toml::Value::String(p.display().to_string())
-}
-
-/// `synth profile`: one input (a DEM to measure or a profile to edit)
-/// into the output profile.
-pub(super) fn synth_profile(call: &StepCall<'_>) -> Result<TypedStep> {
-    use ops::synth::orometric as oro;
-    let s = call.step;
-    let set = vec![
-        ("input", path_value(&one_input(s)?)),
-        ("output", path_value(&output(s)?)),
-    ];
-    let t = typed_keys_with::<oro::ProfileOptions>(call, FILES, set)?;
-    let png = t.png.open_options();
-    Ok(TypedStep::new(t.options, move |opts, notify| {
-        oro::run_profile(opts, &png, notify)
-    }))
-}
-
-/// The keys of a synthesis from a divide tree, made once into `keys`: the
-/// tree synthesis options (when `tree`), the terrain options (when
-/// `terrain`) and `extra`.
-fn oro_keys(
-    keys: &'static OnceLock<Vec<&'static str>>,
-    tree: bool,
-    terrain: bool,
-    extra: &[&'static str],
-) -> &'static [&'static str] {
-    use ops::synth::orometric as oro;
-    keys.get_or_init(|| {
-        let mut v: Vec<&'static str> = extra.to_vec();
-        if tree {
-            v.extend(field_names::<oro::TreeSynthOptions>());
-        }
-        if terrain {
-            v.extend(field_names::<oro::TerrainSynthOptions>());
-        }
-        v
-    })
-}
-
-/// `synth divide-tree`: no input; the tree (.json) into the output.
-pub(super) fn synth_divide_tree(call: &StepCall<'_>) -> Result<TypedStep> {
-    use ops::synth::orometric as oro;
-    let s = call.step;
-    if !s.inputs.is_empty() {
-        return Err(step_error(
-            s,
-            "`synth divide-tree` takes no input (its profile is an option: profile = \"@name\")",
-        ));
-    }
-    let set = vec![("output", path_value(&output(s)?))];
-    static KEYS: OnceLock<Vec<&str>> = OnceLock::new();
-    let keys = oro_keys(&KEYS, true, false, &["output", "geojson"]);
-    let t = typed_keys_named::<oro::DivideTreeOptions>(call, NEITHER, set, keys)?;
-    Ok(TypedStep::new(t.options, move |opts, notify| {
-        oro::run_divide_tree(opts, notify)
-    }))
-}
-
-/// `synth from-tree`: the tree (.json) as input, the terrain into the
-/// output.
-pub(super) fn synth_from_tree(call: &StepCall<'_>) -> Result<TypedStep> {
-    use ops::synth::orometric as oro;
-    let s = call.step;
-    let mut set = vec![
-        ("tree", path_value(&one_input(s)?)),
-        ("output", path_value(&output(s)?)),
-    ];
-    if let Some(t) = s.args.get("tile") {
-        set.push(("tile", t.clone()));
-    }
-    static KEYS: OnceLock<Vec<&str>> = OnceLock::new();
-    let keys = oro_keys(
-        &KEYS,
-        false,
-        true,
-        &["tree", "edits", "edited-tree", "output", "tile"],
-    );
-    let t = typed_keys_named::<oro::FromTreeOptions>(call, WRITES, set, keys)?;
-    let oo = t.format.output_options()?;
-    let run = t.run;
-    Ok(TypedStep::new(t.options, move |opts, notify| {
-        let cfg = engine_config(&run)?;
-        oro::run_from_tree(opts, &oo, &cfg, &mut quiet_filter(run.quiet, notify))
-    }))
-}
-
-/// `synth orometric`: no input (its profile is an option); profile ->
-/// divide tree -> terrain into the output.
-pub(super) fn synth_orometric(call: &StepCall<'_>) -> Result<TypedStep> {
-    use ops::synth::orometric as oro;
-    let s = call.step;
-    if !s.inputs.is_empty() {
-        return Err(step_error(
-            s,
-            "`synth orometric` takes no input (its profile is an option: profile = \"@name\")",
-        ));
-    }
-    let mut set = vec![("output", path_value(&output(s)?))];
-    if let Some(t) = s.args.get("tile") {
-        set.push(("tile", t.clone()));
-    }
-    static KEYS: OnceLock<Vec<&str>> = OnceLock::new();
-    let keys = oro_keys(&KEYS, true, true, &["tree-out", "output", "tile"]);
-    let t = typed_keys_named::<oro::OrometricOptions>(call, WRITES, set, keys)?;
-    let oo = t.format.output_options()?;
-    let run = t.run;
-    Ok(TypedStep::new(t.options, move |opts, notify| {
-        let cfg = engine_config(&run)?;
-        oro::run_orometric(opts, &oo, &cfg, &mut quiet_filter(run.quiet, notify))
-    }))
-}
-
-/// `synth optimise`: no positional input (the exemplar and the guide are
-/// options: `source`, `guide`, often `"@name"`); into the output.
-pub(super) fn synth_optimise(call: &StepCall<'_>) -> Result<TypedStep> {
-    let s = call.step;
-    if !s.inputs.is_empty() {
-        return Err(step_error(
-            s,
-            "`synth optimise` takes its rasters as options (source = \"@name\", guide), not as input",
-        ));
-    }
-    for key in ["source", "guide"] {
-        if !s.args.contains_key(key) {
-            return Err(step_error(
-                s,
-                format!("`synth optimise` needs {key} = \"FILE\" (or \"@name\")"),
-            ));
-        }
-    }
-    if s.args.contains_key("falloff") && s.args.get("uniform") == Some(&toml::Value::Boolean(true))
-    {
-        return Err(step_error(
-            s,
-            "`synth optimise`: uniform = true and falloff exclude each other",
-        ));
-    }
-    let mut set = vec![("output", path_value(&output(s)?))];
-    if let Some(t) = s.args.get("tile") {
-        set.push(("tile", t.clone()));
-    }
-    let t = typed_keys_with::<ops::synth::optimise::OptimiseOptions>(call, WRITES, set)?;
-    let oo = t.format.output_options()?;
-    let run = t.run;
-    Ok(TypedStep::new(t.options, move |opts, notify| {
-        let cfg = engine_config(&run)?;
-        ops::synth::optimise::run(opts, &oo, &cfg, &mut quiet_filter(run.quiet, notify))
-    }))
 }
 
 /// `compare`: two inputs (terrain a, terrain b) into the output folder.
