@@ -379,3 +379,38 @@ fn each_mistake_is_refused_in_prepare_naming_step_and_key() {
         assert!(!tmp.path().join("out").exists(), "{what}");
     }
 }
+
+#[test]
+fn run_settings_go_only_to_commands_that_take_them() {
+    let tmp = tempfile::tempdir().unwrap();
+    let path = tmp.path().join("job.toml");
+    let job = |train_args: &str| {
+        format!(
+            "memory = \"256MiB\"\noutput_dir = \"out\"\ninputs = {{ dem = \"{}\" }}\nstep = [\n    {{ name = \"f\", run = \"fill\", input = \"dem\", output = \"f.tif\" }},\n    {{ name = \"m\", run = \"classify train\", input = \"dem\", output = \"m.json\"{train_args} }},\n]\n",
+            dem().display()
+        )
+    };
+    std::fs::write(&path, job("")).unwrap();
+    let j = job::prepare(&path, &quiet()).unwrap();
+    let argv = |name: &str| {
+        j.steps
+            .iter()
+            .find(|s| s.name == name)
+            .unwrap()
+            .argv
+            .clone()
+    };
+    assert!(argv("f").contains(&"--memory".to_string()));
+    assert!(
+        !argv("m").contains(&"--memory".to_string()),
+        "{:?}",
+        argv("m")
+    );
+    // `classify train` has no run settings: a step may not set them.
+    std::fs::write(&path, job(", args = { threads = 2 }")).unwrap();
+    let err = job::prepare(&path, &quiet()).unwrap_err().to_string();
+    assert!(
+        err.contains("`classify train` has no option --threads"),
+        "{err}"
+    );
+}

@@ -21,10 +21,27 @@ pub struct Command {
     pub name: &'static str,
     /// Builds a step's typed options and its run from the step's keys.
     pub build: fn(&StepCall<'_>) -> Result<TypedStep>,
+    /// Takes the run settings (`memory`, `threads`, `tile`, `quiet`,
+    /// `engine`), as its CLI command does: the job's settings are passed to
+    /// it and its keys accepted.
+    pub settings: bool,
 }
 
 const fn typed(name: &'static str, build: fn(&StepCall<'_>) -> Result<TypedStep>) -> Command {
-    Command { name, build }
+    Command {
+        name,
+        build,
+        settings: true,
+    }
+}
+
+/// A command without run settings (its CLI command has none).
+const fn unset(name: &'static str, build: fn(&StepCall<'_>) -> Result<TypedStep>) -> Command {
+    Command {
+        name,
+        build,
+        settings: false,
+    }
 }
 
 /// Every command a job may run, in the CLI's order.
@@ -38,9 +55,9 @@ pub const COMMANDS: &[Command] = &[
     typed("metric", steps::metric),
     typed("peaks", steps::peaks),
     typed("orostats", steps::orostats),
-    typed("classify train", steps::classify_train),
-    typed("classify predict", steps::classify_predict),
-    typed("classify evaluate", steps::classify_evaluate),
+    unset("classify train", steps::classify_train),
+    unset("classify predict", steps::classify_predict),
+    unset("classify evaluate", steps::classify_evaluate),
     typed("ridges", steps::ridges),
     typed("fill", steps::fill),
     typed("flow", steps::flow),
@@ -53,15 +70,15 @@ pub const COMMANDS: &[Command] = &[
     typed("hydro-index", steps::hydro_index),
     typed("render", steps::render),
     typed("tiles", steps::tiles),
-    typed("view", steps::view),
+    unset("view", steps::view),
     typed("viewshed", steps::viewshed),
     typed("erode", steps::erode),
     typed("synth noise", synth_steps::synth_noise),
     typed("synth optimise", synth_steps::synth_optimise),
     typed("synth rivers", synth_steps::synth_rivers),
     typed("synth tectonic", synth_steps::synth_tectonic),
-    typed("synth profile", synth_steps::synth_profile),
-    typed("synth divide-tree", synth_steps::synth_divide_tree),
+    unset("synth profile", synth_steps::synth_profile),
+    unset("synth divide-tree", synth_steps::synth_divide_tree),
     typed("synth from-tree", synth_steps::synth_from_tree),
     typed("synth orometric", synth_steps::synth_orometric),
     typed("compare", steps::compare),
@@ -113,6 +130,11 @@ pub fn typed_step(s: &Planned, quiet: bool) -> Result<TypedStep> {
         Some(c) => (c.build)(&StepCall { step: s, quiet }),
         None => Err(step_error(s, format!("unknown command `{}`", s.command))),
     }
+}
+
+/// True unless `command` is registered without run settings.
+pub fn takes_settings(command: &str) -> bool {
+    self::command(command).is_none_or(|c| c.settings)
 }
 
 /// True if `name` is a command of the registry or a group of them.
@@ -279,7 +301,11 @@ pub fn typed_keys_named<O: DeserializeOwned>(
         .filter(|f| !set.iter().any(|(k, _)| k == f))
         .collect();
     let own = own_vec.as_slice();
-    let run_keys = field_names::<RunOptions>();
+    let run_keys = if takes_settings(&s.command) {
+        field_names::<RunOptions>()
+    } else {
+        &[]
+    };
     let format_keys = if takes.format {
         field_names::<FormatOptions>()
     } else {

@@ -315,7 +315,7 @@ pub fn plan(
             ("engine", file.engine.clone().map(toml::Value::String)),
         ] {
             if let Some(v) = val {
-                if !s.args.contains_key(opt) {
+                if super::commands::takes_settings(&command) && !s.args.contains_key(opt) {
                     argv.push(format!("--{opt}"));
                     argv.push(match &v {
                         toml::Value::String(t) => t.clone(),
