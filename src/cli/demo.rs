@@ -13,16 +13,7 @@ pub fn run(a: DemoArgs) -> Result<()> {
         seed: a.seed,
     };
     let files = demo::run(&a.output, &opts, &engine(&a.run)?)?;
-    println!(
-        "orogen demo: a {}x{} seeded terrain (seed {}) and its analysis in {}:",
-        a.size,
-        a.size,
-        a.seed,
-        a.output.display()
-    );
-    for (f, what) in files {
-        println!("  {:<28} {what}", f.display());
-    }
+    print!("{}", demo::listing(&a.output, &opts, &files));
     Ok(())
 }
 

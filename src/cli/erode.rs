@@ -104,6 +104,7 @@ pub fn printer(quiet: bool) -> impl FnMut(Note) {
             }
         }
         Note::Message(s) => eprintln!("{s}"),
+        Note::Print(s) => print!("{s}"),
     }
 }
 

@@ -9,12 +9,12 @@ use orogen::ops::info::{self, InfoOptions};
 pub fn run(a: InfoArgs) -> Result<()> {
     let src = open(&a.input)?;
     let cfg = engine(&a.run)?;
-    let report = info::run(src.as_ref(), &InfoOptions { stats: a.stats }, &cfg)?;
-    if a.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
-    } else {
-        print!("{}", info::describe_text(&report));
-    }
+    let opts = InfoOptions {
+        stats: a.stats,
+        json: a.json,
+    };
+    let report = info::run(src.as_ref(), &opts, &cfg)?;
+    print!("{}", info::report_text(&report, &opts)?);
     Ok(())
 }
 

@@ -155,42 +155,20 @@ enum ClassifyCmd {
 
 /// Train, predict or evaluate (`ops::classify`).
 pub fn run_classify(a: ClassifyArgs) -> Result<()> {
+    let mut notify = super::erode::printer(false);
     match a.cmd {
         ClassifyCmd::Train {
             features,
             forest,
             output,
         } => {
-            let (m, ds) = classify::train(&features, &forest.options(), &output)?;
-            eprintln!(
-                "trained {} trees on {} vectors of {} classes: {}",
-                forest.trees,
-                ds.rows.len(),
-                m.classes.len(),
-                m.classes.join(", ")
-            );
-            crate::wrote(&output);
+            classify::train_noted(&features, &forest.options(), &output, &mut notify)?;
         }
         ClassifyCmd::Predict {
             model,
             features,
             output,
-        } => {
-            let (m, ds, pred) = classify::predict(&model, &features)?;
-            match &output {
-                Some(p) => {
-                    let s = classify::predictions_csv(&ds.labels, &pred);
-                    orogen::io::atomic::write_file_atomic(p, s.as_bytes())?;
-                    crate::wrote(p);
-                }
-                None => {
-                    for c in &m.classes {
-                        let n = pred.iter().filter(|q| *q == c).count();
-                        println!("{c}\t{n}");
-                    }
-                }
-            }
-        }
+        } => classify::predict_noted(&model, &features, output.as_deref(), &mut notify)?,
         ClassifyCmd::Evaluate {
             features,
             forest,
@@ -203,12 +181,7 @@ pub fn run_classify(a: ClassifyArgs) -> Result<()> {
                 repeats,
                 test_fraction,
             };
-            let ev = classify::evaluate(&features, &opts)?;
-            print!("{}", ev.summary());
-            if let Some(p) = &output {
-                orogen::io::atomic::write_file_atomic(p, ev.confusion_csv().as_bytes())?;
-                crate::wrote(p);
-            }
+            classify::evaluate_noted(&features, &opts, output.as_deref(), &mut notify)?;
         }
     }
     Ok(())
@@ -258,15 +231,7 @@ pub fn run_ridges(a: RidgesArgs) -> Result<()> {
     let cfg = crate::engine(&a.run)?;
     let src = crate::open(&a.input)?;
     let oo = crate::output_options(&a.fmt)?;
-    let done = ridges::run(src.as_ref(), &a.output, &opts, &oo, &cfg)?;
-    for f in &done.files {
-        crate::wrote(f);
-    }
-    if !a.run.quiet {
-        eprintln!(
-            "{} peaks (prominence >= {}), {} ridge segments, {} levels",
-            done.peaks, a.min_prominence, done.segments, done.levels
-        );
-    }
+    let mut notify = super::erode::printer(a.run.quiet);
+    ridges::run_noted(src.as_ref(), &a.output, &opts, &oo, &cfg, &mut notify)?;
     Ok(())
 }

@@ -2,6 +2,7 @@
 //! feature vectors ([`crate::oro::classify`]): train, predict, evaluate.
 
 use crate::error::{Error, Result};
+use crate::ops::note::{Note, Notify};
 use crate::oro::classify::{self, Dataset, Evaluation, ForestParams, Model};
 use std::path::{Path, PathBuf};
 
@@ -121,4 +122,68 @@ pub fn evaluate(features: &[PathBuf], opts: &EvaluateOptions) -> Result<Evaluati
         opts.test_fraction,
         opts.forest.seed,
     )
+}
+
+/// [`train`], noting the summary line (trees, vectors, classes) and the
+/// model written.
+pub fn train_noted(
+    features: &[PathBuf],
+    opts: &ForestOptions,
+    output: &Path,
+    notify: Notify<'_>,
+) -> Result<Model> {
+    let (m, ds) = train(features, opts, output)?;
+    notify(Note::Message(format!(
+        "trained {} trees on {} vectors of {} classes: {}",
+        opts.trees,
+        ds.rows.len(),
+        m.classes.len(),
+        m.classes.join(", ")
+    )));
+    notify(Note::Wrote(output.to_path_buf()));
+    Ok(m)
+}
+
+/// [`predict`], writing the `label,predicted` CSV to `output`, or without
+/// one printing (as [`Note::Print`]) each class with its count.
+pub fn predict_noted(
+    model: &Path,
+    features: &[PathBuf],
+    output: Option<&Path>,
+    notify: Notify<'_>,
+) -> Result<()> {
+    let (m, ds, pred) = predict(model, features)?;
+    match output {
+        Some(p) => {
+            let s = predictions_csv(&ds.labels, &pred);
+            crate::io::atomic::write_file_atomic(p, s.as_bytes())?;
+            notify(Note::Wrote(p.to_path_buf()));
+        }
+        None => {
+            let mut s = String::new();
+            for c in &m.classes {
+                let n = pred.iter().filter(|q| *q == c).count();
+                s.push_str(&format!("{c}\t{n}\n"));
+            }
+            notify(Note::Print(s));
+        }
+    }
+    Ok(())
+}
+
+/// [`evaluate`], printing (as [`Note::Print`]) its summary and writing the
+/// confusion matrix CSV to `output`, if given.
+pub fn evaluate_noted(
+    features: &[PathBuf],
+    opts: &EvaluateOptions,
+    output: Option<&Path>,
+    notify: Notify<'_>,
+) -> Result<Evaluation> {
+    let ev = evaluate(features, opts)?;
+    notify(Note::Print(ev.summary()));
+    if let Some(p) = output {
+        crate::io::atomic::write_file_atomic(p, ev.confusion_csv().as_bytes())?;
+        notify(Note::Wrote(p.to_path_buf()));
+    }
+    Ok(ev)
 }

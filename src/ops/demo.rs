@@ -35,6 +35,22 @@ pub fn run(
     demo(dir, opts.size, opts.seed, cfg)
 }
 
+/// What `orogen demo` prints of a run into `dir`: the terrain and each
+/// file written with its description.
+pub fn listing(dir: &Path, opts: &DemoOptions, files: &[(PathBuf, &'static str)]) -> String {
+    let mut s = format!(
+        "orogen demo: a {}x{} seeded terrain (seed {}) and its analysis in {}:\n",
+        opts.size,
+        opts.size,
+        opts.seed,
+        dir.display()
+    );
+    for (f, what) in files {
+        s.push_str(&format!("  {:<28} {what}\n", f.display()));
+    }
+    s
+}
+
 /// `orogen demo`: generate a seeded noise terrain (warped ridged fBm), ingest it into a tile store,
 /// export it, derive slope, aspect and hillshade, fill depressions, route D8
 /// flow and accumulate it (global passes across tiles), render a preview.

@@ -13,11 +13,25 @@ use crate::raster::{DType, RasterSource, TileLayout};
 pub struct InfoOptions {
     /// Also compute min/max/mean (reads every cell).
     pub stats: bool,
+    /// Report as JSON rather than text ([`report_text`]).
+    pub json: bool,
 }
 
 /// Describe `src` ([`describe`] with the options of `orogen info`).
 pub fn run(src: &dyn RasterSource, opts: &InfoOptions, cfg: &EngineConfig) -> Result<Description> {
     describe(src, opts.stats, cfg)
+}
+
+/// The report `orogen info` prints of `d`: pretty JSON with `json`, else
+/// the text of [`describe_text`].
+pub fn report_text(d: &Description, opts: &InfoOptions) -> Result<String> {
+    if opts.json {
+        serde_json::to_string_pretty(d)
+            .map(|j| j + "\n")
+            .map_err(|e| crate::error::Error::invalid(format!("info as JSON: {e}")))
+    } else {
+        Ok(describe_text(d))
+    }
 }
 
 /// What `orogen info` reports.

@@ -20,6 +20,8 @@ pub enum Note {
     /// A message printed even with `--quiet` (statistics asked for, a
     /// job's step lines).
     Message(String),
+    /// Text for standard output, as it is (the report of `info`).
+    Print(String),
 }
 
 /// The callback an operation reports its [`Note`]s to.

@@ -8,6 +8,7 @@ use super::orostats::read_dem;
 use crate::error::{Error, Result};
 use crate::exec::EngineConfig;
 use crate::io::OutputOptions;
+use crate::ops::note::{Note, Notify};
 use crate::oro::EdgeConvention;
 use crate::raster::{GeoRef, Grid, RasterSource};
 use std::path::{Path, PathBuf};
@@ -18,7 +19,9 @@ use std::path::{Path, PathBuf};
 pub struct RidgesOptions {
     /// Ridges of peaks with at least this prominence.
     pub min_prominence: f64,
-    /// Edge and nodata convention of the divide tree.
+    /// Edge and nodata convention of the divide tree (`sea-level` or
+    /// `unknown`).
+    #[serde(with = "super::peaks::edge_text")]
     pub edge: EdgeConvention,
     /// PPA profile half-length, cells.
     pub half_window: usize,
@@ -134,4 +137,25 @@ pub fn run(
         levels: net.edges.iter().map(|e| e.level).max().unwrap_or(0),
         files,
     })
+}
+
+/// [`run`], noting each file written and then the summary line (peaks,
+/// ridge segments, levels).
+pub fn run_noted(
+    dem: &dyn RasterSource,
+    dir: &Path,
+    opts: &RidgesOptions,
+    oo: &OutputOptions,
+    cfg: &EngineConfig,
+    notify: Notify<'_>,
+) -> Result<RidgesOutcome> {
+    let done = run(dem, dir, opts, oo, cfg)?;
+    for f in &done.files {
+        notify(Note::Wrote(f.clone()));
+    }
+    notify(Note::Info(format!(
+        "{} peaks (prominence >= {}), {} ridge segments, {} levels",
+        done.peaks, opts.min_prominence, done.segments, done.levels
+    )));
+    Ok(done)
 }

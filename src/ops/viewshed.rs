@@ -20,7 +20,9 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ViewshedOptions {
-    /// Observers in the DEM's CRS (or col,row with `pixel`).
+    /// Observers in the DEM's CRS (or col,row with `pixel`); read from
+    /// `"X,Y"`, a list of them or a list of `[x, y]` ([`pair_text`]).
+    #[serde(deserialize_with = "pair_text::list")]
     pub at: Vec<(f64, f64)>,
     /// More observers from a CSV (x,y or lon,lat columns) or GeoJSON Points file.
     pub points: Option<PathBuf>,
@@ -36,7 +38,9 @@ pub struct ViewshedOptions {
     pub curvature: bool,
     /// Refraction coefficient (with `curvature`).
     pub refraction: f64,
-    /// Fisher's fuzzy viewshed with distance-decay breakpoints (B1, B2).
+    /// Fisher's fuzzy viewshed with distance-decay breakpoints (B1, B2);
+    /// read from `"B1,B2"` or `[b1, b2]`.
+    #[serde(deserialize_with = "pair_text::option")]
     pub fuzzy: Option<(f64, f64)>,
 }
 
@@ -69,6 +73,58 @@ pub fn parse_pair(s: &str, what: &str) -> Result<(f64, f64)> {
         _ => Err(Error::invalid(format!(
             "{what} {s:?}: expected two numbers separated by a comma, e.g. 350120,4590210"
         ))),
+    }
+}
+
+/// Serde forms of the `X,Y` pairs of [`ViewshedOptions`]: the text of
+/// `--at` / `--fuzzy` ([`parse_pair`]) or two numbers.
+pub mod pair_text {
+    use serde::{Deserialize, Deserializer};
+
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Pair {
+        Text(String),
+        Numbers((f64, f64)),
+    }
+
+    impl Pair {
+        fn pair<E: serde::de::Error>(self, what: &str) -> Result<(f64, f64), E> {
+            match self {
+                Pair::Text(t) => super::parse_pair(&t, what).map_err(E::custom),
+                Pair::Numbers(p) => Ok(p),
+            }
+        }
+    }
+
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Pairs {
+        One(Pair),
+        Many(Vec<Pair>),
+    }
+
+    /// `"X,Y"`, `[x, y]` or a list of either.
+    pub fn list<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<(f64, f64)>, D::Error> {
+        match Pairs::deserialize(d)? {
+            Pairs::One(p) => Ok(vec![p.pair("--at")?]),
+            Pairs::Many(v) => v.into_iter().map(|p| p.pair("--at")).collect(),
+        }
+    }
+
+    /// `"B1,B2"` or `[b1, b2]`.
+    pub fn option<'de, D: Deserializer<'de>>(d: D) -> Result<Option<(f64, f64)>, D::Error> {
+        Option::<Pair>::deserialize(d)?
+            .map(|p| p.pair("--fuzzy"))
+            .transpose()
+    }
+}
+
+impl ViewshedOptions {
+    /// Check what can be checked without the DEM (the radius).
+    pub fn validate(&self) -> Result<()> {
+        parse_length(&self.radius).map_err(|e| ctx("--radius".into(), e))?;
+        Ok(())
     }
 }
 

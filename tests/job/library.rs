@@ -121,6 +121,175 @@ step = [
 }
 
 #[test]
+fn ridges_and_viewshed_steps_equal_their_operations() {
+    use orogen::ops::{ridges, viewshed};
+    let tmp = tempfile::tempdir().unwrap();
+    let path = tmp.path().join("job.toml");
+    std::fs::write(
+        &path,
+        format!(
+            r#"output_dir = "out"
+inputs = {{ dem = "{}" }}
+step = [
+    {{ name = "r", run = "ridges", input = "dem", output = "ridges", args = {{ min-prominence = 20, edge = "unknown", no_ppa = true }} }},
+    {{ name = "v", run = "viewshed", input = "dem", output = "vis.tif", args = {{ at = ["10,12", "30,8"], pixel = true, radius = "40c", fuzzy = "100,200" }} }},
+]
+"#,
+            dem().display()
+        ),
+    )
+    .unwrap();
+    let opts = quiet();
+    let j = job::prepare(&path, &opts).unwrap();
+    job::run(&j, &opts, &mut |_| {}).unwrap();
+    let hand = tmp.path().join("hand");
+    let cfg = RunOptions::default().engine_config(false).unwrap();
+    let d = orogen::io::open_raster(&dem(), &Default::default()).unwrap();
+    let r = ridges::RidgesOptions {
+        min_prominence: 20.0,
+        edge: orogen::oro::EdgeConvention::Unknown,
+        no_ppa: true,
+        ..Default::default()
+    };
+    let done = ridges::run(d.as_ref(), &hand, &r, &Default::default(), &cfg).unwrap();
+    let v = viewshed::ViewshedOptions {
+        at: vec![(10.0, 12.0), (30.0, 8.0)],
+        pixel: true,
+        radius: "40c".into(),
+        fuzzy: Some((100.0, 200.0)),
+        ..Default::default()
+    };
+    let target = Target {
+        path: hand.join("vis.tif"),
+        options: Default::default(),
+        tile: None,
+    };
+    viewshed::run(d.as_ref(), &v, &target, &cfg).unwrap();
+    let mut names: Vec<PathBuf> = done
+        .files
+        .iter()
+        .map(|f| Path::new("ridges").join(f.file_name().unwrap()))
+        .collect();
+    names.push("vis.tif".into());
+    for name in names {
+        let a = std::fs::read(tmp.path().join("out").join(&name)).unwrap();
+        let b = std::fs::read(hand.join(name.strip_prefix("ridges").unwrap_or(&name))).unwrap();
+        assert!(a == b, "{}: the job's bytes differ", name.display());
+    }
+}
+
+#[test]
+fn an_erode_step_equals_the_operation() {
+    use orogen::ops::erode::{self, ErodeOptions, Model};
+    let tmp = tempfile::tempdir().unwrap();
+    let path = tmp.path().join("job.toml");
+    std::fs::write(
+        &path,
+        format!(
+            r#"output_dir = "out"
+inputs = {{ dem = "{}" }}
+step = [
+    {{ name = "e", run = "erode", input = "dem", output = "eroded.tif", args = {{ model = "thermal", steps = 3, talus = 30, set = "rate=0.4", tile = 64 }} }},
+]
+"#,
+            dem().display()
+        ),
+    )
+    .unwrap();
+    let opts = quiet();
+    let j = job::prepare(&path, &opts).unwrap();
+    job::run(&j, &opts, &mut |_| {}).unwrap();
+    let hand = tmp.path().join("hand.tif");
+    let e = ErodeOptions {
+        input: dem(),
+        model: Model::Thermal,
+        steps: Some(3),
+        talus: Some(30.0),
+        set: vec!["rate=0.4".into()],
+        output: hand.clone(),
+        tile: Some(64),
+        ..Default::default()
+    };
+    let run = RunOptions {
+        tile: Some(64),
+        ..Default::default()
+    };
+    let cfg = run.engine_config(false).unwrap();
+    erode::run(
+        &e,
+        &Default::default(),
+        &Default::default(),
+        &cfg,
+        &mut |_| {},
+    )
+    .unwrap();
+    let a = std::fs::read(tmp.path().join("out/eroded.tif")).unwrap();
+    assert!(a == std::fs::read(&hand).unwrap(), "the job's bytes differ");
+}
+
+#[test]
+fn orometric_synthesis_steps_equal_the_operations() {
+    use orogen::ops::synth::orometric as oro;
+    let tmp = tempfile::tempdir().unwrap();
+    let path = tmp.path().join("job.toml");
+    std::fs::write(
+        &path,
+        format!(
+            r#"output_dir = "out"
+inputs = {{ dem = "{}" }}
+step = [
+    {{ name = "p", run = "synth profile", input = "dem", output = "p.json", args = {{ min_prominence = 10 }} }},
+    {{ name = "t", run = "synth divide-tree", output = "t.json", args = {{ profile = "@p", size = "64", cell = 30, seed = 2 }} }},
+    {{ name = "f", run = "synth from-tree", input = "t", output = "f.tif", args = {{ terrain = "tents" }} }},
+]
+"#,
+            dem().display()
+        ),
+    )
+    .unwrap();
+    let opts = quiet();
+    let j = job::prepare(&path, &opts).unwrap();
+    job::run(&j, &opts, &mut |_| {}).unwrap();
+    let hand = tmp.path().join("hand");
+    std::fs::create_dir_all(&hand).unwrap();
+    let cfg = RunOptions::default().engine_config(false).unwrap();
+    let p = oro::ProfileOptions {
+        input: dem(),
+        min_prominence: 10.0,
+        output: hand.join("p.json"),
+        ..Default::default()
+    };
+    oro::run_profile(&p, &Default::default(), &mut |_| {}).unwrap();
+    let t = oro::DivideTreeOptions {
+        tree: oro::TreeSynthOptions {
+            profile: hand.join("p.json"),
+            size: "64".into(),
+            cell: 30.0,
+            seed: 2,
+            ..Default::default()
+        },
+        output: hand.join("t.json"),
+        geojson: None,
+    };
+    oro::run_divide_tree(&t, &mut |_| {}).unwrap();
+    let f = oro::FromTreeOptions {
+        tree: hand.join("t.json"),
+        terrain: oro::TerrainSynthOptions {
+            terrain: oro::TerrainKind::Tents,
+            ..Default::default()
+        },
+        output: hand.join("f.tif"),
+        ..Default::default()
+    };
+    oro::run_from_tree(&f, &Default::default(), &cfg, &mut |_| {}).unwrap();
+    for name in ["p.json", "t.json", "f.tif"] {
+        let a = std::fs::read(tmp.path().join("out").join(name)).unwrap();
+        let b = std::fs::read(hand.join(name)).unwrap();
+        assert!(a == b, "{name}: the job's bytes differ");
+    }
+}
+
+#[test]
 fn each_mistake_is_refused_in_prepare_naming_step_and_key() {
     let d = dem().display().to_string();
     let step = |run: &str, input: &str, args: &str| {
@@ -170,9 +339,28 @@ fn each_mistake_is_refused_in_prepare_naming_step_and_key() {
             vec!["step \"s\"", "`fill` needs an input"],
         ),
         (
-            "not typed",
-            step("erode", "input = \"dem\"", ""),
-            vec!["`erode` does not run from the library yet"],
+            "bad pair",
+            step("viewshed", "input = \"dem\"", "args = { at = \"ten,20\" }"),
+            vec![
+                "step \"s\"",
+                "`viewshed` option at = \"ten,20\"",
+                "expected two numbers separated by a comma",
+            ],
+        ),
+        (
+            "no model",
+            step("erode", "input = \"dem\"", "args = { steps = 3 }"),
+            vec!["step \"s\"", "`erode` needs its model"],
+        ),
+        (
+            "interactive",
+            step("view", "input = \"dem\"", ""),
+            vec!["step \"s\"", "`view` starts an interactive map server"],
+        ),
+        (
+            "required option",
+            step("synth optimise", "", "args = { guide = \"g.tif\" }"),
+            vec!["step \"s\"", "`synth optimise` needs source"],
         ),
     ];
     for (what, text, want) in cases {
@@ -190,4 +378,39 @@ fn each_mistake_is_refused_in_prepare_naming_step_and_key() {
         // Nothing was written: not even the output folder.
         assert!(!tmp.path().join("out").exists(), "{what}");
     }
+}
+
+#[test]
+fn run_settings_go_only_to_commands_that_take_them() {
+    let tmp = tempfile::tempdir().unwrap();
+    let path = tmp.path().join("job.toml");
+    let job = |train_args: &str| {
+        format!(
+            "memory = \"256MiB\"\noutput_dir = \"out\"\ninputs = {{ dem = \"{}\" }}\nstep = [\n    {{ name = \"f\", run = \"fill\", input = \"dem\", output = \"f.tif\" }},\n    {{ name = \"m\", run = \"classify train\", input = \"dem\", output = \"m.json\"{train_args} }},\n]\n",
+            dem().display()
+        )
+    };
+    std::fs::write(&path, job("")).unwrap();
+    let j = job::prepare(&path, &quiet()).unwrap();
+    let argv = |name: &str| {
+        j.steps
+            .iter()
+            .find(|s| s.name == name)
+            .unwrap()
+            .argv
+            .clone()
+    };
+    assert!(argv("f").contains(&"--memory".to_string()));
+    assert!(
+        !argv("m").contains(&"--memory".to_string()),
+        "{:?}",
+        argv("m")
+    );
+    // `classify train` has no run settings: a step may not set them.
+    std::fs::write(&path, job(", args = { threads = 2 }")).unwrap();
+    let err = job::prepare(&path, &quiet()).unwrap_err().to_string();
+    assert!(
+        err.contains("`classify train` has no option --threads"),
+        "{err}"
+    );
 }

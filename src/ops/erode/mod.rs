@@ -224,6 +224,28 @@ const FILE_KEYS: [&str; 6] = [
 /// Default substeps between exchanges.
 pub const DEFAULT_EXCHANGE: usize = 8;
 
+/// The parameter table, the steps and the substeps between exchanges of
+/// `a` (its parameter file, `set` and named options), checked.
+fn settings(a: &ErodeOptions) -> Result<(toml::Table, u64, usize)> {
+    let (table, file_steps, file_exchange) = gather(a)?;
+    let Some(steps) = a.steps.or(file_steps) else {
+        bail!("give the number of steps with --steps N (or `steps` in --params)");
+    };
+    let exchange = a.exchange.or(file_exchange).unwrap_or(DEFAULT_EXCHANGE);
+    if exchange == 0 {
+        bail!("--exchange 0: give at least 1 substep between halo exchanges");
+    }
+    Ok((table, steps, exchange))
+}
+
+impl ErodeOptions {
+    /// Check what can be checked before the input is read: the parameter
+    /// file, the `set` values, the steps and the exchange.
+    pub fn validate(&self) -> Result<()> {
+        settings(self).map(|_| ())
+    }
+}
+
 /// Run `erode`: read `opts.input`, erode it with `opts.model`, write
 /// `opts.output` (and the extra outputs and previews asked for).
 /// Parameters are checked before the input is opened.
@@ -235,14 +257,7 @@ pub fn run(
     notify: Notify<'_>,
 ) -> Result<()> {
     let a = opts;
-    let (table, file_steps, file_exchange) = gather(a)?;
-    let Some(steps) = a.steps.or(file_steps) else {
-        bail!("give the number of steps with --steps N (or `steps` in --params)");
-    };
-    let exchange = a.exchange.or(file_exchange).unwrap_or(DEFAULT_EXCHANGE);
-    if exchange == 0 {
-        bail!("--exchange 0: give at least 1 substep between halo exchanges");
-    }
+    let (table, steps, exchange) = settings(a)?;
     let run = Run {
         a,
         open,

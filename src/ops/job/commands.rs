@@ -1,56 +1,52 @@
 //! The commands a job may run ([`COMMANDS`]: every `orogen` command but
-//! `run` and `help`, a group's methods as `"synth noise"`), and for the
-//! typed ones the turning of a step's `args` table into the operation's
-//! options: the command's `ops::<cmd>::<Cmd>Options` (serde, unknown keys
+//! `run` and `help`, a group's methods as `"synth noise"`), and the
+//! turning of a step's `args` table into the operation's options: the command's `ops::<cmd>::<Cmd>Options` (serde, unknown keys
 //! refused), the run settings ([`RunOptions`]: memory, threads, tile,
 //! quiet, engine), the output format ([`FormatOptions`]) and the PNG reading
 //! options ([`PngOptions`]), each key checked with one message naming the
 //! key, what the command accepts and the nearest accepted name.
 
-use super::plan::{CommandTable, Planned};
-use super::steps;
+use super::plan::Planned;
+use super::{steps, synth_steps};
 use crate::error::{Error, Result};
 use crate::ops::note::Notify;
 use crate::ops::parse::{FormatOptions, PngOptions, RunOptions};
 use serde::de::DeserializeOwned;
 use std::collections::BTreeMap;
 
-/// How a command of the registry is run.
-#[derive(Clone, Copy)]
-pub enum Form {
-    /// Built from the step's keys into typed options by this function.
-    Typed(fn(&StepCall<'_>) -> Result<TypedStep>),
-    /// Not typed yet: run as its command line by the caller's
-    /// [`super::StepRunner`] (the CLI's parser).
-    CommandLine,
-}
-
 /// One command a job may name.
 #[derive(Clone, Copy)]
 pub struct Command {
     /// The command as a step names it (`"fill"`, `"synth noise"`).
     pub name: &'static str,
-    /// How it runs.
-    pub form: Form,
+    /// Builds a step's typed options and its run from the step's keys.
+    pub build: fn(&StepCall<'_>) -> Result<TypedStep>,
+    /// Takes the run settings (`memory`, `threads`, `tile`, `quiet`,
+    /// `engine`), as its CLI command does: the job's settings are passed to
+    /// it and its keys accepted.
+    pub settings: bool,
 }
 
-const fn typed(name: &'static str, f: fn(&StepCall<'_>) -> Result<TypedStep>) -> Command {
+const fn typed(name: &'static str, build: fn(&StepCall<'_>) -> Result<TypedStep>) -> Command {
     Command {
         name,
-        form: Form::Typed(f),
+        build,
+        settings: true,
     }
 }
 
-const fn line(name: &'static str) -> Command {
+/// A command without run settings (its CLI command has none).
+const fn unset(name: &'static str, build: fn(&StepCall<'_>) -> Result<TypedStep>) -> Command {
     Command {
         name,
-        form: Form::CommandLine,
+        build,
+        settings: false,
     }
 }
 
 /// Every command a job may run, in the CLI's order.
 pub const COMMANDS: &[Command] = &[
-    line("info"),
+    typed("info", steps::info),
     typed("ingest", steps::ingest),
     typed("export", steps::export),
     typed("slope", steps::slope),
@@ -59,10 +55,10 @@ pub const COMMANDS: &[Command] = &[
     typed("metric", steps::metric),
     typed("peaks", steps::peaks),
     typed("orostats", steps::orostats),
-    line("classify train"),
-    line("classify predict"),
-    line("classify evaluate"),
-    line("ridges"),
+    unset("classify train", steps::classify_train),
+    unset("classify predict", steps::classify_predict),
+    unset("classify evaluate", steps::classify_evaluate),
+    typed("ridges", steps::ridges),
     typed("fill", steps::fill),
     typed("flow", steps::flow),
     typed("breach", steps::breach),
@@ -72,21 +68,21 @@ pub const COMMANDS: &[Command] = &[
     typed("basins", steps::basins),
     typed("streams", steps::streams),
     typed("hydro-index", steps::hydro_index),
-    line("render"),
+    typed("render", steps::render),
     typed("tiles", steps::tiles),
-    line("view"),
-    line("viewshed"),
-    line("erode"),
-    typed("synth noise", steps::synth_noise),
-    line("synth optimise"),
-    typed("synth rivers", steps::synth_rivers),
-    typed("synth tectonic", steps::synth_tectonic),
-    line("synth profile"),
-    line("synth divide-tree"),
-    line("synth from-tree"),
-    line("synth orometric"),
+    unset("view", steps::view),
+    typed("viewshed", steps::viewshed),
+    typed("erode", steps::erode),
+    typed("synth noise", synth_steps::synth_noise),
+    typed("synth optimise", synth_steps::synth_optimise),
+    typed("synth rivers", synth_steps::synth_rivers),
+    typed("synth tectonic", synth_steps::synth_tectonic),
+    unset("synth profile", synth_steps::synth_profile),
+    unset("synth divide-tree", synth_steps::synth_divide_tree),
+    typed("synth from-tree", synth_steps::synth_from_tree),
+    typed("synth orometric", synth_steps::synth_orometric),
     typed("compare", steps::compare),
-    line("demo"),
+    typed("demo", steps::demo),
 ];
 
 /// The registry entry of `name` (words separated by one space).
@@ -127,46 +123,41 @@ impl TypedStep {
     }
 }
 
-/// The typed step of `s`, `None` when its command runs as a command line.
-pub fn typed_step(s: &Planned, quiet: bool) -> Option<Result<TypedStep>> {
-    match command(&s.command)?.form {
-        Form::Typed(f) => Some(f(&StepCall { step: s, quiet })),
-        Form::CommandLine => None,
+/// The typed step of `s` (a step of a registered command: the planner
+/// checked its name).
+pub fn typed_step(s: &Planned, quiet: bool) -> Result<TypedStep> {
+    match command(&s.command) {
+        Some(c) => (c.build)(&StepCall { step: s, quiet }),
+        None => Err(step_error(s, format!("unknown command `{}`", s.command))),
     }
 }
 
-/// The registry as the planner sees it: the commands, their methods, and
-/// the keys of typed commands (checked when the step is typed, in
-/// [`super::prepare`]); what an untyped command accepts is asked of
-/// `fallback` (none: [`super::prepare`] says it cannot run without the CLI).
-pub struct Registry<'a> {
-    /// Asked about the commands that run as command lines.
-    pub fallback: Option<&'a dyn CommandTable>,
+/// True unless `command` is registered without run settings.
+pub fn takes_settings(command: &str) -> bool {
+    self::command(command).is_none_or(|c| c.settings)
 }
 
-impl CommandTable for Registry<'_> {
-    fn has(&self, name: &str) -> bool {
-        COMMANDS
-            .iter()
-            .any(|c| c.name == name || c.name.split(' ').next() == Some(name))
-    }
-    fn names(&self) -> Vec<String> {
-        COMMANDS.iter().map(|c| c.name.to_string()).collect()
-    }
-    fn accepts(&self, command: &str, opt: &str) -> bool {
-        match self::command(command).map(|c| c.form) {
-            Some(Form::Typed(_)) => true,
-            _ => self.fallback.is_none_or(|f| f.accepts(command, opt)),
-        }
-    }
-    fn methods(&self, command: &str) -> Vec<String> {
-        let prefix = format!("{command} ");
-        COMMANDS
-            .iter()
-            .filter_map(|c| c.name.strip_prefix(&prefix))
-            .map(str::to_string)
-            .collect()
-    }
+/// True if `name` is a command of the registry or a group of them.
+pub fn has(name: &str) -> bool {
+    COMMANDS
+        .iter()
+        .any(|c| c.name == name || c.name.split(' ').next() == Some(name))
+}
+
+/// The names of every command of the registry.
+pub fn names() -> Vec<String> {
+    COMMANDS.iter().map(|c| c.name.to_string()).collect()
+}
+
+/// The methods of the command group `command` (`synth` -> `noise`, ...);
+/// empty for a command that is no group.
+pub fn methods(command: &str) -> Vec<String> {
+    let prefix = format!("{command} ");
+    COMMANDS
+        .iter()
+        .filter_map(|c| c.name.strip_prefix(&prefix))
+        .map(str::to_string)
+        .collect()
 }
 
 /// The names of a serde struct's fields (a derived `Deserialize` hands
@@ -292,15 +283,29 @@ pub fn typed_keys_with<O: DeserializeOwned>(
     takes: Takes,
     set: Vec<(&'static str, toml::Value)>,
 ) -> Result<Typed<O>> {
+    typed_keys_named(call, takes, set, field_names::<O>())
+}
+
+/// [`typed_keys_with`] for options whose keys are `all_own` (a struct with
+/// flattened parts, whose field names serde does not list).
+pub fn typed_keys_named<O: DeserializeOwned>(
+    call: &StepCall<'_>,
+    takes: Takes,
+    set: Vec<(&'static str, toml::Value)>,
+    all_own: &[&'static str],
+) -> Result<Typed<O>> {
     let s = call.step;
-    let all_own = field_names::<O>();
     let own_vec: Vec<&'static str> = all_own
         .iter()
         .copied()
         .filter(|f| !set.iter().any(|(k, _)| k == f))
         .collect();
     let own = own_vec.as_slice();
-    let run_keys = field_names::<RunOptions>();
+    let run_keys = if takes_settings(&s.command) {
+        field_names::<RunOptions>()
+    } else {
+        &[]
+    };
     let format_keys = if takes.format {
         field_names::<FormatOptions>()
     } else {

@@ -33,8 +33,7 @@
 //! "tpi:radius=500m"]`). A string `"@name"` is the path of the input or step
 //! called `name` (an extra dependency). The equivalent command line of a
 //! step (strings and numbers as `--key value`, `true` as a flag, arrays
-//! joined with commas) is what the log and report show and what commands
-//! not typed yet are run as.
+//! joined with commas) is what the log and report show.
 //!
 //! Resume: after each step the job records, in `output_dir/.orogen-job.json`,
 //! a fingerprint of the step's command line and of its input files (size and
@@ -54,19 +53,20 @@
 //! calling `ops` directly, skipping those done in an earlier run, keeps the
 //! resume state and the JSON-lines log, and writes `report.html`.
 //!
-//! Commands not typed yet ([`Form::CommandLine`] in [`COMMANDS`]) run as
-//! their command line through a [`StepRunner`] the caller passes to
-//! [`prepare_with`] and [`run_with`] (the CLI's argument parser); without
-//! one, [`prepare`] refuses such a step. Each step still has its
-//! equivalent command line ([`Planned::argv`]): the log, the report and
-//! `orogen run --dry-run` show it, and the resume fingerprint is taken
-//! from it, so the fingerprints of earlier runs stay valid.
+//! `view` is in the registry but refused by [`prepare`]: it serves an
+//! interactive map until stopped, which a batch step cannot be.
+//!
+//! Each step also has its equivalent command line ([`Planned::argv`]): the
+//! log, the report and `orogen run --dry-run` show it (the dry run with the
+//! step's typed options as TOML), and the resume fingerprint is taken from
+//! it, so the fingerprints of earlier runs stay valid.
 
 mod commands;
 mod plan;
 mod steps;
+mod synth_steps;
 
-pub use commands::{command, field_names, nearest, typed_step, Command, Form, TypedStep, COMMANDS};
+pub use commands::{command, field_names, nearest, typed_step, Command, TypedStep, COMMANDS};
 pub use plan::*;
 
 use crate::error::{Error, Result};
@@ -76,17 +76,6 @@ use crate::report::{self, Status, StepOutcome};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-
-/// What runs a job's steps: the commands a job may name (the
-/// [`CommandTable`]), the check of a step's command line and the step
-/// itself. `argv` is the whole command line, `orogen` first.
-pub trait StepRunner: CommandTable {
-    /// Check `argv` without running it; the error is one line saying what
-    /// is wrong.
-    fn check(&self, step: &Planned, argv: &[String]) -> Result<()>;
-    /// Run the step.
-    fn run(&self, step: &Planned, argv: &[String]) -> Result<()>;
-}
 
 /// Options of `run` (each overrides the job file's value).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -119,68 +108,24 @@ const ELEVATION_COMMANDS: [&str; 8] = [
     "fill", "breach", "export", "ingest", "demo", "synth", "erode", "convert",
 ];
 
-/// The command line of step `s`, `orogen` first (`--quiet` added when
-/// `quiet` and the command takes it).
-pub fn command_line(s: &Planned, table: &dyn CommandTable, quiet: bool) -> Vec<String> {
-    let mut v = vec!["orogen".to_string()];
-    v.extend(s.argv.iter().cloned());
-    if quiet && table.accepts(&s.command, "quiet") {
-        v.push("--quiet".into());
-    }
-    v
-}
-
 /// Read and check the job file at `path` (see [`load`]) and type every
-/// step (see the module doc); every step must be of a typed command.
+/// step (see the module doc): an unknown key, a wrong value or a missing
+/// input is refused here, before any step runs.
 pub fn prepare(path: &Path, opts: &JobOptions) -> Result<Job> {
-    prepare_with(path, None, opts)
-}
-
-/// [`prepare`], with `fallback` checking the steps of commands not typed
-/// yet as command lines.
-pub fn prepare_with(
-    path: &Path,
-    fallback: Option<&dyn StepRunner>,
-    opts: &JobOptions,
-) -> Result<Job> {
-    let table = commands::Registry {
-        fallback: fallback.map(|f| f as &dyn CommandTable),
-    };
-    let job = load(path, &table, opts.memory.as_deref(), opts.threads)?;
+    let job = load(path, opts.memory.as_deref(), opts.threads)?;
     let produced: Vec<&PathBuf> = job.steps.iter().filter_map(|s| s.output.as_ref()).collect();
     let in_file = |e: Error| Error::invalid(format!("{}: {e}", path.display()));
     for s in &job.steps {
-        match typed_step(s, opts.quiet) {
-            Some(t) => {
-                t.map_err(in_file)?;
-                for p in &s.inputs {
-                    if !p.exists() && !produced.contains(&p) {
-                        return Err(in_file(commands::step_error(
-                            s,
-                            format!(
-                                "input {} does not exist (and no step writes it)",
-                                p.display()
-                            ),
-                        )));
-                    }
-                }
-            }
-            None => {
-                let checked = match fallback {
-                    Some(r) => r.check(s, &command_line(s, &table, opts.quiet)),
-                    None => Err(Error::invalid(format!(
-                        "`{}` does not run from the library yet (only under `orogen run`)",
-                        s.command
-                    ))),
-                };
-                if let Err(e) = checked {
-                    return Err(Error::invalid(format!(
-                        "{}: step {:?}: {e}\n  command: orogen {}",
-                        path.display(),
-                        s.name,
-                        s.argv.join(" ")
-                    )));
-                }
+        typed_step(s, opts.quiet).map_err(in_file)?;
+        for p in &s.inputs {
+            if !p.exists() && !produced.contains(&p) {
+                return Err(in_file(commands::step_error(
+                    s,
+                    format!(
+                        "input {} does not exist (and no step writes it)",
+                        p.display()
+                    ),
+                )));
             }
         }
     }
@@ -188,10 +133,9 @@ pub fn prepare_with(
 }
 
 /// What `orogen run --dry-run` shows of step `s`: its typed options as
-/// TOML (empty for an option-less command), or `None` for a command that
-/// runs as its command line.
-pub fn typed_options(s: &Planned) -> Option<Result<String>> {
-    typed_step(s, false).map(|t| t.map(|t| t.options))
+/// TOML (empty for an option-less command).
+pub fn typed_options(s: &Planned) -> Result<String> {
+    typed_step(s, false).map(|t| t.options)
 }
 
 /// Files named by a step's option values (not its inputs or `-o` output)
@@ -225,25 +169,12 @@ fn log_line(log: &mut Option<std::fs::File>, v: serde_json::Value) {
     }
 }
 
-/// Run the steps of `job` (from [`prepare`]) with `runner`: steps done in an
+/// Run the steps of `job` (from [`prepare`]) by calling `ops`: steps done in an
 /// earlier run (same command, same inputs) are skipped, the resume state is
 /// saved after each step, and `report.html` is written into the job's
 /// output folder (unless the job or `opts` turn it off), also when a step
 /// failed. The first failing step ends the run with an error naming it.
 pub fn run(job: &Job, opts: &JobOptions, notify: Notify<'_>) -> Result<JobReport> {
-    run_with(job, None, opts, notify)
-}
-
-/// [`run`], with `fallback` running the steps of commands not typed yet.
-pub fn run_with(
-    job: &Job,
-    fallback: Option<&dyn StepRunner>,
-    opts: &JobOptions,
-    notify: Notify<'_>,
-) -> Result<JobReport> {
-    let table = commands::Registry {
-        fallback: fallback.map(|f| f as &dyn CommandTable),
-    };
     if let Some(e) = opts.engine {
         crate::exec::select_engine(e)?;
     }
@@ -314,14 +245,7 @@ pub fn run_with(
         let t0 = Instant::now();
         // File times come from a coarse kernel clock: allow a margin.
         let started = std::time::SystemTime::now() - std::time::Duration::from_secs(2);
-        let result = match (typed_step(s, opts.quiet), fallback) {
-            (Some(t), _) => t.and_then(|t| t.run(&mut *notify)),
-            (None, Some(r)) => r.run(s, &command_line(s, &table, opts.quiet)),
-            (None, None) => Err(Error::invalid(format!(
-                "`{}` does not run from the library yet",
-                s.command
-            ))),
-        };
+        let result = typed_step(s, opts.quiet).and_then(|t| t.run(&mut *notify));
         let seconds = t0.elapsed().as_secs_f64();
         let peak = peak_rss();
         outcomes[i].seconds = seconds;

@@ -1,5 +1,5 @@
 //! The job file: schema (`JobFile`, `StepSpec`), checks against the
-//! commands a job may run (`CommandTable`), dependency order, command lines,
+//! commands a job may run (`super::COMMANDS`), dependency order, command lines,
 //! fingerprints and the resume state (see `ops::job` for the format).
 
 use crate::error::{Error, Result};
@@ -76,21 +76,6 @@ impl OneOrMany {
     }
 }
 
-/// What the job needs to know about each command it may run.
-pub trait CommandTable {
-    /// True if `name` is a command a job may run.
-    fn has(&self, name: &str) -> bool;
-    /// The commands a job may run (for error messages).
-    fn names(&self) -> Vec<String>;
-    /// True if `command` accepts the long option `--opt`.
-    fn accepts(&self, command: &str, opt: &str) -> bool;
-    /// The methods of a command group (`synth` → `noise`, …); empty for a
-    /// command that runs as it is. `command` may be a path (`synth noise`).
-    fn methods(&self, _command: &str) -> Vec<String> {
-        vec![]
-    }
-}
-
 /// A checked step, ready to run.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Planned {
@@ -123,16 +108,12 @@ fn bad(path: &Path, msg: impl Into<String>) -> Error {
     Error::invalid(format!("{}: {}", path.display(), msg.into()))
 }
 
-/// Parse and check the job file at `path` against the commands in `table`.
+/// Parse and check the job file at `path` against the commands of the registry
+/// ([`super::COMMANDS`]).
 /// `memory`/`threads` override the file's values. Every mistake (unknown
 /// key, unknown command or option, missing input, duplicate name, cycle)
 /// is one error naming the step.
-pub fn load(
-    path: &Path,
-    table: &dyn CommandTable,
-    memory: Option<&str>,
-    threads: Option<usize>,
-) -> Result<Job> {
+pub fn load(path: &Path, memory: Option<&str>, threads: Option<usize>) -> Result<Job> {
     let len = std::fs::metadata(path)
         .map_err(|e| Error::io(path, e))?
         .len();
@@ -147,14 +128,13 @@ pub fn load(
     }
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
     let file: JobFile = toml::from_str(&text).map_err(|e| bad(path, e.to_string().trim_end()))?;
-    plan(path, file, table, memory, threads)
+    plan(path, file, memory, threads)
 }
 
 /// Check a parsed job file (see [`load`]).
 pub fn plan(
     path: &Path,
     file: JobFile,
-    table: &dyn CommandTable,
     memory: Option<&str>,
     threads: Option<usize>,
 ) -> Result<Job> {
@@ -211,18 +191,18 @@ pub fn plan(
         let words: Vec<&str> = s.run.split_whitespace().collect();
         let command = words.join(" ");
         let top = words.first().copied().unwrap_or("");
-        if top == "run" || !table.has(top) {
+        if top == "run" || !super::commands::has(top) {
             return Err(at(format!(
                 "unknown command {:?}; a step may run: {}",
                 s.run,
-                table.names().join(", ")
+                super::commands::names().join(", ")
             )));
         }
         // Walk down a command group: every word but the last must be a group
         // that has the next word as a method, and the last must not be a group.
         for k in 1..=words.len() {
             let path = words[..k].join(" ");
-            let methods = table.methods(&path);
+            let methods = super::commands::methods(&path);
             match (words.get(k), methods.is_empty()) {
                 (None, true) => {}
                 (None, false) => {
@@ -265,11 +245,6 @@ pub fn plan(
         let mut args = BTreeMap::new();
         for (k, v) in &s.args {
             let key = k.replace('_', "-");
-            if !table.accepts(&command, &key) {
-                return Err(at(format!(
-                    "`{command}` has no option --{key}; see `orogen {command} --help`"
-                )));
-            }
             let mut value = |v: &toml::Value| -> Result<Option<String>> {
                 Ok(match v {
                     toml::Value::String(t) => match t.strip_prefix('@') {
@@ -340,7 +315,7 @@ pub fn plan(
             ("engine", file.engine.clone().map(toml::Value::String)),
         ] {
             if let Some(v) = val {
-                if table.accepts(&command, opt) && !s.args.contains_key(opt) {
+                if super::commands::takes_settings(&command) && !s.args.contains_key(opt) {
                     argv.push(format!("--{opt}"));
                     argv.push(match &v {
                         toml::Value::String(t) => t.clone(),

@@ -17,22 +17,22 @@ use serde::de::DeserializeOwned;
 use serde::Serialize;
 
 /// Reads a raster, writes rasters.
-const RASTER: Takes = Takes {
+pub(super) const RASTER: Takes = Takes {
     format: true,
     png: true,
 };
 /// Reads a raster, writes files of its own.
-const FILES: Takes = Takes {
+pub(super) const FILES: Takes = Takes {
     format: false,
     png: true,
 };
 /// Reads no raster of its own, writes rasters.
-const WRITES: Takes = Takes {
+pub(super) const WRITES: Takes = Takes {
     format: true,
     png: false,
 };
 /// Neither.
-const NEITHER: Takes = Takes {
+pub(super) const NEITHER: Takes = Takes {
     format: false,
     png: false,
 };
@@ -40,13 +40,13 @@ const NEITHER: Takes = Takes {
 /// The options of a command that has none of its own (`ingest`, `export`).
 #[derive(Debug, Clone, Default, PartialEq, Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
-struct NoOptions {}
+pub(super) struct NoOptions {}
 
 /// What a one-input raster operation runs once its input is open.
 type RasterOp<O> =
     fn(&dyn RasterSource, &O, &Target, &EngineConfig, &RunOptions, Notify<'_>) -> Result<()>;
 
-fn engine_config(run: &RunOptions) -> Result<EngineConfig> {
+pub(super) fn engine_config(run: &RunOptions) -> Result<EngineConfig> {
     use std::io::IsTerminal;
     run.engine_config(std::io::stderr().is_terminal())
 }
@@ -81,7 +81,7 @@ where
     }))
 }
 
-fn unchecked<O>(_: &O) -> Result<()> {
+pub(super) fn unchecked<O>(_: &O) -> Result<()> {
     Ok(())
 }
 
@@ -244,6 +244,230 @@ pub(super) fn orostats(call: &StepCall<'_>) -> Result<TypedStep> {
     )
 }
 
+/// `ridges`: one input into the output folder (ridges.geojson and its
+/// rasters, in the output format).
+pub(super) fn ridges(call: &StepCall<'_>) -> Result<TypedStep> {
+    let s = call.step;
+    let t = typed_keys::<ops::ridges::RidgesOptions>(call, RASTER)?;
+    t.options.validate().map_err(|e| step_error(s, e))?;
+    let input = one_input(s)?;
+    let dir = output(s)?;
+    let oo = t.format.output_options()?;
+    let (run, png) = (t.run, t.png.open_options());
+    Ok(TypedStep::new(t.options, move |opts, notify| {
+        let cfg = engine_config(&run)?;
+        let src = open_input(&input, &png, notify)?;
+        let mut notify = quiet_filter(run.quiet, notify);
+        ops::ridges::run_noted(src.as_ref(), &dir, opts, &oo, &cfg, &mut notify).map(|_| ())
+    }))
+}
+
+pub(super) fn viewshed(call: &StepCall<'_>) -> Result<TypedStep> {
+    raster_step(
+        call,
+        ops::viewshed::ViewshedOptions::validate,
+        |src, o, t, cfg, _, _| ops::viewshed::run(src, o, t, cfg),
+    )
+}
+
+pub(super) fn render(call: &StepCall<'_>) -> Result<TypedStep> {
+    files_step(
+        call,
+        |_: &ops::render::RenderOptions, _| Ok(()),
+        |src, out, o, _, notify| {
+            ops::render::run(src, out, o)?;
+            notify(Note::Wrote(out.to_path_buf()));
+            Ok(())
+        },
+    )
+}
+
+/// `info`: the report of one input on standard output (no output file).
+pub(super) fn info(call: &StepCall<'_>) -> Result<TypedStep> {
+    let s = call.step;
+    let t = typed_keys::<ops::info::InfoOptions>(call, FILES)?;
+    let input = one_input(s)?;
+    if s.output.is_some() {
+        return Err(step_error(s, "`info` writes no file: leave out output"));
+    }
+    let (run, png) = (t.run, t.png.open_options());
+    Ok(TypedStep::new(t.options, move |opts, notify| {
+        let cfg = engine_config(&run)?;
+        let src = open_input(&input, &png, notify)?;
+        let d = ops::info::run(src.as_ref(), opts, &cfg)?;
+        notify(Note::Print(ops::info::report_text(&d, opts)?));
+        Ok(())
+    }))
+}
+
+/// The step's inputs as feature files, refused when there are none.
+fn feature_inputs(s: &crate::ops::job::Planned, from: usize) -> Result<Vec<std::path::PathBuf>> {
+    match s.inputs.get(from..) {
+        Some(f) if !f.is_empty() => Ok(f.to_vec()),
+        _ => Err(step_error(
+            s,
+            format!(
+                "`{}` needs feature files: input = [{}\"a.csv\", ...]",
+                s.command,
+                if from == 1 { "\"model\", " } else { "" }
+            ),
+        )),
+    }
+}
+
+pub(super) fn classify_train(call: &StepCall<'_>) -> Result<TypedStep> {
+    let s = call.step;
+    let t = typed_keys::<ops::classify::ForestOptions>(call, NEITHER)?;
+    let features = feature_inputs(s, 0)?;
+    let model = output(s)?;
+    Ok(TypedStep::new(t.options, move |opts, notify| {
+        ops::classify::train_noted(&features, opts, &model, notify).map(|_| ())
+    }))
+}
+
+pub(super) fn classify_predict(call: &StepCall<'_>) -> Result<TypedStep> {
+    let s = call.step;
+    let t = typed_keys::<NoOptions>(call, NEITHER)?;
+    let features = feature_inputs(s, 1)?;
+    let model = s.inputs[0].clone();
+    let out = s.output.clone();
+    Ok(TypedStep::new(t.options, move |_, notify| {
+        ops::classify::predict_noted(&model, &features, out.as_deref(), notify)
+    }))
+}
+
+/// The keys of `classify evaluate`: [`ops::classify::EvaluateOptions`]
+/// with its forest's fields at the top (a flattened serde struct cannot
+/// refuse unknown keys).
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct EvaluateKeys {
+    trees: u16,
+    seed: u64,
+    mtry: Option<usize>,
+    max_depth: Option<u16>,
+    repeats: usize,
+    test_fraction: f64,
+}
+
+impl Default for EvaluateKeys {
+    fn default() -> Self {
+        let e = ops::classify::EvaluateOptions::default();
+        EvaluateKeys {
+            trees: e.forest.trees,
+            seed: e.forest.seed,
+            mtry: e.forest.mtry,
+            max_depth: e.forest.max_depth,
+            repeats: e.repeats,
+            test_fraction: e.test_fraction,
+        }
+    }
+}
+
+pub(super) fn classify_evaluate(call: &StepCall<'_>) -> Result<TypedStep> {
+    let s = call.step;
+    let k = typed_keys::<EvaluateKeys>(call, NEITHER)?.options;
+    let features = feature_inputs(s, 0)?;
+    let out = s.output.clone();
+    let opts = ops::classify::EvaluateOptions {
+        forest: ops::classify::ForestOptions {
+            trees: k.trees,
+            seed: k.seed,
+            mtry: k.mtry,
+            max_depth: k.max_depth,
+        },
+        repeats: k.repeats,
+        test_fraction: k.test_fraction,
+    };
+    Ok(TypedStep::new(opts, move |opts, notify| {
+        ops::classify::evaluate_noted(&features, opts, out.as_deref(), notify).map(|_| ())
+    }))
+}
+
+/// `demo`: no input; into the step's output folder (the CLI's default,
+/// `orogen-demo`, without one).
+pub(super) fn demo(call: &StepCall<'_>) -> Result<TypedStep> {
+    let s = call.step;
+    if !s.inputs.is_empty() {
+        return Err(step_error(s, "`demo` takes no input"));
+    }
+    let t = typed_keys::<ops::demo::DemoOptions>(call, NEITHER)?;
+    let dir = s.output.clone().unwrap_or_else(|| "orogen-demo".into());
+    let run = t.run;
+    Ok(TypedStep::new(t.options, move |opts, notify| {
+        let files = ops::demo::run(&dir, opts, &engine_config(&run)?)?;
+        notify(Note::Print(ops::demo::listing(&dir, opts, &files)));
+        Ok(())
+    }))
+}
+
+/// `view` serves an interactive map until stopped: never a job's step.
+pub(super) fn view(call: &StepCall<'_>) -> Result<TypedStep> {
+    Err(step_error(
+        call.step,
+        "`view` starts an interactive map server that runs until stopped, so a job cannot run it; run `orogen view` on the step's output yourself",
+    ))
+}
+
+/// `erode`: one input into the output (both, and the work tile, part of
+/// its options); `set` a `"KEY=VALUE"` or a list of them, `levels` a list
+/// of numbers or `"100,50,30"`, `base_level` a list or `"north,south"`.
+pub(super) fn erode(call: &StepCall<'_>) -> Result<TypedStep> {
+    let s = call.step;
+    let mut step = s.clone();
+    step.args = join_lists(&step.args, "base_level");
+    if let Some(toml::Value::String(t)) = step.args.get("set") {
+        let one = toml::Value::Array(vec![toml::Value::String(t.clone())]);
+        step.args.insert("set".into(), one);
+    }
+    if let Some(toml::Value::String(t)) = step.args.get("levels") {
+        let mut list = vec![];
+        for v in t.split(',') {
+            match v.trim().parse::<f64>() {
+                Ok(x) => list.push(toml::Value::Float(x)),
+                Err(_) => {
+                    return Err(step_error(
+                        s,
+                        format!(
+                        "`erode` option levels = {t:?}: expected cell sizes such as \"100,50,30\""
+                    ),
+                    ))
+                }
+            }
+        }
+        step.args.insert("levels".into(), toml::Value::Array(list));
+    }
+    if !step.args.contains_key("model") {
+        return Err(step_error(
+            s,
+            "`erode` needs its model: model = \"hydraulic\" (or thermal, diffusion, stream-power)",
+        ));
+    }
+    let path = output(s)?;
+    let mut set = vec![
+        (
+            "input",
+            toml::Value::String(one_input(s)?.display().to_string()),
+        ),
+        ("output", toml::Value::String(path.display().to_string())),
+    ];
+    if let Some(t) = step.args.get("tile") {
+        set.push(("tile", t.clone()));
+    }
+    let call = StepCall {
+        step: &step,
+        quiet: call.quiet,
+    };
+    let t = typed_keys_with::<ops::erode::ErodeOptions>(&call, RASTER, set)?;
+    t.options.validate().map_err(|e| step_error(s, e))?;
+    let oo = t.format.output_options()?;
+    let (run, png) = (t.run, t.png.open_options());
+    Ok(TypedStep::new(t.options, move |opts, notify| {
+        let cfg = engine_config(&run)?;
+        ops::erode::run(opts, &png, &oo, &cfg, &mut quiet_filter(run.quiet, notify))
+    }))
+}
+
 /// A command reading D8 directions (no PNG keys) and writing a target.
 fn dirs_step<O>(
     call: &StepCall<'_>,
@@ -307,59 +531,11 @@ pub(super) fn streams(call: &StepCall<'_>) -> Result<TypedStep> {
 }
 
 /// Notes of a step, summaries (`Info`) left out when it is quiet.
-fn quiet_filter<'a>(quiet: bool, notify: Notify<'a>) -> impl FnMut(Note) + 'a {
+pub(super) fn quiet_filter<'a>(quiet: bool, notify: Notify<'a>) -> impl FnMut(Note) + 'a {
     move |n| match n {
         Note::Info(_) if quiet => {}
         n => notify(n),
     }
-}
-
-/// What a synthesis method runs: options holding their output path.
-type SynthOp<O> = fn(&O, &crate::io::OutputOptions, &EngineConfig, Notify<'_>) -> Result<()>;
-
-/// A synthesis method (`synth noise`, `synth rivers`, `synth tectonic`):
-/// no input; the output path is part of its options.
-fn synth_step<O>(
-    call: &StepCall<'_>,
-    check: fn(&O) -> Result<()>,
-    op: SynthOp<O>,
-) -> Result<TypedStep>
-where
-    O: DeserializeOwned + Serialize + Send + Sync + 'static,
-{
-    let s = call.step;
-    if !s.inputs.is_empty() {
-        return Err(step_error(s, format!("`{}` takes no input", s.command)));
-    }
-    let path = output(s)?;
-    let t = typed_keys_with::<O>(
-        call,
-        WRITES,
-        vec![("output", toml::Value::String(path.display().to_string()))],
-    )?;
-    check(&t.options).map_err(|e| step_error(s, e))?;
-    let oo = t.format.output_options()?;
-    let run = t.run;
-    Ok(TypedStep::new(t.options, move |opts, notify| {
-        let cfg = engine_config(&run)?;
-        op(opts, &oo, &cfg, &mut quiet_filter(run.quiet, notify))
-    }))
-}
-
-pub(super) fn synth_noise(call: &StepCall<'_>) -> Result<TypedStep> {
-    synth_step(
-        call,
-        |o: &ops::synth::noise::NoiseOptions| ops::synth::parse_size(&o.size).map(|_| ()),
-        ops::synth::noise::run,
-    )
-}
-
-pub(super) fn synth_rivers(call: &StepCall<'_>) -> Result<TypedStep> {
-    synth_step(call, unchecked, ops::synth::rivers::run)
-}
-
-pub(super) fn synth_tectonic(call: &StepCall<'_>) -> Result<TypedStep> {
-    synth_step(call, unchecked, ops::synth::tectonic::run)
 }
 
 /// `compare`: two inputs (terrain a, terrain b) into the output folder.
