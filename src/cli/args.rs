@@ -90,6 +90,34 @@ pub(crate) struct OutFmt {
     pub(crate) overviews: String,
 }
 
+/// One raster in, one raster out: the input, the output and the run
+/// settings of `fill`, `fill-epsilon`, `watersheds` and `export`.
+#[derive(Args, Clone)]
+pub(crate) struct InOut {
+    #[command(flatten)]
+    pub(crate) input: In,
+    #[command(flatten)]
+    pub(crate) out: Out,
+    #[command(flatten)]
+    pub(crate) run: Run,
+}
+
+/// Run `op`, an operation of one raster with options `opts`, from `input`
+/// into `out` with `run`'s settings, then say what was written.
+pub(crate) fn run_one<O>(
+    input: &In,
+    out: &Out,
+    run: &Run,
+    opts: &O,
+    op: impl FnOnce(&dyn RasterSource, &O, &orogen::ops::Target, &EngineConfig) -> orogen::Result<()>,
+) -> Result<()> {
+    let src = open(input)?;
+    let t = target(out, run)?;
+    op(src.as_ref(), opts, &t, &engine(run)?)?;
+    wrote(&out.output);
+    Ok(())
+}
+
 #[derive(Args, Clone)]
 pub(crate) struct In {
     /// Input raster: GeoTIFF, .hgt, .asc, PNG heightmap or tile store.

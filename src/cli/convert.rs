@@ -1,7 +1,8 @@
 //! `orogen ingest` and `orogen export`: copy rasters into a tile store or a
 //! file format (`ops::convert`).
 
-use crate::{engine, open, target, warn_georef, wrote, In, Out, PngArgs, Run};
+use crate::cli::args::InOut;
+use crate::{engine, open, target, warn_georef, wrote, Out, PngArgs, Run};
 use anyhow::Result;
 use clap::Args;
 use orogen::raster::RasterSource;
@@ -16,8 +17,8 @@ pub fn run_ingest(a: IngestArgs) -> Result<()> {
 
 /// Export the input into the output.
 pub fn run_export(a: ExportArgs) -> Result<()> {
-    let src = open(&a.input)?;
-    convert(src.as_ref(), &a.out, &a.run)
+    let src = open(&a.io.input)?;
+    convert(src.as_ref(), &a.io.out, &a.io.run)
 }
 
 fn convert(src: &dyn RasterSource, out: &Out, run: &Run) -> Result<()> {
@@ -51,9 +52,5 @@ pub struct IngestArgs {
 )]
 pub struct ExportArgs {
     #[command(flatten)]
-    pub input: In,
-    #[command(flatten)]
-    pub out: Out,
-    #[command(flatten)]
-    pub run: Run,
+    pub(crate) io: InOut,
 }

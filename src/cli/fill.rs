@@ -1,17 +1,14 @@
 //! `orogen fill`: fill depressions, exact across tiles (`ops::fill`).
 
-use crate::{engine, open, target, wrote, In, Out, Run};
+use crate::cli::args::{run_one, InOut};
 use anyhow::Result;
 use clap::Args;
 use orogen::ops::fill::{self, FillOptions};
 
 /// Fill the input's depressions into the output.
 pub fn run(a: FillArgs) -> Result<()> {
-    let src = open(&a.input)?;
-    let t = target(&a.out, &a.run)?;
-    fill::run(src.as_ref(), &FillOptions::default(), &t, &engine(&a.run)?)?;
-    wrote(&a.out.output);
-    Ok(())
+    let InOut { input, out, run } = &a.io;
+    run_one(input, out, run, &FillOptions::default(), fill::run)
 }
 
 /// Arguments of `orogen fill`.
@@ -21,9 +18,5 @@ pub fn run(a: FillArgs) -> Result<()> {
 )]
 pub struct FillArgs {
     #[command(flatten)]
-    pub input: In,
-    #[command(flatten)]
-    pub out: Out,
-    #[command(flatten)]
-    pub run: Run,
+    pub(crate) io: InOut,
 }

@@ -1,7 +1,7 @@
 //! `orogen fill-epsilon`: depression filling with a strictly draining
 //! epsilon surface, exact across tiles (`orogen::ops::fill_epsilon`).
 
-use crate::{engine, open, target, wrote, In, Out, Run};
+use crate::cli::args::{run_one, InOut};
 use anyhow::Result;
 use clap::Args;
 use orogen::ops::fill_epsilon::{self, FillEpsilonOptions};
@@ -13,19 +13,12 @@ use orogen::ops::fill_epsilon::{self, FillEpsilonOptions};
 )]
 pub struct FillEpsilonArgs {
     #[command(flatten)]
-    pub input: In,
-    #[command(flatten)]
-    pub out: Out,
-    #[command(flatten)]
-    pub run: Run,
+    pub(crate) io: InOut,
 }
 
 /// Fill the input to an epsilon surface into the output (`ops::fill_epsilon`).
 pub fn run(a: FillEpsilonArgs) -> Result<()> {
-    let src = open(&a.input)?;
-    let cfg = engine(&a.run)?;
-    let t = target(&a.out, &a.run)?;
-    fill_epsilon::run(src.as_ref(), &FillEpsilonOptions::default(), &t, &cfg)?;
-    wrote(&a.out.output);
-    Ok(())
+    let InOut { input, out, run } = &a.io;
+    let opts = FillEpsilonOptions::default();
+    run_one(input, out, run, &opts, fill_epsilon::run)
 }

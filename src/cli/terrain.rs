@@ -1,7 +1,8 @@
 //! `orogen slope`, `orogen aspect` and `orogen hillshade` (Horn 1981, as
 //! gdaldem): `ops::slope`, `ops::aspect`, `ops::hillshade`.
 
-use crate::{engine, open, target, wrote, In, Out, Run};
+use crate::cli::args::run_one;
+use crate::{In, Out, Run};
 use anyhow::Result;
 use clap::{Args, ValueEnum};
 use orogen::metrics::SlopeUnits;
@@ -16,7 +17,6 @@ pub enum UnitsArg {
 
 /// Slope of the input.
 pub fn run_slope(a: SlopeArgs) -> Result<()> {
-    let src = open(&a.input)?;
     let opts = slope::SlopeOptions {
         units: match a.units {
             UnitsArg::Degrees => SlopeUnits::Degrees,
@@ -25,23 +25,16 @@ pub fn run_slope(a: SlopeArgs) -> Result<()> {
         z_factor: a.z_factor,
         compute_edges: a.compute_edges,
     };
-    let t = target(&a.out, &a.run)?;
-    slope::run(src.as_ref(), &opts, &t, &engine(&a.run)?)?;
-    wrote(&a.out.output);
-    Ok(())
+    run_one(&a.input, &a.out, &a.run, &opts, slope::run)
 }
 
 /// Aspect of the input.
 pub fn run_aspect(a: AspectArgs) -> Result<()> {
-    let src = open(&a.input)?;
     let opts = aspect::AspectOptions {
         zero_for_flat: a.zero_for_flat,
         compute_edges: a.compute_edges,
     };
-    let t = target(&a.out, &a.run)?;
-    aspect::run(src.as_ref(), &opts, &t, &engine(&a.run)?)?;
-    wrote(&a.out.output);
-    Ok(())
+    run_one(&a.input, &a.out, &a.run, &opts, aspect::run)
 }
 
 /// Hillshade of the input.
@@ -54,11 +47,7 @@ pub fn run_hillshade(a: HillshadeArgs) -> Result<()> {
     };
     // Checked before the input is opened (no georeference warning first).
     opts.validate()?;
-    let src = open(&a.input)?;
-    let t = target(&a.out, &a.run)?;
-    hillshade::run(src.as_ref(), &opts, &t, &engine(&a.run)?)?;
-    wrote(&a.out.output);
-    Ok(())
+    run_one(&a.input, &a.out, &a.run, &opts, hillshade::run)
 }
 
 /// Arguments of `orogen slope`.
