@@ -18,6 +18,18 @@ pub enum EdgeMode {
     Compute,
 }
 
+impl EdgeMode {
+    /// [`EdgeMode::Compute`] when `compute_edges` (gdaldem's
+    /// `-compute_edges`), else [`EdgeMode::Nodata`].
+    pub fn from_compute_edges(compute_edges: bool) -> Self {
+        if compute_edges {
+            EdgeMode::Compute
+        } else {
+            EdgeMode::Nodata
+        }
+    }
+}
+
 /// Call `f(window, ew_m, ns_m)` for every core cell of `view` whose centre is
 /// valid, writing the result into `out` (core-sized). `window` is the 3x3
 /// neighbourhood in row-major order `[a b c / d e f / g h i]` (row 0 = north

@@ -1,11 +1,12 @@
 //! `orogen aspect`: aspect (Horn 1981, as gdaldem aspect), the azimuth of
 //! downslope in degrees from north.
 
+use super::slope::TERRAIN_OUTPUT;
 use super::Target;
 use crate::error::Result;
 use crate::exec::EngineConfig;
 use crate::metrics::{Aspect, EdgeMode};
-use crate::raster::{DType, RasterSource};
+use crate::raster::RasterSource;
 
 /// Options of `orogen aspect`.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -21,11 +22,7 @@ impl AspectOptions {
     /// The local step these options describe.
     pub fn step(&self) -> Aspect {
         Aspect {
-            edge: if self.compute_edges {
-                EdgeMode::Compute
-            } else {
-                EdgeMode::Nodata
-            },
+            edge: EdgeMode::from_compute_edges(self.compute_edges),
             zero_for_flat: self.zero_for_flat,
         }
     }
@@ -39,10 +36,5 @@ pub fn run(
     target: &Target,
     cfg: &EngineConfig,
 ) -> Result<()> {
-    target.run_local(
-        &opts.step(),
-        dem,
-        (DType::F32, Some(crate::metrics::terrain::SLOPE_NODATA)),
-        cfg,
-    )
+    target.run_local(&opts.step(), dem, TERRAIN_OUTPUT, cfg)
 }

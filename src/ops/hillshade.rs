@@ -50,11 +50,7 @@ impl HillshadeOptions {
             azimuth: self.azimuth,
             altitude: self.altitude,
             z_factor: self.z_factor,
-            edge: if self.compute_edges {
-                EdgeMode::Compute
-            } else {
-                EdgeMode::Nodata
-            },
+            edge: EdgeMode::from_compute_edges(self.compute_edges),
         }
     }
 }

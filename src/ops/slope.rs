@@ -28,17 +28,18 @@ impl Default for SlopeOptions {
     }
 }
 
+/// The output of slope and aspect: f32 with nodata
+/// [`crate::metrics::terrain::SLOPE_NODATA`].
+pub(crate) const TERRAIN_OUTPUT: (DType, Option<f64>) =
+    (DType::F32, Some(crate::metrics::terrain::SLOPE_NODATA));
+
 impl SlopeOptions {
     /// The local step these options describe.
     pub fn step(&self) -> Slope {
         Slope {
             units: self.units,
             z_factor: self.z_factor,
-            edge: if self.compute_edges {
-                EdgeMode::Compute
-            } else {
-                EdgeMode::Nodata
-            },
+            edge: EdgeMode::from_compute_edges(self.compute_edges),
         }
     }
 }
@@ -65,10 +66,5 @@ pub fn run(
     target: &Target,
     cfg: &EngineConfig,
 ) -> Result<()> {
-    target.run_local(
-        &opts.step(),
-        dem,
-        (DType::F32, Some(crate::metrics::terrain::SLOPE_NODATA)),
-        cfg,
-    )
+    target.run_local(&opts.step(), dem, TERRAIN_OUTPUT, cfg)
 }
