@@ -212,14 +212,9 @@ pub(crate) fn open(i: &In) -> Result<Box<dyn RasterSource>> {
     Ok(src)
 }
 
+/// The library's warning when `src` has no georeferencing, on stderr.
 pub(crate) fn warn_georef(src: &dyn RasterSource) {
-    let info = src.info();
-    if !info.georef.georeferenced {
-        eprintln!(
-            "warning: {} has no georeferencing; using pixel coordinates with 1 x 1 cells (slopes assume cells of 1 elevation unit)",
-            info.path.display()
-        );
-    }
+    orogen::ops::note::warn_georef(src, &mut super::erode::printer(false));
 }
 
 static QUIET: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
