@@ -104,6 +104,7 @@ enum Cmd {
 }
 
 fn main() {
+    restore_sigpipe();
     // `orogen metric table ...` has its own parser (cli/metric_table.rs).
     let argv: Vec<std::ffi::OsString> = std::env::args_os().collect();
     if argv.get(1).is_some_and(|a| a == "metric") && argv.get(2).is_some_and(|a| a == "table") {
@@ -123,6 +124,20 @@ fn main() {
         orogen::exec::abort_engine(&format!("{e:#}"));
     }
     orogen::exec::finish_engine();
+}
+
+/// Let a closed stdout end the process quietly, as it does other Unix
+/// tools (`orogen run job.toml --dry-run | head`): the Rust runtime ignores
+/// SIGPIPE, so a write to a closed pipe fails and `println!` panics. Every
+/// file output is written to a temporary and renamed into place, so a run
+/// ended this way leaves no partial output.
+fn restore_sigpipe() {
+    #[cfg(unix)]
+    // SAFETY: setting a signal's disposition to the default before any other
+    // thread exists; no handler runs.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
 }
 
 fn run(cli: Cli) -> Result<()> {

@@ -360,3 +360,32 @@ fn peaks_line_parents_fill_the_dem_columns_and_refuse_tiled() {
     );
     assert!(e.contains("--line-parents needs the whole DEM"), "{e}");
 }
+
+/// A reader that closes the pipe early (`orogen metric list | head -1`) ends
+/// orogen quietly, as it ends other Unix tools: no panic message, no exit
+/// code 101. The pipe is closed before orogen writes, so every write fails.
+#[test]
+fn closed_stdout_ends_quietly() {
+    use std::process::Stdio;
+    let mut child = orogen()
+        .args(["metric", "list"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_ne!(out.status.code(), Some(101), "{err}");
+    #[cfg(unix)]
+    {
+        use std::os::unix::process::ExitStatusExt;
+        // Ended by SIGPIPE, or (if it wrote nothing at all) a clean exit.
+        assert!(
+            out.status.signal() == Some(13) || out.status.success(),
+            "{:?}",
+            out.status
+        );
+    }
+}
