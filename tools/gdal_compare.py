@@ -8,6 +8,11 @@ Modes:
                then check that what orogen WRITES (every option) GDAL reads identically.
   --fixtures   write small crops of every read variant to tests/data/gdal/ with GDAL's
                reference values (raw little-endian .bin) and manifest.json, for cargo test.
+  --band-fixtures
+               write the multi-band and photometric variants (every band of pixel- and
+               band-interleaved files; WhiteIsZero, RGB with unspecified extra samples,
+               alpha, palette) to tests/data/gdal/bands/, each band's values as GDAL
+               reads them, for cargo test; and a CMYK file orogen refuses.
 """
 import json, os, shlex, struct, subprocess, sys, tempfile
 import numpy as np
@@ -208,6 +213,70 @@ def extra_variants(tmp):
     yield "int16_nogeo_none.tif", n, ["BLOCKYSIZE=5"], None
 
 
+def band_variants():
+    """Multi-band and photometric variants of the int16 crop: (file name, dataset,
+    creation options). Every band of each is a reference (GDAL reads stored samples
+    whatever the photometric interpretation)."""
+    src = source_dataset("int16", find_window("int16"))  # kept alive while its band is read
+    a = src.GetRasterBand(1).ReadAsArray().astype(np.int64)
+    a = np.where(a < -1000, 0, a)
+    h, w = a.shape
+
+    def mem(bands, gtype):
+        d = gdal.GetDriverByName("MEM").Create("", w, h, len(bands), gtype)
+        for i, v in enumerate(bands):
+            d.GetRasterBand(i + 1).WriteArray(v)
+        return d
+
+    u8 = [np.clip(a // 20, 0, 255), (a // 3) % 256, 255 - np.clip(a // 20, 0, 255), a % 256, (a * 7) % 256]
+    i16 = [a, a - 2000, -a]
+    f32 = [(a * 0.5 + 0.25).astype(np.float32), (a * -0.125).astype(np.float32), (a / 3.0).astype(np.float32)]
+    tiled = ["TILED=YES", "BLOCKXSIZE=16", "BLOCKYSIZE=16"]
+    yield "u8_miniswhite_strip.tif", mem(u8[:1], gdal.GDT_Byte), ["PHOTOMETRIC=MINISWHITE", "BLOCKYSIZE=5"]
+    yield "i16_miniswhite_tiled_deflate.tif", mem(i16[:1], gdal.GDT_Int16), ["PHOTOMETRIC=MINISWHITE", "COMPRESS=DEFLATE"] + tiled
+    yield "f32_miniswhite_lzw_p3.tif", mem(f32[:1], gdal.GDT_Float32), ["PHOTOMETRIC=MINISWHITE", "COMPRESS=LZW", "PREDICTOR=3", "BLOCKYSIZE=5"]
+    yield "u8_rgb_extra_unspecified_strip.tif", mem(u8[:4], gdal.GDT_Byte), ["PHOTOMETRIC=RGB", "ALPHA=NO", "INTERLEAVE=PIXEL", "BLOCKYSIZE=5"]
+    yield "u8_rgb_extra_unspecified_tiled_deflate.tif", mem(u8[:4], gdal.GDT_Byte), ["PHOTOMETRIC=RGB", "ALPHA=NO", "INTERLEAVE=PIXEL", "COMPRESS=DEFLATE"] + tiled
+    yield "u8_rgb_two_extra_strip.tif", mem(u8, gdal.GDT_Byte), ["PHOTOMETRIC=RGB", "ALPHA=NO", "INTERLEAVE=PIXEL", "BLOCKYSIZE=5"]
+    yield "u16_rgb_alpha_tiled.tif", mem([np.clip(v * 200, 0, 65535) for v in u8[:4]], gdal.GDT_UInt16), ["PHOTOMETRIC=RGB", "ALPHA=YES", "INTERLEAVE=PIXEL"] + tiled
+    yield "i16_3band_pixel_strip_lzw_p2.tif", mem(i16, gdal.GDT_Int16), ["INTERLEAVE=PIXEL", "COMPRESS=LZW", "PREDICTOR=2", "BLOCKYSIZE=5"]
+    yield "i16_3band_planar_tiled_deflate.tif", mem(i16, gdal.GDT_Int16), ["INTERLEAVE=BAND", "COMPRESS=DEFLATE"] + tiled
+    yield "f32_3band_planar_strip_zstd_p3.tif", mem(f32, gdal.GDT_Float32), ["INTERLEAVE=BAND", "COMPRESS=ZSTD", "PREDICTOR=3", "BLOCKYSIZE=5"]
+    yield "f32_3band_planar_none_big.tif", mem(f32, gdal.GDT_Float32), ["INTERLEAVE=BAND", "BIGTIFF=YES", "BLOCKYSIZE=5"]
+    pal = mem(u8[:1], gdal.GDT_Byte)
+    ct = gdal.ColorTable()
+    for i in range(256):
+        ct.SetColorEntry(i, (i, 255 - i, (i * 3) % 256, 255))
+    pal.GetRasterBand(1).SetRasterColorTable(ct)
+    yield "u8_palette_strip.tif", pal, ["BLOCKYSIZE=5"]
+
+
+def make_band_fixtures():
+    out_dir = os.path.join(ROOT, "tests", "data", "gdal", "bands")
+    os.makedirs(out_dir, exist_ok=True)
+    for f in os.listdir(out_dir):
+        os.remove(os.path.join(out_dir, f))
+    manifest = {"files": []}
+    for fname, ds, co in band_variants():
+        path = os.path.join(out_dir, fname)
+        gdal.Translate(path, ds, format="GTiff", creationOptions=co)
+        d = gdal.Open(path)
+        for b in range(1, d.RasterCount + 1):
+            arr = d.GetRasterBand(b).ReadAsArray()
+            ref = f"{fname[:-4]}.b{b}.bin"
+            np.ascontiguousarray(arr).astype(arr.dtype.newbyteorder("<")).tofile(os.path.join(out_dir, ref))
+            manifest["files"].append({"file": fname, "band": b, "bands": d.RasterCount, "width": d.RasterXSize,
+                                      "height": d.RasterYSize, "dtype": str(arr.dtype), "reference": ref})
+    # CMYK colour, which GDAL reads converted to RGBA: not elevations, refused.
+    y = gdal.GetDriverByName("MEM").Create("", 16, 8, 4, gdal.GDT_Byte)
+    gdal.Translate(os.path.join(out_dir, "refused_cmyk.tif"), y, format="GTiff",
+                   creationOptions=["PHOTOMETRIC=CMYK", "INTERLEAVE=PIXEL"])
+    with open(os.path.join(out_dir, "manifest.json"), "w") as f:
+        json.dump(manifest, f, indent=1)
+    total = sum(os.path.getsize(os.path.join(out_dir, f)) for f in os.listdir(out_dir))
+    print(f"wrote {len(manifest['files'])} band references, {total} bytes, to {out_dir}")
+
+
 def make_fixtures():
     out_dir = os.path.join(ROOT, "tests", "data", "gdal")
     os.makedirs(out_dir, exist_ok=True)
@@ -310,6 +379,8 @@ def compare_all():
 if __name__ == "__main__":
     if "--fixtures" in sys.argv[1:]:
         make_fixtures()
+    elif "--band-fixtures" in sys.argv[1:]:
+        make_band_fixtures()
     else:
         compare_all()
         print(f"{passed} passed, {failed} failed")

@@ -8,6 +8,7 @@ fuzz_target!(|data: &[u8]| {
     let opts = orogen::io::OpenOptions {
         png_scale: 0.5,
         png_offset: -10.0,
+        ..Default::default()
     };
     if let Ok(src) = orogen::io::open_raster(&p, &opts) {
         fuzz_common::read_some(src.as_ref());

@@ -3,7 +3,7 @@
 
 use super::memsink::WholeFileSink;
 use crate::error::{Error, IoContext, Result};
-use crate::io::geotiff::{GeoTiffReader, GeoTiffWriter, WriteOptions};
+use crate::io::geotiff::{GeoTiffReader, GeoTiffWriter, ReaderOptions, WriteOptions};
 use crate::raster::{DType, GeoRef, RasterSource};
 use crate::store::sink::TileSink;
 use crate::store::{Provenance, StoreOptions, StoreWriter, TileStore};
@@ -17,6 +17,9 @@ pub struct OpenOptions {
     pub png_scale: f64,
     /// PNG heightmaps: elevation offset.
     pub png_offset: f64,
+    /// The band read from a multi-band GeoTIFF (1-based); every other
+    /// format has one band.
+    pub band: usize,
 }
 
 impl Default for OpenOptions {
@@ -24,6 +27,7 @@ impl Default for OpenOptions {
         OpenOptions {
             png_scale: 1.0,
             png_offset: 0.0,
+            band: 1,
         }
     }
 }
@@ -83,8 +87,22 @@ pub fn detect(path: &Path) -> Result<Format> {
 
 /// Open one raster of any supported format.
 pub fn open_raster(path: &Path, opts: &OpenOptions) -> Result<Box<dyn RasterSource>> {
-    Ok(match detect(path)? {
-        Format::GeoTiff => Box::new(GeoTiffReader::open(path)?),
+    let format = detect(path)?;
+    if opts.band != 1 && format != Format::GeoTiff {
+        return Err(Error::invalid(format!(
+            "{}: band {} asked for, the file has 1 band: choose --band 1",
+            path.display(),
+            opts.band
+        )));
+    }
+    Ok(match format {
+        Format::GeoTiff => Box::new(GeoTiffReader::open_with(
+            path,
+            &ReaderOptions {
+                band: opts.band,
+                ..Default::default()
+            },
+        )?),
         Format::Hgt => Box::new(super::hgt::read_hgt(path)?),
         Format::Ascii => Box::new(super::ascii::read_ascii(path)?),
         Format::Png => Box::new(super::png::read_png_heightmap(

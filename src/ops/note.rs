@@ -44,7 +44,20 @@ pub fn open_input(
 ) -> Result<Box<dyn RasterSource>> {
     let src = io::open_raster(path, opts)?;
     warn_georef(src.as_ref(), notify);
+    note_band(src.as_ref(), notify);
     Ok(src)
+}
+
+/// A note naming the band read when `src` has several (a multi-band file
+/// is read one band at a time: `--band N` chooses it).
+pub fn note_band(src: &dyn RasterSource, notify: Notify<'_>) {
+    let (band, bands) = src.band();
+    if bands > 1 {
+        notify(Note::Warning(format!(
+            "{} has {bands} bands; band {band} is read (choose another with --band N)",
+            src.info().path.display()
+        )));
+    }
 }
 
 /// A warning when `src` has no georeferencing (pixel coordinates, 1 x 1

@@ -310,6 +310,7 @@ impl PngOptions {
         OpenOptions {
             png_scale: self.png_scale,
             png_offset: self.png_offset,
+            ..Default::default()
         }
     }
 }

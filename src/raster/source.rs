@@ -31,6 +31,11 @@ pub trait RasterSource: Send + Sync {
     fn info(&self) -> &RasterInfo;
     /// Read `win` (inside the raster) in the native type.
     fn read_native(&self, win: Window) -> Result<AnyGrid>;
+    /// The band read (1-based) and the number of bands of the source: a
+    /// multi-band file is read one band at a time.
+    fn band(&self) -> (usize, usize) {
+        (1, 1)
+    }
 }
 
 /// Read any window of `src` converted to `T`. Cells outside the raster are

@@ -174,3 +174,65 @@ fn window_outside_the_raster_is_an_error_not_a_panic() {
     assert!(r.read_native(Window::new(-1, 0, 2, 2)).is_err());
     assert!(r.read_native(Window::new(0, 0, w + 1, h)).is_err());
 }
+
+/// Every band of the multi-band and photometric fixtures in
+/// tests/data/gdal/bands (`tools/gdal_variants.sh --band-fixtures`: pixel-
+/// and band-interleaved, strips and tiles, WhiteIsZero, RGB with extra
+/// samples of unspecified meaning, RGB + alpha, palette) reads exactly as
+/// GDAL 3.6 read it, and the reader says which band of how many it read.
+#[test]
+fn every_band_of_every_layout_matches_gdal() {
+    let bands = dir().join("bands");
+    let text = std::fs::read_to_string(bands.join("manifest.json")).expect("bands/manifest.json");
+    let v: Value = serde_json::from_str(&text).expect("valid manifest");
+    let files = v["files"].as_array().expect("files");
+    assert!(files.len() >= 30, "{} band references", files.len());
+    for e in files {
+        let name = e["file"].as_str().unwrap();
+        let band = e["band"].as_u64().unwrap() as usize;
+        let count = e["bands"].as_u64().unwrap() as usize;
+        let opts = ReaderOptions {
+            band,
+            ..Default::default()
+        };
+        let r = GeoTiffReader::open_with(bands.join(name), &opts)
+            .unwrap_or_else(|err| panic!("{name} band {band}: {err}"));
+        assert_eq!(r.band(), (band, count), "{name}");
+        let info = r.info();
+        assert_eq!(
+            info.dtype,
+            dtype_of(e["dtype"].as_str().unwrap()),
+            "{name} dtype"
+        );
+        let reference = std::fs::read(bands.join(e["reference"].as_str().unwrap())).unwrap();
+        let all = r
+            .read_native(Window::full(info.width, info.height))
+            .unwrap();
+        assert!(
+            all.as_le_bytes() == reference.as_slice(),
+            "{name} band {band}: values differ from GDAL's"
+        );
+        // One band past the last is refused, naming the file and the choice.
+        let past = ReaderOptions {
+            band: count + 1,
+            ..Default::default()
+        };
+        let err = GeoTiffReader::open_with(bands.join(name), &past)
+            .err()
+            .unwrap_or_else(|| panic!("{name}: band {} read", count + 1))
+            .to_string();
+        assert!(err.contains(name) && err.contains("--band 1"), "{err}");
+    }
+}
+
+/// A colour image whose stored samples are not what GDAL reads (CMYK, which
+/// GDAL converts to RGBA) is refused, saying what it is and how to convert.
+#[test]
+fn cmyk_colour_is_refused_clearly() {
+    let p = dir().join("bands/refused_cmyk.tif");
+    let err = GeoTiffReader::open(&p).err().expect("refused").to_string();
+    assert!(
+        err.contains("CMYK") && err.contains("gdal_translate") && err.contains("refused_cmyk.tif"),
+        "{err}"
+    );
+}

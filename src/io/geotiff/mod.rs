@@ -12,6 +12,7 @@ mod cache;
 mod cog;
 mod georef;
 mod ifd;
+mod photometric;
 mod reader;
 mod rows;
 mod writer;

@@ -6,8 +6,12 @@
 //! `Decoder<BufReader<File>>` per concurrent user, created on demand) and a
 //! byte-bounded LRU cache of decoded blocks.
 //!
-//! Multi-band files: pixel-interleaved (PlanarConfiguration 1) files are read
-//! as their first band only; band-interleaved (planar) files are refused.
+//! Multi-band files: one band is read (`ReaderOptions::band`, 1-based,
+//! default 1), from pixel-interleaved (PlanarConfiguration 1) and
+//! band-interleaved (planar, 2) files alike; [`RasterSource::band`] tells
+//! which band of how many was read. Samples are read as stored, whatever the
+//! photometric interpretation (WhiteIsZero, RGB, palette, CMYK: see
+//! `photometric.rs`), as GDAL reads them.
 //!
 //! Known difference from GDAL: an *uncompressed* file carrying a Predictor
 //! tag is un-predicted by the `tiff` crate, while libtiff (GDAL) ignores the
@@ -19,6 +23,7 @@ use super::georef::{
     crs_from_keys, half_cell_shift, parse_nodata, raster_type_from_keys, transform_from_matrix,
     transform_from_scale_tiepoint,
 };
+use super::photometric::{self, find_photometric, SampleFile};
 use super::SUPPORTED_COMPRESSION;
 use crate::error::{Error, IoContext, Result};
 use crate::raster::{
@@ -36,7 +41,7 @@ use tiff::TiffError;
 /// Largest raster orogen accepts (cells): 2^40, about 10^12.
 const MAX_CELLS: u64 = 1 << 40;
 
-type Dec = Decoder<BufReader<File>>;
+type Dec = Decoder<BufReader<SampleFile>>;
 
 /// Reader settings.
 #[derive(Debug, Clone)]
@@ -45,6 +50,8 @@ pub struct ReaderOptions {
     pub cache_bytes: usize,
     /// Largest decoded strip or tile accepted, in bytes (larger ones: TooLarge).
     pub max_block_bytes: usize,
+    /// The band read from a multi-band file (1-based).
+    pub band: usize,
 }
 
 impl Default for ReaderOptions {
@@ -52,6 +59,7 @@ impl Default for ReaderOptions {
         ReaderOptions {
             cache_bytes: 64 << 20,
             max_block_bytes: 1 << 30,
+            band: 1,
         }
     }
 }
@@ -65,8 +73,17 @@ pub struct GeoTiffReader {
     chunk_h: usize,
     /// Blocks per row of blocks.
     across: usize,
-    /// Interleaved samples per pixel (band 1 is extracted).
+    /// Samples per pixel in one decoded block: all the bands of a
+    /// pixel-interleaved file, 1 for a band-interleaved one.
     samples: usize,
+    /// The sample of a pixel that is read (0-based, within a block).
+    sample: usize,
+    /// Blocks before the read band's first one (band-interleaved files).
+    plane_offset: usize,
+    /// The band read (1-based) and the file's band count.
+    band: (usize, usize),
+    /// Where the photometric value is read as BlackIsZero (offset, big-endian).
+    patch: Option<(u64, bool)>,
     limits: Limits,
     pool: Mutex<Vec<Dec>>,
     cache: Mutex<BlockCache>,
@@ -90,8 +107,12 @@ fn tiff_err(path: &Path, e: TiffError) -> Error {
     }
 }
 
-fn open_decoder(path: &Path, limits: &Limits) -> Result<Dec> {
+fn open_decoder(path: &Path, limits: &Limits, patch: Option<(u64, bool)>) -> Result<Dec> {
     let f = File::open(path).at(path)?;
+    let f = match patch {
+        Some((at, big_endian)) => SampleFile::black_is_zero(f, at, big_endian),
+        None => SampleFile::plain(f),
+    };
     let dec = Decoder::new(BufReader::with_capacity(64 << 10, f)).map_err(|e| tiff_err(path, e))?;
     Ok(dec.with_limits(limits.clone()))
 }
@@ -140,7 +161,7 @@ fn tag_count(dec: &mut Dec, path: &Path, tag: Tag) -> Result<Option<u64>> {
     let Some(count) = dec.image_ifd().find_entry(tag).map(|e| e.count()) else {
         return Ok(None);
     };
-    let len = dec.inner().get_ref().metadata().at(path)?.len();
+    let len = dec.inner().get_ref().file().metadata().at(path)?.len();
     if count > len {
         return Err(Error::corrupt(
             path,
@@ -209,7 +230,8 @@ impl GeoTiffReader {
             l.decoding_buffer_size = per_file.clamp(1 << 20, l.decoding_buffer_size);
             l
         };
-        let mut dec = open_decoder(path, &meta_limits)?;
+        let patch = photometric_patch(path)?;
+        let mut dec = open_decoder(path, &meta_limits, patch)?;
         let (w, h) = dec.dimensions().map_err(|e| tiff_err(path, e))?;
         let (width, height) = (w as usize, h as usize);
         if width == 0 || height == 0 {
@@ -277,19 +299,33 @@ impl GeoTiffReader {
 
         // Sample layout and type.
         let samples = single_u64(&mut dec, path, Tag::SamplesPerPixel, 1)? as usize;
-        let planar = single_u64(&mut dec, path, Tag::PlanarConfiguration, 1)?;
-        if samples > 1 && planar == 2 {
-            return Err(Error::unsupported(
-                path,
-                format!("band-interleaved (planar) file with {samples} bands; orogen reads single-band or pixel-interleaved files: extract a band with `gdal_translate -b 1`"),
-            ));
-        }
+        let planar = single_u64(&mut dec, path, Tag::PlanarConfiguration, 1)? == 2 && samples > 1;
         if samples == 0 || samples > 256 {
             return Err(Error::corrupt(
                 path,
                 format!("invalid SamplesPerPixel {samples}"),
             ));
         }
+        if opts.band == 0 || opts.band > samples {
+            return Err(Error::invalid(format!(
+                "{}: band {} asked for, the file has {samples} band{}: choose --band 1{}",
+                path.display(),
+                opts.band,
+                if samples == 1 { "" } else { "s" },
+                if samples == 1 {
+                    String::new()
+                } else {
+                    format!(" to {samples}")
+                }
+            )));
+        }
+        // A block holds every band of its pixels (pixel-interleaved) or one
+        // band (band-interleaved: band b's blocks follow band b - 1's).
+        let (block_samples, sample) = if planar {
+            (1, 0)
+        } else {
+            (samples, opts.band - 1)
+        };
         let bits = tag_u64s(&mut dec, path, Tag::BitsPerSample)?.unwrap_or_else(|| vec![1]);
         let bits0 = bits.first().copied().unwrap_or(1);
         if bits.iter().any(|&b| b != bits0) {
@@ -359,7 +395,7 @@ impl GeoTiffReader {
             return Err(Error::corrupt(path, "zero tile or strip size"));
         }
         let block_bytes =
-            (chunk_w as u64) * (chunk_h as u64) * (samples as u64) * (dtype.size() as u64);
+            (chunk_w as u64) * (chunk_h as u64) * (block_samples as u64) * (dtype.size() as u64);
         if block_bytes > opts.max_block_bytes as u64 {
             return Err(Error::too_large(
                 path,
@@ -375,7 +411,8 @@ impl GeoTiffReader {
         };
         let offsets = tag_u64s(&mut dec, path, otag)?.unwrap_or_default();
         let counts = tag_u64s(&mut dec, path, ctag)?.unwrap_or_default();
-        if offsets.len() != across * down || counts.len() != offsets.len() {
+        let planes = if planar { samples } else { 1 };
+        if offsets.len() != across * down * planes || counts.len() != offsets.len() {
             return Err(Error::corrupt(
                 path,
                 format!(
@@ -383,7 +420,7 @@ impl GeoTiffReader {
                     if tiled { "tile" } else { "strip" },
                     offsets.len(),
                     counts.len(),
-                    across * down
+                    across * down * planes
                 ),
             ));
         }
@@ -396,12 +433,12 @@ impl GeoTiffReader {
             }
         }
         if compression == 1 {
-            let stride = (samples * dtype.size()) as u64;
+            let stride = (block_samples * dtype.size()) as u64;
             for (i, &c) in counts.iter().enumerate() {
                 let rows = if tiled {
                     chunk_h
                 } else {
-                    chunk_h.min(height - (i * chunk_h).min(height))
+                    chunk_h.min(height - ((i % (across * down)) * chunk_h).min(height))
                 };
                 let need = chunk_w as u64 * rows as u64 * stride;
                 if c < need {
@@ -429,7 +466,15 @@ impl GeoTiffReader {
             chunk_w,
             chunk_h,
             across,
-            samples,
+            samples: block_samples,
+            sample,
+            plane_offset: if planar {
+                (opts.band - 1) * across * down
+            } else {
+                0
+            },
+            band: (opts.band, samples),
+            patch,
             limits,
             pool: Mutex::new(vec![dec]),
             cache: Mutex::new(BlockCache::new(opts.cache_bytes)),
@@ -465,7 +510,7 @@ impl GeoTiffReader {
         let path = &self.info.path;
         let mut dec = match self.pool.lock().ok().and_then(|mut p| p.pop()) {
             Some(d) => d,
-            None => open_decoder(path, &self.limits)?,
+            None => open_decoder(path, &self.limits, self.patch)?,
         };
         let win = self.block_window(id);
         let cell = self.info.dtype.size();
@@ -477,7 +522,7 @@ impl GeoTiffReader {
         // that padding is skipped in a separate read at the end of the stream.
         let stride = self.chunk_w * px;
         let mut res = DecodingResult::U8(Vec::new());
-        dec.read_chunk_to_buffer(&mut res, id as u32, stride)
+        dec.read_chunk_to_buffer(&mut res, (self.plane_offset + id) as u32, stride)
             .map_err(|e| tiff_err(path, e))?;
         if let Ok(mut p) = self.pool.lock() {
             p.push(dec);
@@ -498,9 +543,10 @@ impl GeoTiffReader {
             if self.samples == 1 {
                 dst.copy_from_slice(src);
             } else {
-                // Band 1 of pixel-interleaved samples.
+                // The read band of pixel-interleaved samples.
+                let at = self.sample * cell;
                 for (d, s) in dst.chunks_exact_mut(cell).zip(src.chunks_exact(px)) {
-                    d.copy_from_slice(&s[..cell]);
+                    d.copy_from_slice(&s[at..at + cell]);
                 }
             }
         }
@@ -600,9 +646,45 @@ fn read_georef(dec: &mut Dec, path: &Path, dtype: DType) -> Result<GeoRef> {
     })
 }
 
+/// Where the decoder must read PhotometricInterpretation as BlackIsZero
+/// (see `photometric.rs`): `None` for files stored as BlackIsZero or
+/// without the tag; an error for interpretations whose samples are not
+/// values (CMYK, YCbCr, transparency masks, CIE L*a*b*, LogLuv).
+fn photometric_patch(path: &Path) -> Result<Option<(u64, bool)>> {
+    let mut f = File::open(path).at(path)?;
+    let Some((at, value, big_endian)) = find_photometric(&mut f).at(path)? else {
+        return Ok(None);
+    };
+    match value {
+        photometric::BLACK_IS_ZERO => Ok(None),
+        // WhiteIsZero, RGB, palette indices: stored samples are read, as
+        // GDAL reads them.
+        photometric::WHITE_IS_ZERO | 2 | 3 => Ok(Some((at, big_endian))),
+        v => {
+            let name = match v {
+                4 => "a transparency mask",
+                // GDAL converts CMYK to RGBA on reading.
+                5 => "CMYK colour",
+                photometric::YCBCR => "YCbCr colour",
+                8..=10 => "CIE L*a*b* colour",
+                32844 | 32845 => "LogLuv colour",
+                _ => "an unknown photometric interpretation",
+            };
+            Err(Error::unsupported(
+                path,
+                format!("the image is {name} (PhotometricInterpretation {v}), not values orogen can read as elevations; convert it with e.g. `gdal_translate -co PHOTOMETRIC=RGB` or extract a band with `gdal_translate -b 1`"),
+            ))
+        }
+    }
+}
+
 impl RasterSource for GeoTiffReader {
     fn info(&self) -> &RasterInfo {
         &self.info
+    }
+
+    fn band(&self) -> (usize, usize) {
+        self.band
     }
 
     fn read_native(&self, win: Window) -> Result<AnyGrid> {
