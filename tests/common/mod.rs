@@ -7,6 +7,7 @@
 pub mod cli;
 pub mod engine;
 pub mod hydro;
+pub mod job;
 
 use orogen::exec::run_local_to_memory;
 use orogen::exec::{EngineConfig, LocalEngine};
