@@ -24,6 +24,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+import fixtures
+
 ROOT = Path(__file__).resolve().parent.parent
 DATA = ROOT / "tests" / "data"
 GOLDEN = ROOT / "tests" / "golden" / "cli_outputs.sha256"
@@ -126,39 +128,6 @@ COMMANDS = [
     ("run_job", ["run", "@job", "-q"], ["job_out"]),
 ]
 
-JOB = """\
-memory = "256MiB"
-output_dir = "job_out"
-log = "job.jsonl"
-[inputs]
-dem = "{wb}"
-[[step]]
-name = "filled"
-run = "fill"
-input = "dem"
-output = "filled.tif"
-[[step]]
-name = "d8"
-run = "flow"
-input = "filled"
-output = "d8.tif"
-[[step]]
-name = "acc"
-run = "accumulate"
-input = "d8"
-output = "acc.tif"
-[[step]]
-name = "slope"
-run = "slope"
-input = "dem"
-output = "slope.tif"
-[[step]]
-name = "noise"
-run = "synth noise"
-output = "noise.tif"
-args = {{ size = "100x80", seed = 3 }}
-"""
-
 
 def sha(p: Path) -> str:
     h = hashlib.sha256()
@@ -182,7 +151,7 @@ def run_all(binary: str, work: Path, only=None):
     for name, target in (("data", DATA), ("configs", ROOT / "configs")):
         if not (work / name).exists():
             os.symlink(target, work / name)
-    (work / "job.toml").write_text(JOB.format(wb=WB))
+    (work / "job.toml").write_text(fixtures.job("fill_flow_slope_noise.toml", DEM=WB))
     out = {}
     failures = []
     for name, argv, outputs in COMMANDS:

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Crash-anywhere harness (issue 12).
 
-Runs a real job (ingest -> fill -> flow -> accumulation -> peaks ->
+Runs a real job (tests/data/jobs/all_output_kinds.toml: ingest -> fill -> flow -> accumulation -> peaks ->
 orostats CSV -> descriptors -> slope GeoTIFF -> COG export; tile stores, GeoTIFFs, COGs) on a small real DEM, kills
 it at seeded random moments, checks what the kill left on disk, reruns the
 job to completion and checks that the final outputs are byte-identical to an
@@ -41,79 +41,11 @@ import sys
 import tempfile
 import time
 
+import fixtures
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DEM = os.path.join(ROOT, "tests", "data", "whitebox_DEM.tif")
 
-JOB = """threads = 2
-output_dir = "out"
-report = false
-
-[inputs]
-dem = "{dem}"
-
-[[step]]
-name = "store"
-run = "ingest"
-input = "dem"
-output = "dem.tiles"
-args = {{ store_tile = 32, zstd = true }}
-
-[[step]]
-name = "filled"
-run = "fill"
-input = "store"
-output = "filled.tiles"
-args = {{ store_tile = 32, tile = 32 }}
-
-[[step]]
-name = "d8"
-run = "flow"
-input = "filled"
-output = "d8.tiles"
-args = {{ store_tile = 32 }}
-
-[[step]]
-name = "acc"
-run = "accumulate"
-input = "d8"
-output = "acc.tif"
-args = {{ cog = true, block = 64 }}
-
-[[step]]
-name = "peaks"
-run = "peaks"
-input = "store"
-output = "peaks"
-args = {{ min_prominence = 5 }}
-
-[[step]]
-name = "orostats"
-run = "orostats"
-input = "store"
-output = "orostats.csv"
-args = {{ radius = "1km", min_prominence = 5 }}
-
-[[step]]
-name = "metrics"
-run = "metric"
-input = "store"
-output = "metrics"
-args = {{ metric = ["slope", "tpi:radius=4c"], format = "tiles", store_tile = 32 }}
-
-[[step]]
-name = "slope"
-run = "slope"
-input = "filled"
-output = "slope.tif"
-args = {{ block = 64, compress = "zstd" }}
-
-[[step]]
-name = "cog"
-run = "export"
-input = "filled"
-output = "filled_cog.tif"
-args = {{ cog = true, block = 64 }}
-"""
 
 # Files of the job runner itself (timings inside; not outputs).
 IGNORED = {".orogen-job.json"}
@@ -256,7 +188,7 @@ def main():
     a = ap.parse_args()
     binary = os.path.abspath(a.bin)
     base = tempfile.mkdtemp(prefix="orogen-crash-")
-    job = JOB.format(dem=DEM)
+    job = fixtures.job("all_output_kinds.toml", DEM=DEM)
 
     def fresh(name):
         w = os.path.join(base, name)

@@ -52,9 +52,11 @@ def orogen_bin():
     return b
 
 
-def run(cmd):
+def run(cmd, quiet=False):
+    """Runs `cmd` (its output discarded, with `quiet` its error output too);
+    returns its wall time in seconds."""
     t = time.perf_counter()
-    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL if quiet else None)
     return time.perf_counter() - t
 
 
@@ -143,12 +145,41 @@ def fill_differs(gf, zf):
     return valid, int((valid & (gf.astype(np.float32) != zf.astype(np.float32))).sum())
 
 
+def tie_free_agreement(peer_acc, oacc, up_free, valid):
+    """How a peer's D8 accumulation agrees with orogen's `oacc` on the cells
+    whose whole upstream area is tie-free and which are valid in orogen's fill."""
+    m = up_free & valid
+    return f"equal on {equal_share(peer_acc, oacc, m)*100:.2f}% of {int(m.sum())} cells with tie-free upstream"
+
+
+CLI_FILL = "orogen's CLI fill"
+
+
+def times(t, t_orogen, what):
+    """A peer's time `t` and its ratio to orogen's `t_orogen` (for `what`)."""
+    return f"{t:.2f} s = {t / t_orogen:.2f}x {what}"
+
+
 def corr_log(a, b):
     m = np.isfinite(a) & np.isfinite(b) & (a > 0) & (b > 0)
     if m.sum() < 2:
         return float("nan"), float("nan")
     la, lb = np.log10(a[m]), np.log10(b[m])
     return float(np.corrcoef(la, lb)[0, 1]), float(np.median(a[m] / b[m]))
+
+
+def peer(name, compare, exe=None):
+    """Runs `compare` (one peer's comparison, given the path of the peer's
+    executable `exe` if it has one); prints "NAME skipped: why" when `exe` is
+    not on PATH or the comparison fails (e.g. the peer's module is missing)."""
+    path = shutil.which(exe) if exe else None
+    if exe and path is None:
+        print(f"  {name} skipped: no `{exe}` executable")
+        return
+    try:
+        compare(path)
+    except Exception as e:  # noqa: BLE001
+        print(f"  {name} skipped: {type(e).__name__}: {e}")
 
 
 def compare_dem(dem, tmp, ob):
@@ -180,8 +211,14 @@ def compare_dem(dem, tmp, ob):
         multi[m] = (read(out), t)
     print("  orogen divergent (s): " + ", ".join(f"{m} {t:.2f}" for m, (_, t) in multi.items()))
 
+    def tif(name, arr):
+        """`arr` written as TMP/NAME, a GeoTIFF georeferenced like the DEM."""
+        path = os.path.join(tmp, name)
+        write_like(dem, path, arr)
+        return path
+
     # ---------------------------------------------------------- RichDEM --
-    try:
+    def richdem(_):
         import richdem as rd
 
         r = rd.rdarray(np.where(np.isnan(z), -9999.0, z).astype(np.float32), no_data=-9999.0)
@@ -192,7 +229,7 @@ def compare_dem(dem, tmp, ob):
         rfa = np.array(rf, dtype=np.float64)
         rfa[rfa == -9999.0] = np.nan
         valid, differ = fill_differs(rfa, zf)
-        print(f"  RichDEM fill: {differ} differing cells; {t_rf:.2f} s = {t_rf / t_fill:.2f}x orogen's CLI fill")
+        print(f"  RichDEM fill: {differ} differing cells; {times(t_rf, t_fill, CLI_FILL)}")
         for m, meth, ex in [
             ("d8", "D8", None),
             ("dinf", "Dinf", None),
@@ -222,11 +259,9 @@ def compare_dem(dem, tmp, ob):
                 c, med = corr_log(multi[m][0], ra)
                 print(f"  RichDEM {meth}: corr(log A) {c:.4f}, median orogen/RichDEM {med:.3f}; "
                       f"{tr:.2f} s = {tr / multi[m][1]:.2f}x orogen")
-    except Exception as e:  # noqa: BLE001
-        print(f"  RichDEM skipped: {type(e).__name__}: {e}")
 
     # ---------------------------------------------------------- pysheds --
-    try:
+    def pysheds(_):
         from pysheds.grid import Grid
 
         # warm up numba's JIT on a small crop so timings exclude compilation
@@ -243,7 +278,7 @@ def compare_dem(dem, tmp, ob):
         t_pf = time.perf_counter() - t
         pfa = np.array(pf, dtype=np.float64)
         valid, differ = fill_differs(pfa, zf)
-        print(f"  pysheds fill: {differ} differing cells; {t_pf:.2f} s = {t_pf / t_fill:.2f}x orogen's CLI fill")
+        print(f"  pysheds fill: {differ} differing cells; {times(t_pf, t_fill, CLI_FILL)}")
         t = time.perf_counter()
         inf = g.resolve_flats(pf)
         fd = g.flowdir(inf, dirmap=(64, 128, 1, 2, 4, 8, 16, 32))
@@ -254,56 +289,31 @@ def compare_dem(dem, tmp, ob):
         # directions on cells tie-free in orogen's filled DEM (same fill)
         m = free & (pfa.astype(np.float32) == zf.astype(np.float32))
         rate = equal_share(pfd, codes, m)
-        ma = up_free & valid
-        arate = equal_share(pacc, oacc, ma)
         print(f"  pysheds D8: directions equal on {rate*100:.2f}% of {int(m.sum())} tie-free cells; "
-              f"accumulation equal on {arate*100:.2f}% of {int(ma.sum())} cells with tie-free upstream; "
-              f"flats+flowdir+accumulation {t_pa:.2f} s = {t_pa / (t_flow + t_acc):.2f}x orogen flow+accumulate")
-    except Exception as e:  # noqa: BLE001
-        print(f"  pysheds skipped: {type(e).__name__}: {e}")
+              f"accumulation {tie_free_agreement(pacc, oacc, up_free, valid)}; "
+              f"flats+flowdir+accumulation {times(t_pa, t_flow + t_acc, 'orogen flow+accumulate')}")
 
     # ------------------------------------------------------------- SAGA --
-    saga = shutil.which("saga_cmd")
-    if saga is None:
-        print("  SAGA skipped: no `saga_cmd` executable")
-    else:
-        try:
-            fin = os.path.join(tmp, "saga_in.tif")
-            write_like(dem, fin, z)
-            sf = os.path.join(tmp, "saga_fill.sdat")
-            t0 = time.time()
-            subprocess.run([saga, "ta_preprocessor", "4", "-ELEV", fin, "-FILLED", sf, "-MINSLOPE", "0"],
-                           check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-            t_sfill = time.time() - t0
-            gf = read(sf)
-            valid, differ = fill_differs(gf, zf)
-            print(f"  SAGA Fill Sinks (Wang & Liu, min slope 0): {differ} cells differ from orogen's fill; "
-                  f"{t_sfill:.2f} s = {t_sfill / t_fill:.2f}x orogen fill")
-            ff = os.path.join(tmp, "saga_f.tif")
-            write_like(dem, ff, zf)
-            sa = os.path.join(tmp, "saga_acc.sdat")
-            t0 = time.time()
-            subprocess.run([saga, "ta_hydrology", "0", "-ELEVATION", ff, "-FLOW", sa, "-METHOD", "0",
-                            "-FLOW_UNIT", "0"],
-                           check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-            t_sacc = time.time() - t0
-            ga = np.abs(read(sa))
-            ma = up_free & valid
-            arate = equal_share(ga, oacc, ma)
-            print(f"  SAGA Flow Accumulation (D8, on orogen's filled DEM): equal on {arate*100:.2f}% of "
-                  f"{int(ma.sum())} cells with tie-free upstream; {t_sacc:.2f} s = "
-                  f"{t_sacc / (t_flow + t_acc):.2f}x orogen flow+accumulate")
-        except Exception as e:  # noqa: BLE001
-            print(f"  SAGA skipped: {type(e).__name__}: {e}")
+    def saga_peer(saga):
+        fin = tif("saga_in.tif", z)
+        sf = os.path.join(tmp, "saga_fill.sdat")
+        t_sfill = run([saga, "ta_preprocessor", "4", "-ELEV", fin, "-FILLED", sf, "-MINSLOPE", "0"], quiet=True)
+        gf = read(sf)
+        valid, differ = fill_differs(gf, zf)
+        print(f"  SAGA Fill Sinks (Wang & Liu, min slope 0): {differ} cells differ from orogen's fill; "
+              f"{times(t_sfill, t_fill, 'orogen fill')}")
+        ff = tif("saga_f.tif", zf)
+        sa = os.path.join(tmp, "saga_acc.sdat")
+        t_sacc = run([saga, "ta_hydrology", "0", "-ELEVATION", ff, "-FLOW", sa, "-METHOD", "0", "-FLOW_UNIT", "0"],
+                     quiet=True)
+        ga = np.abs(read(sa))
+        print(f"  SAGA Flow Accumulation (D8, on orogen's filled DEM): "
+              f"{tie_free_agreement(ga, oacc, up_free, valid)}; "
+              f"{times(t_sacc, t_flow + t_acc, 'orogen flow+accumulate')}")
 
     # ------------------------------------------------------------ GRASS --
-    grass = shutil.which("grass")
-    if grass is None:
-        print("  GRASS skipped: no `grass` executable")
-        return
-    try:
-        fin = os.path.join(tmp, "f32.tif")
-        write_like(dem, fin, zf)
+    def grass_peer(grass):
+        fin = tif("f32.tif", zf)
         script = os.path.join(tmp, "g.sh")
         with open(script, "w") as s:
             s.write(f"""set -e
@@ -321,25 +331,25 @@ r.out.gdal --q -f input=gfill output={tmp}/gfill.tif type=Float32
 r.out.gdal --q -f input=sfd output={tmp}/gsfd.tif type=Float64
 r.out.gdal --q -f input=mfd output={tmp}/gmfd.tif type=Float64
 """)
-        subprocess.run([grass, "--tmp-location", fin, "--exec", "bash", script], check=True,
-                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        run([grass, "--tmp-location", fin, "--exec", "bash", script], quiet=True)
         tt = [float(v) for v in open(os.path.join(tmp, "gt.txt")).read().split()[1:]]
         gf = read(os.path.join(tmp, "gfill.tif"))
         valid, differ = fill_differs(gf, zf)
         print(f"  GRASS r.fill.dir on orogen's filled DEM: {differ} changed cells "
               f"(r.fill.dir also removes flats' ambiguity by its own rule); {tt[1]-tt[0]:.2f} s")
         gs = np.abs(read(os.path.join(tmp, "gsfd.tif")))
-        ma = up_free & valid
-        arate = equal_share(gs, oacc, ma)
-        print(f"  GRASS r.watershed -s (SFD): accumulation equal on {arate*100:.2f}% of {int(ma.sum())} cells with "
-              f"tie-free upstream; {tt[2]-tt[1]:.2f} s = {(tt[2]-tt[1]) / (t_flow + t_acc):.2f}x orogen flow+accumulate")
+        print(f"  GRASS r.watershed -s (SFD): accumulation {tie_free_agreement(gs, oacc, up_free, valid)}; "
+              f"{times(tt[2] - tt[1], t_flow + t_acc, 'orogen flow+accumulate')}")
         gm = np.abs(read(os.path.join(tmp, "gmfd.tif")))
         for m in ["quinn", "holmgren", "freeman"]:
             c, med = corr_log(multi[m][0], gm)
             print(f"  GRASS r.watershed MFD (convergence 5) vs orogen {m}: corr(log A) {c:.4f}, median ratio {med:.3f}")
         print(f"  GRASS r.watershed MFD {tt[3]-tt[2]:.2f} s = {(tt[3]-tt[2]) / multi['holmgren'][1]:.2f}x orogen holmgren")
-    except Exception as e:  # noqa: BLE001
-        print(f"  GRASS skipped: {type(e).__name__}: {e}")
+
+    peer("RichDEM", richdem)
+    peer("pysheds", pysheds)
+    peer("SAGA", saga_peer, "saga_cmd")
+    peer("GRASS", grass_peer, "grass")
 
 
 def main():

@@ -9,6 +9,7 @@
 #   sudo tools/io_errors.sh        # OROGEN=path/to/orogen to pick the binary
 set -euo pipefail
 cd "$(dirname "$0")/.."
+. tools/lib.sh
 OROGEN="${OROGEN:-$PWD/target/debug/orogen}"
 DEM="$PWD/tests/data/whitebox_DEM.tif" # 237 x 188 f32: 178 KB of cells
 [ "$(id -u)" = 0 ] || { echo "io_errors: needs root (mounts tmpfs)"; exit 2; }
@@ -74,24 +75,7 @@ umount "$mnt"
 
 echo "== disk full: a job"
 mount -t tmpfs -o size=160k tmpfs "$mnt"
-cat >"$work/job.toml" <<EOF
-report = false
-output_dir = "$mnt/out"
-[inputs]
-dem = "$DEM"
-[[step]]
-name = "store"
-run = "ingest"
-input = "dem"
-output = "dem.tiles"
-args = { store_tile = 32 }
-[[step]]
-name = "s"
-run = "slope"
-input = "store"
-output = "s.tif"
-args = { compress = "none" }
-EOF
+job_fixture ingest_slope.toml OUT="$mnt/out" DEM="$DEM" >"$work/job.toml"
 if "$OROGEN" run "$work/job.toml" -q 2>"$work/err"; then
   fail "job into a full disk succeeded"
 else

@@ -21,6 +21,7 @@
 # Env:   OROGEN_MPI_STATS=1 prints bytes moved per phase (JSON lines, rank 0).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+. tools/lib.sh
 profile=debug
 ranks="1 2 4"
 dem=../shared/data/pysheds_dem.tif
@@ -159,23 +160,7 @@ across_ranks pipeline "" ""
 
 # A job file under mpirun (engine from the command line).
 mkdir -p "$work/job"
-cat >"$work/job/job.toml" <<EOF
-tile = $tile
-report = false
-[inputs]
-dem = "$(realpath "$dem")"
-[[step]]
-name = "filled"
-run = "fill"
-input = "dem"
-output = "filled.tif"
-[[step]]
-name = "slope"
-run = "metric"
-input = "filled"
-output = "metric"
-args = { metric = "slope" }
-EOF
+job_fixture fill_metric.toml TILE="$tile" DEM="$(realpath "$dem")" >"$work/job/job.toml"
 cp -r "$work/job" "$work/job-local"
 "$bin" run "$work/job-local/job.toml" -q >/dev/null 2>&1
 $mpirun_ -n 2 "$bin" run "$work/job/job.toml" --engine mpi -q >/dev/null 2>&1

@@ -7,6 +7,8 @@
 pub mod cli;
 pub mod engine;
 pub mod hydro;
+pub mod job;
+pub mod store;
 
 use orogen::exec::run_local_to_memory;
 use orogen::exec::{EngineConfig, LocalEngine};

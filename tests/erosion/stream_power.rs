@@ -9,6 +9,7 @@ use orogen::erosion::stream_power::{
     stream_power, BaseHeight, Boundary, Depressions, StreamPower, StreamPowerParams, Uplift,
 };
 use orogen::raster::Grid;
+use std::path::Path;
 use std::process::Command;
 
 /// Deterministic pseudo-random numbers in [0, 1) (64-bit LCG, top bits).
@@ -473,6 +474,16 @@ fn succeeded(st: &std::process::Output) {
     );
 }
 
+/// `orogen erode --model stream-power INPUT ARGS -o OUT`, run to completion.
+fn erode_sp(input: &Path, args: &[&str], out: &Path) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_orogen"))
+        .args(["erode", "--model", "stream-power", input.to_str().unwrap()])
+        .args(args)
+        .args(["-o", out.to_str().unwrap()])
+        .output()
+        .unwrap()
+}
+
 #[test]
 fn cli_erode_sp() {
     let dir = tempfile::tempdir().unwrap();
@@ -480,19 +491,13 @@ fn cli_erode_sp() {
     let input = dir.path().join("dem.asc");
     write_asc(&input, &g, 30.0);
     let out = dir.path().join("out.asc");
-    let bin = env!("CARGO_BIN_EXE_orogen");
-    let st = Command::new(bin)
-        .args([
-            "erode",
-            "--model",
-            "stream-power",
-            input.to_str().unwrap(),
+    let st = erode_sp(
+        &input,
+        &[
             "--steps",
             "7",
             "--dt",
             "500",
-        ])
-        .args([
             "--k",
             "1e-4",
             "--uplift",
@@ -500,10 +505,9 @@ fn cli_erode_sp() {
             "--depressions",
             "basin-graph",
             "-q",
-        ])
-        .args(["-o", out.to_str().unwrap()])
-        .output()
-        .unwrap();
+        ],
+        &out,
+    );
     succeeded(&st);
     let got = read_asc(&out);
     let mut lib = g.map(|v| v as f64);
@@ -525,27 +529,19 @@ fn cli_erode_sp() {
     let csv = dir.path().join("pts.csv");
     std::fs::write(&csv, "col,row\n10,10\n20,12\n").unwrap();
     let out2 = dir.path().join("fixed.asc");
-    let st = Command::new(bin)
-        .args([
-            "erode",
-            "--model",
-            "stream-power",
-            input.to_str().unwrap(),
-            "--steps",
-            "20",
-            "--k",
-            "1e-4",
-        ])
-        .args([
-            "--fixed-points",
-            csv.to_str().unwrap(),
-            "--radius",
-            "150",
-            "-q",
-        ])
-        .args(["-o", out2.to_str().unwrap()])
-        .output()
-        .unwrap();
+    let pts = csv.to_str().unwrap();
+    let fixed = [
+        "--steps",
+        "20",
+        "--k",
+        "1e-4",
+        "--fixed-points",
+        pts,
+        "--radius",
+        "150",
+        "-q",
+    ];
+    let st = erode_sp(&input, &fixed, &out2);
     succeeded(&st);
     let got = read_asc(&out2);
     for (x, y) in [(10usize, 10usize), (20, 12)] {
@@ -570,12 +566,7 @@ fn cli_erode_sp() {
         ),
     ] {
         let bad = dir.path().join("bad.asc");
-        let st = Command::new(bin)
-            .args(["erode", "--model", "stream-power", input.to_str().unwrap()])
-            .args(&args)
-            .args(["-o", bad.to_str().unwrap()])
-            .output()
-            .unwrap();
+        let st = erode_sp(&input, &args, &bad);
         assert!(!st.status.success());
         let err = String::from_utf8_lossy(&st.stderr);
         assert!(err.contains(want), "{args:?}: {err}");

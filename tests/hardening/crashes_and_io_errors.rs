@@ -6,13 +6,13 @@
 //! is paused or killed at named points through `OROGEN_CRASH_AT` (see
 //! `src/store/crash.rs`).
 
-use orogen::raster::{DType, GeoRef};
-use orogen::store::{Provenance, StoreOptions, StoreWriter, TileStore};
+use orogen::store::{StoreOptions, TileStore};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 use crate::common::cli::run_env as run;
+use crate::common::store::small_writer;
 
 const BIN: &str = env!("CARGO_BIN_EXE_orogen");
 
@@ -246,16 +246,7 @@ fn leftovers_of_an_interrupted_store_creation_are_cleared() {
         tile: 4,
         ..StoreOptions::default()
     };
-    let w = StoreWriter::create(
-        &dir,
-        10,
-        10,
-        DType::U8,
-        &GeoRef::pixel(),
-        opts,
-        Provenance::default(),
-    )
-    .unwrap();
+    let w = small_writer(&dir, opts).unwrap();
     assert_eq!(w.done_count(), 0);
     let mut names: Vec<String> = std::fs::read_dir(&dir)
         .unwrap()
@@ -268,16 +259,7 @@ fn leftovers_of_an_interrupted_store_creation_are_cleared() {
     // A folder with anything else in it is still not taken.
     std::fs::write(dir.join("mine.txt"), "x").unwrap();
     std::fs::remove_file(dir.join("manifest.json")).unwrap();
-    let e = StoreWriter::create(
-        &dir,
-        10,
-        10,
-        DType::U8,
-        &GeoRef::pixel(),
-        opts,
-        Provenance::default(),
-    )
-    .unwrap_err();
+    let e = small_writer(&dir, opts).unwrap_err();
     assert!(e.to_string().contains("not a tile store"), "{e}");
 }
 
@@ -497,17 +479,7 @@ fn oversized_job_and_lock_files_are_refused_without_reading_them_whole() {
         tile: 4,
         ..StoreOptions::default()
     };
-    let create = || {
-        StoreWriter::create(
-            &dir,
-            10,
-            10,
-            DType::U8,
-            &GeoRef::pixel(),
-            opts,
-            Provenance::default(),
-        )
-    };
+    let create = || small_writer(&dir, opts);
     let e = create().unwrap_err();
     assert!(e.to_string().contains("unreadable pid"), "{e}");
     // Released: the same file is taken over and now holds our pid only.

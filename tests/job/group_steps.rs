@@ -6,6 +6,9 @@
 use std::path::Path;
 use std::process::Command;
 
+use crate::common::cli::data;
+use crate::common::job::job_fixture;
+
 const BIN: &str = env!("CARGO_BIN_EXE_orogen");
 
 fn write_job(dir: &Path, steps: &str) -> std::path::PathBuf {
@@ -113,41 +116,12 @@ fn report_has_orometry_and_basin_metric_sections() {
     let o = dir.path().join("out");
     let job = write_job(
         dir.path(),
-        &format!(
-            r#"
-[inputs]
-dem = "{dem}"
-
-[[step]]
-name = "filled"
-run = "fill"
-input = "dem"
-output = "filled.tif"
-
-[[step]]
-name = "d8"
-run = "flow"
-input = "filled"
-output = "d8.tif"
-
-[[step]]
-name = "basins"
-run = "basins"
-input = "d8"
-output = "basins.tif"
-args = {{ metrics = "{o}/basins.csv", dem = "@filled", min_cells = 50 }}
-
-[[step]]
-name = "oro"
-run = "orostats"
-input = "dem"
-output = "disks.csv"
-args = {{ radius = "1500m", min_prominence = 20 }}
-"#,
-            dem = Path::new(env!("CARGO_MANIFEST_DIR"))
-                .join("tests/data/bigtujunga_crop.tif")
-                .display(),
-            o = o.display()
+        &job_fixture(
+            "orometry_and_basins.toml",
+            &[
+                ("DEM", &data("bigtujunga_crop.tif").display().to_string()),
+                ("OUT", &o.display().to_string()),
+            ],
         ),
     );
     let (ok, _, err) = run(&["run", &job.display().to_string(), "--quiet"]);

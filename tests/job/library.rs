@@ -2,10 +2,15 @@
 //! as calling the operations directly, and each mistake refused in
 //! `prepare`, before anything is written.
 
+use orogen::exec::EngineConfig;
 use orogen::ops::job::{self, JobOptions};
 use orogen::ops::parse::{Compress, FormatOptions, RunOptions};
 use orogen::ops::{accumulate, fill, flow, slope, Target};
+use orogen::raster::RasterSource;
 use std::path::{Path, PathBuf};
+
+use crate::common::cli::data;
+use crate::common::job::job_fixture;
 
 fn dem() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/bigtujunga_crop.tif")
@@ -19,32 +24,34 @@ fn quiet() -> JobOptions {
     }
 }
 
+/// Runs the job file `tests/data/jobs/NAME` (its input `dem` the test DEM)
+/// in `dir` from the library, quietly and without a report.
+fn run_job(dir: &Path, name: &str, notify: orogen::ops::note::Notify<'_>) -> job::JobReport {
+    let path = dir.join("job.toml");
+    let text = job_fixture(name, &[("DEM", &dem().display().to_string())]);
+    std::fs::write(&path, text).unwrap();
+    let j = job::prepare(&path, &quiet()).unwrap();
+    job::run(&j, &quiet(), notify).unwrap()
+}
+
+/// The one-raster operation `op` (source, options, target, engine) called
+/// directly on the raster at `input`, as a caller of the library does.
+fn call<O, T>(
+    op: fn(&dyn RasterSource, &O, &Target, &EngineConfig) -> orogen::Result<T>,
+    input: &Path,
+    opts: &O,
+    target: Target,
+    cfg: &EngineConfig,
+) {
+    let src = orogen::io::open_raster(input, &Default::default()).unwrap();
+    op(src.as_ref(), opts, &target, cfg).unwrap();
+}
+
 #[test]
 fn a_job_from_the_library_equals_the_operations_called_directly() {
     let tmp = tempfile::tempdir().unwrap();
-    let path = tmp.path().join("job.toml");
-    std::fs::write(
-        &path,
-        format!(
-            r#"memory = "128MiB"
-threads = 2
-output_dir = "out"
-inputs = {{ dem = "{}" }}
-step = [
-    {{ name = "acc", run = "accumulate", input = "d8", output = "acc.tif" }},
-    {{ name = "filled", run = "fill", input = "dem", output = "filled.tif", args = {{ compress = "zstd", tile = 100 }} }},
-    {{ name = "d8", run = "flow", input = "filled", output = "d8.tif" }},
-    {{ name = "slope", run = "slope", input = "dem", output = "slope.tif", args = {{ units = "percent", z-factor = 2 }} }},
-]
-"#,
-            dem().display()
-        ),
-    )
-    .unwrap();
-    let opts = quiet();
-    let j = job::prepare(&path, &opts).unwrap();
     let mut notes = vec![];
-    let done = job::run(&j, &opts, &mut |n| notes.push(n)).unwrap();
+    let done = run_job(tmp.path(), "inline_pipeline.toml", &mut |n| notes.push(n));
     assert_eq!(done.outcomes.len(), 4);
     // The same operations called directly.
     let hand = tmp.path().join("hand");
@@ -61,47 +68,38 @@ step = [
         options: f.output_options().unwrap(),
         tile,
     };
-    let open = |p: &Path| orogen::io::open_raster(p, &Default::default()).unwrap();
+    let plain = |name: &str| target(name, FormatOptions::default(), None);
     let zstd = FormatOptions {
         compress: Compress::Zstd,
         ..Default::default()
     };
-    let d = open(&dem());
-    fill::run(
-        d.as_ref(),
-        &Default::default(),
-        &target("filled.tif", zstd, Some(100)),
-        &cfg,
-    )
-    .unwrap();
-    let f = open(&hand.join("filled.tif"));
-    flow::run(
-        f.as_ref(),
-        &Default::default(),
-        &target("d8.tif", Default::default(), None),
-        &cfg,
-    )
-    .unwrap();
-    let d8 = open(&hand.join("d8.tif"));
-    accumulate::run(
-        d8.as_ref(),
-        &Default::default(),
-        &target("acc.tif", Default::default(), None),
-        &cfg,
-    )
-    .unwrap();
     let s = slope::SlopeOptions {
         units: orogen::metrics::SlopeUnits::Percent,
         z_factor: 2.0,
         ..Default::default()
     };
-    slope::run(
-        d.as_ref(),
-        &s,
-        &target("slope.tif", Default::default(), None),
+    call(
+        fill::run,
+        &dem(),
+        &Default::default(),
+        target("filled.tif", zstd, Some(100)),
         &cfg,
-    )
-    .unwrap();
+    );
+    call(
+        flow::run,
+        &hand.join("filled.tif"),
+        &Default::default(),
+        plain("d8.tif"),
+        &cfg,
+    );
+    call(
+        accumulate::run,
+        &hand.join("d8.tif"),
+        &Default::default(),
+        plain("acc.tif"),
+        &cfg,
+    );
+    call(slope::run, &dem(), &s, plain("slope.tif"), &cfg);
     for name in ["filled.tif", "d8.tif", "acc.tif", "slope.tif"] {
         let a = std::fs::read(tmp.path().join("out").join(name)).unwrap();
         let b = std::fs::read(hand.join(name)).unwrap();
@@ -124,24 +122,7 @@ step = [
 fn ridges_and_viewshed_steps_equal_their_operations() {
     use orogen::ops::{ridges, viewshed};
     let tmp = tempfile::tempdir().unwrap();
-    let path = tmp.path().join("job.toml");
-    std::fs::write(
-        &path,
-        format!(
-            r#"output_dir = "out"
-inputs = {{ dem = "{}" }}
-step = [
-    {{ name = "r", run = "ridges", input = "dem", output = "ridges", args = {{ min-prominence = 20, edge = "unknown", no_ppa = true }} }},
-    {{ name = "v", run = "viewshed", input = "dem", output = "vis.tif", args = {{ at = ["10,12", "30,8"], pixel = true, radius = "40c", fuzzy = "100,200" }} }},
-]
-"#,
-            dem().display()
-        ),
-    )
-    .unwrap();
-    let opts = quiet();
-    let j = job::prepare(&path, &opts).unwrap();
-    job::run(&j, &opts, &mut |_| {}).unwrap();
+    run_job(tmp.path(), "ridges_viewshed.toml", &mut |_| {});
     let hand = tmp.path().join("hand");
     let cfg = RunOptions::default().engine_config(false).unwrap();
     let d = orogen::io::open_raster(&dem(), &Default::default()).unwrap();
@@ -182,23 +163,7 @@ step = [
 fn an_erode_step_equals_the_operation() {
     use orogen::ops::erode::{self, ErodeOptions, Model};
     let tmp = tempfile::tempdir().unwrap();
-    let path = tmp.path().join("job.toml");
-    std::fs::write(
-        &path,
-        format!(
-            r#"output_dir = "out"
-inputs = {{ dem = "{}" }}
-step = [
-    {{ name = "e", run = "erode", input = "dem", output = "eroded.tif", args = {{ model = "thermal", steps = 3, talus = 30, set = "rate=0.4", tile = 64 }} }},
-]
-"#,
-            dem().display()
-        ),
-    )
-    .unwrap();
-    let opts = quiet();
-    let j = job::prepare(&path, &opts).unwrap();
-    job::run(&j, &opts, &mut |_| {}).unwrap();
+    run_job(tmp.path(), "erode_thermal.toml", &mut |_| {});
     let hand = tmp.path().join("hand.tif");
     let e = ErodeOptions {
         input: dem(),
@@ -231,25 +196,7 @@ step = [
 fn orometric_synthesis_steps_equal_the_operations() {
     use orogen::ops::synth::orometric as oro;
     let tmp = tempfile::tempdir().unwrap();
-    let path = tmp.path().join("job.toml");
-    std::fs::write(
-        &path,
-        format!(
-            r#"output_dir = "out"
-inputs = {{ dem = "{}" }}
-step = [
-    {{ name = "p", run = "synth profile", input = "dem", output = "p.json", args = {{ min_prominence = 10 }} }},
-    {{ name = "t", run = "synth divide-tree", output = "t.json", args = {{ profile = "@p", size = "64", cell = 30, seed = 2 }} }},
-    {{ name = "f", run = "synth from-tree", input = "t", output = "f.tif", args = {{ terrain = "tents" }} }},
-]
-"#,
-            dem().display()
-        ),
-    )
-    .unwrap();
-    let opts = quiet();
-    let j = job::prepare(&path, &opts).unwrap();
-    job::run(&j, &opts, &mut |_| {}).unwrap();
+    run_job(tmp.path(), "orometric_synthesis.toml", &mut |_| {});
     let hand = tmp.path().join("hand");
     std::fs::create_dir_all(&hand).unwrap();
     let cfg = RunOptions::default().engine_config(false).unwrap();
@@ -289,81 +236,43 @@ step = [
     }
 }
 
+/// The cases of `tests/data/jobs/prepare_mistakes.toml`.
+#[derive(serde::Deserialize)]
+struct Mistakes {
+    case: Vec<Mistake>,
+}
+
+/// One step `s` that `prepare` must refuse, and the texts of its error.
+#[derive(serde::Deserialize)]
+struct Mistake {
+    what: String,
+    run: String,
+    input: Option<String>,
+    args: Option<String>,
+    want: Vec<String>,
+}
+
 #[test]
 fn each_mistake_is_refused_in_prepare_naming_step_and_key() {
     let d = dem().display().to_string();
-    let step = |run: &str, input: &str, args: &str| {
-        format!(
+    let table = std::fs::read_to_string(data("jobs/prepare_mistakes.toml")).unwrap();
+    let cases = toml::from_str::<Mistakes>(&table).unwrap().case;
+    assert_eq!(cases.len(), 9, "a case of the table is lost");
+    for Mistake {
+        what,
+        run,
+        input,
+        args,
+        want,
+    } in cases
+    {
+        let input = input
+            .map(|i| format!("input = \"{i}\""))
+            .unwrap_or_default();
+        let args = args.map(|a| format!("args = {a}")).unwrap_or_default();
+        let text = format!(
             "output_dir = \"out\"\n[inputs]\ndem = \"{d}\"\nlost = \"no-such.tif\"\n[[step]]\nname = \"s\"\nrun = \"{run}\"\n{input}\noutput = \"x.csv\"\n{args}\n"
-        )
-    };
-    let cases = [
-        (
-            "unknown key",
-            step("slope", "input = \"dem\"", "args = { zfactor = 2 }"),
-            vec![
-                "step \"s\"",
-                "`slope` has no option --zfactor (did you mean z_factor?)",
-                "it accepts: units, z_factor, compute_edges, compress",
-            ],
-        ),
-        (
-            "bad value",
-            step(
-                "orostats",
-                "input = \"dem\"",
-                "args = { radius = \"ten km\" }",
-            ),
-            vec![
-                "step \"s\"",
-                "`orostats` option radius = \"ten km\"",
-                "expected a distance like 10km or 500m",
-            ],
-        ),
-        (
-            "bad choice",
-            step("slope", "input = \"dem\"", "args = { units = \"radians\" }"),
-            vec!["option units = \"radians\"", "degrees", "percent"],
-        ),
-        (
-            "missing input file",
-            step("fill", "input = \"lost\"", ""),
-            vec![
-                "step \"s\"",
-                "no-such.tif does not exist (and no step writes it)",
-            ],
-        ),
-        (
-            "no input",
-            step("fill", "", ""),
-            vec!["step \"s\"", "`fill` needs an input"],
-        ),
-        (
-            "bad pair",
-            step("viewshed", "input = \"dem\"", "args = { at = \"ten,20\" }"),
-            vec![
-                "step \"s\"",
-                "`viewshed` option at = \"ten,20\"",
-                "expected two numbers separated by a comma",
-            ],
-        ),
-        (
-            "no model",
-            step("erode", "input = \"dem\"", "args = { steps = 3 }"),
-            vec!["step \"s\"", "`erode` needs its model"],
-        ),
-        (
-            "interactive",
-            step("view", "input = \"dem\"", ""),
-            vec!["step \"s\"", "`view` starts an interactive map server"],
-        ),
-        (
-            "required option",
-            step("synth optimise", "", "args = { guide = \"g.tif\" }"),
-            vec!["step \"s\"", "`synth optimise` needs source"],
-        ),
-    ];
-    for (what, text, want) in cases {
+        );
         let tmp = tempfile::tempdir().unwrap();
         let path = tmp.path().join("bad.toml");
         std::fs::write(&path, &text).unwrap();
@@ -373,7 +282,7 @@ fn each_mistake_is_refused_in_prepare_naming_step_and_key() {
         };
         assert!(err.contains("bad.toml"), "{what}: {err}");
         for w in want {
-            assert!(err.contains(w), "{what}: no {w:?} in: {err}");
+            assert!(err.contains(&w), "{what}: no {w:?} in: {err}");
         }
         // Nothing was written: not even the output folder.
         assert!(!tmp.path().join("out").exists(), "{what}");

@@ -2,6 +2,8 @@
 //! resume after kill, group commands as steps, clear errors; jobs run from
 //! the library with the bytes of the operations called directly.
 
+#[path = "../common/mod.rs"]
+mod common;
 mod group_steps;
 mod library;
 mod run_file;

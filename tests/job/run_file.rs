@@ -6,6 +6,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
+use crate::common::job::job_fixture;
+
 const BIN: &str = env!("CARGO_BIN_EXE_orogen");
 
 fn dem() -> PathBuf {
@@ -13,48 +15,9 @@ fn dem() -> PathBuf {
 }
 
 fn job_text(out: &str) -> String {
-    format!(
-        r#"memory = "128MiB"
-threads = 2
-output_dir = "{out}"
-
-[inputs]
-dem = "{}"
-
-[[step]]
-name = "acc"          # listed before the steps it needs
-run = "accumulate"
-input = "d8"
-output = "acc.tif"
-
-[[step]]
-name = "store"
-run = "ingest"
-input = "dem"
-output = "dem.tiles"
-args = {{ store_tile = 64 }}
-
-[[step]]
-name = "filled"
-run = "fill"
-input = "store"
-output = "filled.tif"
-args = {{ tile = 100 }}
-
-[[step]]
-name = "d8"
-run = "flow"
-input = "filled"
-output = "d8.tif"
-
-[[step]]
-name = "metrics"
-run = "metric"
-input = "dem"
-output = "metrics"
-args = {{ metric = ["slope", "tpi:radius=4c"], compress = "zstd" }}
-"#,
-        dem().display()
+    job_fixture(
+        "unordered_pipeline.toml",
+        &[("OUT", out), ("DEM", &dem().display().to_string())],
     )
 }
 

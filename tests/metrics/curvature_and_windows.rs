@@ -339,19 +339,8 @@ fn random_grid(w: usize, h: usize, seed: u64) -> Vec<f32> {
         .collect()
 }
 
-/// Naive window statistics of the square of half-side r: (n, mean, variance,
-/// mean without centre, max, min).
-fn naive_window(
-    d: &[f32],
-    w: usize,
-    h: usize,
-    x: i64,
-    y: i64,
-    r: i64,
-) -> (f64, f64, f64, f64, f64, f64) {
-    naive_window_shape(d, w, h, x, y, r, false)
-}
-
+/// Naive window statistics of the square of half-side r, or of the disk of
+/// radius r: (n, mean, variance, mean without centre, max, min).
 fn naive_window_shape(
     d: &[f32],
     w: usize,
@@ -383,24 +372,38 @@ fn naive_window_shape(
     (n, mean, var, others, mx, mn)
 }
 
-#[test]
-fn windowed_statistics_brute_force() {
-    let (w, h) = (37, 29);
-    let d = random_grid(w, h, 7);
+/// Mean, variance, stdev, TPI and normalised TPI (and, for the square,
+/// relief) of windows of half-side `r` for each of `radii`, on a random
+/// `w` x `h` grid, against `naive_window_shape` at each tile size of `tiles`.
+fn window_statistics_brute_force(
+    (w, h): (usize, usize),
+    seed: u64,
+    radii: &[i64],
+    tiles: &[usize],
+    disk: bool,
+) {
+    let d = random_grid(w, h, seed);
     let src = source(&d, w, h);
-    for r in [1i64, 2, 5] {
-        let specs = format!(
-            "mean:radius={r}c,variance:radius={r}c,stdev:radius={r}c,tpi:radius={r}c,ntpi:radius={r}c,relief:radius={r}c"
-        );
-        let mut want = vec![vec![f64::NAN; w * h]; 6];
+    let (shape, names): (&str, &[&str]) = if disk {
+        (":shape=disk", &["mean", "variance", "stdev", "tpi", "ntpi"])
+    } else {
+        ("", &["mean", "variance", "stdev", "tpi", "ntpi", "relief"])
+    };
+    for &r in radii {
+        let specs: Vec<String> = names
+            .iter()
+            .map(|m| format!("{m}:radius={r}c{shape}"))
+            .collect();
+        let specs = specs.join(",");
+        let mut want = vec![vec![f64::NAN; w * h]; names.len()];
         for y in 0..h as i64 {
             for x in 0..w as i64 {
-                if at(&d, w, h, x, y).is_nan() {
+                let c = at(&d, w, h, x, y);
+                if c.is_nan() {
                     continue;
                 }
-                let (n, mean, var, others, mx, mn) = naive_window(&d, w, h, x, y, r);
+                let (n, mean, var, others, mx, mn) = naive_window_shape(&d, w, h, x, y, r, disk);
                 let i = y as usize * w + x as usize;
-                let c = at(&d, w, h, x, y);
                 let tpi = if n > 1.0 { c - others } else { f64::NAN };
                 want[0][i] = mean;
                 want[1][i] = var;
@@ -411,17 +414,25 @@ fn windowed_statistics_brute_force() {
                 } else {
                     tpi / var.sqrt()
                 };
-                want[5][i] = mx - mn;
+                if !disk {
+                    want[5][i] = mx - mn;
+                }
             }
         }
-        for tile in [1, 7, 64] {
+        let kind = if disk { "disk " } else { "" };
+        for &tile in tiles {
             let out = run(&src, &specs, tile, 2);
-            for k in 0..6 {
-                let name = format!("r{r} tile{tile} m{k}");
+            for k in 0..names.len() {
+                let name = format!("{kind}r{r} tile{tile} m{k}");
                 check(&name, &out[k], &want[k], w, 2e-7, 1e-9);
             }
         }
     }
+}
+
+#[test]
+fn windowed_statistics_brute_force() {
+    window_statistics_brute_force((37, 29), 7, &[1, 2, 5], &[1, 7, 64], false);
 }
 
 #[test]
@@ -713,40 +724,5 @@ fn top_hats_brute_force() {
 
 #[test]
 fn disk_window_statistics_brute_force() {
-    let (w, h) = (31, 27);
-    let d = random_grid(w, h, 29);
-    let src = source(&d, w, h);
-    for r in [1i64, 3, 6] {
-        let specs = format!(
-            "mean:radius={r}c:shape=disk,variance:radius={r}c:shape=disk,stdev:radius={r}c:shape=disk,tpi:radius={r}c:shape=disk,ntpi:radius={r}c:shape=disk"
-        );
-        let mut want = vec![vec![f64::NAN; w * h]; 5];
-        for y in 0..h as i64 {
-            for x in 0..w as i64 {
-                let c = at(&d, w, h, x, y);
-                if c.is_nan() {
-                    continue;
-                }
-                let (n, mean, var, others, _, _) = naive_window_shape(&d, w, h, x, y, r, true);
-                let i = y as usize * w + x as usize;
-                let tpi = if n > 1.0 { c - others } else { f64::NAN };
-                want[0][i] = mean;
-                want[1][i] = var;
-                want[2][i] = var.sqrt();
-                want[3][i] = tpi;
-                want[4][i] = if var == 0.0 && !tpi.is_nan() {
-                    0.0
-                } else {
-                    tpi / var.sqrt()
-                };
-            }
-        }
-        for tile in [1, 8, 64] {
-            let out = run(&src, &specs, tile, 2);
-            for k in 0..5 {
-                let name = format!("disk r{r} tile{tile} m{k}");
-                check(&name, &out[k], &want[k], w, 2e-7, 1e-9);
-            }
-        }
-    }
+    window_statistics_brute_force((31, 27), 29, &[1, 3, 6], &[1, 8, 64], true);
 }

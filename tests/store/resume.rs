@@ -3,11 +3,12 @@
 //! checks, the writer lock, compression, exact native copies.
 
 use crate::common::dir_bytes;
+use crate::common::store::small_writer;
 use orogen::exec::{ingest, EngineConfig};
 use orogen::raster::{
     AnyGrid, DType, GeoRef, Grid, MemRaster, RasterInfo, RasterSource, TileLayout, Window,
 };
-use orogen::store::{Compression, Provenance, StoreOptions, StoreWriter, TileStore};
+use orogen::store::{Compression, StoreOptions, TileStore};
 use orogen::{Error, Result};
 use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -212,11 +213,8 @@ fn resume_with_other_parameters_is_refused_unless_overwrite() {
 fn a_second_writer_is_locked_out_and_a_stale_lock_is_taken_over() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("l.tiles");
-    let g = GeoRef::pixel();
-    let first =
-        StoreWriter::create(&dir, 10, 10, DType::U8, &g, opts(4), Provenance::default()).unwrap();
-    let e = StoreWriter::create(&dir, 10, 10, DType::U8, &g, opts(4), Provenance::default())
-        .unwrap_err();
+    let first = small_writer(&dir, opts(4)).unwrap();
+    let e = small_writer(&dir, opts(4)).unwrap_err();
     let msg = e.to_string();
     assert!(
         msg.contains(".lock") && msg.contains(&format!("pid {}", std::process::id())),
@@ -226,8 +224,7 @@ fn a_second_writer_is_locked_out_and_a_stale_lock_is_taken_over() {
     assert!(!dir.join(".lock").exists());
     // A lock left by a dead process.
     std::fs::write(dir.join(".lock"), "999999999\n").unwrap();
-    let w =
-        StoreWriter::create(&dir, 10, 10, DType::U8, &g, opts(4), Provenance::default()).unwrap();
+    let w = small_writer(&dir, opts(4)).unwrap();
     assert_eq!(w.done_count(), 0);
 }
 
@@ -235,16 +232,7 @@ fn a_second_writer_is_locked_out_and_a_stale_lock_is_taken_over() {
 fn a_foreign_nonempty_directory_is_not_used() {
     let tmp = tempfile::tempdir().unwrap();
     std::fs::write(tmp.path().join("notes.txt"), "mine").unwrap();
-    let e = StoreWriter::create(
-        tmp.path(),
-        10,
-        10,
-        DType::U8,
-        &GeoRef::pixel(),
-        opts(4),
-        Provenance::default(),
-    )
-    .unwrap_err();
+    let e = small_writer(tmp.path(), opts(4)).unwrap_err();
     assert!(e.to_string().contains("not a tile store"), "{e}");
     assert!(tmp.path().join("notes.txt").exists());
 }
@@ -333,16 +321,7 @@ fn writer_checks_tiles_against_its_layout() {
     use orogen::exec::TileSink;
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("w.tiles");
-    let mut wr = StoreWriter::create(
-        &dir,
-        10,
-        10,
-        DType::U8,
-        &GeoRef::pixel(),
-        opts(4),
-        Provenance::default(),
-    )
-    .unwrap();
+    let mut wr = small_writer(&dir, opts(4)).unwrap();
     // A window off the layout, a wrong cell type, a tile beyond the store.
     for (id, win, dtype, want) in [
         (0, Window::new(0, 0, 5, 5), DType::U8, "layout"),
