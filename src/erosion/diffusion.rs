@@ -14,7 +14,7 @@
 //! Boundaries: the raster's edge and nodata cells are zero-flux (the missing
 //! difference counts as 0), so the volume is conserved to round-off.
 
-use super::{check_cell, check_positive, check_steps, valid, CellSize, LocalModel, Patch};
+use super::{check_cell, check_positive, run_cell, valid, CellSize, LocalModel, Patch};
 use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};
 
@@ -68,9 +68,7 @@ impl Diffusion {
     /// Validate, choose the substeps, build.
     pub fn new(params: DiffusionParams, steps: u64, cell: CellSize) -> Result<Self> {
         params.validate()?;
-        check_steps(steps)?;
-        let cell = params.cell.map(CellSize::square).unwrap_or(cell);
-        cell.validate()?;
+        let cell = run_cell(steps, params.cell, cell)?;
         let d = params.diffusivity;
         let a = d * params.dt * (1.0 / (cell.dx * cell.dx) + 1.0 / (cell.dy * cell.dy));
         let per = (a / 0.25).ceil().max(1.0);
@@ -104,16 +102,9 @@ impl LocalModel for Diffusion {
         "diffusion"
     }
     fn params_json(&self) -> serde_json::Value {
-        serde_json::json!({
-            "model": "diffusion",
-            "steps": self.steps,
-            "substeps_per_step": self.per_step,
-            "cell": [self.cell.dx, self.cell.dy],
-            "params": self.params,
-        })
-    }
-    fn field_names(&self) -> &'static [&'static str] {
-        &["terrain"]
+        let mut j = super::model_json(self.name(), self.steps, self.cell, &self.params);
+        j["substeps_per_step"] = self.per_step.into();
+        j
     }
     fn radius(&self) -> usize {
         1

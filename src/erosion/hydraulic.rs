@@ -40,7 +40,7 @@
 //! 3–5: [`LocalModel::radius`] is 2.
 
 use super::{
-    check_cell, check_positive, check_range, check_steps, hash_unit, valid, CellSize, LocalModel,
+    check_cell, check_positive, check_range, hash_unit, run_cell, valid, CellSize, LocalModel,
     Patch,
 };
 use crate::error::Result;
@@ -161,9 +161,7 @@ impl Hydraulic {
     /// Validate and build. `cell` is used unless `params.cell` overrides it.
     pub fn new(params: HydraulicParams, steps: u64, cell: CellSize) -> Result<Self> {
         params.validate()?;
-        check_steps(steps)?;
-        let cell = params.cell.map(CellSize::square).unwrap_or(cell);
-        cell.validate()?;
+        let cell = run_cell(steps, params.cell, cell)?;
         Ok(Hydraulic {
             params,
             steps,
@@ -185,12 +183,7 @@ impl LocalModel for Hydraulic {
         "hydraulic"
     }
     fn params_json(&self) -> serde_json::Value {
-        serde_json::json!({
-            "model": "hydraulic",
-            "steps": self.steps,
-            "cell": [self.cell.dx, self.cell.dy],
-            "params": self.params,
-        })
+        super::model_json(self.name(), self.steps, self.cell, &self.params)
     }
     fn field_names(&self) -> &'static [&'static str] {
         &[

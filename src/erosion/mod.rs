@@ -118,8 +118,11 @@ pub trait LocalModel: Sync {
     fn name(&self) -> &'static str;
     /// Parameters as JSON (provenance).
     fn params_json(&self) -> serde_json::Value;
-    /// Names of the state fields; field 0 is the terrain.
-    fn field_names(&self) -> &'static [&'static str];
+    /// Names of the state fields; field 0 is the terrain. Default: the
+    /// terrain alone.
+    fn field_names(&self) -> &'static [&'static str] {
+        &["terrain"]
+    }
     /// Ghost cells one substep consumes (its stencil reach).
     fn radius(&self) -> usize;
     /// Substeps of the whole run.
@@ -129,6 +132,31 @@ pub trait LocalModel: Sync {
     /// Turn a final core state into the output (e.g. settle suspended
     /// sediment); must be cell-local. Default: nothing.
     fn finish(&self, _patch: &mut Patch) {}
+}
+
+/// Check a run's step count and choose its cell size: the parameters' square
+/// cell `cell_param` (metres) where given, else the raster's `raster`.
+pub(crate) fn run_cell(steps: u64, cell_param: Option<f64>, raster: CellSize) -> Result<CellSize> {
+    check_steps(steps)?;
+    let cell = cell_param.map(CellSize::square).unwrap_or(raster);
+    cell.validate()?;
+    Ok(cell)
+}
+
+/// The provenance of a local model run: the model's name, its steps, the
+/// cell size and its parameters.
+pub(crate) fn model_json(
+    name: &str,
+    steps: u64,
+    cell: CellSize,
+    params: &impl serde::Serialize,
+) -> serde_json::Value {
+    serde_json::json!({
+        "model": name,
+        "steps": steps,
+        "cell": [cell.dx, cell.dy],
+        "params": params,
+    })
 }
 
 /// SplitMix64 finaliser (Steele, Lea & Flood, "Fast splittable pseudorandom

@@ -16,7 +16,7 @@
 //! `h' = h − Σ out + Σ in`, so what leaves one cell enters another and mass
 //! is conserved to round-off. Raster edge and nodata are walls. Radius 2.
 
-use super::{check_cell, check_range, check_steps, valid, CellSize, LocalModel, Patch};
+use super::{check_cell, check_range, run_cell, valid, CellSize, LocalModel, Patch};
 use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};
 
@@ -72,9 +72,7 @@ impl Thermal {
     /// Validate and build (`params.cell` overrides `cell`).
     pub fn new(params: ThermalParams, steps: u64, cell: CellSize) -> Result<Self> {
         params.validate()?;
-        check_steps(steps)?;
-        let cell = params.cell.map(CellSize::square).unwrap_or(cell);
-        cell.validate()?;
+        let cell = run_cell(steps, params.cell, cell)?;
         let t = params.talus.to_radians().tan();
         let mut thresh = [0.0; 8];
         for (k, &(ox, oy)) in OFFSETS.iter().enumerate() {
@@ -99,15 +97,7 @@ impl LocalModel for Thermal {
         "thermal"
     }
     fn params_json(&self) -> serde_json::Value {
-        serde_json::json!({
-            "model": "thermal",
-            "steps": self.steps,
-            "cell": [self.cell.dx, self.cell.dy],
-            "params": self.params,
-        })
-    }
-    fn field_names(&self) -> &'static [&'static str] {
-        &["terrain"]
+        super::model_json(self.name(), self.steps, self.cell, &self.params)
     }
     fn radius(&self) -> usize {
         2

@@ -452,11 +452,44 @@ pub struct AccumSummary {
     pub perimeter: Vec<(i128, Link)>,
 }
 
-/// Reduced solution: the inflow each perimeter cell receives from other tiles.
-#[derive(Debug, Clone)]
-pub struct AccumSolution {
-    offsets: Vec<usize>,
-    inflow: Vec<i128>,
+/// The water (fixed point) each perimeter cell of each tile receives from
+/// other tiles, tile after tile: the reduced solution of the tiled D8
+/// accumulation, and the estimate of one round of the divergent one
+/// ([`super::tiled_mfd`]).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct PerimeterInflow {
+    pub(super) offsets: Vec<usize>,
+    pub(super) inflow: Vec<i128>,
+}
+
+impl PerimeterInflow {
+    /// Inflows of tile `id`'s perimeter cells (row-major perimeter order);
+    /// empty before the first round (= all zero).
+    pub fn tile(&self, id: TileId) -> &[i128] {
+        match self.offsets.get(id) {
+            Some(&a) => {
+                let b = self
+                    .offsets
+                    .get(id + 1)
+                    .copied()
+                    .unwrap_or(self.inflow.len());
+                &self.inflow[a..b]
+            }
+            None => &[],
+        }
+    }
+    fn is_zero(&self) -> bool {
+        self.inflow.iter().all(|&v| v == 0)
+    }
+    /// Same estimate (an empty one equals all zeros).
+    pub(super) fn same(&self, o: &PerimeterInflow) -> bool {
+        match (self.inflow.is_empty(), o.inflow.is_empty()) {
+            (true, true) => true,
+            (true, false) => o.is_zero(),
+            (false, true) => self.is_zero(),
+            (false, false) => self == o,
+        }
+    }
 }
 
 /// Direction codes of a whole view, codes and own contributions of the core
@@ -511,7 +544,7 @@ impl GlobalStep for TiledAccumulation {
     type In = f32;
     type Out = f64;
     type Summary = AccumSummary;
-    type Solution = AccumSolution;
+    type Solution = PerimeterInflow;
     type Slice = Vec<i128>;
 
     fn name(&self) -> String {
@@ -586,7 +619,7 @@ impl GlobalStep for TiledAccumulation {
         Ok(AccumSummary { w, h, perimeter })
     }
 
-    fn reduce(&self, layout: &TileLayout, summaries: Vec<AccumSummary>) -> Result<AccumSolution> {
+    fn reduce(&self, layout: &TileLayout, summaries: Vec<AccumSummary>) -> Result<PerimeterInflow> {
         check_summaries("accumulation reduce", summaries.len(), layout)?;
         let mut offsets = Vec::with_capacity(summaries.len());
         let mut total = 0usize;
@@ -677,12 +710,11 @@ impl GlobalStep for TiledAccumulation {
                 "flow directions contain a cycle across tiles; directions must come from a D8 routing of one DEM",
             ));
         }
-        Ok(AccumSolution { offsets, inflow })
+        Ok(PerimeterInflow { offsets, inflow })
     }
 
-    fn slice(&self, sol: &AccumSolution, id: TileId) -> Vec<i128> {
-        let end = sol.offsets.get(id + 1).copied().unwrap_or(sol.inflow.len());
-        sol.inflow[sol.offsets[id]..end].to_vec()
+    fn slice(&self, sol: &PerimeterInflow, id: TileId) -> Vec<i128> {
+        sol.tile(id).to_vec()
     }
 
     fn apply(

@@ -59,7 +59,8 @@ use super::mfd::{
     accumulate_fixed_core, d8_fallback, mfd_cell, mfd_params, overflow, split_fixed, MfdMethod, ONE,
 };
 use super::tiled::{
-    check_summaries, decode_code, perimeter_cells, perimeter_index, perimeter_len, weighted_amounts,
+    check_summaries, decode_code, perimeter_cells, perimeter_index, perimeter_len,
+    weighted_amounts, PerimeterInflow,
 };
 use super::{valid, DX, DY};
 use crate::error::{Error, Result};
@@ -77,44 +78,6 @@ pub enum Router {
     Dinf,
 }
 
-/// Estimate of the water (fixed point) each perimeter cell of each tile
-/// receives from other tiles; the solution of one round.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct MultiInflow {
-    offsets: Vec<usize>,
-    inflow: Vec<i128>,
-}
-
-impl MultiInflow {
-    /// Inflows of tile `id`'s perimeter cells (row-major perimeter order);
-    /// empty before the first round (= all zero).
-    pub fn tile(&self, id: TileId) -> &[i128] {
-        match self.offsets.get(id) {
-            Some(&a) => {
-                let b = self
-                    .offsets
-                    .get(id + 1)
-                    .copied()
-                    .unwrap_or(self.inflow.len());
-                &self.inflow[a..b]
-            }
-            None => &[],
-        }
-    }
-    fn is_zero(&self) -> bool {
-        self.inflow.iter().all(|&v| v == 0)
-    }
-    /// Same estimate (an empty one equals all zeros).
-    fn same(&self, o: &MultiInflow) -> bool {
-        match (self.inflow.is_empty(), o.inflow.is_empty()) {
-            (true, true) => true,
-            (true, false) => o.is_zero(),
-            (false, true) => self.is_zero(),
-            (false, false) => self == o,
-        }
-    }
-}
-
 /// One round (or the final apply) of the tiled divergent accumulation; see
 /// the module docs. Inputs (f32, halo 1): 0 the filled DEM (NaN = nodata),
 /// 1 its D8 directions (ESRI codes; NaN or 255 = nodata), 2 the weights when
@@ -127,7 +90,7 @@ pub struct TiledMultiAccumulation {
     /// Sum the weights (input 2) instead of counting cells.
     pub weighted: bool,
     /// The inflow estimate this round starts from.
-    pub inflow: Arc<MultiInflow>,
+    pub inflow: Arc<PerimeterInflow>,
     /// Final run: skip the map work and reduce to `inflow` unchanged.
     pub final_pass: bool,
 }
@@ -160,7 +123,7 @@ impl TiledMultiAccumulation {
         TiledMultiAccumulation {
             router,
             weighted,
-            inflow: Arc::new(MultiInflow::default()),
+            inflow: Arc::new(PerimeterInflow::default()),
             final_pass: false,
         }
     }
@@ -318,7 +281,7 @@ impl GlobalStep for TiledMultiAccumulation {
     type In = f32;
     type Out = f64;
     type Summary = MultiSummary;
-    type Solution = MultiInflow;
+    type Solution = PerimeterInflow;
     type Slice = Vec<i128>;
 
     fn name(&self) -> String {
@@ -354,7 +317,7 @@ impl GlobalStep for TiledMultiAccumulation {
         })
     }
 
-    fn reduce(&self, layout: &TileLayout, summaries: Vec<MultiSummary>) -> Result<MultiInflow> {
+    fn reduce(&self, layout: &TileLayout, summaries: Vec<MultiSummary>) -> Result<PerimeterInflow> {
         if self.final_pass {
             return Ok((*self.inflow).clone());
         }
@@ -463,10 +426,10 @@ impl GlobalStep for TiledMultiAccumulation {
                 "divergent accumulation reduce: the flow between tiles has a cycle; inputs must be a filled DEM and its own D8 directions",
             ));
         }
-        Ok(MultiInflow { offsets, inflow })
+        Ok(PerimeterInflow { offsets, inflow })
     }
 
-    fn slice(&self, sol: &MultiInflow, id: TileId) -> Vec<i128> {
+    fn slice(&self, sol: &PerimeterInflow, id: TileId) -> Vec<i128> {
         sol.tile(id).to_vec()
     }
 

@@ -13,6 +13,6 @@ pub mod png;
 pub mod vector;
 
 pub use open::{
-    create_sink, detect, is_store_path, open_inputs, open_raster, Format, OpenOptions,
-    OutputOptions,
+    create_sink, create_sink_like, detect, is_store_path, open_inputs, open_raster, Format,
+    OpenOptions, OutputOptions,
 };

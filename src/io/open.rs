@@ -4,7 +4,7 @@
 use super::memsink::WholeFileSink;
 use crate::error::{Error, IoContext, Result};
 use crate::io::geotiff::{GeoTiffReader, GeoTiffWriter, ReaderOptions, WriteOptions};
-use crate::raster::{DType, GeoRef, RasterSource};
+use crate::raster::{DType, GeoRef, RasterInfo, RasterSource};
 use crate::store::sink::TileSink;
 use crate::store::{Provenance, StoreOptions, StoreWriter, TileStore};
 use std::io::Read;
@@ -148,6 +148,19 @@ pub struct OutputOptions {
 /// True if `path` names a tile store output (`*.tiles`).
 pub fn is_store_path(path: &Path) -> bool {
     path.extension().and_then(|e| e.to_str()) == Some("tiles")
+}
+
+/// [`create_sink`] for an output of the width and height of the raster
+/// `like` (an output computed cell by cell from that input).
+pub fn create_sink_like(
+    path: &Path,
+    like: &RasterInfo,
+    dtype: DType,
+    georef: &GeoRef,
+    oo: &OutputOptions,
+    provenance: Provenance,
+) -> Result<Box<dyn TileSink>> {
+    create_sink(path, like.width, like.height, dtype, georef, oo, provenance)
 }
 
 /// Create the sink for an output path: `.tif`/`.tiff` GeoTIFF (streamed),

@@ -80,11 +80,8 @@ impl Metric for FromQuadric {
         }
     }
     fn scratch(&self, m: &Resolved, tile: usize) -> Option<(ScratchClass, u64)> {
-        // Only the curvatures declare the quadric grid (as before the
-        // landform classes shared this type).
-        if !is_curvature(self.0.kind) {
-            return None;
-        }
+        // The tile's grid of fits (one per core cell), shared by every metric
+        // of the pass at the same radius.
         let core = (tile * tile) as u64;
         Some((
             ("quadric", m.radius_cells.max(1)),
@@ -210,3 +207,40 @@ pub static MAX_CURVATURE: FromQuadric = FromQuadric(metric_def!(
     "maximal curvature H + sqrt(H^2-K)",
     EVANS
 ));
+
+#[cfg(test)]
+mod tests {
+    use crate::metrics::{parse_specs, MultiMetric};
+    use crate::raster::{GeoRef, Grid, MemRaster, RasterSource};
+
+    /// Scratch estimate of one tile of 64 x 64 cells for the metrics `specs`
+    /// on a 100 x 100 raster of unit cells.
+    fn estimate(specs: &str) -> u64 {
+        let src = MemRaster::from_grid(Grid::new(100, 100, 0.0f32), GeoRef::pixel());
+        let specs = parse_specs(specs).unwrap();
+        MultiMetric::new(&specs, src.info())
+            .unwrap()
+            .scratch_estimate(64)
+    }
+
+    /// Every metric read from the quadric declares the tile's grid of fits
+    /// (64 x 64 fits of five f64 coefficients), once per radius however many
+    /// metrics share it.
+    #[test]
+    fn quadric_metrics_declare_the_grid_of_fits() {
+        let fits = 64 * 64 * 5 * 8;
+        let base = 3 * 64 * 64 * 4;
+        for m in ["profile_curvature", "dikau_form", "shary_landform"] {
+            assert_eq!(estimate(m), base + fits, "{m}");
+            assert_eq!(estimate(&format!("{m}:radius=2c")), base + fits, "{m}");
+        }
+        assert_eq!(
+            estimate("dikau_form,shary_landform,profile_curvature"),
+            base + fits
+        );
+        assert_eq!(
+            estimate("dikau_form:radius=2c,shary_landform"),
+            base + 2 * fits
+        );
+    }
+}

@@ -701,10 +701,9 @@ pub fn compute_paths(
                 dw_params("metric", json!(specs[j])),
                 vec![info.path.display().to_string()],
             );
-            crate::io::create_sink(
+            crate::io::create_sink_like(
                 &outputs[j],
-                info.width,
-                info.height,
+                info,
                 DType::F32,
                 &info.georef.clone().with_nodata(Some(super::METRIC_NODATA)),
                 oo,

@@ -13,7 +13,7 @@ use super::multi::MultiMetric;
 use super::registry::{Length, MetricKind, MetricSpec, ParamKind, METRICS};
 use crate::error::{Error, Result};
 use crate::exec::LocalStep;
-use crate::raster::{read_view, Grid, RasterSource, TileLayout};
+use crate::raster::{read_view, Grid, RasterInfo, RasterSource, TileLayout};
 use std::path::Path;
 use std::time::Instant;
 
@@ -73,7 +73,6 @@ pub fn run_whole(
     repeats: usize,
 ) -> Result<(Vec<Grid<f32>>, f64)> {
     let info = src.info();
-    let (w, h) = (info.width, info.height);
     // Whole-raster metrics run their global passes on one tile.
     if specs
         .iter()
@@ -82,23 +81,38 @@ pub fn run_whole(
         return run_whole_global(src, specs, repeats);
     }
     let step = MultiMetric::new(specs, info)?;
-    let layout = TileLayout::new(w, h, w.max(h).max(1));
+    let layout = one_tile(info);
     let view = read_view::<f32>(src, &layout, 0, step.halo())?;
     let views = [view];
-    let mut out: Vec<Grid<f32>> = specs.iter().map(|_| Grid::new(w, h, f32::NAN)).collect();
-    // Best of at least `repeats` runs, and of as many more as fit in about
-    // 0.3 s (at most 50): millisecond kernels on a shared machine need them.
+    let mut out: Vec<Grid<f32>> = specs
+        .iter()
+        .map(|_| Grid::new(info.width, info.height, f32::NAN))
+        .collect();
+    let best = best_time(repeats, || step.run(&views, &mut out))?;
+    Ok((out, best))
+}
+
+/// The layout of the raster `info` as one tile.
+fn one_tile(info: &RasterInfo) -> TileLayout {
+    let (w, h) = (info.width, info.height);
+    TileLayout::new(w, h, w.max(h).max(1))
+}
+
+/// The shortest time in seconds of at least `repeats` runs of `run`, and of
+/// as many more as fit in about 0.3 s (at most 50): millisecond kernels on a
+/// shared machine need them.
+fn best_time(repeats: usize, mut run: impl FnMut() -> Result<()>) -> Result<f64> {
     let mut best = f64::INFINITY;
     let (mut runs, mut total) = (0usize, 0.0f64);
     while runs < repeats.max(1) || (total < 0.3 && runs < 50) {
         let t = Instant::now();
-        step.run(&views, &mut out)?;
+        run()?;
         let e = t.elapsed().as_secs_f64();
         best = best.min(e);
         total += e;
         runs += 1;
     }
-    Ok((out, best))
+    Ok(best)
 }
 
 /// [`run_whole`] for specs that include whole-raster metrics: the local ones
@@ -110,7 +124,6 @@ fn run_whole_global(
     repeats: usize,
 ) -> Result<(Vec<Grid<f32>>, f64)> {
     let info = src.info();
-    let (w, h) = (info.width, info.height);
     let local: Vec<MetricSpec> = specs
         .iter()
         .filter(|s| !super::peak_dw::is_whole_raster(s.kind))
@@ -137,20 +150,15 @@ fn run_whole_global(
             threads: 1,
             ..Default::default()
         };
-        let layout = TileLayout::new(w, h, w.max(h).max(1));
+        let layout = one_tile(info);
         let top = s.threshold.unwrap_or(super::peak_dw::DEFAULT_TOP);
         let proto = s.kind == MetricKind::PeakPrototypicality;
-        let (mut best, mut runs, mut spent) = (f64::INFINITY, 0usize, 0.0f64);
         let mut grid = None;
-        while runs < repeats.max(1) || (spent < 0.3 && runs < 50) {
-            let t = Instant::now();
+        let best = best_time(repeats, || {
             let (p, q) = super::peak_dw::run_to_memory(src, top, layout, &cfg, proto, !proto)?;
-            let e = t.elapsed().as_secs_f64();
             grid = if proto { p } else { q };
-            best = best.min(e);
-            spent += e;
-            runs += 1;
-        }
+            Ok(())
+        })?;
         out.push(grid.ok_or_else(|| Error::invalid("peakedness_dw: no output"))?);
         total += best;
     }

@@ -30,14 +30,6 @@ pub fn convert(
         serde_json::Value::Object(Default::default()),
         vec![info.path.display().to_string()],
     );
-    let sink = io::create_sink(
-        out,
-        info.width,
-        info.height,
-        info.dtype,
-        &info.georef,
-        oo,
-        prov,
-    )?;
+    let sink = io::create_sink_like(out, info, info.dtype, &info.georef, oo, prov)?;
     crate::exec::copy(src, sink, layout, &LocalEngine::new(cfg.clone()))
 }

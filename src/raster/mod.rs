@@ -1,6 +1,7 @@
 //! Raster core: cell types, grids, windows, georeferencing, tile layouts and
 //! the `RasterSource` abstraction every reader and the tile store implement.
 
+mod adjacency;
 mod dtype;
 mod georef;
 mod grid;
@@ -11,6 +12,7 @@ mod tiling;
 mod union_find;
 mod window;
 
+pub use adjacency::Adjacency;
 pub use dtype::{Cell, DType};
 pub use georef::{Crs, GeoKeys, GeoRef, RasterType};
 pub use grid::{AnyGrid, Grid, IntoAny};

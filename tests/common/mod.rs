@@ -13,6 +13,7 @@ pub mod store;
 use orogen::exec::run_local_to_memory;
 use orogen::exec::{EngineConfig, LocalEngine};
 use orogen::metrics::{parse_specs, MultiMetric};
+use orogen::oro::stats::SplitMix64;
 use orogen::raster::{Crs, DType, GeoRef, Grid, MemRaster, RasterSource, TileLayout};
 
 /// A file of the data folder shared beside the repository
@@ -30,18 +31,23 @@ pub fn shared_data(name: &str, what: &str) -> Option<std::path::PathBuf> {
     }
 }
 
-/// SplitMix64 (Steele, Lea & Flood 2014) for reproducible test data.
+/// Reproducible test data from the library's SplitMix64
+/// ([`orogen::oro::stats::SplitMix64`]), seeded as `Rng(seed)`.
 pub struct Rng(pub u64);
 impl Rng {
-    pub fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+    /// Run `f` on the generator at this state and keep the state it leaves.
+    fn with<T>(&mut self, f: impl FnOnce(&mut SplitMix64) -> T) -> T {
+        let mut g = SplitMix64(self.0);
+        let v = f(&mut g);
+        self.0 = g.0;
+        v
     }
+    pub fn next(&mut self) -> u64 {
+        self.with(SplitMix64::next_u64)
+    }
+    /// Uniform in [0, 1).
     pub fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
+        self.with(SplitMix64::unit)
     }
 }
 

@@ -518,15 +518,8 @@ pub fn erode_to_paths<M: LocalModel>(
             model.params_json(),
             vec![info.path.display().to_string()],
         );
-        let sink = crate::io::create_sink(
-            p,
-            info.width,
-            info.height,
-            crate::raster::DType::F32,
-            &georef,
-            oo,
-            prov,
-        )?;
+        let sink =
+            crate::io::create_sink_like(p, info, crate::raster::DType::F32, &georef, oo, prov)?;
         sinks.push((*f, sink));
     }
     let nf = model.field_names().len();

@@ -423,22 +423,7 @@ fn reduce_flats(layout: &TileLayout, summaries: Vec<FlatSummary>) -> Result<Flat
             }
         }
     });
-    let mut start = vec![0usize; total + 1];
-    for &(a, b) in &edges {
-        start[a as usize + 1] += 1;
-        start[b as usize + 1] += 1;
-    }
-    for i in 0..total {
-        start[i + 1] += start[i];
-    }
-    let mut at = start.clone();
-    let mut adj = vec![0u32; start[total]];
-    for &(a, b) in &edges {
-        adj[at[a as usize]] = b;
-        at[a as usize] += 1;
-        adj[at[b as usize]] = a;
-        at[b as usize] += 1;
-    }
+    let graph = crate::raster::Adjacency::undirected(total, &edges);
     drop(edges);
     let max_cells = win_of.iter().map(|w| w.w * w.h).max().unwrap_or(0);
     let mut pass = vec![false; max_cells];
@@ -497,7 +482,7 @@ fn reduce_flats(layout: &TileLayout, summaries: Vec<FlatSummary>) -> Result<Flat
                 }
                 sent[u] = du;
                 let nd = du.saturating_add(1);
-                for &v in &adj[start[u]..start[u + 1]] {
+                for &v in graph.neighbours(u) {
                     let v = v as usize;
                     if nd < dist[v] {
                         dist[v] = nd;

@@ -30,7 +30,7 @@
 //! continuous data, [`Resampling::Nearest`] (the footprint's top-left cell)
 //! for classes and codes.
 
-use super::ifd::{encode_ifd, geo_entries, Entry};
+use super::ifd::{encode_ifd, geo_entries, image_entries, Entry};
 use super::rows::RowBuffer;
 use super::writer::{check_create, clean_stale_temps, encode_band, WriteOptions};
 use crate::error::{Error, IoContext, Result};
@@ -293,34 +293,19 @@ impl CogWriter {
     /// The directory entries of level `l` with data offsets `offs` (absolute).
     fn entries(&self, l: usize, offs: &[u64], bigtiff: bool) -> Vec<Entry> {
         let lv = &self.levels[l];
-        let size = self.dtype.size();
-        let mut e = vec![
-            Entry::long(256, lv.width as u32),
-            Entry::long(257, lv.height as u32),
-            Entry::shorts(258, &[(size * 8) as u16]),
-            Entry::shorts(259, &[self.opts.compression.code()]),
-            Entry::shorts(262, &[1]),
-            Entry::shorts(277, &[1]),
-            Entry::shorts(284, &[1]),
-            Entry::long(322, self.opts.block as u32),
-            Entry::long(323, self.opts.block as u32),
+        let mut e = image_entries(
+            lv.width,
+            lv.height,
+            self.dtype,
+            self.opts.compression.code(),
+            self.opts.block,
+            self.predictor,
             Entry::offsets(324, offs, bigtiff),
             Entry::offsets(325, &lv.counts, bigtiff),
-            Entry::shorts(
-                339,
-                &[match self.dtype {
-                    DType::F32 | DType::F64 => 3,
-                    DType::I8 | DType::I16 | DType::I32 => 2,
-                    _ => 1,
-                }],
-            ),
-        ];
+        );
         if l > 0 {
             // NewSubfileType: reduced-resolution version of the first image.
             e.push(Entry::long(254, 1));
-        }
-        if self.predictor != 1 {
-            e.push(Entry::shorts(317, &[self.predictor]));
         }
         if l == 0 {
             e.extend(geo_entries(&self.georef));

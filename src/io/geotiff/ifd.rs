@@ -4,7 +4,7 @@
 //! a georeference.
 
 use super::georef::{format_nodata, half_cell_shift, keys_for_write};
-use crate::raster::{GeoRef, RasterType};
+use crate::raster::{DType, GeoRef, RasterType};
 
 // TIFF field types.
 const SHORT: u16 = 3;
@@ -143,6 +143,49 @@ pub(crate) fn encode_ifd(
     }
     dir.extend_from_slice(&extra);
     (dir, positions)
+}
+
+/// The directory entries of one tiled image (TIFF 6.0, Adobe 1992, sec. 8
+/// and 15): size, bits per sample, compression `compression` (its tag code),
+/// one sample, chunky planes, square `block` tiles, the tile offsets and
+/// byte counts `offsets` and `counts` (tags 324 and 325), the sample format
+/// of `dtype`, and the predictor where it is not 1 (none).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn image_entries(
+    width: usize,
+    height: usize,
+    dtype: DType,
+    compression: u16,
+    block: usize,
+    predictor: u16,
+    offsets: Entry,
+    counts: Entry,
+) -> Vec<Entry> {
+    let mut e = vec![
+        Entry::long(256, width as u32),
+        Entry::long(257, height as u32),
+        Entry::shorts(258, &[(dtype.size() * 8) as u16]),
+        Entry::shorts(259, &[compression]),
+        Entry::shorts(262, &[1]),
+        Entry::shorts(277, &[1]),
+        Entry::shorts(284, &[1]),
+        Entry::long(322, block as u32),
+        Entry::long(323, block as u32),
+        offsets,
+        counts,
+        Entry::shorts(
+            339,
+            &[match dtype {
+                DType::F32 | DType::F64 => 3,
+                DType::I8 | DType::I16 | DType::I32 => 2,
+                _ => 1,
+            }],
+        ),
+    ];
+    if predictor != 1 {
+        e.push(Entry::shorts(317, &[predictor]));
+    }
+    e
 }
 
 /// GeoTIFF and GDAL tags for `georef` (none when not georeferenced, except

@@ -21,7 +21,7 @@
 //! Note 3: each row's values split into byte planes, most significant first,
 //! then byte-wise horizontal differencing).
 
-use super::ifd::{encode_ifd, geo_entries, Entry};
+use super::ifd::{encode_ifd, geo_entries, image_entries, Entry};
 use super::rows::RowBuffer;
 use crate::error::{Error, IoContext, Result};
 use crate::raster::{AnyGrid, DType, GeoRef, TileId, Window};
@@ -330,30 +330,16 @@ impl GeoTiffWriter {
             raw * factor + (n_blocks as f64) * 16.0 + 65536.0 > 4.0e9
         });
 
-        let mut entries = vec![
-            Entry::long(256, width as u32),
-            Entry::long(257, height as u32),
-            Entry::shorts(258, &[(size * 8) as u16]),
-            Entry::shorts(259, &[opts.compression.code()]),
-            Entry::shorts(262, &[1]),
-            Entry::shorts(277, &[1]),
-            Entry::shorts(284, &[1]),
-            Entry::long(322, block as u32),
-            Entry::long(323, block as u32),
+        let mut entries = image_entries(
+            width,
+            height,
+            dtype,
+            opts.compression.code(),
+            block,
+            predictor,
             Entry::placeholder(324, n_blocks, bigtiff),
             Entry::placeholder(325, n_blocks, bigtiff),
-            Entry::shorts(
-                339,
-                &[match dtype {
-                    DType::F32 | DType::F64 => 3,
-                    DType::I8 | DType::I16 | DType::I32 => 2,
-                    _ => 1,
-                }],
-            ),
-        ];
-        if predictor != 1 {
-            entries.push(Entry::shorts(317, &[predictor]));
-        }
+        );
         entries.extend(geo_entries(georef));
         let header_len = if bigtiff { 16 } else { 8 };
         let (ifd, positions) = encode_ifd(&mut entries, header_len, bigtiff, 0);

@@ -517,15 +517,8 @@ fn run_tiled(
         }),
         vec![info.path.display().to_string()],
     );
-    let mut sink = crate::io::create_sink(
-        output,
-        info.width,
-        info.height,
-        crate::raster::DType::F32,
-        &georef,
-        oo,
-        prov,
-    )?;
+    let mut sink =
+        crate::io::create_sink_like(output, &info, crate::raster::DType::F32, &georef, oo, prov)?;
     let tiling = SpTiling {
         tile: layout.tile,
         backend,

@@ -18,6 +18,7 @@ use crate::error::Error;
 use crate::error::Result;
 use crate::exec::GlobalStep;
 use crate::raster::perimeter_index;
+use crate::raster::Adjacency;
 use crate::raster::Grid;
 use crate::raster::TileId;
 use crate::raster::TileLayout;
@@ -592,24 +593,8 @@ impl GlobalStep for TreeStep<'_> {
         }
         edges.sort_unstable();
         edges.dedup();
-        let mut start = vec![0u32; n + 1];
-        for &(a, b) in &edges {
-            start[a as usize + 1] += 1;
-            start[b as usize + 1] += 1;
-        }
-        for i in 0..n {
-            start[i + 1] += start[i];
-        }
-        let mut fill = start.clone();
-        let mut adj = vec![0u32; start[n] as usize];
-        for &(a, b) in &edges {
-            adj[fill[a as usize] as usize] = b;
-            fill[a as usize] += 1;
-            adj[fill[b as usize] as usize] = a;
-            fill[b as usize] += 1;
-        }
+        let graph = Adjacency::undirected(n, &edges);
         drop(edges);
-        drop(fill);
         let mut order: Vec<u32> = (0..n as u32).collect();
         order.sort_unstable_by_key(|&i| {
             let m = &nodes[i as usize];
@@ -634,7 +619,7 @@ impl GlobalStep for TreeStep<'_> {
             let xi = x as usize;
             let m = &nodes[xi];
             roots.clear();
-            for &nb in &adj[start[xi] as usize..start[xi + 1] as usize] {
+            for &nb in graph.neighbours(xi) {
                 if done[nb as usize] {
                     let r = uf.find(nb);
                     if !roots.contains(&r) {
