@@ -90,6 +90,29 @@ pub(crate) struct OutFmt {
     pub(crate) overviews: String,
 }
 
+/// A value parser for a library enum (clap derives no parser for a
+/// library type): the values `all`, each named on the command line by
+/// `name` and, with `about`, described in `--help`.
+pub(crate) fn enum_parser<T: Copy + Send + Sync + 'static>(
+    all: &'static [T],
+    name: fn(T) -> &'static str,
+    about: Option<fn(T) -> &'static str>,
+) -> impl clap::builder::TypedValueParser<Value = T> {
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+    let values = all.iter().map(move |&v| {
+        let p = PossibleValue::new(name(v));
+        match about {
+            Some(about) => p.help(about(v)),
+            None => p,
+        }
+    });
+    PossibleValuesParser::new(values).map(move |given| {
+        *all.iter()
+            .find(|&&v| name(v) == given)
+            .expect("a possible value is a value's name")
+    })
+}
+
 /// One raster in, one raster out: the input, the output and the run
 /// settings of `fill`, `fill-epsilon`, `watersheds` and `export`.
 #[derive(Args, Clone)]
