@@ -114,7 +114,8 @@ pub(crate) fn enum_parser<T: Copy + Send + Sync + 'static>(
 }
 
 /// One raster in, one raster out: the input, the output and the run
-/// settings of `fill`, `fill-epsilon`, `watersheds` and `export`.
+/// settings of `fill`, `fill-epsilon`, `watersheds`, `export`, `slope`,
+/// `aspect` and `hillshade`.
 #[derive(Args, Clone)]
 pub(crate) struct InOut {
     #[command(flatten)]
@@ -125,15 +126,14 @@ pub(crate) struct InOut {
     pub(crate) run: Run,
 }
 
-/// Run `op`, an operation of one raster with options `opts`, from `input`
-/// into `out` with `run`'s settings, then say what was written.
+/// Run `op`, an operation of one raster with options `opts`, from `io`'s
+/// input into its output with its run settings, then say what was written.
 pub(crate) fn run_one<O>(
-    input: &In,
-    out: &Out,
-    run: &Run,
+    io: &InOut,
     opts: &O,
     op: impl FnOnce(&dyn RasterSource, &O, &orogen::ops::Target, &EngineConfig) -> orogen::Result<()>,
 ) -> Result<()> {
+    let InOut { input, out, run } = io;
     let src = open(input)?;
     let t = target(out, run)?;
     op(src.as_ref(), opts, &t, &engine(run)?)?;
