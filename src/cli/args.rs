@@ -90,8 +90,32 @@ pub(crate) struct OutFmt {
     pub(crate) overviews: String,
 }
 
+/// A value parser for a library enum (clap derives no parser for a
+/// library type): the values `all`, each named on the command line by
+/// `name` and, with `about`, described in `--help`.
+pub(crate) fn enum_parser<T: Copy + Send + Sync + 'static>(
+    all: &'static [T],
+    name: fn(T) -> &'static str,
+    about: Option<fn(T) -> &'static str>,
+) -> impl clap::builder::TypedValueParser<Value = T> {
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+    let values = all.iter().map(move |&v| {
+        let p = PossibleValue::new(name(v));
+        match about {
+            Some(about) => p.help(about(v)),
+            None => p,
+        }
+    });
+    PossibleValuesParser::new(values).map(move |given| {
+        *all.iter()
+            .find(|&&v| name(v) == given)
+            .expect("a possible value is a value's name")
+    })
+}
+
 /// One raster in, one raster out: the input, the output and the run
-/// settings of `fill`, `fill-epsilon`, `watersheds` and `export`.
+/// settings of `fill`, `fill-epsilon`, `watersheds`, `export`, `slope`,
+/// `aspect` and `hillshade`.
 #[derive(Args, Clone)]
 pub(crate) struct InOut {
     #[command(flatten)]
@@ -102,15 +126,14 @@ pub(crate) struct InOut {
     pub(crate) run: Run,
 }
 
-/// Run `op`, an operation of one raster with options `opts`, from `input`
-/// into `out` with `run`'s settings, then say what was written.
+/// Run `op`, an operation of one raster with options `opts`, from `io`'s
+/// input into its output with its run settings, then say what was written.
 pub(crate) fn run_one<O>(
-    input: &In,
-    out: &Out,
-    run: &Run,
+    io: &InOut,
     opts: &O,
     op: impl FnOnce(&dyn RasterSource, &O, &orogen::ops::Target, &EngineConfig) -> orogen::Result<()>,
 ) -> Result<()> {
+    let InOut { input, out, run } = io;
     let src = open(input)?;
     let t = target(out, run)?;
     op(src.as_ref(), opts, &t, &engine(run)?)?;

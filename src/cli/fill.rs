@@ -7,8 +7,7 @@ use orogen::ops::fill::{self, FillOptions};
 
 /// Fill the input's depressions into the output.
 pub fn run(a: FillArgs) -> Result<()> {
-    let InOut { input, out, run } = &a.io;
-    run_one(input, out, run, &FillOptions::default(), fill::run)
+    run_one(&a.io, &FillOptions::default(), fill::run)
 }
 
 /// Arguments of `orogen fill`.

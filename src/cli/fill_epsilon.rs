@@ -18,7 +18,6 @@ pub struct FillEpsilonArgs {
 
 /// Fill the input to an epsilon surface into the output (`ops::fill_epsilon`).
 pub fn run(a: FillEpsilonArgs) -> Result<()> {
-    let InOut { input, out, run } = &a.io;
     let opts = FillEpsilonOptions::default();
-    run_one(input, out, run, &opts, fill_epsilon::run)
+    run_one(&a.io, &opts, fill_epsilon::run)
 }

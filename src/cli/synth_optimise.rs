@@ -2,11 +2,12 @@
 //! (example-based terrain synthesis with pit removal).
 
 use super::erode::printer;
+use crate::cli::args::enum_parser;
 use crate::{engine, output_options, Out, Run};
 use anyhow::Result;
 use clap::{Args, ValueEnum};
-use orogen::ops::synth::optimise::{self, GuideWeighting, OptimiseOptions, PitMethod};
-use orogen::synth::optimise::DEFAULT_DETAIL_DEPTH;
+use orogen::ops::synth::optimise::{self, OptimiseOptions, PitMethod};
+use orogen::synth::optimise::{Weighting, DEFAULT_DETAIL_DEPTH};
 use std::path::PathBuf;
 
 #[derive(Copy, Clone, PartialEq, Eq, ValueEnum)]
@@ -19,14 +20,6 @@ pub enum PitArg {
     Hybrid,
     /// No pit removal.
     None,
-}
-
-#[derive(Copy, Clone, PartialEq, Eq, ValueEnum)]
-pub enum WeightArg {
-    Exponential,
-    Linear,
-    Constant,
-    Zero,
 }
 
 /// Arguments of `orogen synth optimise`.
@@ -87,8 +80,12 @@ pub struct OptimiseArgs {
     #[arg(long, default_value_t = 4)]
     pub passes: usize,
     /// Guide weighting across levels.
-    #[arg(long, value_enum, default_value_t = WeightArg::Exponential)]
-    pub weighting: WeightArg,
+    #[arg(
+        long,
+        value_parser = enum_parser(&Weighting::ALL, Weighting::name, None),
+        default_value = OptimiseOptions::default().weighting.name()
+    )]
+    pub weighting: Weighting,
     /// Guide weight alpha (0..1).
     #[arg(long, default_value_t = 0.75)]
     pub alpha: f32,
@@ -152,12 +149,7 @@ pub fn run(a: OptimiseArgs) -> Result<()> {
         levels: a.levels,
         iterations: a.iterations,
         passes: a.passes,
-        weighting: match a.weighting {
-            WeightArg::Exponential => GuideWeighting::Exponential,
-            WeightArg::Linear => GuideWeighting::Linear,
-            WeightArg::Constant => GuideWeighting::Constant,
-            WeightArg::Zero => GuideWeighting::Zero,
-        },
+        weighting: a.weighting,
         alpha: a.alpha,
         no_rotation: a.no_rotation,
         no_reflection: a.no_reflection,

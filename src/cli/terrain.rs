@@ -1,8 +1,7 @@
 //! `orogen slope`, `orogen aspect` and `orogen hillshade` (Horn 1981, as
 //! gdaldem): `ops::slope`, `ops::aspect`, `ops::hillshade`.
 
-use crate::cli::args::run_one;
-use crate::{In, Out, Run};
+use crate::cli::args::{run_one, InOut};
 use anyhow::Result;
 use clap::{Args, ValueEnum};
 use orogen::metrics::SlopeUnits;
@@ -25,7 +24,7 @@ pub fn run_slope(a: SlopeArgs) -> Result<()> {
         z_factor: a.z_factor,
         compute_edges: a.compute_edges,
     };
-    run_one(&a.input, &a.out, &a.run, &opts, slope::run)
+    run_one(&a.io, &opts, slope::run)
 }
 
 /// Aspect of the input.
@@ -34,7 +33,7 @@ pub fn run_aspect(a: AspectArgs) -> Result<()> {
         zero_for_flat: a.zero_for_flat,
         compute_edges: a.compute_edges,
     };
-    run_one(&a.input, &a.out, &a.run, &opts, aspect::run)
+    run_one(&a.io, &opts, aspect::run)
 }
 
 /// Hillshade of the input.
@@ -47,7 +46,7 @@ pub fn run_hillshade(a: HillshadeArgs) -> Result<()> {
     };
     // Checked before the input is opened (no georeference warning first).
     opts.validate()?;
-    run_one(&a.input, &a.out, &a.run, &opts, hillshade::run)
+    run_one(&a.io, &opts, hillshade::run)
 }
 
 /// Arguments of `orogen slope`.
@@ -56,8 +55,6 @@ pub fn run_hillshade(a: HillshadeArgs) -> Result<()> {
     after_help = "Example:\n  orogen slope dem.tif -o slope.tif\n  orogen slope dem.tiles -o slope.tiles --units percent"
 )]
 pub struct SlopeArgs {
-    #[command(flatten)]
-    pub input: In,
     #[arg(long, value_enum, default_value_t = UnitsArg::Degrees)]
     pub units: UnitsArg,
     /// Vertical exaggeration.
@@ -67,26 +64,20 @@ pub struct SlopeArgs {
     #[arg(long)]
     pub compute_edges: bool,
     #[command(flatten)]
-    pub out: Out,
-    #[command(flatten)]
-    pub run: Run,
+    pub(crate) io: InOut,
 }
 
 /// Arguments of `orogen aspect`.
 #[derive(Args)]
 #[command(after_help = "Example:\n  orogen aspect dem.tif -o aspect.tif --zero-for-flat")]
 pub struct AspectArgs {
-    #[command(flatten)]
-    pub input: In,
     /// Flat cells get 0 instead of nodata.
     #[arg(long)]
     pub zero_for_flat: bool,
     #[arg(long)]
     pub compute_edges: bool,
     #[command(flatten)]
-    pub out: Out,
-    #[command(flatten)]
-    pub run: Run,
+    pub(crate) io: InOut,
 }
 
 /// Arguments of `orogen hillshade`.
@@ -95,8 +86,6 @@ pub struct AspectArgs {
     after_help = "Example:\n  orogen hillshade dem.tif -o shade.tif --azimuth 315 --altitude 45"
 )]
 pub struct HillshadeArgs {
-    #[command(flatten)]
-    pub input: In,
     #[arg(long, default_value_t = 315.0)]
     pub azimuth: f64,
     #[arg(long, default_value_t = 45.0)]
@@ -106,7 +95,5 @@ pub struct HillshadeArgs {
     #[arg(long)]
     pub compute_edges: bool,
     #[command(flatten)]
-    pub out: Out,
-    #[command(flatten)]
-    pub run: Run,
+    pub(crate) io: InOut,
 }

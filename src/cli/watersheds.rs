@@ -19,7 +19,6 @@ pub struct WatershedsArgs {
 
 /// Watershed labels of the input's D8 directions into the output (`ops::watersheds`).
 pub fn run(a: WatershedsArgs) -> Result<()> {
-    let InOut { input, out, run } = &a.io;
     let opts = WatershedsOptions::default();
-    run_one(input, out, run, &opts, watersheds::run)
+    run_one(&a.io, &opts, watersheds::run)
 }

@@ -93,7 +93,17 @@ fn group_mistakes_are_clear_errors() {
         (
             "run = \"synth noise\"",
             "args = { bogus = 1 }",
-            "`synth noise` has no option --bogus; it accepts: kind, size, cell, seed",
+            "`synth noise` has no option --bogus; it accepts: size, cell, kind, seed",
+        ),
+        (
+            "run = \"synth rivers\"",
+            "args = { land_treshold = 0.1 }",
+            "`synth rivers` has no option --land-treshold (did you mean land_threshold?); it accepts: size, cell, origin",
+        ),
+        (
+            "run = \"synth tectonic\"",
+            "args = { noise_shar = 0.5 }",
+            "`synth tectonic` has no option --noise-shar (did you mean noise_share?)",
         ),
         ("run = \"nosuch\"", "", "synth noise"),
     ];

@@ -19,10 +19,21 @@ use std::sync::OnceLock;
 /// What a synthesis method runs: options holding their output path.
 type SynthOp<O> = fn(&O, &crate::io::OutputOptions, &EngineConfig, Notify<'_>) -> Result<()>;
 
+/// The keys of options with flattened parts (whose field names serde does
+/// not list): `parts` in order, joined once into `keys`.
+fn keys_once(
+    keys: &'static OnceLock<Vec<&'static str>>,
+    parts: &[&[&'static str]],
+) -> &'static [&'static str] {
+    keys.get_or_init(|| parts.concat())
+}
+
 /// A synthesis method (`synth noise`, `synth rivers`, `synth tectonic`):
-/// no input; the output path is part of its options.
+/// no input; the output path is part of its options, whose keys are
+/// `keys`.
 fn synth_step<O>(
     call: &StepCall<'_>,
+    keys: &[&'static str],
     check: fn(&O) -> Result<()>,
     op: SynthOp<O>,
 ) -> Result<TypedStep>
@@ -34,10 +45,11 @@ where
         return Err(step_error(s, format!("`{}` takes no input", s.command)));
     }
     let path = output(s)?;
-    let t = typed_keys_with::<O>(
+    let t = typed_keys_named::<O>(
         call,
         WRITES,
         vec![("output", toml::Value::String(path.display().to_string()))],
+        keys,
     )?;
     check(&t.options).map_err(|e| step_error(s, e))?;
     let oo = t.format.output_options()?;
@@ -48,20 +60,71 @@ where
     }))
 }
 
+/// The keys of [`ops::synth::noise::NoiseOptions`].
+fn noise_keys() -> &'static [&'static str] {
+    static KEYS: OnceLock<Vec<&str>> = OnceLock::new();
+    let noise = field_names::<crate::synth::Noise>();
+    keys_once(&KEYS, &[&["size", "cell"], noise, &["output", "tile"]])
+}
+
+/// The keys of [`ops::synth::rivers::RiversOptions`].
+fn rivers_keys() -> &'static [&'static str] {
+    static KEYS: OnceLock<Vec<&str>> = OnceLock::new();
+    let own = [
+        "size",
+        "cell",
+        "origin",
+        "coast",
+        "map-units",
+        "land-wavelength",
+        "land-threshold",
+    ];
+    let river = field_names::<crate::synth::rivers::RiverParams>();
+    let last = ["network", "preview", "output", "tile"];
+    keys_once(&KEYS, &[&own, river, &last])
+}
+
+/// The keys of [`ops::synth::tectonic::TectonicOptions`].
+fn tectonic_keys() -> &'static [&'static str] {
+    static KEYS: OnceLock<Vec<&str>> = OnceLock::new();
+    let own = [
+        "map",
+        "map-units",
+        "size",
+        "cell",
+        "origin",
+        "margin",
+        "seed",
+        "wavelength",
+        "octaves",
+    ];
+    let folds = field_names::<crate::synth::tectonic::TectonicParams>();
+    let last = [
+        "intermediates",
+        "preview",
+        "erode-steps",
+        "erode-seed",
+        "output",
+        "tile",
+    ];
+    keys_once(&KEYS, &[&own, folds, &last])
+}
+
 pub(super) fn synth_noise(call: &StepCall<'_>) -> Result<TypedStep> {
     synth_step(
         call,
+        noise_keys(),
         |o: &ops::synth::noise::NoiseOptions| ops::synth::parse_size(&o.size).map(|_| ()),
         ops::synth::noise::run,
     )
 }
 
 pub(super) fn synth_rivers(call: &StepCall<'_>) -> Result<TypedStep> {
-    synth_step(call, unchecked, ops::synth::rivers::run)
+    synth_step(call, rivers_keys(), unchecked, ops::synth::rivers::run)
 }
 
 pub(super) fn synth_tectonic(call: &StepCall<'_>) -> Result<TypedStep> {
-    synth_step(call, unchecked, ops::synth::tectonic::run)
+    synth_step(call, tectonic_keys(), unchecked, ops::synth::tectonic::run)
 }
 
 fn path_value(p: &std::path::Path) -> toml::Value {
@@ -94,16 +157,16 @@ fn oro_keys(
     extra: &[&'static str],
 ) -> &'static [&'static str] {
     use ops::synth::orometric as oro;
-    keys.get_or_init(|| {
-        let mut v: Vec<&'static str> = extra.to_vec();
-        if tree {
-            v.extend(field_names::<oro::TreeSynthOptions>());
-        }
-        if terrain {
-            v.extend(field_names::<oro::TerrainSynthOptions>());
-        }
-        v
-    })
+    let none: &'static [&'static str] = &[];
+    let part = |on: bool, names: &'static [&'static str]| if on { names } else { none };
+    keys_once(
+        keys,
+        &[
+            extra,
+            part(tree, field_names::<oro::TreeSynthOptions>()),
+            part(terrain, field_names::<oro::TerrainSynthOptions>()),
+        ],
+    )
 }
 
 /// `synth divide-tree`: no input; the tree (.json) into the output.
@@ -215,4 +278,58 @@ pub(super) fn synth_optimise(call: &StepCall<'_>) -> Result<TypedStep> {
         let cfg = engine_config(&run)?;
         ops::synth::optimise::run(opts, &oo, &cfg, &mut quiet_filter(run.quiet, notify))
     }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::BTreeSet;
+
+    /// The keys options serialize to (every field but the skipped ones).
+    fn serialized_keys<O: Serialize + Default>() -> BTreeSet<String> {
+        match serde_json::to_value(O::default()).unwrap() {
+            serde_json::Value::Object(m) => m.keys().cloned().collect(),
+            other => panic!("not a table: {other}"),
+        }
+    }
+
+    fn listed(keys: &[&str]) -> BTreeSet<String> {
+        let set: BTreeSet<String> = keys.iter().map(|k| k.to_string()).collect();
+        assert_eq!(set.len(), keys.len(), "a key listed twice: {keys:?}");
+        set
+    }
+
+    #[test]
+    fn synthesis_key_lists_are_the_options_fields() {
+        use ops::synth::{noise::NoiseOptions, rivers::RiversOptions, tectonic::TectonicOptions};
+        assert_eq!(listed(noise_keys()), serialized_keys::<NoiseOptions>());
+        assert_eq!(listed(rivers_keys()), serialized_keys::<RiversOptions>());
+        assert_eq!(
+            listed(tectonic_keys()),
+            serialized_keys::<TectonicOptions>()
+        );
+        assert!(noise_keys().contains(&"ridge-offset"));
+        assert!(rivers_keys().contains(&"channel-slope") && !rivers_keys().contains(&"mask"));
+        assert!(tectonic_keys().contains(&"noise-share") && !tectonic_keys().contains(&"fbm"));
+    }
+
+    #[test]
+    fn flat_keys_fill_both_parts_and_unknown_keys_are_refused() {
+        use ops::synth::noise::NoiseOptions;
+        let o: NoiseOptions =
+            toml::from_str("size = \"64x32\"\noctaves = 3\ngain = 1\nkind = \"ridged\"").unwrap();
+        assert_eq!(o.size, "64x32");
+        assert_eq!(o.noise.octaves, 3);
+        assert_eq!(o.noise.gain, 1.0);
+        assert_eq!(o.noise.kind, crate::synth::NoiseKind::Ridged);
+        assert_eq!(o.noise.seed, 42);
+        assert_eq!(o.cell, 30.0);
+        let e = toml::from_str::<NoiseOptions>("octavs = 3").unwrap_err();
+        assert!(e.to_string().contains("octavs"), "{e}");
+        let t: ops::synth::tectonic::TectonicOptions =
+            toml::from_str("t1 = 0.5\noctaves = 4\nerode-steps = 2").unwrap();
+        assert_eq!((t.folds.t1, t.octaves, t.erode_steps), (0.5, 4, 2));
+        assert_eq!(t.folds.sea_depth, 60.0);
+        assert!(toml::from_str::<ops::synth::tectonic::TectonicOptions>("sea-depth = 1").is_err());
+    }
 }

@@ -30,16 +30,6 @@ pub enum PitMethod {
     None,
 }
 
-/// Guide weighting across levels (`weighting`).
-#[derive(Copy, Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum GuideWeighting {
-    Exponential,
-    Linear,
-    Constant,
-    Zero,
-}
-
 /// Options of `synth optimise` (the CLI's names and defaults).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
@@ -79,7 +69,7 @@ pub struct OptimiseOptions {
     /// PatchMatch passes per M-step.
     pub passes: usize,
     /// Guide weighting across levels.
-    pub weighting: GuideWeighting,
+    pub weighting: Weighting,
     /// Guide weight alpha (0..1).
     pub alpha: f32,
     /// Search without rotations.
@@ -126,7 +116,7 @@ impl Default for OptimiseOptions {
             levels: None,
             iterations: 2,
             passes: 4,
-            weighting: GuideWeighting::Exponential,
+            weighting: Weighting::Exponential,
             alpha: 0.75,
             no_rotation: false,
             no_reflection: false,
@@ -248,12 +238,7 @@ pub fn run(
         levels: a.levels,
         iterations: a.iterations,
         passes: a.passes,
-        weighting: match a.weighting {
-            GuideWeighting::Exponential => Weighting::Exponential,
-            GuideWeighting::Linear => Weighting::Linear,
-            GuideWeighting::Constant => Weighting::Constant,
-            GuideWeighting::Zero => Weighting::Zero,
-        },
+        weighting: a.weighting,
         alpha: a.alpha,
         search: SearchSpace {
             rotation: !a.no_rotation,

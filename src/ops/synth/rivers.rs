@@ -14,7 +14,10 @@ use crate::tiles::render::RenderKind;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 
-/// Options of `synth rivers` (the CLI's names and defaults).
+/// Options of `synth rivers` (the CLI's names and defaults): the raster's
+/// extent, the land mask, the river parameters ([`RiverParams`], its keys
+/// flat beside these; its mask is built here from `coast` or the `land-*`
+/// keys) and the outputs.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
 pub struct RiversOptions {
@@ -24,10 +27,6 @@ pub struct RiversOptions {
     pub cell: f64,
     /// Top-left corner X,Y of the output (metres); default 0, height x cell.
     pub origin: Option<String>,
-    /// Random seed (nodes, growth jitter, noise land mask).
-    pub seed: u64,
-    /// Spacing of the river nodes (cells).
-    pub radius: f64,
     /// Land mask from the coastline polygons of this GeoJSON map instead of noise.
     pub coast: Option<PathBuf>,
     /// Units of the coast map: crs (metres, like `origin`) or pixels.
@@ -36,22 +35,9 @@ pub struct RiversOptions {
     pub land_wavelength: Option<f64>,
     /// Noise land mask: threshold (higher = less land).
     pub land_threshold: f64,
-    /// Directional inertia of river growth (0 = none).
-    pub inertia: f64,
-    /// Random perturbation of river growth (0..1).
-    pub jitter: f64,
-    /// River slope at a drainage area of 1 km² (m/m).
-    pub channel_slope: f64,
-    /// Slope-area exponent.
-    pub concavity: f64,
-    /// Smallest river slope (m/m).
-    pub min_slope: f64,
-    /// Slope cap (m/m), like a talus angle.
-    pub max_slope: f64,
-    /// Smallest hillslope beside rivers (m/m).
-    pub hill_slope: f64,
-    /// Sea floor depth (m).
-    pub sea_depth: f64,
+    /// The river network: seed, node spacing, growth, slopes, sea depth.
+    #[serde(flatten)]
+    pub river: RiverParams,
     /// Write the river trees as GeoJSON lines here.
     pub network: Option<PathBuf>,
     /// Write a hillshaded preview PNG here.
@@ -68,20 +54,11 @@ impl Default for RiversOptions {
             size: "1024".into(),
             cell: 30.0,
             origin: None,
-            seed: 42,
-            radius: 12.0,
             coast: None,
             map_units: "crs".into(),
             land_wavelength: None,
             land_threshold: -0.1,
-            inertia: 1.0,
-            jitter: 0.5,
-            channel_slope: 0.05,
-            concavity: 0.45,
-            min_slope: 0.0005,
-            max_slope: 0.7,
-            hill_slope: 0.05,
-            sea_depth: 20.0,
+            river: RiverParams::default(),
             network: None,
             preview: None,
             output: PathBuf::new(),
@@ -122,7 +99,7 @@ pub fn run(
         }
         None => LandMask::Noise {
             fbm: crate::synth::Fbm {
-                seed: a.seed ^ 0x1a4d,
+                seed: a.river.seed ^ 0x1a4d,
                 octaves: 6,
                 wavelength: a.land_wavelength.unwrap_or(w.max(h) as f64 / 2.0),
                 warp: 0.0,
@@ -132,17 +109,8 @@ pub fn run(
         },
     };
     let p = RiverParams {
-        seed: a.seed,
-        radius: a.radius,
         mask,
-        inertia: a.inertia,
-        jitter: a.jitter,
-        channel_slope: a.channel_slope,
-        concavity: a.concavity,
-        min_slope: a.min_slope,
-        max_slope: a.max_slope,
-        hill_slope: a.hill_slope,
-        sea_depth: a.sea_depth,
+        ..a.river.clone()
     };
     let net = RiverNetwork::build(w, h, a.cell, &p)?;
     if let Some(path) = &a.network {
@@ -151,7 +119,7 @@ pub fn run(
         crate::io::atomic::write_file_atomic(path, text.as_bytes())?;
         notify(Note::Wrote(path.clone()));
     }
-    let src = RiverTerrain::new(net, w, h, a.cell, a.radius, a.sea_depth, Some(georef))?;
+    let src = RiverTerrain::new(net, w, h, a.cell, p.radius, p.sea_depth, Some(georef))?;
     crate::ops::convert(&src, &a.output, oo, a.tile, cfg)?;
     notify(Note::Wrote(a.output.clone()));
     if let Some(pv) = &a.preview {

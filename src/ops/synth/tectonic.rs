@@ -18,7 +18,10 @@ use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 use std::sync::Arc;
 
-/// Options of `synth tectonic` (the CLI's names and defaults).
+/// Options of `synth tectonic` (the CLI's names and defaults): the map and
+/// the raster's extent, the fold noise, the fold parameters
+/// ([`TectonicParams`], its keys flat beside these), the outputs and a
+/// final erosion.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
 pub struct TectonicOptions {
@@ -36,32 +39,13 @@ pub struct TectonicOptions {
     pub margin: f64,
     /// Seed of the fold noise.
     pub seed: u64,
-    /// Merge plates whose normalised velocities have a dot product >= t1.
-    pub t1: f64,
-    /// ... and whose area ratio (smaller/larger) is >= t2.
-    pub t2: f64,
-    /// Gaussian sigma of the velocity blur (cells).
-    pub blur: f64,
-    /// Warp strength: noise sampled at p + strength * V(p).
-    pub fold_strength: f64,
-    /// Height of peaks without an elevation property (m).
-    pub relief: f64,
-    /// Attenuation radius of the folds around peaks (cells).
-    pub peak_radius: f64,
-    /// Share of the noise in the folds (0..1).
-    pub noise_share: f64,
     /// Wavelength of the fold noise (cells).
     pub wavelength: f64,
     /// Octaves of the fold noise.
     pub octaves: u32,
-    /// Slope along rivers in the watershed map (m/m).
-    pub river_slope: f64,
-    /// Slope away from rivers in the watershed map (m/m).
-    pub hill_slope: f64,
-    /// Distance from rivers (cells) beyond which the folds apply fully.
-    pub river_width: f64,
-    /// Longest side of the coarse grid for plates, velocity and watershed map.
-    pub coarse: usize,
+    /// Plates, velocity blur, folds, watershed map.
+    #[serde(flatten)]
+    pub folds: TectonicParams,
     /// Write the intermediates as GeoTIFFs into this folder.
     pub intermediates: Option<PathBuf>,
     /// Write a hillshaded preview PNG of the terrain here (and PNGs of the intermediates).
@@ -78,6 +62,7 @@ pub struct TectonicOptions {
 
 impl Default for TectonicOptions {
     fn default() -> Self {
+        let folds = TectonicParams::default();
         TectonicOptions {
             map: PathBuf::new(),
             map_units: "crs".into(),
@@ -85,20 +70,10 @@ impl Default for TectonicOptions {
             cell: 30.0,
             origin: None,
             margin: 0.05,
-            seed: 42,
-            t1: 0.8,
-            t2: 0.25,
-            blur: 24.0,
-            fold_strength: 1.0,
-            relief: 2000.0,
-            peak_radius: 120.0,
-            noise_share: 0.6,
-            wavelength: 256.0,
-            octaves: 8,
-            river_slope: 0.003,
-            hill_slope: 0.03,
-            river_width: 40.0,
-            coarse: 512,
+            seed: folds.fbm.seed,
+            wavelength: folds.fbm.wavelength,
+            octaves: folds.fbm.octaves,
+            folds,
             intermediates: None,
             preview: None,
             erode_steps: 0,
@@ -194,20 +169,9 @@ pub fn run(
             seed: a.seed,
             octaves: a.octaves,
             wavelength: a.wavelength,
-            ..TectonicParams::default().fbm
+            ..a.folds.fbm.clone()
         },
-        t1: a.t1,
-        t2: a.t2,
-        blur: a.blur,
-        fold_strength: a.fold_strength,
-        relief: a.relief,
-        peak_radius: a.peak_radius,
-        noise_share: a.noise_share,
-        river_slope: a.river_slope,
-        hill_slope: a.hill_slope,
-        river_width: a.river_width,
-        coarse: a.coarse,
-        ..TectonicParams::default()
+        ..a.folds.clone()
     };
     let model = Arc::new(TectonicModel::new(&px, w, h, a.cell, params)?);
     if let Some(dir) = &a.intermediates {

@@ -18,7 +18,7 @@ use serde::Deserialize;
 use serde::Serialize;
 
 /// fBm parameters. Elevation = `base + amplitude * (fbm + ridge_mix * ridged)`.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Fbm {
     pub seed: u64,
     /// Octaves (1..=24).

@@ -153,6 +153,18 @@ impl NoiseKind {
             NoiseKind::Spectral => "spectral",
         }
     }
+    /// A one-line description (the command line's help for the kind).
+    pub fn about(self) -> &'static str {
+        match self {
+            NoiseKind::Fbm => "fBm of gradient noise",
+            NoiseKind::Ridged => "Ridged multifractal (sharp crests)",
+            NoiseKind::Billow => "fBm of |noise| (rounded hills, creased valleys)",
+            NoiseKind::Simplex => "fBm of simplex noise",
+            NoiseKind::Warped => "Domain-warped ridged multifractal blended with fBm",
+            NoiseKind::DiamondSquare => "Diamond-square midpoint displacement",
+            NoiseKind::Spectral => "Power-law spectral synthesis (power ∝ f^-beta)",
+        }
+    }
     /// Every kind.
     pub const ALL: [NoiseKind; 7] = [
         NoiseKind::Fbm,
@@ -166,8 +178,10 @@ impl NoiseKind {
 }
 
 /// Parameters of a noise terrain. Elevation = `base + amplitude * v`, where
-/// `v` is the kind's field, normalised to about [-1, 1].
+/// `v` is the kind's field, normalised to about [-1, 1]. As keys (serde)
+/// the fields are kebab-case and each missing one takes its default.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
 pub struct Noise {
     pub kind: NoiseKind,
     pub seed: u64,

@@ -72,7 +72,8 @@ pub const MAX_OUTPUT_CELLS: usize = 1 << 26;
 pub const MAX_SOURCE_CELLS: usize = 1 << 26;
 
 /// How the guide's weight varies with the level.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum Weighting {
     /// `α (2^k − 1)/(2^L − 1)` (Scott & Dodgson 2022).
     Exponential,
@@ -85,6 +86,22 @@ pub enum Weighting {
 }
 
 impl Weighting {
+    /// Every weighting.
+    pub const ALL: [Weighting; 4] = [
+        Weighting::Exponential,
+        Weighting::Linear,
+        Weighting::Constant,
+        Weighting::Zero,
+    ];
+    /// The name used on the command line and in jobs.
+    pub fn name(self) -> &'static str {
+        match self {
+            Weighting::Exponential => "exponential",
+            Weighting::Linear => "linear",
+            Weighting::Constant => "constant",
+            Weighting::Zero => "zero",
+        }
+    }
     /// Guide weight at level `k` of levels `0..=l`.
     pub fn weight(self, alpha: f32, k: usize, l: usize) -> f32 {
         match self {

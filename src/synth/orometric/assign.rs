@@ -142,61 +142,7 @@ pub enum Target {
     Dominance,
 }
 
-/// One assignment pass: give every saddle one of `targets` (len = saddles)
-/// and set `hs` accordingly, clamped to `[floor, hmax[e]]`.
-pub fn assign_pass(
-    h: &[f64],
-    edges: &[(usize, usize)],
-    hmax: &[f64],
-    floor: f64,
-    hs: &mut [f64],
-    targets: &[f64],
-    kind: Target,
-) -> Result<()> {
-    let n = edges.len();
-    if targets.len() != n || hmax.len() != n || hs.len() != n {
-        return Err(Error::invalid(
-            "saddle assignment: targets, bounds and saddles differ in number",
-        ));
-    }
-    let own = owners(h, edges, hs);
-    let value = |e: usize, t: f64| target_height(kind, h[own[e]], t);
-    // Current value of the target quantity per saddle, to sort by rank.
-    let current = |e: usize| current_value(kind, h[own[e]], hs[e]);
-    let mut se: Vec<usize> = (0..n).collect();
-    se.sort_by(|&a, &b| current(a).total_cmp(&current(b)).then(a.cmp(&b)));
-    let mut st: Vec<f64> = targets.to_vec();
-    st.sort_by(|a, b| a.total_cmp(b));
-    let mut new_hs = hs.to_vec();
-    let mut cost = Vec::with_capacity(BLOCK * BLOCK);
-    solve_blocks(&se, &st, &value, hmax, floor, hs, &mut new_hs, &mut cost)?;
-    hs.copy_from_slice(&new_hs);
-    Ok(())
-}
-
-/// Alternate prominence and dominance passes `iterations` times, ending with
-/// three prominence passes.
-#[allow(clippy::too_many_arguments)]
-pub fn assign_saddles(
-    h: &[f64],
-    edges: &[(usize, usize)],
-    hmax: &[f64],
-    floor: f64,
-    hs: &mut [f64],
-    prominence: &[f64],
-    dominance: &[f64],
-    iterations: usize,
-) -> Result<()> {
-    schedule(hs, iterations, |hs, kind| {
-        let targets = match kind {
-            Target::Prominence => prominence,
-            Target::Dominance => dominance,
-        };
-        assign_pass(h, edges, hmax, floor, hs, targets, kind)
-    })
-}
-
-/// The alternation both assignments use: `iterations` prominence/dominance
+/// The alternation of [`assign_saddles_grouped`]: `iterations` prominence/dominance
 /// pairs, then prominence last, repeated (a pass can change owners; the next
 /// one re-targets the saddles whose owner changed).
 fn schedule(
@@ -277,12 +223,14 @@ impl SaddleProblem<'_> {
     }
 }
 
-/// One pass of [`assign_pass`] where each saddle draws its target from the
-/// group of its owner: saddle e (not `pinned`) whose owner is in group
+/// One assignment pass: every free saddle gets a target of the matched kind,
+/// drawn from the group of its owner, and `hs` is set accordingly, clamped to
+/// `[floor, hmax[e]]`. Saddle e (not `pinned`) whose owner is in group
 /// `group_of_peak[own[e]]` gets one of the lowest `k_g` of `k_g + r_g`
 /// stratified samples of that group's histogram (`k_g` = its number of
 /// free saddles this pass, `r_g` = its peaks owning no saddle: the root,
-/// whose value is the top of the histogram), by the same blocked assignment.
+/// whose value is the top of the histogram), by blocked linear assignment
+/// (see the module doc).
 pub fn assign_pass_grouped(pb: &SaddleProblem, hs: &mut [f64], kind: Target) -> Result<()> {
     pb.check(hs, "saddle assignment")?;
     let SaddleProblem {
@@ -335,8 +283,9 @@ pub fn assign_pass_grouped(pb: &SaddleProblem, hs: &mut [f64], kind: Target) -> 
     Ok(())
 }
 
-/// [`assign_saddles`] with per-group targets and pinned saddles (see
-/// [`assign_pass_grouped`]).
+/// Alternate prominence and dominance passes of [`assign_pass_grouped`]
+/// `iterations` times, ending with three prominence passes (per-group
+/// targets, pinned saddles kept).
 pub fn assign_saddles_grouped(pb: &SaddleProblem, hs: &mut [f64], iterations: usize) -> Result<()> {
     schedule(hs, iterations, |hs, kind| assign_pass_grouped(pb, hs, kind))
 }

@@ -62,12 +62,13 @@ use super::noise::Fbm;
 use super::tectonic::PointIndex;
 use crate::error::{Error, Result};
 use crate::raster::GeoRef;
+use serde::{Deserialize, Serialize};
 use spade::{DelaunayTriangulation, Point2, Triangulation};
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
 /// Where the land is.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum LandMask {
     /// Land where `fbm.sample(p) + falloff(p) > threshold`; the falloff
     /// (0 inside, down to −1.5 at the raster edge over the outer 15 %) keeps
@@ -77,12 +78,17 @@ pub enum LandMask {
     Rings(Vec<Vec<[f64; 2]>>),
 }
 
-/// Parameters (lengths in cells, slopes in metres per metre).
-#[derive(Debug, Clone)]
+/// Parameters (lengths in cells, slopes in metres per metre). As keys
+/// (serde) the fields are kebab-case, each missing one takes its default,
+/// and the land mask is no key (a caller builds it, from a map or noise).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
 pub struct RiverParams {
+    /// Seed of the nodes and the growth jitter.
     pub seed: u64,
     /// Poisson-disc spacing of the nodes (cells, >= 2).
     pub radius: f64,
+    #[serde(skip)]
     pub mask: LandMask,
     /// Directional inertia (0 = none).
     pub inertia: f64,

@@ -8,11 +8,15 @@ use serde::Deserialize;
 use serde::Serialize;
 
 /// Parameters of the tectonic pipeline (lengths in output cells, heights in
-/// metres, slopes in metres per metre).
-#[derive(Debug, Clone, Serialize, Deserialize)]
+/// metres, slopes in metres per metre). As keys (serde) the fields are
+/// kebab-case and each missing one takes its default; the fold noise, the
+/// peak slope gain and the sea depth are no keys (a caller sets them).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case", deny_unknown_fields, default)]
 pub struct TectonicParams {
     /// The fold noise (seed, octaves, wavelength...; `base` and `amplitude`
     /// are not used: the peaks set the heights).
+    #[serde(skip)]
     pub fbm: Fbm,
     /// Merge threshold on the dot product of normalised velocities (-1..1).
     pub t1: f64,
@@ -33,10 +37,12 @@ pub struct TectonicParams {
     /// Slope away from rivers in the watershed map.
     pub hill_slope: f64,
     /// Slopes are multiplied by 1 + gain · a(d) (steeper near peaks).
+    #[serde(skip)]
     pub peak_slope_gain: f64,
     /// Distance to a river (cells) beyond which the folds apply fully.
     pub river_width: f64,
     /// Depth of the open sea in the watershed map (m).
+    #[serde(skip)]
     pub sea_depth: f64,
     /// Longest side of the coarse grid for plates, velocity and watershed map.
     pub coarse: usize,
