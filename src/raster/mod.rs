@@ -11,7 +11,7 @@ mod tiling;
 mod union_find;
 mod window;
 
-pub use dtype::{Cell, DType};
+pub use dtype::{Cell, DType, OutputKind};
 pub use georef::{Crs, GeoKeys, GeoRef, RasterType};
 pub use grid::{AnyGrid, Grid, IntoAny};
 pub use source::{read_view, read_window, read_window_native, MemRaster, RasterInfo, RasterSource};
