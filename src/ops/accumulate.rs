@@ -174,12 +174,7 @@ pub fn accumulate_multi(
     }
     check_inputs(&inputs)?;
     let info = dem.info();
-    let fit = MemoryFit::cells(
-        info.width,
-        info.height,
-        MULTI_FLOW_BYTES_PER_CELL,
-        cfg.memory_budget,
-    );
+    let fit = MemoryFit::raster(info, MULTI_FLOW_BYTES_PER_CELL, cfg.memory_budget);
     if fit.fits() && (info.width as u64) * (info.height as u64) <= u32::MAX as u64 {
         let full = crate::raster::Window::full(info.width, info.height);
         let z = crate::raster::read_window::<f32>(dem, full)?;

@@ -114,17 +114,11 @@ pub fn run(
         return tiled_least_cost(dem, &hopts, opts.dist, target, cfg);
     }
     let info = dem.info().clone();
-    MemoryFit::cells(info.width, info.height, BREACH_BYTES_PER_CELL, cfg.memory_budget).check(|f| {
-        Error::invalid(format!(
-            "{}: this breaching method runs in memory and needs about {:.1} GiB for {}x{} cells; \
-             raise --memory (e.g. --memory {}GiB) or use --method least-cost, which runs across tiles",
-            info.path.display(),
-            f.need_gib(),
-            info.width,
-            info.height,
-            f.suggested_gib()
-        ))
-    })?;
+    MemoryFit::raster(&info, BREACH_BYTES_PER_CELL, cfg.memory_budget).check_in_memory(
+        &info.path,
+        "this breaching method",
+        " or use --method least-cost, which runs across tiles",
+    )?;
     let grid = read_window::<f32>(dem, Window::full(info.width, info.height))?;
     let nd = crate::exec::output::elevation_nodata(dem)?;
     let out = crate::hydro::breach(&grid, &hopts)?;
