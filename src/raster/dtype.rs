@@ -18,7 +18,7 @@ pub enum DType {
 
 /// What a raster's values are, for consumers that treat them differently
 /// (overview resampling, correlation tables, colour maps): a step declares
-/// it per output ([`crate::exec::output::OutputSpec`]), the metric registry
+/// it per output (`exec::output::OutputSpec`), the metric registry
 /// per metric, a tile store's provenance records it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
