@@ -85,8 +85,9 @@ pub(crate) struct OutFmt {
     /// Write .tif outputs as Cloud-Optimized GeoTIFFs (internal overviews).
     #[arg(long)]
     pub(crate) cog: bool,
-    /// COG overview resampling: average (continuous data) or nearest (classes, codes).
-    #[arg(long, default_value = "average")]
+    /// COG overview resampling: auto (nearest for classes, codes and angles,
+    /// average otherwise), average or nearest.
+    #[arg(long, default_value = "auto")]
     pub(crate) overviews: String,
 }
 

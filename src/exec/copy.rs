@@ -114,7 +114,7 @@ pub fn run_local_to_memory<S: super::LocalStep>(
         sinks.push(Box::new(s));
         handles.push(h);
     }
-    engine.run_local(step, inputs, layout, sinks)?;
+    engine.run_local(step, super::Run::new(inputs, layout, sinks))?;
     handles
         .iter()
         .map(|h| {

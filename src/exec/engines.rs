@@ -4,9 +4,8 @@
 //! never consult a process-global flag; the in-process [`LocalEngine`] only
 //! runs in this process.
 
-use super::{Engine, EngineConfig, GlobalStep, LocalEngine, LocalStep, TileSink};
+use super::{Engine, EngineConfig, GlobalStep, LocalEngine, LocalStep, Run};
 use crate::error::Result;
-use crate::raster::{RasterSource, TileLayout};
 use serde::{Deserialize, Serialize};
 
 /// Which engine runs the steps (`--engine`, a job's `engine`).
@@ -70,17 +69,11 @@ fn mpi_engine(_local: LocalEngine) -> Result<Engines> {
 /// One `Engine` method of [`Engines`]: the same call on the engine inside.
 macro_rules! forward {
     ($name:ident, $bound:ident, $ret:ty) => {
-        fn $name<S: $bound>(
-            &self,
-            step: &S,
-            inputs: &[&dyn RasterSource],
-            layout: TileLayout,
-            sinks: Vec<Box<dyn TileSink>>,
-        ) -> Result<$ret> {
+        fn $name<S: $bound>(&self, step: &S, run: Run<'_>) -> Result<$ret> {
             match self {
-                Engines::Local(e) => e.$name(step, inputs, layout, sinks),
+                Engines::Local(e) => e.$name(step, run),
                 #[cfg(feature = "mpi")]
-                Engines::Mpi(e) => e.$name(step, inputs, layout, sinks),
+                Engines::Mpi(e) => e.$name(step, run),
             }
         }
     };

@@ -19,12 +19,12 @@
 //! bounded pipeline cannot deadlock.
 
 use super::tile_io::{
-    blank_outputs, check_inputs, check_sinks, convert_outputs, finish_all, local_tile_bytes,
+    apply_tile, check_inputs, check_sinks, finish_all, local_tile, local_tile_bytes, out_meta,
     read_views, roundtrip_summary, tiles_in_flight, todo, write_outputs,
 };
-use super::{Engine, EngineConfig, GlobalStep, LocalStep, TileSink};
+use super::{Engine, EngineConfig, GlobalStep, LocalStep, Run};
 use crate::error::{Error, Result};
-use crate::raster::{AnyGrid, DType, RasterSource, TileId, TileLayout};
+use crate::raster::TileId;
 use crossbeam_channel::bounded;
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -174,44 +174,36 @@ impl LocalEngine {
 /// Runs every step in this process; the MPI engine is another value
 /// ([`super::Engines`], chosen by [`EngineConfig::engine`]).
 impl Engine for LocalEngine {
-    fn run_local<S: LocalStep>(
-        &self,
-        step: &S,
-        inputs: &[&dyn RasterSource],
-        layout: TileLayout,
-        mut sinks: Vec<Box<dyn TileSink>>,
-    ) -> Result<()> {
+    fn run_local<S: LocalStep>(&self, step: &S, run: Run<'_>) -> Result<()> {
+        let Run {
+            inputs,
+            layout,
+            mut sinks,
+        } = run;
         let name = step.name();
         check_inputs(&name, inputs, &layout)?;
-        check_sinks(&name, &sinks, step.outputs(), &layout)?;
+        check_sinks(&name, &sinks, step.outputs().len(), &layout)?;
         let halo = step.halo();
         let (meta, bytes) = out_meta::<S::In, S::Out>(&layout, halo, inputs, &sinks);
         let bytes = bytes + step.scratch_bytes(layout.tile);
         let ids = todo(&layout, &sinks);
-        let n_out = step.outputs();
-        let compute = |id: TileId| -> Result<Vec<AnyGrid>> {
-            let views = read_views::<S::In>(inputs, &layout, id, halo)?;
-            let mut out = blank_outputs::<S::Out>(n_out, &layout, id);
-            step.run(&views, &mut out)?;
-            convert_outputs(&name, &out, &layout, id, &meta)
-        };
+        let compute = |id: TileId| local_tile(step, &name, inputs, &layout, id, &meta);
         self.pipeline(&name, &ids, bytes, &compute, |id, grids| {
             write_outputs(&mut sinks, &layout, id, grids)
         })?;
         finish_all(sinks)
     }
 
-    fn run_global<S: GlobalStep>(
-        &self,
-        step: &S,
-        inputs: &[&dyn RasterSource],
-        layout: TileLayout,
-        mut sinks: Vec<Box<dyn TileSink>>,
-    ) -> Result<S::Solution> {
+    fn run_global<S: GlobalStep>(&self, step: &S, run: Run<'_>) -> Result<S::Solution> {
+        let Run {
+            inputs,
+            layout,
+            mut sinks,
+        } = run;
         let name = step.name();
         check_inputs(&name, inputs, &layout)?;
         if !sinks.is_empty() {
-            check_sinks(&name, &sinks, step.outputs(), &layout)?;
+            check_sinks(&name, &sinks, step.outputs().len(), &layout)?;
         }
         let halo = step.halo();
         let in_size = std::mem::size_of::<S::In>();
@@ -247,15 +239,11 @@ impl Engine for LocalEngine {
         // Apply: like a local step, with each tile's slice of the solution.
         let (meta, bytes) = out_meta::<S::In, S::Out>(&layout, halo, inputs, &sinks);
         let ids = todo(&layout, &sinks);
-        let n_out = step.outputs();
         let apply_name = format!("{name} (apply)");
         let solution_ref = &solution;
-        let apply = |id: TileId| -> Result<Vec<AnyGrid>> {
-            let views = read_views::<S::In>(inputs, &layout, id, halo)?;
+        let apply = |id: TileId| {
             let slice = step.slice(solution_ref, id);
-            let mut out = blank_outputs::<S::Out>(n_out, &layout, id);
-            step.apply(&views, &slice, &mut out)?;
-            convert_outputs(&name, &out, &layout, id, &meta)
+            apply_tile(step, &name, inputs, &layout, id, &slice, &meta)
         };
         self.pipeline(&apply_name, &ids, bytes, &apply, |id, grids| {
             write_outputs(&mut sinks, &layout, id, grids)
@@ -263,28 +251,6 @@ impl Engine for LocalEngine {
         finish_all(sinks)?;
         Ok(solution)
     }
-}
-
-/// The sinks' cell types and nodata, and the memory of one tile of a step
-/// reading `inputs` as `I` with `halo` cells and writing the sinks from
-/// outputs of `O` (`local_tile_bytes`).
-fn out_meta<I, O>(
-    layout: &TileLayout,
-    halo: usize,
-    inputs: &[&dyn RasterSource],
-    sinks: &[Box<dyn TileSink>],
-) -> (Vec<(DType, Option<f64>)>, u64) {
-    let meta: Vec<(DType, Option<f64>)> = sinks.iter().map(|s| (s.dtype(), s.nodata())).collect();
-    let sizes: Vec<usize> = meta.iter().map(|m| m.0.size()).collect();
-    let bytes = local_tile_bytes(
-        layout,
-        halo,
-        inputs,
-        std::mem::size_of::<I>(),
-        std::mem::size_of::<O>(),
-        &sizes,
-    );
-    (meta, bytes)
 }
 
 /// `compute()`, unless the run was stopped (another tile failed): then the

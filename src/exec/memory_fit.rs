@@ -8,6 +8,7 @@
 //! Sizes saturate: a working set too large for `u64` never fits.
 
 use crate::error::Error;
+use crate::raster::RasterInfo;
 use std::path::Path;
 
 const GIB: u64 = 1 << 30;
@@ -33,6 +34,11 @@ impl MemoryFit {
             budget,
             cells: Some((width, height)),
         }
+    }
+
+    /// The whole raster `info` describes at `bytes_per_cell`.
+    pub fn raster(info: &RasterInfo, bytes_per_cell: u64, budget: u64) -> MemoryFit {
+        MemoryFit::cells(info.width, info.height, bytes_per_cell, budget)
     }
 
     /// `need` bytes, however they are counted.
@@ -97,6 +103,11 @@ impl MemoryFit {
                 self.suggested_gib()
             ),
         )
+    }
+
+    /// `Ok` when the need fits, else [`MemoryFit::runs_in_memory_error`].
+    pub fn check_in_memory(&self, subject: &Path, what: &str, more: &str) -> Result<(), Error> {
+        self.check(|f| f.runs_in_memory_error(subject, what, more))
     }
 }
 

@@ -1,7 +1,8 @@
 //! Tiled execution: the step traits (local and global), the `Engine` trait
 //! that runs steps over tiles (tile sinks are `store::sink`'s, re-exported
-//! here), output nodata rules ([`output`]) and runs planned from paths
-//! ([`plan`]). Steps never know which engine runs them; an engine never
+//! here), what each output is ([`output::OutputSpec`]: cell type, nodata
+//! rule, kind, declared by the step) and runs planned from paths
+//! ([`plan`], which turns the specs into sinks). Steps never know which engine runs them; an engine never
 //! knows what a step computes.
 //!
 //! The engine is a value: [`engine`] turns an [`EngineConfig`] (whose
@@ -12,6 +13,7 @@
 
 use crate::error::Result;
 use crate::raster::{Cell, Grid, IntoAny, RasterSource, TileId, TileLayout, TileView};
+use output::OutputSpec;
 use serde::{de::DeserializeOwned, Serialize};
 
 /// A local step: `tile + halo -> tile`, for every tile independently.
@@ -28,10 +30,9 @@ pub trait LocalStep: Sync {
     fn params(&self) -> serde_json::Value;
     /// Halo in cells the step needs around each tile.
     fn halo(&self) -> usize;
-    /// Number of output rasters (all of the core's size).
-    fn outputs(&self) -> usize {
-        1
-    }
+    /// The output rasters (all of the core's size), one spec each: cell
+    /// type written, nodata rule, kind. Their number is the length.
+    fn outputs(&self) -> Vec<OutputSpec>;
     /// Extra working memory `run` allocates for one tile of side `tile`
     /// (summed-area tables, horizon buffers…), counted in the memory budget.
     fn scratch_bytes(&self, _tile: usize) -> u64 {
@@ -66,10 +67,9 @@ pub trait GlobalStep: Sync {
     fn halo(&self) -> usize {
         0
     }
-    /// Number of outputs of `apply`.
-    fn outputs(&self) -> usize {
-        1
-    }
+    /// The outputs of `apply`, as in [`LocalStep::outputs`] (empty for a
+    /// step run for its solution only).
+    fn outputs(&self) -> Vec<OutputSpec>;
     /// Solve one tile alone.
     fn map(&self, inputs: &[TileView<Self::In>]) -> Result<Self::Summary>;
     /// Join the summaries (`summaries[id]` belongs to tile `id`).
@@ -110,28 +110,49 @@ impl Default for EngineConfig {
     }
 }
 
-/// Runs steps over tiles. Implemented by the in-process engine (rayon) and,
-/// later, a distributed one; steps are written once against this trait.
-pub trait Engine {
-    /// Run a local step over every tile of `layout`, reading `inputs` (all of
-    /// the layout's size) and writing output `k` to `sinks[k]`.
-    fn run_local<S: LocalStep>(
-        &self,
-        step: &S,
-        inputs: &[&dyn RasterSource],
-        layout: TileLayout,
-        sinks: Vec<Box<dyn TileSink>>,
-    ) -> Result<()>;
+/// One run of a step on an engine: the inputs (all of the layout's size),
+/// the tile layout, and one sink per output of the step (none: a global
+/// step run for its solution only).
+pub struct Run<'a> {
+    /// The step's inputs, input 0 first.
+    pub inputs: &'a [&'a dyn RasterSource],
+    /// The tiles.
+    pub layout: TileLayout,
+    /// Output `k` is written to `sinks[k]`.
+    pub sinks: Vec<Box<dyn TileSink>>,
+}
 
-    /// Run a global step: map every tile, reduce, then (if `sinks` is not
-    /// empty) apply every tile and write it. Returns the solution.
-    fn run_global<S: GlobalStep>(
-        &self,
-        step: &S,
-        inputs: &[&dyn RasterSource],
+impl<'a> Run<'a> {
+    /// A run of `inputs` over `layout` writing to `sinks`.
+    pub fn new(
+        inputs: &'a [&'a dyn RasterSource],
         layout: TileLayout,
         sinks: Vec<Box<dyn TileSink>>,
-    ) -> Result<S::Solution>;
+    ) -> Run<'a> {
+        Run {
+            inputs,
+            layout,
+            sinks,
+        }
+    }
+
+    /// A run of `inputs` over `layout` that writes nothing (a global step's
+    /// solution only).
+    pub fn solution_only(inputs: &'a [&'a dyn RasterSource], layout: TileLayout) -> Run<'a> {
+        Run::new(inputs, layout, Vec::new())
+    }
+}
+
+/// Runs steps over tiles. Implemented by the in-process engine (rayon) and
+/// the distributed one (MPI); steps are written once against this trait.
+pub trait Engine {
+    /// Run a local step over every tile of `run.layout`, reading
+    /// `run.inputs` and writing output `k` to `run.sinks[k]`.
+    fn run_local<S: LocalStep>(&self, step: &S, run: Run<'_>) -> Result<()>;
+
+    /// Run a global step: map every tile, reduce, then (if `run.sinks` is
+    /// not empty) apply every tile and write it. Returns the solution.
+    fn run_global<S: GlobalStep>(&self, step: &S, run: Run<'_>) -> Result<S::Solution>;
 
     /// Run a global step whose caller needs only the written outputs, not
     /// the solution: map, reduce, apply and write, like [`Engine::run_global`].
@@ -139,14 +160,8 @@ pub trait Engine {
     /// engine may instead reduce on one process and send each other process
     /// only the slices of its tiles (Barnes 2016, 2017), since no process
     /// but the reducing one needs the whole solution.
-    fn run_global_apply<S: GlobalStep>(
-        &self,
-        step: &S,
-        inputs: &[&dyn RasterSource],
-        layout: TileLayout,
-        sinks: Vec<Box<dyn TileSink>>,
-    ) -> Result<()> {
-        self.run_global(step, inputs, layout, sinks).map(|_| ())
+    fn run_global_apply<S: GlobalStep>(&self, step: &S, run: Run<'_>) -> Result<()> {
+        self.run_global(step, run).map(|_| ())
     }
 }
 

@@ -1,6 +1,17 @@
-//! The nodata rule of a step's outputs: for an elevation output (filled or
-//! breached DEM), a nodata value that cannot collide with a real elevation.
+//! What a step writes: each output's [`OutputSpec`] (cell type, nodata
+//! rule, kind), declared by the step ([`super::LocalStep::outputs`],
+//! [`super::GlobalStep::outputs`]) and resolved by the plan
+//! ([`super::plan`]) into sinks, so no caller builds `(dtype, nodata)`
+//! pairs. The kind ([`OutputKind`]: continuous, categorical, angle) picks
+//! how a Cloud-Optimized GeoTIFF's overviews are made when the user did not
+//! choose (nearest for codes and angles, the mean otherwise) and is recorded
+//! in a tile store's provenance.
 //!
+//! The nodata rules ([`NodataRule`]) that depend on the data are resolved
+//! on input 0 at plan time, each at most once per run:
+//!
+//! **Elevation outputs** (filled or breached DEMs, [`NodataRule::BelowInput`]):
+//! a nodata value that cannot collide with a real elevation.
 //! Hydrological steps write f32 DEMs with nodata [`FILL_NODATA`]
 //! (−9999, gdal's and ESRI's habit). Bathymetry reaches −10 994 m (Challenger
 //! Deep), so a DEM without nodata may hold −9999 as a real value; written
@@ -16,9 +27,100 @@
 //! towards a real lower cell (breach: paths descend to an outlet), so a
 //! value below the input minimum, with a margin for epsilon gradients,
 //! stays below every output value.
+//!
+//! **Outputs in the DEM's unit that may be differences** (window means,
+//! TPI, relief, [`NodataRule::BelowDifference`]): values lie in
+//! `[min(lo, lo − hi), hi − lo]` for valid input cells in `[lo, hi]`, so
+//! the nodata is the first candidate below `min(lo, lo − hi)`
+//! ([`difference_nodata`]).
 
 use crate::error::Result;
 use crate::raster::{read_window, DType, RasterSource, Window};
+
+pub use crate::raster::OutputKind;
+
+/// How an output's nodata value is chosen.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum NodataRule {
+    /// This value.
+    Value(f64),
+    /// No nodata value (every cell is data; NaN cells of floats still read
+    /// as nodata).
+    None,
+    /// Below every valid elevation of input 0: [`elevation_nodata`].
+    BelowInput,
+    /// Below every difference of two valid cells of input 0 and below its
+    /// lowest cell: [`difference_nodata`].
+    BelowDifference,
+}
+
+/// One output of a step: its cell type on disk, nodata rule and kind.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OutputSpec {
+    /// Cell type the output is written as.
+    pub dtype: DType,
+    /// How its nodata value is chosen.
+    pub nodata: NodataRule,
+    /// What its values are.
+    pub kind: OutputKind,
+}
+
+impl OutputSpec {
+    /// A continuous output of `dtype` with nodata `nodata`.
+    pub const fn continuous(dtype: DType, nodata: f64) -> OutputSpec {
+        OutputSpec {
+            dtype,
+            nodata: NodataRule::Value(nodata),
+            kind: OutputKind::Continuous,
+        }
+    }
+
+    /// A categorical output (codes, labels) of `dtype` with nodata `nodata`.
+    pub const fn categorical(dtype: DType, nodata: f64) -> OutputSpec {
+        OutputSpec {
+            dtype,
+            nodata: NodataRule::Value(nodata),
+            kind: OutputKind::Categorical,
+        }
+    }
+
+    /// An f32 elevation output whose nodata lies below input 0's data
+    /// ([`NodataRule::BelowInput`]): filled and breached DEMs.
+    pub const fn elevation() -> OutputSpec {
+        OutputSpec {
+            dtype: DType::F32,
+            nodata: NodataRule::BelowInput,
+            kind: OutputKind::Continuous,
+        }
+    }
+
+    /// This spec of kind `kind`.
+    pub const fn with_kind(self, kind: OutputKind) -> OutputSpec {
+        OutputSpec { kind, ..self }
+    }
+}
+
+/// The nodata value of each of `specs` for a run on `src` (input 0): the
+/// data-dependent rules read `src` once each, however many outputs use them.
+pub fn resolve_nodata(specs: &[OutputSpec], src: &dyn RasterSource) -> Result<Vec<Option<f64>>> {
+    let (mut below_input, mut below_difference) = (None, None);
+    let mut out = Vec::with_capacity(specs.len());
+    for s in specs {
+        out.push(match s.nodata {
+            NodataRule::Value(v) => Some(v),
+            NodataRule::None => None,
+            NodataRule::BelowInput => Some(match below_input {
+                Some(v) => v,
+                None => *below_input.insert(elevation_nodata(src)?),
+            }),
+            NodataRule::BelowDifference => Some(match below_difference {
+                Some(v) => v,
+                None => *below_difference.insert(difference_nodata(src)?),
+            }),
+        });
+    }
+    Ok(out)
+}
 
 /// Nodata value written for filled DEMs (f32 outputs): below any real elevation.
 pub const FILL_NODATA: f64 = -9999.0;
@@ -43,6 +145,19 @@ pub fn elevation_nodata(src: &dyn RasterSource) -> Result<f64> {
         return Ok(FILL_NODATA);
     }
     Ok(below(lowest_valid(src)?).unwrap_or(f64::NAN))
+}
+
+/// The nodata for an f32 output in `src`'s unit whose values may be
+/// differences of two cells (see the module documentation): [`FILL_NODATA`]
+/// unless `min(lo, lo − hi)` of the valid range comes within [`MARGIN`] of
+/// it, then the next of [`CANDIDATES`]; NaN past them all. One read pass,
+/// unless `src`'s type cannot reach −9999 (u8, i8).
+pub fn difference_nodata(src: &dyn RasterSource) -> Result<f64> {
+    if matches!(src.info().dtype, DType::U8 | DType::I8) {
+        return Ok(FILL_NODATA);
+    }
+    let bound = valid_range(src)?.map(|(lo, hi)| (lo as f64).min(lo as f64 - hi as f64) as f32);
+    Ok(below(bound).unwrap_or(f64::NAN))
 }
 
 /// The first of [`CANDIDATES`] more than [`MARGIN`] below `min` (the
@@ -145,5 +260,44 @@ mod tests {
         );
         g.set(5, 5, -f32::MAX);
         assert!(elevation_nodata(&mem(g, None)).unwrap().is_nan());
+    }
+
+    #[test]
+    fn rules_resolve_on_the_input() {
+        // Valid cells in [-5000, 6000]: every elevation is above -9999 + 1,
+        // but a difference of two cells reaches -11 000.
+        let mut g = Grid::from_fn(40, 30, |x, y| (x * 100 + y) as f32);
+        g.set(3, 4, -5000.0);
+        g.set(5, 6, 6000.0);
+        let src = mem(g, None);
+        let specs = [
+            OutputSpec::elevation(),
+            OutputSpec::categorical(DType::U8, 255.0),
+            OutputSpec {
+                dtype: DType::F32,
+                nodata: NodataRule::BelowDifference,
+                kind: OutputKind::Continuous,
+            },
+            OutputSpec {
+                dtype: DType::F64,
+                nodata: NodataRule::None,
+                kind: OutputKind::Angle,
+            },
+            OutputSpec::elevation(),
+        ];
+        assert_eq!(
+            resolve_nodata(&specs, &src).unwrap(),
+            [
+                Some(-9999.0),
+                Some(255.0),
+                Some(-99_999.0),
+                None,
+                Some(-9999.0)
+            ]
+        );
+        assert_eq!(difference_nodata(&src).unwrap(), -99_999.0);
+        // Byte inputs are never scanned: nothing they hold reaches -9999.
+        let b = MemRaster::from_grid(Grid::new(4, 4, 7u8), GeoRef::pixel());
+        assert_eq!(difference_nodata(&b).unwrap(), -9999.0);
     }
 }

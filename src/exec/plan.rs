@@ -1,12 +1,14 @@
 //! Planning a tiled run whose outputs are files: check the inputs, choose
 //! the tile layout (an output or input tile store's tile size wins), create
-//! one sink per output path by its extension, and run a local or global step
-//! on the engine.
+//! one sink per output path by its extension, written as the step's
+//! [`OutputSpec`]s declare (nodata rules resolved on input 0), and run a
+//! local or global step on the engine.
 
-use super::{engine, Engine, EngineConfig, GlobalStep, LocalStep, TileSink};
+use super::output::{resolve_nodata, OutputSpec};
+use super::{engine, Engine, EngineConfig, GlobalStep, LocalStep, Run, TileSink};
 use crate::error::{Error, Result};
 use crate::io::{self, OutputOptions};
-use crate::raster::{DType, RasterSource, TileLayout};
+use crate::raster::{RasterSource, TileLayout};
 use crate::store::Provenance;
 use std::path::{Path, PathBuf};
 
@@ -72,26 +74,30 @@ pub fn check_same_size(a: &dyn RasterSource, b: &dyn RasterSource, why: &str) ->
     Ok(())
 }
 
-/// One sink per output path, with the first input's georeference.
+/// One sink per output path, with the first input's georeference: output
+/// `k` written as `specs[k]` (its nodata rule resolved on input 0, its kind
+/// recorded in the provenance, which picks a COG's overview resampling
+/// unless the options fix it).
 pub fn make_sinks(
     name: String,
     params: serde_json::Value,
     inputs: &[&dyn RasterSource],
     outputs: &[PathBuf],
-    out_types: &[(DType, Option<f64>)],
+    specs: &[OutputSpec],
     oo: &OutputOptions,
 ) -> Result<Vec<Box<dyn TileSink>>> {
     let info = inputs[0].info();
-    if out_types.len() != outputs.len() {
+    if specs.len() != outputs.len() {
         return Err(Error::invalid(format!(
             "{name} writes {} output(s), {} path(s) given",
-            out_types.len(),
+            specs.len(),
             outputs.len()
         )));
     }
+    let nodata = resolve_nodata(specs, inputs[0])?;
     let mut sinks = Vec::with_capacity(outputs.len());
-    for (p, (dt, nd)) in outputs.iter().zip(out_types) {
-        let georef = info.georef.clone().with_nodata(*nd);
+    for ((p, spec), nd) in outputs.iter().zip(specs).zip(nodata) {
+        let georef = info.georef.clone().with_nodata(nd);
         let prov = Provenance::new(
             name.clone(),
             params.clone(),
@@ -99,12 +105,13 @@ pub fn make_sinks(
                 .iter()
                 .map(|i| i.info().path.display().to_string())
                 .collect(),
-        );
+        )
+        .with_kind(spec.kind);
         sinks.push(io::create_sink(
             p,
             info.width,
             info.height,
-            *dt,
+            spec.dtype,
             &georef,
             oo,
             prov,
@@ -113,79 +120,67 @@ pub fn make_sinks(
     Ok(sinks)
 }
 
-/// What [`run_local_to_paths`] and [`run_global_to_paths`] share: check the
-/// inputs' sizes and that the step (`name`, with `n_out` outputs) gets one
-/// path per output, then choose the tile layout and make the sinks.
-#[allow(clippy::too_many_arguments)]
-fn prepare(
+/// A run of a step (`name`, `params`, output `specs`) whose outputs are
+/// the files `outputs`: check the inputs' sizes, choose the tile layout and
+/// make one sink per output (their number must match).
+pub fn plan_run<'a>(
     name: String,
     params: serde_json::Value,
-    n_out: usize,
-    inputs: &[&dyn RasterSource],
+    specs: &[OutputSpec],
+    inputs: &'a [&'a dyn RasterSource],
     outputs: &[PathBuf],
-    out_types: &[(DType, Option<f64>)],
     oo: &OutputOptions,
     tile: Option<usize>,
-) -> Result<(TileLayout, Vec<Box<dyn TileSink>>)> {
+) -> Result<Run<'a>> {
     let first = check_inputs(inputs)?;
-    if outputs.len() != n_out {
-        return Err(Error::invalid(format!(
-            "{name} writes {n_out} output(s), {} path(s) given",
-            outputs.len()
-        )));
-    }
     let layout = choose_layout(first, outputs, oo, tile);
-    let sinks = make_sinks(name, params, inputs, outputs, out_types, oo)?;
-    Ok((layout, sinks))
+    let sinks = make_sinks(name, params, inputs, outputs, specs, oo)?;
+    Ok(Run::new(inputs, layout, sinks))
 }
 
-/// Run a local step on `inputs` and write output `k` to `outputs[k]` as
-/// `(dtype, nodata)` of `out_types[k]`.
+/// Run a local step on `inputs` and write output `k` to `outputs[k]`, as
+/// the step's `outputs()[k]` declares.
 pub fn run_local_to_paths<S: LocalStep>(
     step: &S,
     inputs: &[&dyn RasterSource],
     outputs: &[PathBuf],
-    out_types: &[(DType, Option<f64>)],
     oo: &OutputOptions,
     tile: Option<usize>,
     cfg: &EngineConfig,
 ) -> Result<()> {
-    let (layout, sinks) = prepare(
+    let run = plan_run(
         step.name(),
         step.params(),
-        step.outputs(),
+        &step.outputs(),
         inputs,
         outputs,
-        out_types,
         oo,
         tile,
     )?;
-    engine(cfg)?.run_local(step, inputs, layout, sinks)
+    engine(cfg)?.run_local(step, run)
 }
 
 /// Run a global step (map, reduce, apply) on `inputs` and write its outputs
-/// (the solution is not kept: under MPI only rank 0 reduces, see
-/// [`Engine::run_global_apply`]).
+/// as [`run_local_to_paths`] does (the solution is not kept: under MPI only
+/// rank 0 reduces, see [`Engine::run_global_apply`]).
 pub fn run_global_to_paths<S: GlobalStep>(
     step: &S,
     inputs: &[&dyn RasterSource],
     outputs: &[PathBuf],
-    out_types: &[(DType, Option<f64>)],
     oo: &OutputOptions,
     tile: Option<usize>,
     cfg: &EngineConfig,
 ) -> Result<()> {
-    let (layout, sinks) = prepare(
+    let run = plan_run(
         step.name(),
         step.params(),
-        step.outputs(),
+        &step.outputs(),
         inputs,
         outputs,
-        out_types,
         oo,
         tile,
     )?;
-    engine(cfg)?.run_global_apply(step, inputs, layout, sinks)
+    engine(cfg)?.run_global_apply(step, run)
 }
 
 /// [`run_local_to_paths`] for a one-output step on one input.
@@ -193,12 +188,11 @@ pub fn run_local_to<S: LocalStep>(
     step: &S,
     src: &dyn RasterSource,
     out: &Path,
-    ty: (DType, Option<f64>),
     oo: &OutputOptions,
     tile: Option<usize>,
     cfg: &EngineConfig,
 ) -> Result<()> {
-    run_local_to_paths(step, &[src], &[out.to_path_buf()], &[ty], oo, tile, cfg)
+    run_local_to_paths(step, &[src], &[out.to_path_buf()], oo, tile, cfg)
 }
 
 /// [`run_global_to_paths`] for a one-output step.
@@ -206,10 +200,9 @@ pub fn run_global_to<S: GlobalStep>(
     step: &S,
     inputs: &[&dyn RasterSource],
     out: &Path,
-    ty: (DType, Option<f64>),
     oo: &OutputOptions,
     tile: Option<usize>,
     cfg: &EngineConfig,
 ) -> Result<()> {
-    run_global_to_paths(step, inputs, &[out.to_path_buf()], &[ty], oo, tile, cfg)
+    run_global_to_paths(step, inputs, &[out.to_path_buf()], oo, tile, cfg)
 }

@@ -110,8 +110,8 @@ impl GlobalStep for Stats {
     fn params(&self) -> serde_json::Value {
         serde_json::json!({"lo": self.lo, "hi": self.hi, "bins": self.bins})
     }
-    fn outputs(&self) -> usize {
-        0
+    fn outputs(&self) -> Vec<crate::exec::output::OutputSpec> {
+        Vec::new()
     }
 
     fn map(&self, inputs: &[TileView<f64>]) -> Result<StatsSummary> {

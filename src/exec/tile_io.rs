@@ -1,9 +1,11 @@
 //! What both engines do to one tile of a run: check the inputs and sinks,
 //! list the tiles still to do, read a tile's views, make blank outputs,
 //! convert them to the sinks' types and write them; the memory estimate of
-//! a tile in flight; the serde round trip of global-step summaries.
+//! a tile in flight; one tile of a local step or of a global step's apply
+//! ([`local_tile`], [`apply_tile`]); the serde round trip of global-step
+//! summaries.
 
-use super::TileSink;
+use super::{GlobalStep, LocalStep, TileSink};
 use crate::error::{Error, Result};
 use crate::raster::{
     read_view, AnyGrid, Cell, DType, Grid, IntoAny, RasterSource, TileId, TileLayout, TileView,
@@ -137,6 +139,61 @@ pub(super) fn convert_outputs<T: IntoAny>(
             Ok(AnyGrid::from_typed(g, dt, nd))
         })
         .collect()
+}
+
+/// The sinks' cell types and nodata, and the memory of one tile of a step
+/// reading `inputs` as `I` with `halo` cells and writing the sinks from
+/// outputs of `O` (`local_tile_bytes`).
+pub(super) fn out_meta<I, O>(
+    layout: &TileLayout,
+    halo: usize,
+    inputs: &[&dyn RasterSource],
+    sinks: &[Box<dyn TileSink>],
+) -> (Vec<(DType, Option<f64>)>, u64) {
+    let meta: Vec<(DType, Option<f64>)> = sinks.iter().map(|s| (s.dtype(), s.nodata())).collect();
+    let sizes: Vec<usize> = meta.iter().map(|m| m.0.size()).collect();
+    let bytes = local_tile_bytes(
+        layout,
+        halo,
+        inputs,
+        std::mem::size_of::<I>(),
+        std::mem::size_of::<O>(),
+        &sizes,
+    );
+    (meta, bytes)
+}
+
+/// One tile of a local step: read the views, run the step, convert the
+/// outputs to the sinks' types `meta` (one per output).
+pub(super) fn local_tile<S: LocalStep>(
+    step: &S,
+    name: &str,
+    inputs: &[&dyn RasterSource],
+    layout: &TileLayout,
+    id: TileId,
+    meta: &[(DType, Option<f64>)],
+) -> Result<Vec<AnyGrid>> {
+    let views = read_views::<S::In>(inputs, layout, id, step.halo())?;
+    let mut out = blank_outputs::<S::Out>(meta.len(), layout, id);
+    step.run(&views, &mut out)?;
+    convert_outputs(name, &out, layout, id, meta)
+}
+
+/// One tile of a global step's apply phase with its `slice`, as
+/// [`local_tile`].
+pub(super) fn apply_tile<S: GlobalStep>(
+    step: &S,
+    name: &str,
+    inputs: &[&dyn RasterSource],
+    layout: &TileLayout,
+    id: TileId,
+    slice: &S::Slice,
+    meta: &[(DType, Option<f64>)],
+) -> Result<Vec<AnyGrid>> {
+    let views = read_views::<S::In>(inputs, layout, id, step.halo())?;
+    let mut out = blank_outputs::<S::Out>(meta.len(), layout, id);
+    step.apply(&views, slice, &mut out)?;
+    convert_outputs(name, &out, layout, id, meta)
 }
 
 pub(super) fn write_outputs(

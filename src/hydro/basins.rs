@@ -30,12 +30,14 @@
 //! values from its slice. No arithmetic happens across tiles, so the tiled
 //! result equals the in-memory one bit for bit.
 
+use super::indices::INDEX_NODATA;
 use super::{code_to_dir, DX, DY, NODATA_DIR, NO_FLOW};
 use crate::error::{Error, Result};
+use crate::exec::output::OutputSpec;
 use crate::exec::GlobalStep;
 use crate::io::vector::PointNoun;
 use crate::raster::{perimeter_cells, perimeter_index, perimeter_len};
-use crate::raster::{Grid, RasterSource, TileId, TileLayout, TileView, Window};
+use crate::raster::{DType, Grid, RasterSource, TileId, TileLayout, TileView, Window};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -285,6 +287,9 @@ pub enum Seeds {
 #[derive(Debug, Clone)]
 pub struct TiledDownstream {
     pub seeds: Seeds,
+    /// Cell type of a label output (basins, watersheds; not HAND, which is
+    /// f32): [`TiledDownstream::label_type`] of the raster's size.
+    pub labels: DType,
 }
 
 /// A perimeter cell's resolution inside its tile (`None` = NaN).
@@ -318,6 +323,16 @@ fn opt(v: f64) -> Option<f64> {
 }
 
 impl TiledDownstream {
+    /// The label cell type for a raster of `width` x `height`: u32 while
+    /// every label (at most the cell count) fits, else f64 (exact to 2^53).
+    pub fn label_type(width: usize, height: usize) -> DType {
+        if (width as u64) * (height as u64) < u32::MAX as u64 {
+            DType::U32
+        } else {
+            DType::F64
+        }
+    }
+
     fn inputs_needed(&self) -> usize {
         match self.seeds {
             Seeds::Streams { .. } => 3,
@@ -452,6 +467,12 @@ impl GlobalStep for TiledDownstream {
         1
     }
 
+    fn outputs(&self) -> Vec<OutputSpec> {
+        vec![match self.seeds {
+            Seeds::Streams { .. } => OutputSpec::continuous(DType::F32, INDEX_NODATA),
+            _ => OutputSpec::categorical(self.labels, 0.0),
+        }]
+    }
     fn map(&self, inputs: &[TileView<f64>]) -> Result<DownSummary> {
         let terms = self.tile_terms(inputs)?;
         let d = &inputs[0];

@@ -40,9 +40,10 @@
 use super::streams::{receivers, row_sizes};
 use super::NODATA_DIR;
 use crate::error::{Error, Result};
+use crate::exec::output::OutputSpec;
 use crate::exec::LocalStep;
 use crate::raster::neighbours::{horn_gradient, neighbour};
-use crate::raster::{GeoRef, Grid, TileView};
+use crate::raster::{DType, GeoRef, Grid, TileView};
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
@@ -120,6 +121,9 @@ impl LocalStep for HydroIndex {
     fn halo(&self) -> usize {
         1
     }
+    fn outputs(&self) -> Vec<OutputSpec> {
+        vec![OutputSpec::continuous(DType::F32, INDEX_NODATA)]
+    }
     fn run(&self, inputs: &[TileView<f32>], out: &mut [Grid<f32>]) -> Result<()> {
         let (Some(dem), Some(acc)) = (inputs.first(), inputs.get(1)) else {
             return Err(Error::invalid(
@@ -175,6 +179,9 @@ pub fn tan_beta_grid(dem: &Grid<f32>, georef: &GeoRef) -> Grid<f64> {
         gx.hypot(gy)
     })
 }
+
+/// Nodata of the index rasters (f32).
+pub const INDEX_NODATA: f64 = -9999.0;
 
 /// Bytes per cell of [`depth_to_water`] (DEM, stream raster, slope, costs,
 /// mask, and a heap of about two entries per cell).

@@ -59,6 +59,8 @@ pub use rho8::rho8_directions;
 /// The output nodata rule of elevation outputs, now [`crate::exec::output`].
 pub use crate::exec::output as out_nodata;
 pub use crate::exec::output::FILL_NODATA;
+/// Nodata of flow-accumulation outputs (f64; every real value is at least 0).
+pub const ACCUMULATION_NODATA: f64 = -1.0;
 /// The D8 codes (ESRI powers of two, [`NO_FLOW`], [`NODATA_DIR`]) are those
 /// of the flow graph's D8-code router.
 pub use crate::flow::{code_to_dir, D8_CODES, NODATA_DIR, NO_FLOW};

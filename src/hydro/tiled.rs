@@ -51,10 +51,11 @@ pub use super::tiled_labels::TiledLabels;
 
 use super::accum::{accumulate_core, bad_code, fixed_to_f64, receiver, weight_to_fixed};
 use super::fill::{flood_labelled, UNLABELLED};
-use super::{order_key, valid, DX, DY, NODATA_DIR};
+use super::{order_key, valid, ACCUMULATION_NODATA, DX, DY, NODATA_DIR};
 use crate::error::{Error, Result};
+use crate::exec::output::OutputSpec;
 use crate::exec::GlobalStep;
-use crate::raster::{cross_tile_pairs, Grid, TileId, TileLayout, TileView};
+use crate::raster::{cross_tile_pairs, DType, Grid, TileId, TileLayout, TileView};
 use serde::{Deserialize, Serialize};
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, HashMap};
@@ -226,6 +227,9 @@ impl GlobalStep for TiledFill {
         1
     }
 
+    fn outputs(&self) -> Vec<OutputSpec> {
+        vec![OutputSpec::elevation()]
+    }
     fn map(&self, inputs: &[TileView<f32>]) -> Result<FillSummary> {
         let v = inputs
             .first()
@@ -557,6 +561,9 @@ impl GlobalStep for TiledAccumulation {
         1
     }
 
+    fn outputs(&self) -> Vec<OutputSpec> {
+        vec![OutputSpec::continuous(DType::F64, ACCUMULATION_NODATA)]
+    }
     fn map(&self, inputs: &[TileView<f32>]) -> Result<AccumSummary> {
         let (all, core, mut acc, w, h) = self.core(inputs)?;
         let v = &inputs[0];

@@ -28,10 +28,11 @@
 use super::breach::least_cost_carve;
 use super::rho8::{rho8_cell, rho8_random};
 use super::tiled::{D8Slice, D8Solution, D8Summary, TiledD8};
-use super::{outlet_cells, valid, BreachOptions, NO_FLOW};
+use super::{outlet_cells, valid, BreachOptions, NODATA_DIR, NO_FLOW};
 use crate::error::{Error, Result};
+use crate::exec::output::OutputSpec;
 use crate::exec::{GlobalStep, LocalStep};
-use crate::raster::{Grid, TileId, TileLayout, TileView};
+use crate::raster::{DType, Grid, TileId, TileLayout, TileView};
 
 /// Least-cost breaching across tiles; see the module docs. Inputs: the DEM
 /// and its filled DEM (f32, NaN = nodata); output: the carved DEM (f32, NaN
@@ -84,6 +85,9 @@ impl LocalStep for TiledLeastCostBreach {
         side * side * (4 + 4 + 4 + 8 + 4 + 1)
     }
 
+    fn outputs(&self) -> Vec<OutputSpec> {
+        vec![OutputSpec::elevation()]
+    }
     fn run(&self, inputs: &[TileView<f32>], out: &mut [Grid<f32>]) -> Result<()> {
         let (Some(dem), Some(filled)) = (inputs.first(), inputs.get(1)) else {
             return Err(Error::invalid(
@@ -156,6 +160,9 @@ impl GlobalStep for TiledRho8 {
     }
     fn halo(&self) -> usize {
         TiledD8.halo()
+    }
+    fn outputs(&self) -> Vec<OutputSpec> {
+        vec![OutputSpec::categorical(DType::U8, NODATA_DIR as f64)]
     }
     fn map(&self, inputs: &[TileView<f32>]) -> Result<D8Summary> {
         TiledD8.map(inputs)

@@ -20,9 +20,10 @@
 use super::tiled::decode_code;
 use super::{code_to_dir, DX, DY, NODATA_DIR, NO_FLOW};
 use crate::error::{Error, Result};
+use crate::exec::output::OutputSpec;
 use crate::exec::GlobalStep;
 use crate::raster::{perimeter_cells, perimeter_index, perimeter_len};
-use crate::raster::{Grid, TileId, TileLayout, TileView};
+use crate::raster::{DType, Grid, TileId, TileLayout, TileView};
 use serde::{Deserialize, Serialize};
 
 /// Watershed labels from D8 directions across tiles. Input: D8 codes read
@@ -173,6 +174,9 @@ impl GlobalStep for TiledLabels {
         1
     }
 
+    fn outputs(&self) -> Vec<OutputSpec> {
+        vec![OutputSpec::categorical(DType::U32, 0.0)]
+    }
     fn map(&self, inputs: &[TileView<f32>]) -> Result<LabelSummary> {
         let v = inputs
             .first()

@@ -62,10 +62,11 @@ use super::tiled::{
     check_summaries, decode_code, perimeter_cells, perimeter_index, perimeter_len,
     weighted_amounts, PerimeterInflow,
 };
-use super::{valid, DX, DY};
+use super::{valid, ACCUMULATION_NODATA, DX, DY};
 use crate::error::{Error, Result};
-use crate::exec::{Engine, GlobalStep, TileSink};
-use crate::raster::{Grid, RasterSource, TileId, TileLayout, TileView};
+use crate::exec::output::OutputSpec;
+use crate::exec::{Engine, GlobalStep, Run, TileSink};
+use crate::raster::{DType, Grid, RasterSource, TileId, TileLayout, TileView};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
@@ -304,6 +305,9 @@ impl GlobalStep for TiledMultiAccumulation {
         1
     }
 
+    fn outputs(&self) -> Vec<OutputSpec> {
+        vec![OutputSpec::continuous(DType::F64, ACCUMULATION_NODATA)]
+    }
     fn map(&self, inputs: &[TileView<f32>]) -> Result<MultiSummary> {
         if self.final_pass {
             return Ok(MultiSummary::default());
@@ -484,7 +488,7 @@ pub fn run_multi_accumulation<E: Engine>(
         + 2;
     let mut rounds = 0usize;
     loop {
-        let next = engine.run_global(&step, inputs, layout, Vec::new())?;
+        let next = engine.run_global(&step, Run::solution_only(inputs, layout))?;
         rounds += 1;
         if next.same(&step.inflow) {
             break;
@@ -498,7 +502,7 @@ pub fn run_multi_accumulation<E: Engine>(
         step.inflow = Arc::new(next);
     }
     step.final_pass = true;
-    engine.run_global_apply(&step, inputs, layout, sinks)?;
+    engine.run_global_apply(&step, Run::new(inputs, layout, sinks))?;
     Ok(MultiRun { rounds })
 }
 

@@ -14,5 +14,5 @@ pub mod vector;
 
 pub use open::{
     create_sink, create_sink_like, detect, is_store_path, open_inputs, open_raster, Format,
-    OpenOptions, OutputOptions,
+    OpenOptions, OutputOptions, Overviews,
 };

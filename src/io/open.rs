@@ -142,7 +142,27 @@ pub struct OutputOptions {
     pub store: StoreOptions,
     /// Write `.tif` outputs as Cloud-Optimized GeoTIFFs with internal
     /// overviews made this way (None: plain tiled GeoTIFF).
-    pub cog: Option<crate::io::geotiff::Resampling>,
+    pub cog: Option<Overviews>,
+}
+
+/// How a Cloud-Optimized GeoTIFF's overviews are made.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Overviews {
+    /// By the output's kind (the sink's provenance):
+    /// [`Resampling::for_kind`](crate::io::geotiff::Resampling::for_kind).
+    ByKind,
+    /// This way whatever the output holds.
+    Fixed(crate::io::geotiff::Resampling),
+}
+
+impl Overviews {
+    /// The resampling for an output of `kind`.
+    pub fn resampling(self, kind: crate::raster::OutputKind) -> crate::io::geotiff::Resampling {
+        match self {
+            Overviews::ByKind => crate::io::geotiff::Resampling::for_kind(kind),
+            Overviews::Fixed(r) => r,
+        }
+    }
 }
 
 /// True if `path` names a tile store output (`*.tiles`).
@@ -216,8 +236,14 @@ pub fn create_sink(
     let p = path.to_path_buf();
     Ok(match ext.as_str() {
         "tif" | "tiff" => match oo.cog {
-            Some(r) => Box::new(crate::io::geotiff::CogWriter::create(
-                path, width, height, dtype, georef, &oo.tiff, r,
+            Some(o) => Box::new(crate::io::geotiff::CogWriter::create(
+                path,
+                width,
+                height,
+                dtype,
+                georef,
+                &oo.tiff,
+                o.resampling(provenance.kind),
             )?),
             None => Box::new(GeoTiffWriter::create(
                 path, width, height, dtype, georef, &oo.tiff,

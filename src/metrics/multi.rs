@@ -11,10 +11,11 @@
 //! metrics (including Wood's curvatures, radius > 1) exclude nodata cells
 //! and cells beyond the raster from their windows.
 
-use super::registry::{metric, ScratchClass};
+use super::registry::{metric, MetricDef, ScratchClass};
 use super::spec::{resolve, MetricSpec, Resolved};
 use super::tile::Tile;
 use crate::error::{Error, Result};
+use crate::exec::output::{NodataRule, OutputSpec};
 use crate::exec::{EngineConfig, LocalStep};
 use crate::io::OutputOptions;
 use crate::raster::{DType, Grid, RasterInfo, RasterSource, TileView};
@@ -119,8 +120,11 @@ impl LocalStep for MultiMetric {
     fn scratch_bytes(&self, tile: usize) -> u64 {
         self.scratch_estimate(tile)
     }
-    fn outputs(&self) -> usize {
-        self.metrics.len()
+    fn outputs(&self) -> Vec<OutputSpec> {
+        self.metrics
+            .iter()
+            .map(|m| output_spec(m.spec.def()))
+            .collect()
     }
     fn run(&self, inputs: &[TileView<f32>], out: &mut [Grid<f32>]) -> Result<()> {
         if inputs.is_empty() {
@@ -139,7 +143,7 @@ impl LocalStep for MultiMetric {
 
 /// Compute `specs` on `src` in one tiled pass, writing metric `k` to
 /// `outputs[k]` (`.tif` or `.tiles`, f32 with nodata [`METRIC_NODATA`], or
-/// for metrics in the DEM's unit the value [`output_nodata`] chooses).
+/// for metrics in the DEM's unit the value [`output_spec`] chooses).
 pub fn compute(
     src: &dyn RasterSource,
     specs: &[MetricSpec],
@@ -165,21 +169,7 @@ pub fn compute(
         let ls: Vec<MetricSpec> = local.iter().map(|&i| specs[i].clone()).collect();
         let lp: Vec<PathBuf> = local.iter().map(|&i| outputs[i].clone()).collect();
         let step = MultiMetric::new(&ls, src.info())?;
-        let nd = output_nodata(src, &ls)?;
-        let types: Vec<(DType, Option<f64>)> = ls
-            .iter()
-            .map(|s| {
-                (
-                    DType::F32,
-                    Some(if s.def().units == "z" {
-                        nd
-                    } else {
-                        METRIC_NODATA
-                    }),
-                )
-            })
-            .collect();
-        crate::exec::plan::run_local_to_paths(&step, &[src], &lp, &types, oo, tile, cfg)?;
+        crate::exec::plan::run_local_to_paths(&step, &[src], &lp, oo, tile, cfg)?;
     }
     if !whole.is_empty() {
         let ws: Vec<MetricSpec> = whole.iter().map(|&i| specs[i].clone()).collect();
@@ -189,25 +179,23 @@ pub fn compute(
     Ok(())
 }
 
-/// Nodata of the outputs in the DEM's own unit (`z`: mean, TPI, relief,
-/// dominance, ...), whose values lie in `[min(lo, lo − hi), hi − lo]` for
-/// valid input cells in `[lo, hi]` (a window mean lies between the extremes;
-/// a difference of two cells is at least `lo − hi`). [`METRIC_NODATA`]
-/// (−9999) unless that bound comes within 1 m of it, then the rule of
-/// [`crate::exec::output::below`] (−99 999, ...): bathymetry and other
-/// DEMs below −9999 m would otherwise turn real values into nodata. One read
-/// pass over the input, only when a `z` metric is asked for and the input
-/// type can reach −9999 (u8 and i8 inputs cannot). Other metrics (angles,
-/// ratios, curvatures, indices) keep −9999.
-pub fn output_nodata(src: &dyn RasterSource, specs: &[MetricSpec]) -> Result<f64> {
-    if !specs.iter().any(|s| s.def().units == "z")
-        || matches!(src.info().dtype, DType::U8 | DType::I8)
-    {
-        return Ok(METRIC_NODATA);
+/// The output of metric `def` in a file: f32 of its kind; metrics in the
+/// DEM's own unit (`z`: mean, TPI, relief, dominance, ...) take their nodata
+/// below every value they can reach ([`NodataRule::BelowDifference`]: a
+/// window mean lies between the extremes, a difference of two cells is at
+/// least `lo − hi`), so bathymetry and other DEMs below −9999 m do not turn
+/// real values into nodata; every other metric (angles, ratios, curvatures,
+/// indices) writes nodata [`METRIC_NODATA`].
+pub fn output_spec(def: &MetricDef) -> OutputSpec {
+    OutputSpec {
+        dtype: DType::F32,
+        nodata: if def.units == "z" {
+            NodataRule::BelowDifference
+        } else {
+            NodataRule::Value(METRIC_NODATA)
+        },
+        kind: def.output,
     }
-    let bound = crate::exec::output::valid_range(src)?
-        .map(|(lo, hi)| (lo as f64).min(lo as f64 - hi as f64) as f32);
-    Ok(crate::exec::output::below(bound).unwrap_or(f64::NAN))
 }
 
 /// Check that `specs` can run on a raster described by `info` (local or
@@ -223,4 +211,53 @@ pub fn check(specs: &[MetricSpec], info: &RasterInfo) -> Result<()> {
         MultiMetric::new(&local, info)?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::metrics::parse_specs;
+    use crate::metrics::registry::{OutputKind, METRICS};
+    use crate::raster::{Crs, GeoRef, MemRaster};
+
+    #[test]
+    fn every_metric_output_has_its_registered_kind() {
+        // The kinds of the metrics' values as their sources define them,
+        // written out here: class codes and the one circular quantity.
+        let categorical = [
+            "geomorphon",
+            "geomorphon_pattern",
+            "geomorphon_canonical",
+            "weiss_landform",
+            "dikau_form",
+            "shary_landform",
+        ];
+        let src = MemRaster::from_grid(
+            Grid::new(3000, 3000, 0.0f32),
+            GeoRef::north_up(0.0, 0.0, 30.0, Crs::projected(32611)),
+        );
+        for m in METRICS {
+            let def = m.def();
+            let want = if categorical.contains(&def.name) {
+                OutputKind::Categorical
+            } else if def.name == "aspect" {
+                OutputKind::Angle
+            } else {
+                OutputKind::Continuous
+            };
+            assert_eq!(def.output, want, "{}", def.name);
+            let spec = output_spec(def);
+            assert_eq!((spec.dtype, spec.kind), (DType::F32, want), "{}", def.name);
+            let nodata = if def.units == "z" {
+                NodataRule::BelowDifference
+            } else {
+                NodataRule::Value(-9999.0)
+            };
+            assert_eq!(spec.nodata, nodata, "{}", def.name);
+            if !super::super::peak_dw::is_whole_raster(def.kind) {
+                let step = MultiMetric::new(&parse_specs(def.name).unwrap(), src.info()).unwrap();
+                assert_eq!(step.outputs(), vec![spec], "{}", def.name);
+            }
+        }
+    }
 }

@@ -57,7 +57,8 @@ use super::registry::{MetricKind, Resolved};
 use super::tile::Tile;
 use super::windowed::{box_max, Sat};
 use crate::error::{Error, Result};
-use crate::exec::{Engine, EngineConfig, GlobalStep, MemSink, TileSink};
+use crate::exec::output::OutputSpec;
+use crate::exec::{Engine, EngineConfig, GlobalStep, MemSink, Run, TileSink};
 use crate::raster::RasterInfo;
 use crate::raster::{DType, Grid, RasterSource, TileId, TileLayout, TileView};
 use serde::{Deserialize, Serialize};
@@ -322,6 +323,9 @@ impl GlobalStep for PeakStats {
     fn halo(&self) -> usize {
         HALO
     }
+    fn outputs(&self) -> Vec<OutputSpec> {
+        vec![OutputSpec::continuous(DType::F32, super::METRIC_NODATA)]
+    }
     fn map(&self, inputs: &[TileView<f32>]) -> Result<Self::Summary> {
         let view = one_input(inputs, "peak statistics")?;
         let mut out = Vec::with_capacity(SCALES.len());
@@ -515,6 +519,9 @@ impl GlobalStep for PeakSimilarity {
     fn halo(&self) -> usize {
         HALO
     }
+    fn outputs(&self) -> Vec<OutputSpec> {
+        vec![OutputSpec::continuous(DType::F32, super::METRIC_NODATA)]
+    }
     fn map(&self, inputs: &[TileView<f32>]) -> Result<Self::Summary> {
         let view = one_input(inputs, "peakedness_dw")?;
         let ds = self.distances(view)?;
@@ -606,10 +613,13 @@ pub fn run(
         width: info.width,
         path: path.clone(),
     };
-    let stats = engine.run_global(&stats_step, &[src], layout, proto.into_iter().collect())?;
+    let stats = engine.run_global(
+        &stats_step,
+        Run::new(&[src], layout, proto.into_iter().collect()),
+    )?;
     if let Some(sink) = similarity {
         let sim = PeakSimilarity::new(stats.clone(), &path)?;
-        engine.run_global_apply(&sim, &[src], layout, vec![sink])?;
+        engine.run_global_apply(&sim, Run::new(&[src], layout, vec![sink]))?;
     }
     Ok(stats)
 }

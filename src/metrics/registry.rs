@@ -95,18 +95,7 @@ pub enum MetricKind {
     PeakPrototypicality,
 }
 
-/// What a metric's values are, for consumers that treat them differently
-/// (correlation tables, resampling, colour maps).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum OutputKind {
-    /// A quantity on a linear scale.
-    Continuous,
-    /// Class codes (landforms, patterns).
-    Categorical,
-    /// A circular quantity that wraps at 360°.
-    Angle,
-}
+pub use crate::raster::OutputKind;
 
 /// Descriptor of one metric: what `orogen metric list` prints and specs parse.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -116,7 +105,7 @@ pub struct MetricDef {
     pub name: &'static str,
     pub params: &'static [ParamDef],
     /// Units of the output values (`z`: the DEM's own unit, whose nodata
-    /// follows [`super::multi::output_nodata`]; every other metric writes
+    /// follows [`super::multi::output_spec`]; every other metric writes
     /// f32 with nodata [`super::METRIC_NODATA`]).
     pub units: &'static str,
     /// One-line description.

@@ -11,8 +11,9 @@
 
 use super::neighbourhood::{walk_3x3, EdgeMode};
 use crate::error::Result;
+use crate::exec::output::{OutputKind, OutputSpec};
 use crate::exec::LocalStep;
-use crate::raster::{Grid, TileView};
+use crate::raster::{DType, Grid, TileView};
 use serde::{Deserialize, Serialize};
 use serde_json::json;
 
@@ -100,6 +101,9 @@ impl LocalStep for Slope {
     fn halo(&self) -> usize {
         1
     }
+    fn outputs(&self) -> Vec<OutputSpec> {
+        vec![OutputSpec::continuous(DType::F32, SLOPE_NODATA)]
+    }
     fn run(&self, inputs: &[TileView<f32>], out: &mut [Grid<f32>]) -> Result<()> {
         let z = self.z_factor;
         let pct = self.units == SlopeUnits::Percent;
@@ -174,6 +178,9 @@ impl LocalStep for Aspect {
     }
     fn halo(&self) -> usize {
         1
+    }
+    fn outputs(&self) -> Vec<OutputSpec> {
+        vec![OutputSpec::continuous(DType::F32, SLOPE_NODATA).with_kind(OutputKind::Angle)]
     }
     fn run(&self, inputs: &[TileView<f32>], out: &mut [Grid<f32>]) -> Result<()> {
         let zf = self.zero_for_flat;
@@ -257,6 +264,9 @@ impl LocalStep for Hillshade {
     }
     fn halo(&self) -> usize {
         1
+    }
+    fn outputs(&self) -> Vec<OutputSpec> {
+        vec![OutputSpec::continuous(DType::U8, 0.0)]
     }
     fn run(&self, inputs: &[TileView<f32>], out: &mut [Grid<u8>]) -> Result<()> {
         let l = self.light();

@@ -5,7 +5,7 @@ use super::{choose_layout, convert, Target};
 use crate::error::{Error, Result};
 use crate::exec::plan::{check_inputs, make_sinks};
 use crate::exec::MemoryFit;
-use crate::exec::{Engine, EngineConfig, GlobalStep};
+use crate::exec::{Engine, EngineConfig, GlobalStep, Run};
 use crate::io::{self, OutputOptions};
 use crate::raster::{DType, RasterSource};
 use crate::store::scratch::ScratchDir;
@@ -131,7 +131,7 @@ pub fn run(
     let step = crate::hydro::tiled::TiledAccumulation {
         weighted: opts.weights.is_some(),
     };
-    target.run_global(&step, &inputs, (DType::F64, Some(-1.0)), cfg)?;
+    target.run_global(&step, &inputs, cfg)?;
     Ok(AccumulateOutcome { rounds: 0 })
 }
 /// Multiple-flow routing for `orogen accumulate --method`.
@@ -174,12 +174,7 @@ pub fn accumulate_multi(
     }
     check_inputs(&inputs)?;
     let info = dem.info();
-    let fit = MemoryFit::cells(
-        info.width,
-        info.height,
-        MULTI_FLOW_BYTES_PER_CELL,
-        cfg.memory_budget,
-    );
+    let fit = MemoryFit::raster(info, MULTI_FLOW_BYTES_PER_CELL, cfg.memory_budget);
     if fit.fits() && (info.width as u64) * (info.height as u64) <= u32::MAX as u64 {
         let full = crate::raster::Window::full(info.width, info.height);
         let z = crate::raster::read_window::<f32>(dem, full)?;
@@ -227,10 +222,10 @@ pub fn accumulate_multi(
             d8_step.params(),
             &[dem],
             std::slice::from_ref(&tmp),
-            &[(DType::U8, Some(crate::hydro::NODATA_DIR as f64))],
+            &d8_step.outputs(),
             &tmp_oo,
         )?;
-        engine.run_global_apply(&d8_step, &[dem], layout, sinks)?;
+        engine.run_global_apply(&d8_step, Run::new(&[dem], layout, sinks))?;
         let d8 = io::open_raster(&tmp, &io::OpenOptions::default())?;
         let mut acc_inputs: Vec<&dyn RasterSource> = vec![dem, d8.as_ref()];
         if let Some(w) = weights {
@@ -246,7 +241,7 @@ pub fn accumulate_multi(
             probe.params(),
             &acc_inputs,
             &[out.to_path_buf()],
-            &[(DType::F64, Some(-1.0))],
+            &probe.outputs(),
             oo,
         )?;
         let run = run_multi_accumulation(

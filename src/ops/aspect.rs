@@ -1,7 +1,6 @@
 //! `orogen aspect`: aspect (Horn 1981, as gdaldem aspect), the azimuth of
 //! downslope in degrees from north.
 
-use super::slope::TERRAIN_OUTPUT;
 use super::Target;
 use crate::error::Result;
 use crate::exec::EngineConfig;
@@ -36,5 +35,5 @@ pub fn run(
     target: &Target,
     cfg: &EngineConfig,
 ) -> Result<()> {
-    target.run_local(&opts.step(), dem, TERRAIN_OUTPUT, cfg)
+    target.run_local(&opts.step(), &[dem], cfg)
 }

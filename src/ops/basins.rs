@@ -9,7 +9,7 @@ use crate::error::{Error, Result};
 use crate::exec::EngineConfig;
 use crate::hydro::basin_metrics;
 use crate::hydro::basins::{self, Seeds, TiledDownstream};
-use crate::raster::{read_window, DType, Grid, RasterSource};
+use crate::raster::{read_window, Grid, RasterSource};
 use std::path::PathBuf;
 
 /// Options of `orogen basins`.
@@ -105,14 +105,11 @@ pub fn write_labels(
             s
         }
     };
-    let n = (info.width as u64) * (info.height as u64);
-    let ty = if n < u32::MAX as u64 {
-        (DType::U32, Some(0.0))
-    } else {
-        (DType::F64, Some(0.0))
+    let step = TiledDownstream {
+        seeds,
+        labels: TiledDownstream::label_type(info.width, info.height),
     };
-    let step = TiledDownstream { seeds };
-    target.run_global(&step, &[dirs], ty, cfg)?;
+    target.run_global(&step, &[dirs], cfg)?;
     Ok(Labels { cells })
 }
 

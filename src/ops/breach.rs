@@ -12,7 +12,7 @@ use crate::hydro::tiled::TiledFill;
 use crate::hydro::tiled_breach::TiledLeastCostBreach;
 use crate::hydro::BreachMethod;
 use crate::io::{self, OpenOptions, OutputOptions};
-use crate::raster::{read_window, DType, MemRaster, RasterSource, Window};
+use crate::raster::{read_window, MemRaster, RasterSource, Window};
 use crate::store::scratch::ScratchDir;
 use std::path::Path;
 
@@ -114,17 +114,11 @@ pub fn run(
         return tiled_least_cost(dem, &hopts, opts.dist, target, cfg);
     }
     let info = dem.info().clone();
-    MemoryFit::cells(info.width, info.height, BREACH_BYTES_PER_CELL, cfg.memory_budget).check(|f| {
-        Error::invalid(format!(
-            "{}: this breaching method runs in memory and needs about {:.1} GiB for {}x{} cells; \
-             raise --memory (e.g. --memory {}GiB) or use --method least-cost, which runs across tiles",
-            info.path.display(),
-            f.need_gib(),
-            info.width,
-            info.height,
-            f.suggested_gib()
-        ))
-    })?;
+    MemoryFit::raster(&info, BREACH_BYTES_PER_CELL, cfg.memory_budget).check_in_memory(
+        &info.path,
+        "this breaching method",
+        " or use --method least-cost, which runs across tiles",
+    )?;
     let grid = read_window::<f32>(dem, Window::full(info.width, info.height))?;
     let nd = crate::exec::output::elevation_nodata(dem)?;
     let out = crate::hydro::breach(&grid, &hopts)?;
@@ -160,10 +154,6 @@ fn chain(
     tmp: &Path,
 ) -> Result<()> {
     let oo: &OutputOptions = &target.options;
-    let ty = (
-        DType::F32,
-        Some(crate::exec::output::elevation_nodata(src)?),
-    );
     let tile = choose_tile(src, target.tile);
     let mut tmp_oo = oo.clone();
     tmp_oo.store.tile = tile;
@@ -183,48 +173,25 @@ fn chain(
         ))
     })?;
     let filled_path = tmp.join("filled.tiles");
-    run_global_to(
-        &TiledFill,
-        &[src],
-        &filled_path,
-        ty,
-        &tmp_oo,
-        Some(tile),
-        cfg,
-    )?;
+    run_global_to(&TiledFill, &[src], &filled_path, &tmp_oo, Some(tile), cfg)?;
     let filled = io::open_raster(&filled_path, &OpenOptions::default())?;
     let inputs: [&dyn RasterSource; 2] = [src, filled.as_ref()];
     if opts.fill_remaining {
         let carved_path = tmp.join("carved.tiles");
-        run_local_to_paths(
-            &step,
-            &inputs,
-            std::slice::from_ref(&carved_path),
-            &[ty],
-            &tmp_oo,
-            Some(tile),
-            cfg,
-        )?;
+        let carved_out = std::slice::from_ref(&carved_path);
+        run_local_to_paths(&step, &inputs, carved_out, &tmp_oo, Some(tile), cfg)?;
         let carved = io::open_raster(&carved_path, &OpenOptions::default())?;
         run_global_to(
             &TiledFill,
             &[carved.as_ref()],
             &target.path,
-            ty,
             oo,
             Some(tile),
             cfg,
         )?;
     } else {
-        run_local_to_paths(
-            &step,
-            &inputs,
-            std::slice::from_ref(&target.path),
-            &[ty],
-            oo,
-            Some(tile),
-            cfg,
-        )?;
+        let out = std::slice::from_ref(&target.path);
+        run_local_to_paths(&step, &inputs, out, oo, Some(tile), cfg)?;
     }
     Ok(())
 }

@@ -4,7 +4,6 @@ use super::{convert, run_global_to, run_local_to};
 use crate::error::{Error, Result};
 use crate::exec::EngineConfig;
 use crate::io::{self, OutputOptions};
-use crate::raster::DType;
 use std::path::{Path, PathBuf};
 
 /// Options of `orogen demo`.
@@ -91,12 +90,10 @@ pub fn demo(
     convert(dem.as_ref(), &tif, &oo, None, cfg)?;
     files.push((tif, "the terrain as a GeoTIFF (DEFLATE, tiled)"));
     let slope = dir.join("slope.tif");
-    let f32_nd = (DType::F32, Some(crate::metrics::terrain::SLOPE_NODATA));
     run_local_to(
         &crate::metrics::Slope::default(),
         dem.as_ref(),
         &slope,
-        f32_nd,
         &oo,
         None,
         cfg,
@@ -107,7 +104,6 @@ pub fn demo(
         &crate::metrics::Aspect::default(),
         dem.as_ref(),
         &aspect,
-        f32_nd,
         &oo,
         None,
         cfg,
@@ -118,7 +114,6 @@ pub fn demo(
         &crate::metrics::Hillshade::default(),
         dem.as_ref(),
         &shade,
-        (DType::U8, Some(0.0)),
         &oo,
         None,
         cfg,
@@ -129,7 +124,6 @@ pub fn demo(
         &crate::hydro::tiled::TiledFill,
         &[dem.as_ref()],
         &filled,
-        (DType::F32, Some(crate::hydro::FILL_NODATA)),
         &oo,
         None,
         cfg,
@@ -144,7 +138,6 @@ pub fn demo(
         &crate::hydro::tiled::TiledD8,
         &[filled_src.as_ref()],
         &d8,
-        (DType::U8, Some(crate::hydro::NODATA_DIR as f64)),
         &oo,
         Some(oo.store.tile),
         cfg,
@@ -156,7 +149,6 @@ pub fn demo(
         &crate::hydro::tiled::TiledAccumulation { weighted: false },
         &[d8_src.as_ref()],
         &acc,
-        (DType::F64, Some(-1.0)),
         &oo,
         Some(oo.store.tile),
         cfg,

@@ -5,7 +5,7 @@
 use super::Target;
 use crate::error::Result;
 use crate::exec::EngineConfig;
-use crate::raster::{DType, RasterSource};
+use crate::raster::RasterSource;
 
 /// Options of `orogen fill` (none yet: the fill is parameter-free).
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -33,11 +33,5 @@ pub fn run(
     target: &Target,
     cfg: &EngineConfig,
 ) -> Result<()> {
-    let nd = crate::exec::output::elevation_nodata(dem)?;
-    target.run_global(
-        &crate::hydro::tiled::TiledFill,
-        &[dem],
-        (DType::F32, Some(nd)),
-        cfg,
-    )
+    target.run_global(&crate::hydro::tiled::TiledFill, &[dem], cfg)
 }

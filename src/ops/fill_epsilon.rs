@@ -7,7 +7,7 @@
 use super::{choose_tile, run_global_to, Target};
 use crate::error::Result;
 use crate::exec::EngineConfig;
-use crate::raster::{DType, RasterSource};
+use crate::raster::RasterSource;
 use crate::store::scratch::ScratchDir;
 
 /// Options of `orogen fill-epsilon` (none yet: the surface is parameter-free).
@@ -35,30 +35,12 @@ pub fn run(
     too.store.overwrite = true;
     too.store.sync = false;
     too.store.tile = choose_tile(dem, target.tile);
-    let ty = (
-        DType::F32,
-        Some(crate::exec::output::elevation_nodata(dem)?),
-    );
     let result = (|| -> Result<()> {
-        run_global_to(
-            &crate::hydro::tiled::TiledFill,
-            &[dem],
-            &tmp,
-            ty,
-            &too,
-            target.tile,
-            cfg,
-        )?;
+        let fill = crate::hydro::tiled::TiledFill;
+        run_global_to(&fill, &[dem], &tmp, &too, target.tile, cfg)?;
         let filled = crate::io::open_raster(&tmp, &crate::io::OpenOptions::default())?;
-        run_global_to(
-            &crate::hydro::tiled::TiledEpsilon,
-            &[filled.as_ref()],
-            out,
-            ty,
-            &target.options,
-            target.tile,
-            cfg,
-        )?;
+        let epsilon = crate::hydro::tiled::TiledEpsilon;
+        target.run_global(&epsilon, &[filled.as_ref()], cfg)?;
         Ok(())
     })();
     scratch.remove()?;

@@ -2,10 +2,10 @@
 //! 0 = no flow, 255 = nodata), flats drained per Barnes, Lehman & Mulla 2014,
 //! exact across tiles; or Rho8 (Fairfield & Leymarie 1991, seeded).
 
-use super::{run_global_to, Target};
+use super::Target;
 use crate::error::{Error, Result};
 use crate::exec::EngineConfig;
-use crate::raster::{DType, RasterSource};
+use crate::raster::RasterSource;
 
 /// Routing of `orogen flow --method`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
@@ -75,26 +75,11 @@ pub fn run(
     target: &Target,
     cfg: &EngineConfig,
 ) -> Result<()> {
-    let ty = (DType::U8, Some(crate::hydro::NODATA_DIR as f64));
-    let (path, oo, tile) = (&target.path, &target.options, target.tile);
     match opts.method {
-        FlowRouting::D8 => run_global_to(
-            &crate::hydro::tiled::TiledD8,
-            &[dem],
-            path,
-            ty,
-            oo,
-            tile,
-            cfg,
-        ),
-        FlowRouting::Rho8 => run_global_to(
-            &crate::hydro::tiled_breach::TiledRho8 { seed: opts.seed },
-            &[dem],
-            path,
-            ty,
-            oo,
-            tile,
-            cfg,
-        ),
+        FlowRouting::D8 => target.run_global(&crate::hydro::tiled::TiledD8, &[dem], cfg),
+        FlowRouting::Rho8 => {
+            let step = crate::hydro::tiled_breach::TiledRho8 { seed: opts.seed };
+            target.run_global(&step, &[dem], cfg)
+        }
     }
 }

@@ -5,7 +5,7 @@ use super::Target;
 use crate::error::{Error, Result};
 use crate::exec::EngineConfig;
 use crate::metrics::{EdgeMode, Hillshade};
-use crate::raster::{DType, RasterSource};
+use crate::raster::RasterSource;
 
 /// Options of `orogen hillshade`.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -63,5 +63,5 @@ pub fn run(
     cfg: &EngineConfig,
 ) -> Result<()> {
     opts.validate()?;
-    target.run_local(&opts.step(), dem, (DType::U8, Some(0.0)), cfg)
+    target.run_local(&opts.step(), &[dem], cfg)
 }

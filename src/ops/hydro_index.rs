@@ -3,11 +3,11 @@
 //! water) and branch-length (maximum branch length), in memory.
 
 use super::hydro_io::{full, guard, open_path, read_dirs, same_size, write_mem};
-use super::{run_local_to_paths, Target};
+use super::Target;
 use crate::error::{Error, Result};
 use crate::exec::EngineConfig;
 use crate::hydro::basins::{Seeds, TiledDownstream};
-use crate::hydro::indices::{self, IndexKind};
+use crate::hydro::indices::{self, IndexKind, INDEX_NODATA};
 use crate::raster::{read_window, DType, GeoRef, Grid, MemRaster, RasterSource};
 use std::path::PathBuf;
 
@@ -45,9 +45,6 @@ impl Default for HydroIndexOptions {
     }
 }
 
-/// Nodata of the index rasters.
-const INDEX_NODATA: f64 = -9999.0;
-
 /// Open the input `flag` that `index` needs.
 fn need(p: &Option<PathBuf>, flag: &str, index: &str) -> Result<Box<dyn RasterSource>> {
     match p {
@@ -59,7 +56,6 @@ fn need(p: &Option<PathBuf>, flag: &str, index: &str) -> Result<Box<dyn RasterSo
 /// Compute the index of `opts` into `target` (f32, nodata -9999).
 pub fn run(opts: &HydroIndexOptions, target: &Target, cfg: &EngineConfig) -> Result<()> {
     let a = opts;
-    let f32_out = (DType::F32, Some(INDEX_NODATA));
     let local = match a.index.as_str() {
         "twi" => Some(IndexKind::Twi),
         "spi" => Some(IndexKind::Spi),
@@ -86,15 +82,7 @@ pub fn run(opts: &HydroIndexOptions, target: &Target, cfg: &EngineConfig) -> Res
             kind,
             min_slope: a.min_slope,
         };
-        return run_local_to_paths(
-            &step,
-            &[dem.as_ref(), acc.as_ref()],
-            std::slice::from_ref(&target.path),
-            &[f32_out],
-            &target.options,
-            target.tile,
-            cfg,
-        );
+        return target.run_local(&step, &[dem.as_ref(), acc.as_ref()], cfg);
     }
     let streams_path = a.streams.clone().or_else(|| a.acc.clone());
     match a.index.as_str() {
@@ -108,13 +96,9 @@ pub fn run(opts: &HydroIndexOptions, target: &Target, cfg: &EngineConfig) -> Res
                 seeds: Seeds::Streams {
                     threshold: a.threshold,
                 },
+                labels: DType::F32,
             };
-            target.run_global(
-                &step,
-                &[dirs.as_ref(), dem.as_ref(), st.as_ref()],
-                f32_out,
-                cfg,
-            )
+            target.run_global(&step, &[dirs.as_ref(), dem.as_ref(), st.as_ref()], cfg)
         }
         "dtw" => {
             let dem = need(&a.dem, "--dem", "dtw")?;

@@ -25,16 +25,7 @@ pub(crate) fn guard(
     cfg: &EngineConfig,
 ) -> Result<()> {
     let info = src.info();
-    MemoryFit::cells(info.width, info.height, per_cell, cfg.memory_budget).check(|f| {
-        Error::invalid(format!(
-            "{}: {what} runs in memory and needs about {:.2} GiB for {}x{} cells; raise --memory (e.g. --memory {}GiB)",
-            info.path.display(),
-            f.need_gib(),
-            info.width,
-            info.height,
-            f.suggested_gib()
-        ))
-    })
+    MemoryFit::raster(info, per_cell, cfg.memory_budget).check_in_memory(&info.path, what, "")
 }
 
 /// The whole raster as a window.

@@ -3,7 +3,7 @@
 
 use super::choose_tile;
 use crate::error::Result;
-use crate::exec::{engine, Engine, EngineConfig};
+use crate::exec::{engine, Engine, EngineConfig, Run};
 use crate::io;
 use crate::raster::{DType, RasterSource, TileLayout};
 
@@ -62,7 +62,7 @@ pub fn describe(src: &dyn RasterSource, stats: bool, cfg: &EngineConfig) -> Resu
         let step = crate::exec::stats::Stats::new(-1e300, 1e300, 1)?;
         let info = src.info();
         let layout = TileLayout::new(info.width, info.height, choose_tile(src, None));
-        Some(engine(cfg)?.run_global(&step, &[src], layout, Vec::new())?)
+        Some(engine(cfg)?.run_global(&step, Run::solution_only(&[src], layout))?)
     } else {
         None
     };

@@ -4,7 +4,6 @@
 
 use crate::error::{Error, Result};
 use crate::exec::EngineConfig;
-use crate::exec::MemoryFit;
 use crate::ops::note::{Note, Notify};
 use crate::oro::stats::{self, OroStats, StatsOptions};
 use crate::oro::EdgeConvention;
@@ -19,16 +18,7 @@ pub fn read_dem(
     cfg: &EngineConfig,
 ) -> Result<(Grid<f32>, GeoRef)> {
     let info = src.info().clone();
-    MemoryFit::cells(info.width, info.height, bytes_per_cell, cfg.memory_budget).check(|f| {
-        Error::invalid(format!(
-            "{}: this step runs in memory and needs about {:.1} GiB for {}x{} cells; raise --memory (e.g. --memory {}GiB)",
-            info.path.display(),
-            f.need_gib(),
-            info.width,
-            info.height,
-            f.suggested_gib()
-        ))
-    })?;
+    crate::ops::hydro_io::guard(src, bytes_per_cell, "this step", cfg)?;
     let dem = crate::raster::read_window::<f32>(src, Window::full(info.width, info.height))?;
     Ok((dem, info.georef))
 }

@@ -6,7 +6,7 @@
 use crate::error::{Error, Result};
 use crate::exec::{EngineConfig, EngineKind};
 use crate::io::geotiff::{Compression, Resampling, WriteOptions};
-use crate::io::{OpenOptions, OutputOptions};
+use crate::io::{OpenOptions, OutputOptions, Overviews};
 
 /// A byte size such as `512MiB`, `2GiB` or `1048576` (binary units: K, M, G,
 /// T with or without `B`/`iB`, any case); at least 16 MiB, the smallest
@@ -199,7 +199,8 @@ pub struct FormatOptions {
     pub overwrite: bool,
     /// Write .tif outputs as Cloud-Optimized GeoTIFFs (internal overviews).
     pub cog: bool,
-    /// COG overview resampling: average (continuous data) or nearest (classes, codes).
+    /// COG overview resampling: auto (by what each output holds: nearest
+    /// for classes, codes and angles, average otherwise), average or nearest.
     pub overviews: String,
 }
 
@@ -214,7 +215,7 @@ impl Default for FormatOptions {
             zstd: false,
             overwrite: false,
             cog: false,
-            overviews: "average".into(),
+            overviews: "auto".into(),
         }
     }
 }
@@ -270,11 +271,12 @@ impl FormatOptions {
         store.overwrite = self.overwrite;
         let cog = if self.cog {
             Some(match self.overviews.as_str() {
-                "average" => Resampling::Average,
-                "nearest" => Resampling::Nearest,
+                "auto" => Overviews::ByKind,
+                "average" => Overviews::Fixed(Resampling::Average),
+                "nearest" => Overviews::Fixed(Resampling::Nearest),
                 r => {
                     return bad(format!(
-                        "--overviews {r:?}: use average (continuous data) or nearest (classes)"
+                        "--overviews {r:?}: use auto (by what the output holds), average (continuous data) or nearest (classes)"
                     ))
                 }
             })

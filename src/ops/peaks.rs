@@ -113,12 +113,7 @@ pub enum PeaksMode {
 /// an error for line parents when the DEM does not fit.
 pub fn mode(src: &dyn RasterSource, opts: &PeaksOptions, cfg: &EngineConfig) -> Result<PeaksMode> {
     let info = src.info();
-    let fit = MemoryFit::cells(
-        info.width,
-        info.height,
-        PEAKS_BYTES_PER_CELL,
-        cfg.memory_budget,
-    );
+    let fit = MemoryFit::raster(info, PEAKS_BYTES_PER_CELL, cfg.memory_budget);
     let need = fit.need;
     let go_tiled = opts.tiled || !fit.fits();
     if opts.line_parents && go_tiled {

@@ -4,7 +4,7 @@ use super::Target;
 use crate::error::Result;
 use crate::exec::EngineConfig;
 use crate::metrics::{EdgeMode, Slope, SlopeUnits};
-use crate::raster::{DType, RasterSource};
+use crate::raster::RasterSource;
 
 /// Options of `orogen slope`.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -27,11 +27,6 @@ impl Default for SlopeOptions {
         }
     }
 }
-
-/// The output of slope and aspect: f32 with nodata
-/// [`crate::metrics::terrain::SLOPE_NODATA`].
-pub(crate) const TERRAIN_OUTPUT: (DType, Option<f64>) =
-    (DType::F32, Some(crate::metrics::terrain::SLOPE_NODATA));
 
 impl SlopeOptions {
     /// The local step these options describe.
@@ -66,5 +61,5 @@ pub fn run(
     target: &Target,
     cfg: &EngineConfig,
 ) -> Result<()> {
-    target.run_local(&opts.step(), dem, TERRAIN_OUTPUT, cfg)
+    target.run_local(&opts.step(), &[dem], cfg)
 }

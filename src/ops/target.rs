@@ -1,10 +1,10 @@
 //! The output target of an operation.
 
 use crate::error::Result;
-use crate::exec::plan::{run_global_to, run_local_to};
+use crate::exec::plan::{run_global_to, run_local_to_paths};
 use crate::exec::{EngineConfig, GlobalStep, LocalStep};
 use crate::io::OutputOptions;
-use crate::raster::{DType, RasterSource};
+use crate::raster::RasterSource;
 use std::path::PathBuf;
 
 /// Where and how an operation writes its raster output: the path (its
@@ -31,27 +31,26 @@ impl Target {
         }
     }
 
-    /// Run a one-output local step on `src` into this target, written as
-    /// `ty` (dtype, nodata).
+    /// Run a one-output local step on `inputs` into this target, written
+    /// as the step's output spec declares.
     pub fn run_local<S: LocalStep>(
         &self,
         step: &S,
-        src: &dyn RasterSource,
-        ty: (DType, Option<f64>),
+        inputs: &[&dyn RasterSource],
         cfg: &EngineConfig,
     ) -> Result<()> {
-        run_local_to(step, src, &self.path, ty, &self.options, self.tile, cfg)
+        let out = std::slice::from_ref(&self.path);
+        run_local_to_paths(step, inputs, out, &self.options, self.tile, cfg)
     }
 
     /// Run a one-output global step (map, reduce, apply) on `inputs` into
-    /// this target, written as `ty` (dtype, nodata).
+    /// this target, written as the step's output spec declares.
     pub fn run_global<S: GlobalStep>(
         &self,
         step: &S,
         inputs: &[&dyn RasterSource],
-        ty: (DType, Option<f64>),
         cfg: &EngineConfig,
     ) -> Result<()> {
-        run_global_to(step, inputs, &self.path, ty, &self.options, self.tile, cfg)
+        run_global_to(step, inputs, &self.path, &self.options, self.tile, cfg)
     }
 }

@@ -4,7 +4,7 @@
 use super::Target;
 use crate::error::Result;
 use crate::exec::EngineConfig;
-use crate::raster::{DType, RasterSource};
+use crate::raster::RasterSource;
 
 /// Options of `orogen watersheds` (none yet).
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -19,10 +19,5 @@ pub fn run(
     target: &Target,
     cfg: &EngineConfig,
 ) -> Result<()> {
-    target.run_global(
-        &crate::hydro::tiled::TiledLabels,
-        &[dirs],
-        (DType::U32, Some(0.0)),
-        cfg,
-    )
+    target.run_global(&crate::hydro::tiled::TiledLabels, &[dirs], cfg)
 }

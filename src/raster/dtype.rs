@@ -16,6 +16,30 @@ pub enum DType {
     F64,
 }
 
+/// What a raster's values are, for consumers that treat them differently
+/// (overview resampling, correlation tables, colour maps): a step declares
+/// it per output (`exec::output::OutputSpec`), the metric registry
+/// per metric, a tile store's provenance records it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum OutputKind {
+    /// A quantity on a linear scale (elevations, slopes, areas).
+    #[default]
+    Continuous,
+    /// Class codes (D8 directions, labels, landforms, patterns): no value
+    /// between two codes means anything.
+    Categorical,
+    /// A circular quantity that wraps at 360° (aspect).
+    Angle,
+}
+
+impl OutputKind {
+    /// True for [`OutputKind::Continuous`] (a store's provenance omits it).
+    pub fn is_continuous(&self) -> bool {
+        *self == OutputKind::Continuous
+    }
+}
+
 impl DType {
     /// Every type, in declaration order: integers by width (unsigned before
     /// signed), then floats by width. The order is the MPI wire code of a

@@ -13,7 +13,7 @@ mod union_find;
 mod window;
 
 pub use adjacency::Adjacency;
-pub use dtype::{Cell, DType};
+pub use dtype::{Cell, DType, OutputKind};
 pub use georef::{Crs, GeoKeys, GeoRef, RasterType};
 pub use grid::{AnyGrid, Grid, IntoAny};
 pub use source::{read_view, read_window, read_window_native, MemRaster, RasterInfo, RasterSource};

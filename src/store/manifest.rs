@@ -5,7 +5,7 @@
 //! whenever its content is.
 
 use crate::error::{Error, Result};
-use crate::raster::{DType, GeoRef, TileLayout};
+use crate::raster::{DType, GeoRef, OutputKind, TileLayout};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -45,6 +45,10 @@ pub struct Provenance {
     pub inputs: Vec<String>,
     /// orogen version that wrote the store.
     pub version: String,
+    /// What the values are (the step's declared output kind); omitted
+    /// when continuous, so a manifest without it is continuous.
+    #[serde(default, skip_serializing_if = "OutputKind::is_continuous")]
+    pub kind: OutputKind,
 }
 
 impl Provenance {
@@ -56,7 +60,13 @@ impl Provenance {
             params,
             inputs,
             version: env!("CARGO_PKG_VERSION").to_string(),
+            kind: OutputKind::Continuous,
         }
+    }
+
+    /// This provenance for values of kind `kind`.
+    pub fn with_kind(self, kind: OutputKind) -> Self {
+        Provenance { kind, ..self }
     }
 }
 

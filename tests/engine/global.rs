@@ -2,8 +2,9 @@
 //! a map/reduce/apply step against the whole-grid computation, summary
 //! round trips, and errors.
 
+use orogen::exec::output::OutputSpec;
 use orogen::exec::stats::{Stats, StatsSummary};
-use orogen::exec::{roundtrip_summary, Engine, GlobalStep, MemSink};
+use orogen::exec::{roundtrip_summary, Engine, GlobalStep, MemSink, Run};
 use orogen::raster::{DType, GeoRef, Grid, MemRaster, RasterSource, TileId, TileLayout, TileView};
 use orogen::{Error, Result};
 
@@ -64,9 +65,11 @@ fn stats_tiled_equal_brute_force() {
             let s: StatsSummary = engine(threads)
                 .run_global(
                     &step,
-                    &[&src as &dyn RasterSource],
-                    TileLayout::new(w, h, tile),
-                    vec![],
+                    Run::new(
+                        &[&src as &dyn RasterSource],
+                        TileLayout::new(w, h, tile),
+                        vec![],
+                    ),
                 )
                 .unwrap();
             assert_eq!(s.hist, hist, "tile {tile}");
@@ -95,6 +98,9 @@ impl GlobalStep for MinusMin {
     }
     fn params(&self) -> serde_json::Value {
         serde_json::Value::Null
+    }
+    fn outputs(&self) -> Vec<OutputSpec> {
+        vec![OutputSpec::continuous(DType::F32, 0.0)]
     }
     fn map(&self, inputs: &[TileView<f32>]) -> Result<Option<f32>> {
         Ok(tile_min(inputs))
@@ -133,9 +139,11 @@ fn map_reduce_apply_equals_whole_grid() {
             let m = engine(threads)
                 .run_global(
                     &MinusMin,
-                    &[&src as &dyn RasterSource],
-                    TileLayout::new(w, h, tile),
-                    vec![Box::new(sink)],
+                    Run::new(
+                        &[&src as &dyn RasterSource],
+                        TileLayout::new(w, h, tile),
+                        vec![Box::new(sink)],
+                    ),
                 )
                 .unwrap();
             assert_eq!(m, min);

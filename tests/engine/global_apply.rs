@@ -6,7 +6,8 @@
 //! byte-identical to one written through `write`; an unrecorded or torn
 //! delegated tile is not trusted on resume.
 
-use orogen::exec::{Engine, GlobalStep, MemSink, TileSink};
+use orogen::exec::output::OutputSpec;
+use orogen::exec::{Engine, GlobalStep, MemSink, Run, TileSink};
 use orogen::raster::{
     AnyGrid, DType, GeoRef, Grid, MemRaster, RasterSource, TileId, TileLayout, TileView,
 };
@@ -48,6 +49,9 @@ impl GlobalStep for MinusPrefixMin {
     }
     fn params(&self) -> serde_json::Value {
         serde_json::Value::Null
+    }
+    fn outputs(&self) -> Vec<OutputSpec> {
+        vec![OutputSpec::continuous(DType::F32, 0.0)]
     }
     fn map(&self, inputs: &[TileView<f32>]) -> Result<Option<f32>> {
         Ok(tile_min(inputs))
@@ -122,9 +126,7 @@ fn default_run_global_apply_writes_what_run_global_writes() {
             let sol = engine(threads)
                 .run_global(
                     &MinusPrefixMin,
-                    &[&src as &dyn RasterSource],
-                    layout,
-                    vec![Box::new(s1)],
+                    Run::new(&[&src as &dyn RasterSource], layout, vec![Box::new(s1)]),
                 )
                 .unwrap();
             assert_eq!(sol.len(), layout.count());
@@ -132,9 +134,7 @@ fn default_run_global_apply_writes_what_run_global_writes() {
             engine(threads)
                 .run_global_apply(
                     &MinusPrefixMin,
-                    &[&src as &dyn RasterSource],
-                    layout,
-                    vec![Box::new(s2)],
+                    Run::new(&[&src as &dyn RasterSource], layout, vec![Box::new(s2)]),
                 )
                 .unwrap();
             let a: Grid<f32> = h1.take().unwrap().to_typed(None);

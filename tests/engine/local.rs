@@ -3,7 +3,8 @@
 //! threads, memory-budget bound, and error propagation.
 
 use orogen::exec::{
-    tiles_in_flight, Engine, EngineConfig, LocalEngine, LocalStep, MemSink, TileSink,
+    output::OutputSpec, tiles_in_flight, Engine, EngineConfig, LocalEngine, LocalStep, MemSink,
+    Run, TileSink,
 };
 use orogen::raster::{AnyGrid, DType, GeoRef, Grid, MemRaster, RasterSource, TileLayout, TileView};
 use orogen::store::{Provenance, StoreOptions, StoreWriter, TileStore};
@@ -114,6 +115,9 @@ impl LocalStep for Window {
     fn halo(&self) -> usize {
         self.r as usize
     }
+    fn outputs(&self) -> Vec<OutputSpec> {
+        vec![OutputSpec::continuous(DType::F64, 0.0)]
+    }
     fn run(&self, inputs: &[TileView<f64>], out: &mut [Grid<f64>]) -> Result<()> {
         let v = &inputs[0];
         let o = &mut out[0];
@@ -161,6 +165,9 @@ impl LocalStep for Missing {
     fn halo(&self) -> usize {
         2
     }
+    fn outputs(&self) -> Vec<OutputSpec> {
+        vec![OutputSpec::continuous(DType::U16, 0.0)]
+    }
     fn run(&self, inputs: &[TileView<f32>], out: &mut [Grid<u16>]) -> Result<()> {
         let v = &inputs[0];
         for y in 0..v.core.h {
@@ -207,9 +214,7 @@ fn run_mem<S: LocalStep>(
     engine(threads)
         .run_local(
             step,
-            &[src as &dyn RasterSource],
-            layout,
-            vec![Box::new(sink)],
+            Run::new(&[src as &dyn RasterSource], layout, vec![Box::new(sink)]),
         )
         .unwrap();
     handle.take().unwrap()
@@ -273,9 +278,11 @@ fn output_converted_to_sink_type_with_nodata() {
     engine(2)
         .run_local(
             &Window { r: 1, mean: false },
-            &[&src as &dyn RasterSource],
-            TileLayout::new(w, h, 16),
-            vec![Box::new(sink)],
+            Run::new(
+                &[&src as &dyn RasterSource],
+                TileLayout::new(w, h, 16),
+                vec![Box::new(sink)],
+            ),
         )
         .unwrap();
     let g = handle.take().unwrap();
@@ -310,9 +317,7 @@ fn store_output_identical_with_one_and_two_threads() {
         engine(threads)
             .run_local(
                 &step,
-                &[&src as &dyn RasterSource],
-                layout,
-                vec![Box::new(wr)],
+                Run::new(&[&src as &dyn RasterSource], layout, vec![Box::new(wr)]),
             )
             .unwrap();
         outs.push(dir_bytes(&dir));
@@ -352,6 +357,9 @@ impl LocalStep for Concurrency {
     fn halo(&self) -> usize {
         0
     }
+    fn outputs(&self) -> Vec<OutputSpec> {
+        vec![OutputSpec::continuous(DType::F32, 0.0)]
+    }
     fn run(&self, inputs: &[TileView<f32>], out: &mut [Grid<f32>]) -> Result<()> {
         let n = self.now.fetch_add(1, Ordering::SeqCst) + 1;
         self.max.fetch_max(n, Ordering::SeqCst);
@@ -384,9 +392,11 @@ fn memory_budget_bounds_tiles_in_flight() {
         })
         .run_local(
             &step,
-            &[&src as &dyn RasterSource],
-            TileLayout::new(w, h, 16),
-            vec![Box::new(sink)],
+            Run::new(
+                &[&src as &dyn RasterSource],
+                TileLayout::new(w, h, 16),
+                vec![Box::new(sink)],
+            ),
         )
         .unwrap();
         assert!(step.max.load(Ordering::SeqCst) <= bound);
@@ -407,6 +417,9 @@ impl LocalStep for FailAt {
     }
     fn halo(&self) -> usize {
         0
+    }
+    fn outputs(&self) -> Vec<OutputSpec> {
+        vec![OutputSpec::continuous(DType::F32, 0.0)]
     }
     fn run(&self, inputs: &[TileView<f32>], out: &mut [Grid<f32>]) -> Result<()> {
         if inputs[0].id == self.0 {
@@ -444,9 +457,7 @@ fn step_error_stops_the_run_and_leaves_no_finished_store() {
         let err = engine(threads)
             .run_local(
                 &FailAt(42),
-                &[&src as &dyn RasterSource],
-                layout,
-                vec![Box::new(wr)],
+                Run::new(&[&src as &dyn RasterSource], layout, vec![Box::new(wr)]),
             )
             .unwrap_err();
         match &err {
@@ -478,6 +489,9 @@ impl LocalStep for PanicAt {
     fn halo(&self) -> usize {
         0
     }
+    fn outputs(&self) -> Vec<OutputSpec> {
+        vec![OutputSpec::continuous(DType::F32, 0.0)]
+    }
     fn run(&self, inputs: &[TileView<f32>], out: &mut [Grid<f32>]) -> Result<()> {
         assert!(
             inputs[0].id != self.0,
@@ -504,9 +518,7 @@ fn step_panic_is_the_run_error_not_a_hang() {
             let (sink, _handle) = orogen::store::sink::MemSink::new(w, h, DType::F32, None);
             let r = engine(threads).run_local(
                 &PanicAt(42),
-                &[&src as &dyn RasterSource],
-                layout,
-                vec![Box::new(sink)],
+                Run::new(&[&src as &dyn RasterSource], layout, vec![Box::new(sink)]),
             );
             let _ = tx.send(r.map_err(|e| e.to_string()));
         });
@@ -545,27 +557,33 @@ fn wrong_layout_or_sink_count_is_refused() {
     let e = engine(1)
         .run_local(
             &FailAt(usize::MAX),
-            &[&src as &dyn RasterSource],
-            TileLayout::new(w, h, 8),
-            vec![Box::new(wr)],
+            Run::new(
+                &[&src as &dyn RasterSource],
+                TileLayout::new(w, h, 8),
+                vec![Box::new(wr)],
+            ),
         )
         .unwrap_err();
     assert!(e.to_string().contains("layout"), "{e}");
     let e = engine(1)
         .run_local(
             &FailAt(usize::MAX),
-            &[&src as &dyn RasterSource],
-            TileLayout::new(w, h, 8),
-            Vec::<Box<dyn TileSink>>::new(),
+            Run::new(
+                &[&src as &dyn RasterSource],
+                TileLayout::new(w, h, 8),
+                Vec::<Box<dyn TileSink>>::new(),
+            ),
         )
         .unwrap_err();
     assert!(e.to_string().contains("sinks"), "{e}");
     let e = engine(1)
         .run_local(
             &FailAt(usize::MAX),
-            &[&src as &dyn RasterSource],
-            TileLayout::new(w + 1, h, 8),
-            vec![Box::new(MemSink::new(w + 1, h, DType::F32, None).0)],
+            Run::new(
+                &[&src as &dyn RasterSource],
+                TileLayout::new(w + 1, h, 8),
+                vec![Box::new(MemSink::new(w + 1, h, DType::F32, None).0)],
+            ),
         )
         .unwrap_err();
     assert!(e.to_string().contains("40x30"), "{e}");

@@ -343,6 +343,7 @@ fn check_downstream(w: usize, h: usize, vals: &[f32], tiles: &[usize]) {
         let got = run_global(
             &TiledDownstream {
                 seeds: Seeds::Outlets,
+                labels: DType::F64,
             },
             &[&dsrc],
             t,
@@ -361,6 +362,7 @@ fn check_downstream(w: usize, h: usize, vals: &[f32], tiles: &[usize]) {
     for &t in tiles {
         let step = TiledDownstream {
             seeds: point_seeds(&pts, w),
+            labels: DType::F64,
         };
         let got = run_global(&step, &[&dsrc], t);
         for (i, (&g, &b)) in got.data().iter().zip(ws.data()).enumerate() {
@@ -386,6 +388,7 @@ fn check_downstream(w: usize, h: usize, vals: &[f32], tiles: &[usize]) {
     for &t in tiles {
         let step = TiledDownstream {
             seeds: Seeds::Streams { threshold: 4.0 },
+            labels: DType::F64,
         };
         let got = run_global(&step, &[&dsrc, &zsrc, &asrc], t);
         assert!(same_f64(&got, &want), "tiled HAND, tile {t}");
@@ -425,6 +428,7 @@ fn real_dem_basins_tiled_equal_untiled() {
         let got = run_global(
             &TiledDownstream {
                 seeds: Seeds::Outlets,
+                labels: DType::F64,
             },
             &[&dsrc],
             t,
@@ -443,6 +447,7 @@ fn cycles_are_errors_across_tiles() {
     let layout = TileLayout::new(4, 1, 2);
     let step = TiledDownstream {
         seeds: Seeds::Outlets,
+        labels: DType::F64,
     };
     let sums: Vec<_> = (0..2)
         .map(|id| {

@@ -351,3 +351,64 @@ impl FinishBoxed for CogWriter {
         orogen::exec::TileSink::finish(self)
     }
 }
+
+/// D8 directions of a real DEM (`orogen flow`) as a COG with 64-cell
+/// blocks, overviews made as `overviews` says; the levels, full resolution
+/// first.
+fn d8_cog_levels(dir: &Path, overviews: orogen::io::Overviews) -> Vec<Level> {
+    let dem = orogen::io::open_raster(
+        Path::new("tests/data/whitebox_DEM.tif"),
+        &Default::default(),
+    )
+    .unwrap();
+    let mut target = orogen::ops::Target::new(dir.join(format!("d8-{overviews:?}.tif")));
+    target.options.tiff.block = 64;
+    target.options.cog = Some(overviews);
+    target.tile = Some(100);
+    orogen::ops::flow::run(
+        dem.as_ref(),
+        &Default::default(),
+        &target,
+        &EngineConfig::default(),
+    )
+    .unwrap();
+    read_levels(&target.path, None)
+}
+
+#[test]
+fn categorical_outputs_get_nearest_overviews_unless_told_otherwise() {
+    use orogen::io::Overviews;
+    let tmp = tempfile::tempdir().unwrap();
+    // The D8 codes (ESRI), no flow and nodata: the only values a direction
+    // raster may hold, at any level.
+    let codes = [0.0, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0, 128.0, 255.0];
+    let levels = d8_cog_levels(tmp.path(), Overviews::ByKind);
+    assert!(
+        levels.len() >= 3,
+        "237 x 188 in 64-cell blocks has overviews"
+    );
+    let full: std::collections::HashSet<u64> =
+        levels[0].values.iter().map(|v| v.to_bits()).collect();
+    assert!(levels[0].values.iter().all(|v| codes.contains(v)));
+    for l in &levels[1..] {
+        for v in &l.values {
+            assert!(codes.contains(v), "overview value {v} is not a D8 code");
+            assert!(
+                full.contains(&v.to_bits()),
+                "{v} is not in the full resolution"
+            );
+        }
+    }
+    // Each overview cell is the top-left cell of its footprint one level up.
+    for k in 1..levels.len() {
+        let (up, l) = (&levels[k - 1], &levels[k]);
+        let (want, w, h) = reduce(&up.values, up.w, up.h, true);
+        assert_eq!((w, h), (l.w, l.h));
+        assert_eq!(l.values, want, "level {k}");
+    }
+    // Told to average, the same output's overviews hold means of codes.
+    let averaged = d8_cog_levels(tmp.path(), Overviews::Fixed(Resampling::Average));
+    assert!(averaged[1..]
+        .iter()
+        .any(|l| l.values.iter().any(|v| !codes.contains(v))));
+}

@@ -6,7 +6,7 @@
 //! orogen's windowed metrics use the partial window there, so only interior
 //! cells are compared.
 
-use orogen::exec::{Engine, EngineConfig, LocalEngine, MemSink, TileSink};
+use orogen::exec::{Engine, EngineConfig, LocalEngine, MemSink, Run, TileSink};
 use orogen::io::{open_raster, OpenOptions};
 use orogen::metrics::{parse_specs, MultiMetric};
 use orogen::raster::{read_window, DType, RasterSource, TileLayout, Window};
@@ -33,9 +33,11 @@ fn matches_gdaldem_tri_tpi_roughness() {
     LocalEngine::new(EngineConfig::default())
         .run_local(
             &step,
-            &[src.as_ref() as &dyn RasterSource],
-            TileLayout::new(w, h, 64),
-            sinks,
+            Run::new(
+                &[src.as_ref() as &dyn RasterSource],
+                TileLayout::new(w, h, 64),
+                sinks,
+            ),
         )
         .unwrap();
     let files = ["tri_riley", "tri_wilson", "tpi", "roughness"];

@@ -6,7 +6,7 @@
 
 #![allow(clippy::needless_range_loop)] // index loops read like the definitions
 
-use orogen::exec::{Engine, EngineConfig, LocalEngine, MemSink, TileSink};
+use orogen::exec::{Engine, EngineConfig, LocalEngine, MemSink, Run, TileSink};
 use orogen::io::{open_raster, OpenOptions, OutputOptions};
 use orogen::metrics::registry::{resolve, Length, MetricKind, METRICS};
 use orogen::metrics::{compute, list, parse_specs, MultiMetric};
@@ -290,9 +290,11 @@ fn hostile_values_are_errors() {
     let e = LocalEngine::new(EngineConfig::default())
         .run_local(
             &step,
-            &[&src as &dyn RasterSource],
-            TileLayout::new(10, 10, 4),
-            vec![Box::new(s)],
+            Run::new(
+                &[&src as &dyn RasterSource],
+                TileLayout::new(10, 10, 4),
+                vec![Box::new(s)],
+            ),
         )
         .unwrap_err()
         .to_string();
@@ -312,9 +314,11 @@ fn hostile_values_are_errors() {
     LocalEngine::new(EngineConfig::default())
         .run_local(
             &step,
-            &[&src as &dyn RasterSource],
-            TileLayout::new(10, 10, 4),
-            sinks,
+            Run::new(
+                &[&src as &dyn RasterSource],
+                TileLayout::new(10, 10, 4),
+                sinks,
+            ),
         )
         .unwrap();
 }

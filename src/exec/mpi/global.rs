@@ -10,9 +10,9 @@ use super::{schedule, MpiEngine, Phase};
 use crate::error::{Error, Result};
 use crate::exec::mpi_codec::{decode_records, perimeter_cells, push_record, Queue};
 use crate::exec::mpi_queue::{self, Work};
-use crate::exec::tile_io::{blank_outputs, convert_outputs, read_views};
+use crate::exec::tile_io::{apply_tile, out_meta, read_views};
 use crate::exec::{GlobalStep, TileSink};
-use crate::raster::{AnyGrid, DType, RasterSource, TileId, TileLayout};
+use crate::raster::{AnyGrid, RasterSource, TileId, TileLayout};
 use mpi::topology::SimpleCommunicator;
 use mpi::traits::*;
 use std::sync::Mutex;
@@ -210,18 +210,7 @@ impl MpiEngine {
         let t1 = Instant::now();
         let me = comm.rank() as usize;
         let count = layout.count();
-        let halo = step.halo();
-        let meta: Vec<(DType, Option<f64>)> =
-            sinks.iter().map(|s| (s.dtype(), s.nodata())).collect();
-        let sizes: Vec<usize> = meta.iter().map(|m| m.0.size()).collect();
-        let bytes = crate::exec::local_tile_bytes(
-            layout,
-            halo,
-            inputs,
-            std::mem::size_of::<S::In>(),
-            std::mem::size_of::<S::Out>(),
-            &sizes,
-        );
+        let (meta, bytes) = out_meta::<S::In, S::Out>(layout, step.halo(), inputs, &sinks);
         let ids = Self::shared_todo(comm, layout, &sinks);
         self.note_resume(comm, &name, &ids, layout);
         Self::report(
@@ -301,14 +290,10 @@ impl MpiEngine {
             }
             Ok(())
         };
-        let n_out = step.outputs();
         let apply_name = format!("{name} (apply)");
         let apply = |id: TileId| -> Result<Vec<AnyGrid>> {
-            let views = read_views::<S::In>(inputs, layout, id, halo)?;
             let slice = slice_of(id)?;
-            let mut out = blank_outputs::<S::Out>(n_out, layout, id);
-            step.apply(&views, &slice, &mut out)?;
-            convert_outputs(&name, &out, layout, id, &meta)
+            apply_tile(step, &name, inputs, layout, id, &slice, &meta)
         };
         let (out, inn): (Option<SlicesOut<'_>>, Option<SlicesIn<'_>>) = match (shipped, me) {
             (false, _) => (None, None),

@@ -54,10 +54,10 @@ pub(super) use world::{fail, TAG_TILE};
 
 use super::mpi_codec::{perimeter_cells, Schedule};
 use super::mpi_queue::Work;
-use super::tile_io::{blank_outputs, check_inputs, check_sinks, convert_outputs, read_views, todo};
-use super::{Engine, GlobalStep, LocalEngine, LocalStep, TileSink};
+use super::tile_io::{check_inputs, check_sinks, local_tile, out_meta, todo};
+use super::{Engine, GlobalStep, LocalEngine, LocalStep, Run, TileSink};
 use crate::error::{Error, Result};
-use crate::raster::{AnyGrid, DType, RasterSource, TileId, TileLayout};
+use crate::raster::{TileId, TileLayout};
 use global::decode_summaries;
 use mpi::topology::SimpleCommunicator;
 use mpi::traits::*;
@@ -102,23 +102,34 @@ impl MpiEngine {
     }
 
     /// What every engine call checks first (the calling thread, the
-    /// inputs, and the sinks: always for local steps, when there are any
-    /// for global ones); returns the communicator of all ranks.
-    fn start(
+    /// inputs, and the sinks against the step's `n_out` outputs: always for
+    /// local steps, when there are any for global ones); returns the
+    /// communicator of all ranks with the run.
+    fn start<'a>(
         &self,
         name: &str,
-        inputs: &[&dyn RasterSource],
-        layout: &TileLayout,
-        sinks: &[Box<dyn TileSink>],
+        run: Run<'a>,
         n_out: usize,
         sinks_required: bool,
-    ) -> Result<SimpleCommunicator> {
+    ) -> Result<(SimpleCommunicator, Run<'a>)> {
         self.check_thread(name)?;
-        check_inputs(name, inputs, layout)?;
-        if sinks_required || !sinks.is_empty() {
-            check_sinks(name, sinks, n_out, layout)?;
+        check_inputs(name, run.inputs, &run.layout)?;
+        if sinks_required || !run.sinks.is_empty() {
+            check_sinks(name, &run.sinks, n_out, &run.layout)?;
         }
-        Ok(world())
+        Ok((world(), run))
+    }
+
+    /// [`MpiEngine::start`] for a global step (sinks optional), with the
+    /// step's name.
+    fn start_global<'a, S: GlobalStep>(
+        &self,
+        step: &S,
+        run: Run<'a>,
+    ) -> Result<(SimpleCommunicator, String, Run<'a>)> {
+        let name = step.name();
+        let (comm, run) = self.start(&name, run, step.outputs().len(), false)?;
+        Ok((comm, name, run))
     }
 
     fn check_thread(&self, name: &str) -> Result<()> {
@@ -255,37 +266,22 @@ impl MpiEngine {
 }
 
 impl Engine for MpiEngine {
-    fn run_local<S: LocalStep>(
-        &self,
-        step: &S,
-        inputs: &[&dyn RasterSource],
-        layout: TileLayout,
-        sinks: Vec<Box<dyn TileSink>>,
-    ) -> Result<()> {
+    fn run_local<S: LocalStep>(&self, step: &S, run: Run<'_>) -> Result<()> {
         let name = step.name();
-        let comm = self.start(&name, inputs, &layout, &sinks, step.outputs(), true)?;
+        let (
+            comm,
+            Run {
+                inputs,
+                layout,
+                sinks,
+            },
+        ) = self.start(&name, run, step.outputs().len(), true)?;
         let t0 = Instant::now();
-        let halo = step.halo();
-        let meta: Vec<(DType, Option<f64>)> =
-            sinks.iter().map(|s| (s.dtype(), s.nodata())).collect();
-        let sizes: Vec<usize> = meta.iter().map(|m| m.0.size()).collect();
-        let bytes = super::local_tile_bytes(
-            &layout,
-            halo,
-            inputs,
-            std::mem::size_of::<S::In>(),
-            std::mem::size_of::<S::Out>(),
-            &sizes,
-        ) + step.scratch_bytes(layout.tile);
+        let (meta, bytes) = out_meta::<S::In, S::Out>(&layout, step.halo(), inputs, &sinks);
+        let bytes = bytes + step.scratch_bytes(layout.tile);
         let ids = Self::shared_todo(&comm, &layout, &sinks);
         self.note_resume(&comm, &name, &ids, &layout);
-        let n_out = step.outputs();
-        let compute = |id: TileId| -> Result<Vec<AnyGrid>> {
-            let views = read_views::<S::In>(inputs, &layout, id, halo)?;
-            let mut out = blank_outputs::<S::Out>(n_out, &layout, id);
-            step.run(&views, &mut out)?;
-            convert_outputs(&name, &out, &layout, id, &meta)
-        };
+        let compute = |id: TileId| local_tile(step, &name, inputs, &layout, id, &meta);
         let (moved, work) = self.distribute(
             &comm, &name, &layout, &ids, &meta, bytes, sinks, &compute, None, None,
         );
@@ -306,15 +302,16 @@ impl Engine for MpiEngine {
         Ok(())
     }
 
-    fn run_global<S: GlobalStep>(
-        &self,
-        step: &S,
-        inputs: &[&dyn RasterSource],
-        layout: TileLayout,
-        sinks: Vec<Box<dyn TileSink>>,
-    ) -> Result<S::Solution> {
-        let name = step.name();
-        let comm = self.start(&name, inputs, &layout, &sinks, step.outputs(), false)?;
+    fn run_global<S: GlobalStep>(&self, step: &S, run: Run<'_>) -> Result<S::Solution> {
+        let (
+            comm,
+            name,
+            Run {
+                inputs,
+                layout,
+                sinks,
+            },
+        ) = self.start_global(step, run)?;
         let me = comm.rank() as usize;
         let count = layout.count();
 
@@ -368,15 +365,16 @@ impl Engine for MpiEngine {
     /// reduces and sends each rank only the slices of the tiles it applies
     /// (with the work-queue grants of those tiles); no other rank ever holds
     /// the solution or all summaries.
-    fn run_global_apply<S: GlobalStep>(
-        &self,
-        step: &S,
-        inputs: &[&dyn RasterSource],
-        layout: TileLayout,
-        sinks: Vec<Box<dyn TileSink>>,
-    ) -> Result<()> {
-        let name = step.name();
-        let comm = self.start(&name, inputs, &layout, &sinks, step.outputs(), false)?;
+    fn run_global_apply<S: GlobalStep>(&self, step: &S, run: Run<'_>) -> Result<()> {
+        let (
+            comm,
+            name,
+            Run {
+                inputs,
+                layout,
+                sinks,
+            },
+        ) = self.start_global(step, run)?;
         let me = comm.rank() as usize;
         let ranks = comm.size() as usize;
         let count = layout.count();

@@ -46,9 +46,10 @@ use super::fill::{neighbours, next_up_n};
 use super::tiled::check_summaries;
 use super::{valid, D8_CODES, DX, DY, NODATA_DIR, NO_FLOW};
 use crate::error::{Error, Result};
+use crate::exec::output::OutputSpec;
 use crate::exec::GlobalStep;
 use crate::raster::{perimeter_cells, perimeter_index, perimeter_len};
-use crate::raster::{Grid, TileId, TileLayout, TileView};
+use crate::raster::{DType, Grid, TileId, TileLayout, TileView};
 use serde::{Deserialize, Serialize};
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -600,6 +601,9 @@ impl GlobalStep for TiledD8 {
         serde_json::json!({"algorithm": "D8 steepest descent, flats after Barnes, Lehman & Mulla 2014"})
     }
 
+    fn outputs(&self) -> Vec<OutputSpec> {
+        vec![OutputSpec::categorical(DType::U8, NODATA_DIR as f64)]
+    }
     fn apply(
         &self,
         inputs: &[TileView<f32>],
@@ -668,6 +672,9 @@ impl GlobalStep for TiledEpsilon {
         serde_json::json!({"algorithm": "epsilon surface next_up^k(fill level), k = geodesic distance to the flat's draining edge"})
     }
 
+    fn outputs(&self) -> Vec<OutputSpec> {
+        vec![OutputSpec::elevation()]
+    }
     fn apply(
         &self,
         inputs: &[TileView<f32>],

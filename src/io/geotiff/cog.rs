@@ -28,13 +28,14 @@
 //! Overview cells: [`Resampling::Average`] (mean of the valid cells of the
 //! 2x2 footprint, nodata when none is valid; integers rounded to nearest) for
 //! continuous data, [`Resampling::Nearest`] (the footprint's top-left cell)
-//! for classes and codes.
+//! for classes, codes and angles; [`Resampling::for_kind`] picks one from
+//! the output's kind when the user did not.
 
 use super::ifd::{encode_ifd, geo_entries, image_entries, Entry};
 use super::rows::RowBuffer;
 use super::writer::{check_create, clean_stale_temps, encode_band, WriteOptions};
 use crate::error::{Error, IoContext, Result};
-use crate::raster::{AnyGrid, DType, GeoRef, Grid, TileId, Window};
+use crate::raster::{AnyGrid, DType, GeoRef, Grid, OutputKind, TileId, Window};
 use crate::store::sink::TileSink;
 use std::fs::File;
 use std::io::{BufWriter, Read, Write};
@@ -47,6 +48,18 @@ pub enum Resampling {
     Average,
     /// Top-left cell of each 2x2 footprint (classes, codes, directions).
     Nearest,
+}
+
+impl Resampling {
+    /// The resampling for values of `kind`: the mean for continuous data,
+    /// the top-left cell for class codes and for angles (the mean of 350°
+    /// and 10° is not 180°).
+    pub fn for_kind(kind: OutputKind) -> Resampling {
+        match kind {
+            OutputKind::Continuous => Resampling::Average,
+            OutputKind::Categorical | OutputKind::Angle => Resampling::Nearest,
+        }
+    }
 }
 
 /// The structural metadata GDAL readers look for right after the header.

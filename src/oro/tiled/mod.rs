@@ -53,7 +53,7 @@ pub use tree_step::{FinalPeak, TreeNode, TreeStep, TreeSummary};
 
 use super::tree::{DivideTree, EdgeConvention, Peak, Saddle};
 use crate::error::{Error, Result};
-use crate::exec::Engine;
+use crate::exec::{Engine, Run};
 use crate::raster::{RasterSource, TileLayout, TileView};
 use std::collections::HashMap;
 
@@ -238,14 +238,14 @@ fn tree_tiled<E: Engine>(
             saddles: Vec::new(),
         });
     }
-    let plateaus = engine.run_global(&PlateauStep, &[src], layout, Vec::new())?;
+    let plateaus = engine.run_global(&PlateauStep, Run::solution_only(&[src], layout))?;
     let step = TreeStep {
         convention,
         min_prominence,
         layout,
         plateaus: &plateaus,
     };
-    let tree = engine.run_global(&step, &[src], layout, Vec::new())?;
+    let tree = engine.run_global(&step, Run::solution_only(&[src], layout))?;
     Ok(match min_prominence {
         Some(m) => tree.pruned(m),
         None => tree,

@@ -64,8 +64,8 @@ impl GlobalStep for PlateauStep {
     fn halo(&self) -> usize {
         0
     }
-    fn outputs(&self) -> usize {
-        0
+    fn outputs(&self) -> Vec<crate::exec::output::OutputSpec> {
+        Vec::new()
     }
 
     fn map(&self, inputs: &[TileView<f32>]) -> Result<PlateauSummary> {

@@ -163,8 +163,8 @@ impl GlobalStep for TreeStep<'_> {
     fn halo(&self) -> usize {
         1
     }
-    fn outputs(&self) -> usize {
-        0
+    fn outputs(&self) -> Vec<crate::exec::output::OutputSpec> {
+        Vec::new()
     }
 
     fn map(&self, inputs: &[TileView<f32>]) -> Result<TreeSummary> {
