@@ -143,6 +143,9 @@ pub struct OutputOptions {
     /// Write `.tif` outputs as Cloud-Optimized GeoTIFFs with internal
     /// overviews made this way (None: plain tiled GeoTIFF).
     pub cog: Option<Overviews>,
+    /// Outputs kept in memory instead of written (the paths they claim);
+    /// `None`: every output is written.
+    pub memory: Option<crate::store::sink::MemoryOutputs>,
 }
 
 /// How a Cloud-Optimized GeoTIFF's overviews are made.
@@ -185,7 +188,8 @@ pub fn create_sink_like(
 
 /// Create the sink for an output path: `.tif`/`.tiff` GeoTIFF (streamed),
 /// `.tiles` tile store (streamed, resumable), `.png` 16-bit heightmap or
-/// `.asc` ESRI ASCII (assembled in memory, small rasters only).
+/// `.asc` ESRI ASCII (assembled in memory, small rasters only); a path
+/// claimed by `oo.memory` is kept in memory instead.
 pub fn create_sink(
     path: &Path,
     width: usize,
@@ -200,6 +204,13 @@ pub fn create_sink(
         .and_then(|e| e.to_str())
         .unwrap_or("")
         .to_ascii_lowercase();
+    if let Some(sink) = oo
+        .memory
+        .as_ref()
+        .and_then(|m| m.sink(path, width, height, dtype, georef))
+    {
+        return Ok(sink);
+    }
     if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
         if !parent.is_dir() {
             return Err(Error::invalid(format!(

@@ -63,3 +63,9 @@ pub fn run(
     crate::metrics::compute(dem, &specs, &paths, oo, tile, cfg)?;
     Ok(paths)
 }
+
+/// The files [`run`] writes into `dir` for `opts`, one per metric, in the
+/// order of `opts.metric` (nothing is created).
+pub fn output_paths(dir: &Path, opts: &MetricOptions) -> Result<Vec<PathBuf>> {
+    crate::metrics::output_paths(&opts.specs()?, dir, &opts.format)
+}

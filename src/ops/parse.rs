@@ -283,7 +283,12 @@ impl FormatOptions {
         } else {
             None
         };
-        Ok(OutputOptions { tiff, store, cog })
+        Ok(OutputOptions {
+            tiff,
+            store,
+            cog,
+            memory: None,
+        })
     }
 }
 

@@ -203,9 +203,30 @@ pub fn run_in(
     mode: PeaksMode,
     cfg: &EngineConfig,
 ) -> Result<PeaksOutcome> {
+    let (list, grid) = find(dem, opts, mode, cfg)?;
+    // Line parents, relevance and normalised elevation need the DEM in
+    // memory (line_parents); otherwise those columns are empty, so the
+    // files are the same bytes tiled and untiled.
+    let files = match &grid {
+        Some(g) if opts.line_parents => list.write_all_with_dem(dir, g)?,
+        _ => list.write_all(dir)?,
+    };
+    Ok(PeaksOutcome {
+        peaks: list.tree.peaks.len(),
+        files,
+    })
+}
+
+/// The peaks of `dem` (and the DEM read whole, when `mode` is in memory).
+fn find(
+    dem: &dyn RasterSource,
+    opts: &PeaksOptions,
+    mode: PeaksMode,
+    cfg: &EngineConfig,
+) -> Result<(crate::oro::PeakList, Option<crate::raster::Grid<f32>>)> {
     let info = dem.info();
     let popts = opts.peak_options();
-    let (list, grid) = match mode {
+    Ok(match mode {
         PeaksMode::Tiled { tile } => {
             // A quarter of the budget caches cells for the isolation search.
             let cache = cfg.memory_budget / 4;
@@ -222,16 +243,14 @@ pub fn run_in(
             )?;
             (crate::oro::peaks(&g, &info.georef, &popts)?, Some(g))
         }
-    };
-    // Line parents, relevance and normalised elevation need the DEM in
-    // memory (line_parents); otherwise those columns are empty, so the
-    // files are the same bytes tiled and untiled.
-    let files = match &grid {
-        Some(g) if opts.line_parents => list.write_all_with_dem(dir, g)?,
-        _ => list.write_all(dir)?,
-    };
-    Ok(PeaksOutcome {
-        peaks: list.tree.peaks.len(),
-        files,
     })
+}
+
+/// The peaks table of `dem` in memory: the text of the `peaks.csv`
+/// [`run`] writes (same columns, same values), nothing written.
+pub fn table(dem: &dyn RasterSource, opts: &PeaksOptions, cfg: &EngineConfig) -> Result<String> {
+    opts.validate()?;
+    let m = mode(dem, opts, cfg)?;
+    let (list, grid) = find(dem, opts, m, cfg)?;
+    list.csv_text(grid.as_ref().filter(|_| opts.line_parents))
 }

@@ -43,6 +43,12 @@ pub fn write_peaks_csv_with(
     georef: &GeoRef,
     m: &[PeakMetrics],
 ) -> Result<()> {
+    write(path, peaks_csv_text(tree, georef, m)?.as_bytes())
+}
+
+/// The text of peaks.csv with the metrics `m` (one per peak, from
+/// [`peak_metrics`]): a header line, then one line per peak.
+pub fn peaks_csv_text(tree: &DivideTree, georef: &GeoRef, m: &[PeakMetrics]) -> Result<String> {
     check_len(tree, m)?;
     let geo = georef.georeferenced && georef.crs.geographic;
     let mut out = String::new();
@@ -83,7 +89,7 @@ pub fn write_peaks_csv_with(
             opt(pm.relevance),
         ));
     }
-    write(path, out.as_bytes())
+    Ok(out)
 }
 
 fn check_len(tree: &DivideTree, m: &[PeakMetrics]) -> Result<()> {
@@ -104,6 +110,16 @@ impl PeakList {
     pub fn write_all_with_dem(&self, dir: &Path, dem: &Grid<f32>) -> Result<Vec<PathBuf>> {
         let m = peak_metrics(&self.tree, dem, &self.georef)?;
         self.write_files(dir, &m)
+    }
+
+    /// The text of peaks.csv, as [`PeakList::write_all`] (`dem` `None`) or
+    /// [`PeakList::write_all_with_dem`] writes it.
+    pub fn csv_text(&self, dem: Option<&Grid<f32>>) -> Result<String> {
+        let m = match dem {
+            Some(g) => peak_metrics(&self.tree, g, &self.georef)?,
+            None => super::metrics::peak_metrics_tree_only(&self.tree, &self.georef),
+        };
+        peaks_csv_text(&self.tree, &self.georef, &m)
     }
 }
 

@@ -1,6 +1,7 @@
 //! Where a tiled run writes its output tiles: the [`TileSink`] trait every
 //! output implements (tile stores, GeoTIFFs, whole-file formats, memory),
-//! the in-memory sink [`MemSink`], and the rank of this process among the
+//! the in-memory sink [`MemSink`] and the outputs kept in memory by path
+//! ([`MemoryOutputs`]), and the rank of this process among the
 //! processes that run a step together (set by the engine that runs them).
 //!
 //! It sits in `store` (below `exec`) so the readers and writers of `io` and
@@ -8,7 +9,8 @@
 
 use super::{DelegatedTiles, TileEntry};
 use crate::error::{Error, Result};
-use crate::raster::{AnyGrid, Cell, DType, Grid, TileId, TileLayout, Window};
+use crate::raster::{AnyGrid, Cell, DType, GeoRef, Grid, TileId, TileLayout, Window};
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
@@ -139,6 +141,59 @@ impl TileSink for MemSink {
             .map_err(|_| Error::invalid("memory sink: result slot poisoned"))?;
         *slot = Some(self.grid);
         Ok(())
+    }
+}
+
+/// Outputs a run leaves in memory instead of writing them: every path
+/// claimed here gets a [`MemSink`] from [`crate::io::create_sink`] (so
+/// every writer of an operation, tiled or whole-raster, is served without
+/// knowing it), and the assembled raster with its georeference is taken
+/// back by path after the run. Paths not claimed (an operation's
+/// intermediate stores) are written as usual. Clones share the claims.
+#[derive(Debug, Clone, Default)]
+pub struct MemoryOutputs(Arc<Mutex<Vec<MemoryClaim>>>);
+
+/// One claimed path and, once its sink is made, where its result lands.
+#[derive(Debug)]
+struct MemoryClaim {
+    path: PathBuf,
+    result: Option<(MemSinkHandle, GeoRef)>,
+}
+
+impl MemoryOutputs {
+    /// Keep the output written to `path` in memory.
+    pub fn claim(&self, path: impl Into<PathBuf>) {
+        if let Ok(mut claims) = self.0.lock() {
+            claims.push(MemoryClaim {
+                path: path.into(),
+                result: None,
+            });
+        }
+    }
+
+    /// The in-memory sink for `path` if it is claimed (`None`: write the
+    /// path as usual). The sink's nodata is `georef`'s.
+    pub fn sink(
+        &self,
+        path: &Path,
+        width: usize,
+        height: usize,
+        dtype: DType,
+        georef: &GeoRef,
+    ) -> Option<Box<dyn TileSink>> {
+        let mut claims = self.0.lock().ok()?;
+        let claim = claims.iter_mut().find(|c| c.path == path)?;
+        let (sink, handle) = MemSink::new(width, height, dtype, georef.nodata);
+        claim.result = Some((handle, georef.clone()));
+        Some(Box::new(sink))
+    }
+
+    /// The raster written to the claimed `path` and its georeference
+    /// (`None` if nothing was written there, or the run failed).
+    pub fn take(&self, path: &Path) -> Option<(AnyGrid, GeoRef)> {
+        let claims = self.0.lock().ok()?;
+        let (handle, georef) = claims.iter().find(|c| c.path == path)?.result.as_ref()?;
+        Some((handle.take()?, georef.clone()))
     }
 }
 

@@ -1,0 +1,534 @@
+//! `orogen._orogen`: the Rust half of the Python package. It calls the
+//! library's operations (`orogen::ops`) and nothing below them but the
+//! raster types an array is wrapped in (`orogen::raster`) and the reader of
+//! input paths the CLI uses too (`orogen::io::open_raster`). The pure-Python
+//! layer (`orogen/__init__.py`) turns numpy / xarray inputs into the
+//! `(array, georef)` pairs taken here and the results back.
+//!
+//! Every operation's options arrive as JSON text and are read into the ops
+//! `XxxOptions` struct with serde, so the names and defaults are the CLI's,
+//! kept in one place. Work runs with the GIL released; a panic becomes an
+//! `OrogenError` instead of ending the interpreter.
+
+use numpy::{
+    IntoPyArray, PyArrayDescrMethods, PyArrayMethods, PyUntypedArray, PyUntypedArrayMethods,
+};
+use orogen::error::Error;
+use orogen::exec::EngineConfig;
+use orogen::ops::{self, parse::FormatOptions, parse::RunOptions, Target};
+use orogen::raster::{
+    read_window_native, AnyGrid, Crs, GeoRef, Grid, MemRaster, RasterSource, Window,
+};
+use pyo3::exceptions::PyException;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+use std::path::{Path, PathBuf};
+
+pyo3::create_exception!(
+    orogen,
+    OrogenError,
+    PyException,
+    "An error of the orogen library."
+);
+pyo3::create_exception!(
+    orogen,
+    InvalidInputError,
+    OrogenError,
+    "A bad argument or input (a wrong parameter, a raster of the wrong type or size)."
+);
+pyo3::create_exception!(
+    orogen,
+    MemoryBudgetError,
+    OrogenError,
+    "The operation needs more memory than the budget (`memory=`) allows."
+);
+pyo3::create_exception!(
+    orogen,
+    UnsupportedFormatError,
+    OrogenError,
+    "A file format or a feature of one that orogen does not read."
+);
+pyo3::create_exception!(
+    orogen,
+    CorruptInputError,
+    OrogenError,
+    "An input file is damaged."
+);
+pyo3::create_exception!(
+    orogen,
+    StorageError,
+    OrogenError,
+    "Reading or writing a file or tile store failed."
+);
+pyo3::create_exception!(
+    orogen,
+    InternalError,
+    OrogenError,
+    "A bug in orogen (a Rust panic), caught before it ended the interpreter."
+);
+
+/// The Python exception for a library error, by its kind. Errors of the
+/// memory-budget checks are `InvalidArgument`s whose message tells the
+/// user to raise `--memory`: they are recognised by that advice.
+fn to_py(e: Error) -> PyErr {
+    let msg = e.to_string();
+    let mut kind = &e;
+    while let Error::Tile { inner, .. } = kind {
+        kind = inner;
+    }
+    match kind {
+        Error::TooLarge { .. } => MemoryBudgetError::new_err(msg),
+        Error::InvalidArgument(m) if m.contains("--memory") => MemoryBudgetError::new_err(msg),
+        Error::InvalidArgument(_) => InvalidInputError::new_err(msg),
+        Error::Unsupported { .. } => UnsupportedFormatError::new_err(msg),
+        Error::Corrupt { .. } => CorruptInputError::new_err(msg),
+        Error::Io { .. } | Error::Store { .. } => StorageError::new_err(msg),
+        Error::Tile { .. } => OrogenError::new_err(msg),
+    }
+}
+
+/// Run `f` without the GIL; a library error or a panic becomes a Python
+/// exception.
+fn detached<T: Send>(
+    py: Python<'_>,
+    f: impl FnOnce() -> orogen::error::Result<T> + Send,
+) -> PyResult<T> {
+    let out = py.detach(|| std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)));
+    match out {
+        Ok(r) => r.map_err(to_py),
+        Err(p) => {
+            let what = p
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_else(|| "unknown panic".into());
+            Err(InternalError::new_err(format!(
+                "internal error (please report): {what}"
+            )))
+        }
+    }
+}
+
+/// serde_json text into an ops Options struct; unknown names are refused
+/// by the structs themselves (`deny_unknown_fields`).
+fn options<T: serde::de::DeserializeOwned>(json: &str, what: &str) -> PyResult<T> {
+    serde_json::from_str(json).map_err(|e| InvalidInputError::new_err(format!("{what}: {e}")))
+}
+
+/// A georeference from the Python layer's dict: `transform` (GDAL order),
+/// `epsg`, `geographic`, `nodata` (all optional).
+fn georef_from(d: Option<&Bound<'_, PyDict>>) -> PyResult<GeoRef> {
+    let mut g = GeoRef::pixel();
+    let Some(d) = d else { return Ok(g) };
+    if let Some(t) = d.get_item("transform")? {
+        if !t.is_none() {
+            let v: Vec<f64> = t.extract()?;
+            if v.len() != 6 {
+                return Err(InvalidInputError::new_err(
+                    "transform: give the 6 GDAL coefficients (x0, dx, rx, y0, ry, dy)",
+                ));
+            }
+            g.transform.copy_from_slice(&v);
+            g.georeferenced = true;
+        }
+    }
+    let mut crs = Crs::default();
+    if let Some(e) = d.get_item("epsg")? {
+        crs.epsg = e.extract::<Option<u32>>()?;
+    }
+    if let Some(geo) = d.get_item("geographic")? {
+        crs.geographic = geo.extract::<Option<bool>>()?.unwrap_or(false);
+    }
+    if let Some(u) = d.get_item("linear_unit_m")? {
+        if let Some(u) = u.extract::<Option<f64>>()? {
+            crs.linear_unit_m = u;
+        }
+    }
+    g.crs = crs;
+    if let Some(n) = d.get_item("nodata")? {
+        g.nodata = n.extract::<Option<f64>>()?;
+    }
+    Ok(g)
+}
+
+/// The Python layer's dict of a georeference.
+fn georef_dict<'py>(py: Python<'py>, g: &GeoRef) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("transform", g.transform.to_vec())?;
+    d.set_item("georeferenced", g.georeferenced)?;
+    d.set_item("epsg", g.crs.epsg)?;
+    d.set_item("geographic", g.crs.geographic)?;
+    d.set_item("linear_unit_m", g.crs.linear_unit_m)?;
+    d.set_item("nodata", g.nodata)?;
+    Ok(d)
+}
+
+/// A C-contiguous 2-D numpy array copied into a grid of its dtype.
+fn grid_from(a: &Bound<'_, PyUntypedArray>) -> PyResult<AnyGrid> {
+    fn typed<T: numpy::Element + Copy>(a: &Bound<'_, PyUntypedArray>) -> PyResult<Grid<T>> {
+        let a = a.cast::<numpy::PyArray2<T>>()?.readonly();
+        let shape = a.shape();
+        let (h, w) = (shape[0], shape[1]);
+        let data = a
+            .as_slice()
+            .map_err(|_| InvalidInputError::new_err("the array must be C-contiguous"))?
+            .to_vec();
+        Grid::from_vec(w, h, data).map_err(to_py)
+    }
+    if a.ndim() != 2 {
+        return Err(InvalidInputError::new_err(format!(
+            "a DEM is a 2-D array; this one has {} dimensions",
+            a.ndim()
+        )));
+    }
+    let py = a.py();
+    let dt = a.dtype();
+    Ok(if dt.is_equiv_to(&numpy::dtype::<f32>(py)) {
+        AnyGrid::F32(typed(a)?)
+    } else if dt.is_equiv_to(&numpy::dtype::<f64>(py)) {
+        AnyGrid::F64(typed(a)?)
+    } else if dt.is_equiv_to(&numpy::dtype::<u8>(py)) {
+        AnyGrid::U8(typed(a)?)
+    } else if dt.is_equiv_to(&numpy::dtype::<i8>(py)) {
+        AnyGrid::I8(typed(a)?)
+    } else if dt.is_equiv_to(&numpy::dtype::<u16>(py)) {
+        AnyGrid::U16(typed(a)?)
+    } else if dt.is_equiv_to(&numpy::dtype::<i16>(py)) {
+        AnyGrid::I16(typed(a)?)
+    } else if dt.is_equiv_to(&numpy::dtype::<u32>(py)) {
+        AnyGrid::U32(typed(a)?)
+    } else if dt.is_equiv_to(&numpy::dtype::<i32>(py)) {
+        AnyGrid::I32(typed(a)?)
+    } else {
+        return Err(InvalidInputError::new_err(format!(
+            "arrays of {dt} are not supported: use float32, float64 or an integer type of up to 32 bits"
+        )));
+    })
+}
+
+/// A grid as a flat numpy array (the Python layer reshapes it), moved
+/// without a copy.
+fn array_from(py: Python<'_>, g: AnyGrid) -> Py<PyAny> {
+    match g {
+        AnyGrid::U8(g) => g.into_vec().into_pyarray(py).into_any().unbind(),
+        AnyGrid::I8(g) => g.into_vec().into_pyarray(py).into_any().unbind(),
+        AnyGrid::U16(g) => g.into_vec().into_pyarray(py).into_any().unbind(),
+        AnyGrid::I16(g) => g.into_vec().into_pyarray(py).into_any().unbind(),
+        AnyGrid::U32(g) => g.into_vec().into_pyarray(py).into_any().unbind(),
+        AnyGrid::I32(g) => g.into_vec().into_pyarray(py).into_any().unbind(),
+        AnyGrid::F32(g) => g.into_vec().into_pyarray(py).into_any().unbind(),
+        AnyGrid::F64(g) => g.into_vec().into_pyarray(py).into_any().unbind(),
+    }
+}
+
+/// An operation's input: a path (opened as the CLI opens it) or an array
+/// with its georeference.
+fn source(
+    input: &Bound<'_, PyAny>,
+    georef: Option<&Bound<'_, PyDict>>,
+) -> PyResult<Box<dyn RasterSource>> {
+    if let Ok(a) = input.cast::<PyUntypedArray>() {
+        let grid = grid_from(a)?;
+        return Ok(Box::new(MemRaster::new(
+            grid,
+            georef_from(georef)?,
+            "<array>",
+        )));
+    }
+    let path: PathBuf = input.extract()?;
+    orogen::io::open_raster(&path, &Default::default()).map_err(to_py)
+}
+
+/// The engine settings and work tile of the `run` JSON (ops `RunOptions`).
+fn run_settings(run_json: &str) -> PyResult<(EngineConfig, Option<usize>)> {
+    let run: RunOptions = options(run_json, "run settings")?;
+    let cfg = run.engine_config(false).map_err(to_py)?;
+    Ok((cfg, run.tile))
+}
+
+/// A raster result: `(flat array, width, height, georef dict)`.
+type RasterResult = (Py<PyAny>, usize, usize, Py<PyDict>);
+
+fn raster_result(py: Python<'_>, (grid, georef): (AnyGrid, GeoRef)) -> PyResult<RasterResult> {
+    let (w, h) = (grid.width(), grid.height());
+    let d = georef_dict(py, &georef)?.unbind();
+    Ok((array_from(py, grid), w, h, d))
+}
+
+/// Run the one-raster operation `op` on `input` with `options` (JSON of
+/// its ops Options). With `output` (a path) the result is written there
+/// and `None` returned; without, it is kept in memory (intermediates, if
+/// the operation has any, go to the folder `scratch`) and returned as
+/// `(flat array, width, height, georef dict)`.
+#[pyfunction]
+#[pyo3(signature = (op, input, georef, options, run, format, output, scratch))]
+#[allow(clippy::too_many_arguments)]
+fn run_raster(
+    py: Python<'_>,
+    op: &str,
+    input: &Bound<'_, PyAny>,
+    georef: Option<&Bound<'_, PyDict>>,
+    options: &str,
+    run: &str,
+    format: &str,
+    output: Option<PathBuf>,
+    scratch: Option<PathBuf>,
+) -> PyResult<Option<RasterResult>> {
+    let src = source(input, georef)?;
+    let (cfg, tile) = run_settings(run)?;
+    let fmt: FormatOptions = self::options(format, "format settings")?;
+    let mut target = match (&output, &scratch) {
+        (Some(p), _) => Target::new(p),
+        (None, Some(dir)) => Target::memory(dir),
+        (None, None) => {
+            return Err(InvalidInputError::new_err(
+                "give an output path or a scratch folder",
+            ))
+        }
+    };
+    if output.is_some() {
+        target.options = fmt.output_options().map_err(to_py)?;
+    }
+    target.tile = tile;
+    let op_name = op.to_string();
+    macro_rules! call {
+        ($m:ident, $o:ty) => {{
+            let o: $o = self::options(options, &op_name)?;
+            let (src, target, cfg) = (&src, &target, &cfg);
+            detached(py, move || {
+                ops::$m::run(src.as_ref(), &o, target, cfg).map(|_| ())
+            })?
+        }};
+    }
+    match op {
+        "fill" => call!(fill, ops::fill::FillOptions),
+        "fill_epsilon" => call!(fill_epsilon, ops::fill_epsilon::FillEpsilonOptions),
+        "breach" => call!(breach, ops::breach::BreachOptions),
+        "flow" => call!(flow, ops::flow::FlowOptions),
+        "accumulate" => call!(accumulate, ops::accumulate::AccumulateOptions),
+        "slope" => call!(slope, ops::slope::SlopeOptions),
+        "aspect" => call!(aspect, ops::aspect::AspectOptions),
+        "hillshade" => call!(hillshade, ops::hillshade::HillshadeOptions),
+        "watersheds" => call!(watersheds, ops::watersheds::WatershedsOptions),
+        "export" => {
+            let (src, target, cfg) = (&src, &target, &cfg);
+            detached(py, move || ops::convert::run(src.as_ref(), target, cfg))?
+        }
+        _ => {
+            return Err(InvalidInputError::new_err(format!(
+                "unknown operation {op:?}"
+            )))
+        }
+    }
+    if output.is_some() {
+        return Ok(None);
+    }
+    let res = target
+        .take_memory()
+        .ok_or_else(|| OrogenError::new_err(format!("{op}: no output was produced")))?;
+    Ok(Some(raster_result(py, res)?))
+}
+
+/// Terrain metrics (`orogen metrics`): `options` is the JSON of ops
+/// `MetricOptions` (`metric`: comma-separated specs). With `output` (a
+/// folder) the files are written there and their paths returned; without,
+/// a list of `(name, flat array, width, height, georef dict)`.
+#[pyfunction]
+#[pyo3(signature = (input, georef, options, run, format, output, scratch))]
+#[allow(clippy::too_many_arguments)]
+fn metrics<'py>(
+    py: Python<'py>,
+    input: &Bound<'py, PyAny>,
+    georef: Option<&Bound<'py, PyDict>>,
+    options: &str,
+    run: &str,
+    format: &str,
+    output: Option<PathBuf>,
+    scratch: Option<PathBuf>,
+) -> PyResult<Bound<'py, PyList>> {
+    let src = source(input, georef)?;
+    let (cfg, tile) = run_settings(run)?;
+    let opts: ops::metric::MetricOptions = self::options(options, "metrics")?;
+    let fmt: FormatOptions = self::options(format, "format settings")?;
+    let out = PyList::empty(py);
+    if let Some(dir) = output {
+        let oo = fmt.output_options().map_err(to_py)?;
+        let files = detached(py, || {
+            ops::metric::run(src.as_ref(), &dir, &opts, &oo, tile, &cfg)
+        })?;
+        for f in files {
+            out.append(f)?;
+        }
+        return Ok(out);
+    }
+    let dir = scratch
+        .ok_or_else(|| InvalidInputError::new_err("give an output folder or a scratch folder"))?;
+    let paths = ops::metric::output_paths(&dir, &opts).map_err(to_py)?;
+    let memory = orogen::store::sink::MemoryOutputs::default();
+    for p in &paths {
+        memory.claim(p);
+    }
+    let oo = orogen::io::OutputOptions {
+        memory: Some(memory.clone()),
+        ..Default::default()
+    };
+    detached(py, || {
+        ops::metric::run(src.as_ref(), &dir, &opts, &oo, tile, &cfg)
+    })?;
+    for p in &paths {
+        let res = memory.take(p).ok_or_else(|| {
+            OrogenError::new_err(format!("{}: no output was produced", p.display()))
+        })?;
+        let name = file_stem(p);
+        let (a, w, h, d) = raster_result(py, res)?;
+        out.append((name, a, w, h, d))?;
+    }
+    Ok(out)
+}
+
+fn file_stem(p: &Path) -> String {
+    p.file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default()
+}
+
+/// Peaks with prominence (`orogen peaks`): `options` is the JSON of ops
+/// `PeaksOptions`. With `output` (a folder) the files are written there
+/// and their paths returned as a list; without, the peaks table as the
+/// text of `peaks.csv`.
+#[pyfunction]
+#[pyo3(signature = (input, georef, options, run, output))]
+fn peaks<'py>(
+    py: Python<'py>,
+    input: &Bound<'py, PyAny>,
+    georef: Option<&Bound<'py, PyDict>>,
+    options: &str,
+    run: &str,
+    output: Option<PathBuf>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let src = source(input, georef)?;
+    let (cfg, _) = run_settings(run)?;
+    let opts: ops::peaks::PeaksOptions = self::options(options, "peaks")?;
+    if let Some(dir) = output {
+        let found = detached(py, || ops::peaks::run(src.as_ref(), &dir, &opts, &cfg))?;
+        return Ok(PyList::new(py, found.files)?.into_any());
+    }
+    let text = detached(py, || ops::peaks::table(src.as_ref(), &opts, &cfg))?;
+    Ok(text.into_pyobject(py)?.into_any())
+}
+
+/// A raster file or tile store opened for window reads (`orogen.open`).
+#[pyclass(name = "RasterFile", module = "orogen._orogen", frozen)]
+struct RasterFile {
+    src: Box<dyn RasterSource>,
+}
+
+#[pymethods]
+impl RasterFile {
+    /// `(width, height)` in cells.
+    #[getter]
+    fn size(&self) -> (usize, usize) {
+        let i = self.src.info();
+        (i.width, i.height)
+    }
+    /// Native cell type, as a numpy dtype name.
+    #[getter]
+    fn dtype(&self) -> &'static str {
+        use orogen::raster::DType;
+        match self.src.info().dtype {
+            DType::U8 => "uint8",
+            DType::I8 => "int8",
+            DType::U16 => "uint16",
+            DType::I16 => "int16",
+            DType::U32 => "uint32",
+            DType::I32 => "int32",
+            DType::F32 => "float32",
+            DType::F64 => "float64",
+        }
+    }
+    /// The georeference dict (transform, epsg, geographic, nodata, …).
+    fn georef<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        georef_dict(py, &self.src.info().georef)
+    }
+    /// The path it was opened from.
+    #[getter]
+    fn path(&self) -> PathBuf {
+        self.src.info().path.clone()
+    }
+    /// Read the window of `w` x `h` cells at column `x`, row `y` in the
+    /// native type: `(flat array, w, h)`; cells beyond the edge are nodata.
+    fn read(
+        &self,
+        py: Python<'_>,
+        x: i64,
+        y: i64,
+        w: usize,
+        h: usize,
+    ) -> PyResult<(Py<PyAny>, usize, usize)> {
+        let src = &self.src;
+        let g = detached(py, move || {
+            read_window_native(src.as_ref(), Window::new(x, y, w, h))
+        })?;
+        Ok((array_from(py, g), w, h))
+    }
+}
+
+/// Open a raster (GeoTIFF, tile store, .hgt, ASCII grid, PNG heightmap)
+/// for window reads; nothing is read until `read`.
+#[pyfunction]
+fn open(py: Python<'_>, path: PathBuf) -> PyResult<RasterFile> {
+    let src = detached(py, move || {
+        orogen::io::open_raster(&path, &Default::default())
+    })?;
+    Ok(RasterFile { src })
+}
+
+/// The defaults of an operation's options (the CLI's), as JSON text.
+#[pyfunction]
+fn defaults(op: &str) -> PyResult<String> {
+    fn j<T: serde::Serialize + Default>() -> String {
+        serde_json::to_string(&T::default()).unwrap_or_default()
+    }
+    Ok(match op {
+        "fill" => j::<ops::fill::FillOptions>(),
+        "fill_epsilon" => j::<ops::fill_epsilon::FillEpsilonOptions>(),
+        "breach" => j::<ops::breach::BreachOptions>(),
+        "flow" => j::<ops::flow::FlowOptions>(),
+        "accumulate" => j::<ops::accumulate::AccumulateOptions>(),
+        "slope" => j::<ops::slope::SlopeOptions>(),
+        "aspect" => j::<ops::aspect::AspectOptions>(),
+        "hillshade" => j::<ops::hillshade::HillshadeOptions>(),
+        "watersheds" => j::<ops::watersheds::WatershedsOptions>(),
+        "metrics" => j::<ops::metric::MetricOptions>(),
+        "peaks" => j::<ops::peaks::PeaksOptions>(),
+        "run" => j::<RunOptions>(),
+        "format" => j::<FormatOptions>(),
+        _ => {
+            return Err(InvalidInputError::new_err(format!(
+                "unknown operation {op:?}"
+            )))
+        }
+    })
+}
+
+#[pymodule]
+fn _orogen(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    let py = m.py();
+    m.add("OrogenError", py.get_type::<OrogenError>())?;
+    m.add("InvalidInputError", py.get_type::<InvalidInputError>())?;
+    m.add("MemoryBudgetError", py.get_type::<MemoryBudgetError>())?;
+    m.add(
+        "UnsupportedFormatError",
+        py.get_type::<UnsupportedFormatError>(),
+    )?;
+    m.add("CorruptInputError", py.get_type::<CorruptInputError>())?;
+    m.add("StorageError", py.get_type::<StorageError>())?;
+    m.add("InternalError", py.get_type::<InternalError>())?;
+    m.add_function(wrap_pyfunction!(run_raster, m)?)?;
+    m.add_function(wrap_pyfunction!(metrics, m)?)?;
+    m.add_function(wrap_pyfunction!(peaks, m)?)?;
+    m.add_function(wrap_pyfunction!(open, m)?)?;
+    m.add_function(wrap_pyfunction!(defaults, m)?)?;
+    m.add_class::<RasterFile>()?;
+    Ok(())
+}
