@@ -97,12 +97,23 @@ impl Error {
             msg: msg.into(),
         }
     }
-    /// `source` raised while step `step` processed tile `id`.
+    /// `source` raised while step `step` processed tile `id`. An error
+    /// that names its file (unreadable block, full disk, torn store tile)
+    /// is returned as it is: the file and what is wrong with it are the
+    /// message, and the engine's step and tile would only hide them.
     pub fn tile(step: impl Into<String>, id: usize, source: Error) -> Self {
-        Error::Tile {
-            step: step.into(),
-            id,
-            inner: Box::new(source),
+        match source {
+            Error::Io { .. }
+            | Error::Corrupt { .. }
+            | Error::Unsupported { .. }
+            | Error::TooLarge { .. }
+            | Error::Store { .. }
+            | Error::Tile { .. } => source,
+            Error::InvalidArgument(_) => Error::Tile {
+                step: step.into(),
+                id,
+                inner: Box::new(source),
+            },
         }
     }
     /// Invalid argument.

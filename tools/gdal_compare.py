@@ -13,6 +13,16 @@ Modes:
                band-interleaved files; WhiteIsZero, RGB with unspecified extra samples,
                alpha, palette) to tests/data/gdal/bands/, each band's values as GDAL
                reads them, for cargo test; and a CMYK file orogen refuses.
+  --case-fixtures
+               write tests/data/gdal/cases/: internal masks and alpha (GDAL's mask band
+               recorded), sparse blocks (SPARSE_OK), float16 samples, LERC (plain, with
+               DEFLATE, with ZSTD; lossless and lossy), and georeferencing
+               GDAL writes its own way (south-up, no CRS, PixelIsPoint without CRS; GCPs and RPCs, which orogen
+               names as not used), each
+               with band 1 as GDAL reads it, its mask, and the GeoTIFF tags GDAL wrote.
+  --cases      build those cases afresh and compare orogen's read and export round trip
+               with GDAL's (values, masks, geotransform, EPSG, nodata); also part of the
+               default mode.
 """
 import json, os, shlex, struct, subprocess, sys, tempfile
 import numpy as np
@@ -265,8 +275,10 @@ def make_band_fixtures():
             arr = d.GetRasterBand(b).ReadAsArray()
             ref = f"{fname[:-4]}.b{b}.bin"
             np.ascontiguousarray(arr).astype(arr.dtype.newbyteorder("<")).tofile(os.path.join(out_dir, ref))
-            manifest["files"].append({"file": fname, "band": b, "bands": d.RasterCount, "width": d.RasterXSize,
-                                      "height": d.RasterYSize, "dtype": str(arr.dtype), "reference": ref})
+            e = {"file": fname, "band": b, "bands": d.RasterCount, "width": d.RasterXSize,
+                 "height": d.RasterYSize, "dtype": str(arr.dtype), "reference": ref}
+            e.update(mask_reference(d.GetRasterBand(b), out_dir, f"{fname[:-4]}.b{b}"))
+            manifest["files"].append(e)
     # CMYK colour, which GDAL reads converted to RGBA: not elevations, refused.
     y = gdal.GetDriverByName("MEM").Create("", 16, 8, 4, gdal.GDT_Byte)
     gdal.Translate(os.path.join(out_dir, "refused_cmyk.tif"), y, format="GTiff",
@@ -275,6 +287,220 @@ def make_band_fixtures():
         json.dump(manifest, f, indent=1)
     total = sum(os.path.getsize(os.path.join(out_dir, f)) for f in os.listdir(out_dir))
     print(f"wrote {len(manifest['files'])} band references, {total} bytes, to {out_dir}")
+
+
+def mask_reference(band, out_dir, stem):
+    """GDAL's mask of `band` as a .bin (one byte a cell, 0 = masked) when it is a
+    per-dataset mask or alpha (not all-valid, not from nodata): {"mask": name}."""
+    flags = band.GetMaskFlags()
+    if flags & gdal.GMF_ALL_VALID or flags & gdal.GMF_NODATA:
+        return {}
+    ref = f"{stem}.mask.bin"
+    band.GetMaskBand().ReadAsArray().astype(np.uint8).tofile(os.path.join(out_dir, ref))
+    return {"mask": ref}
+
+
+GEO_TAGS = (33550, 33922, 34264, 34735)
+
+
+def geotiff_tags(path):
+    """The georeferencing tags of a little-endian classic TIFF's first IFD, as
+    GDAL wrote them: {tag: [values]} (doubles for 33550/33922/34264, shorts for
+    the GeoKey directory 34735)."""
+    b = open(path, "rb").read()
+    assert b[:4] == b"II*\0", path
+    off = struct.unpack("<I", b[4:8])[0]
+    n = struct.unpack("<H", b[off:off + 2])[0]
+    out = {}
+    for i in range(n):
+        tag, ty, c, v = struct.unpack("<HHII", b[off + 2 + 12 * i:off + 14 + 12 * i])
+        if tag in GEO_TAGS:
+            size, fmt = {3: (2, "H"), 12: (8, "d")}[ty]
+            data = b[v:v + size * c] if size * c > 4 else b[off + 10 + 12 * i:off + 14 + 12 * i]
+            out[str(tag)] = list(struct.unpack(f"<{c}{fmt}", data[:size * c]))
+    return out
+
+
+def case_variants():
+    """(file name, writer) pairs of tests/data/gdal/cases: each writer makes the file."""
+    w, h = 37, 29
+    base = (np.arange(w * h).reshape(h, w) % 500).astype(np.float64)
+    hole = np.full((h, w), 255, np.uint8)
+    hole[5:12, 3:20] = 0
+    hole[20:, 30:] = 0
+    gt = [500000.0, 10.0, 0.0, 5200000.0, 0.0, -10.0]
+
+    def create(path, gtype, co, bands=1, srs=32633, transform=gt):
+        d = gdal.GetDriverByName("GTiff").Create(path, w, h, bands, gtype, co)
+        d.SetGeoTransform(transform)
+        if srs:
+            from osgeo import osr
+            r = osr.SpatialReference()
+            r.ImportFromEPSG(srs)
+            d.SetProjection(r.ExportToWkt())
+        return d
+
+    def masked(gtype, co, nodata=None):
+        def make(path):
+            gdal.SetConfigOption("GDAL_TIFF_INTERNAL_MASK", "YES")
+            d = create(path, gtype, co)
+            b = d.GetRasterBand(1)
+            b.WriteArray(base)
+            if nodata is not None:
+                b.SetNoDataValue(nodata)
+            d.CreateMaskBand(gdal.GMF_PER_DATASET)
+            b.GetMaskBand().WriteArray(hole)
+            d = None
+        return make
+
+    def alpha(gtype, interleave):
+        def make(path):
+            d = create(path, gtype, ["PHOTOMETRIC=RGB", "ALPHA=YES", f"INTERLEAVE={interleave}",
+                                     "TILED=YES", "BLOCKXSIZE=16", "BLOCKYSIZE=16"], bands=4)
+            for k in range(3):
+                d.GetRasterBand(k + 1).WriteArray((base + 37 * k) % 250)
+            d.GetRasterBand(4).WriteArray(np.where(hole == 0, 0, 255))
+            d = None
+        return make
+
+    def sparse(gtype, co, nodata):
+        def make(path):
+            d = create(path, gtype, ["SPARSE_OK=TRUE"] + co)
+            b = d.GetRasterBand(1)
+            if nodata is not None:
+                b.SetNoDataValue(nodata)
+            b.WriteArray(base[:16, :16] + 1, 16, 0)  # one block (or strip part) written
+            d = None
+        return make
+
+    def float16(co):
+        def make(path):
+            d = create(path, gdal.GDT_Float32, ["NBITS=16"] + co)
+            d.GetRasterBand(1).WriteArray(base * 0.37 - 3.0)
+            d.GetRasterBand(1).SetNoDataValue(-9999)
+            d = None
+        return make
+
+    def georef(transform, srs, point):
+        def make(path):
+            d = create(path, gdal.GDT_Float32, [], srs=srs, transform=transform)
+            if point:
+                d.SetMetadataItem("AREA_OR_POINT", "Point")
+            d.GetRasterBand(1).WriteArray(base)
+            d = None
+        return make
+
+    def lerc(gtype, co, nodata=None, bands=1):
+        def make(path):
+            d = create(path, gtype, co, bands=bands)
+            a = base % 250 if gtype in (gdal.GDT_Byte, gdal.GDT_Int16) else base * 0.731 - 5.0
+            if nodata is not None:
+                a = a.copy()
+                a[3:9, 4:15] = nodata
+                d.GetRasterBand(1).SetNoDataValue(nodata)
+            for k in range(bands):
+                d.GetRasterBand(k + 1).WriteArray(a + 3 * k)
+            d = None
+        return make
+
+    tiled = ["TILED=YES", "BLOCKXSIZE=16", "BLOCKYSIZE=16"]
+    yield "lerc_f32_tiled_nodata.tif", lerc(gdal.GDT_Float32, ["COMPRESS=LERC"] + tiled, nodata=-9999)
+    yield "lerc_deflate_i16_strips.tif", lerc(gdal.GDT_Int16, ["COMPRESS=LERC_DEFLATE", "BLOCKYSIZE=5"])
+    yield "lerc_zstd_f64_lossy_tiled.tif", lerc(gdal.GDT_Float64, ["COMPRESS=LERC_ZSTD", "MAX_Z_ERROR=0.01"] + tiled)
+    yield "lerc_u8_3band_pixel_strips.tif", lerc(gdal.GDT_Byte, ["COMPRESS=LERC", "INTERLEAVE=PIXEL", "BLOCKYSIZE=8"], bands=3)
+    yield "lerc_f32_3band_planar_tiled.tif", lerc(gdal.GDT_Float32, ["COMPRESS=LERC", "INTERLEAVE=BAND"] + tiled, bands=3)
+    yield "mask_i16_tiled_deflate.tif", masked(gdal.GDT_Int16, tiled + ["COMPRESS=DEFLATE"])
+    yield "mask_f32_strips.tif", masked(gdal.GDT_Float32, ["BLOCKYSIZE=5"])
+    yield "mask_u8_strips_lzw_nodata.tif", masked(gdal.GDT_Byte, ["BLOCKYSIZE=7", "COMPRESS=LZW"], nodata=7)
+    yield "mask_i32_tiled.tif", masked(gdal.GDT_Int32, tiled)
+    yield "alpha_u8_pixel.tif", alpha(gdal.GDT_Byte, "PIXEL")
+    yield "alpha_u8_band.tif", alpha(gdal.GDT_Byte, "BAND")
+    yield "sparse_f32_tiled_deflate_nodata.tif", sparse(gdal.GDT_Float32, tiled + ["COMPRESS=DEFLATE"], -9999)
+    yield "sparse_f32_strips.tif", sparse(gdal.GDT_Float32, ["BLOCKYSIZE=8"], None)
+    yield "sparse_i16_tiled_lzw_nodata.tif", sparse(gdal.GDT_Int16, tiled + ["COMPRESS=LZW"], -32768)
+    yield "float16_strips.tif", float16(["BLOCKYSIZE=5"])
+    yield "float16_tiled_deflate_p3.tif", float16(tiled + ["COMPRESS=DEFLATE", "PREDICTOR=3"])
+    def gcps(path):
+        from osgeo import osr
+        d = gdal.GetDriverByName("GTiff").Create(path, w, h, 1, gdal.GDT_Float32)
+        d.GetRasterBand(1).WriteArray(base)
+        r = osr.SpatialReference()
+        r.ImportFromEPSG(4326)
+        points = [(0, 0), (w - 1, 0), (0, h - 1), (w - 1, h - 1)]
+        d.SetGCPs([gdal.GCP(8.0 + 0.01 * x, 46.0 - 0.01 * y, 0, x, y) for x, y in points], r.ExportToWkt())
+        d = None
+
+    def rpc(path):
+        d = create(path, gdal.GDT_Float32, [])
+        d.GetRasterBand(1).WriteArray(base)
+        one = " ".join(["1"] + ["0"] * 19)
+        d.SetMetadata({"LINE_OFF": "14", "SAMP_OFF": "18", "LAT_OFF": "46", "LONG_OFF": "8", "HEIGHT_OFF": "0",
+                       "LINE_SCALE": "14", "SAMP_SCALE": "18", "LAT_SCALE": "0.1", "LONG_SCALE": "0.1",
+                       "HEIGHT_SCALE": "100", "LINE_NUM_COEFF": one, "LINE_DEN_COEFF": one,
+                       "SAMP_NUM_COEFF": one, "SAMP_DEN_COEFF": one}, "RPC")
+        d = None
+
+    yield "georef_gcps.tif", gcps
+    yield "georef_rpc.tif", rpc
+    yield "georef_south_up.tif", georef([500000.0, 10.0, 0.0, 5200000.0, 0.0, 10.0], 32633, False)
+    yield "georef_no_crs.tif", georef(gt, None, False)
+    yield "georef_no_crs_point.tif", georef(gt, None, True)
+
+
+def compare_cases():
+    """Every case of case_variants(), built afresh: orogen's `info --json` (transform,
+    EPSG, nodata) and its export (uncompressed, read back by GDAL) against GDAL's
+    reading; where GDAL's mask is 0 orogen's cell must be nodata."""
+    with tempfile.TemporaryDirectory() as tmp:
+        for fname, make in case_variants():
+            path = os.path.join(tmp, fname)
+            make(path)
+            facts, arr = gdal_facts(path)
+            d = gdal.Open(path)
+            band = d.GetRasterBand(1)
+            flags = band.GetMaskFlags()
+            masked = not (flags & gdal.GMF_ALL_VALID or flags & gdal.GMF_NODATA)
+            if not masked:
+                compare_read(path, facts, arr, tmp)
+                continue
+            mask = band.GetMaskBand().ReadAsArray()
+            rc, out, err = orogen("export", path, "-o", os.path.join(tmp, "m.tif"), "--compress", "none")
+            if rc != 0:
+                check(False, f"{fname}: orogen export failed: {err.strip()}")
+                continue
+            o = gdal.Open(os.path.join(tmp, "m.tif"))
+            ob = o.GetRasterBand(1)
+            got = ob.ReadAsArray().astype(np.float64)
+            nd = ob.GetNoDataValue()
+            is_nd = np.isnan(got) if nd is None or nd != nd else (got == nd) | np.isnan(got)
+            check(bool(is_nd[mask == 0].all()), f"{fname}: masked cells are not nodata")
+            valid = (mask != 0) & ~is_nd
+            check(bool((got[valid] == arr.astype(np.float64)[valid]).all()), f"{fname}: valid cells differ")
+            check(list(o.GetGeoTransform()) == facts["transform"], f"{fname}: transform")
+            o = None
+
+
+def make_case_fixtures():
+    out_dir = os.path.join(ROOT, "tests", "data", "gdal", "cases")
+    os.makedirs(out_dir, exist_ok=True)
+    for f in os.listdir(out_dir):
+        os.remove(os.path.join(out_dir, f))
+    manifest = {"files": []}
+    for fname, make in case_variants():
+        path = os.path.join(out_dir, fname)
+        make(path)
+        facts, arr = gdal_facts(path)
+        ref = fname[:-4] + ".bin"
+        np.ascontiguousarray(arr).astype(arr.dtype.newbyteorder("<")).tofile(os.path.join(out_dir, ref))
+        d = gdal.Open(path)
+        facts.update(file=fname, reference=ref, dtype=str(arr.dtype), bands=d.RasterCount,
+                     tags=geotiff_tags(path))
+        facts.update(mask_reference(d.GetRasterBand(1), out_dir, fname[:-4]))
+        manifest["files"].append(facts)
+    with open(os.path.join(out_dir, "manifest.json"), "w") as f:
+        json.dump(manifest, f, indent=1)
+    total = sum(os.path.getsize(os.path.join(out_dir, f)) for f in os.listdir(out_dir))
+    print(f"wrote {len(manifest['files'])} cases, {total} bytes, to {out_dir}")
 
 
 def make_fixtures():
@@ -324,6 +550,7 @@ def make_fixtures():
 
 
 def compare_all():
+    compare_cases()
     with tempfile.TemporaryDirectory() as tmp:
         # Reading: every variant, full size.
         for dtype in SOURCES:
@@ -381,6 +608,12 @@ if __name__ == "__main__":
         make_fixtures()
     elif "--band-fixtures" in sys.argv[1:]:
         make_band_fixtures()
+    elif "--case-fixtures" in sys.argv[1:]:
+        make_case_fixtures()
+    elif "--cases" in sys.argv[1:]:
+        compare_cases()
+        print(f"{passed} passed, {failed} failed")
+        sys.exit(1 if failed else 0)
     else:
         compare_all()
         print(f"{passed} passed, {failed} failed")

@@ -1,14 +1,14 @@
 //! Arguments and helpers every subcommand shares: the run settings (`Run`:
 //! threads, memory, tile, quiet, engine), the output path and format (`Out`,
-//! `OutFmt`), the input (`In`, `PngArgs`), and their conversion into the
+//! `OutFmt`), the input (`In`, `InputArgs`), and their conversion into the
 //! library's `EngineConfig`, `OutputOptions` and `ops::Target`. `main.rs`
 //! re-exports them at the crate root (`crate::Run`, `crate::engine`, ...).
 
 use anyhow::Result;
 use clap::{Args, ValueEnum};
 use orogen::exec::EngineConfig;
-use orogen::io::{self, OpenOptions, OutputOptions};
-use orogen::ops::parse::{self, FormatOptions, PngOptions, RunOptions};
+use orogen::io::{OpenOptions, OutputOptions};
+use orogen::ops::parse::{self, FormatOptions, InputOptions, RunOptions};
 use orogen::raster::RasterSource;
 use std::path::{Path, PathBuf};
 
@@ -147,11 +147,15 @@ pub(crate) struct In {
     /// Input raster: GeoTIFF, .hgt, .asc, PNG heightmap or tile store.
     pub(crate) input: PathBuf,
     #[command(flatten)]
-    pub(crate) png: PngArgs,
+    pub(crate) reading: InputArgs,
 }
 
 #[derive(Args, Clone)]
-pub(crate) struct PngArgs {
+pub(crate) struct InputArgs {
+    /// Band of a multi-band GeoTIFF to read (1-based; a note names it when
+    /// the file has several).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u16).range(1..))]
+    pub(crate) band: u16,
     /// PNG heightmaps: metres per PNG unit.
     #[arg(long, default_value_t = 1.0)]
     pub(crate) png_scale: f64,
@@ -160,9 +164,10 @@ pub(crate) struct PngArgs {
     pub(crate) png_offset: f64,
 }
 
-impl PngArgs {
+impl InputArgs {
     pub(crate) fn open_options(&self) -> OpenOptions {
-        PngOptions {
+        InputOptions {
+            band: self.band as usize,
             png_scale: self.png_scale,
             png_offset: self.png_offset,
         }
@@ -231,9 +236,12 @@ pub(crate) fn output_options(o: &OutFmt) -> Result<OutputOptions> {
 }
 
 pub(crate) fn open(i: &In) -> Result<Box<dyn RasterSource>> {
-    let src = io::open_raster(&i.input, &i.png.open_options())?;
-    warn_georef(src.as_ref());
-    Ok(src)
+    let notify = &mut super::erode::printer(false);
+    Ok(orogen::ops::note::open_input(
+        &i.input,
+        &i.reading.open_options(),
+        notify,
+    )?)
 }
 
 /// The library's warning when `src` has no georeferencing, on stderr.

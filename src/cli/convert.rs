@@ -2,7 +2,7 @@
 //! file format (`ops::convert`).
 
 use crate::cli::args::InOut;
-use crate::{engine, open, target, warn_georef, wrote, Out, PngArgs, Run};
+use crate::{engine, open, target, warn_georef, wrote, InputArgs, Out, Run};
 use anyhow::Result;
 use clap::Args;
 use orogen::raster::RasterSource;
@@ -10,8 +10,9 @@ use std::path::PathBuf;
 
 /// Ingest the inputs (one mosaic) into the output.
 pub fn run_ingest(a: IngestArgs) -> Result<()> {
-    let src = orogen::io::open_inputs(&a.inputs, &a.png.open_options())?;
+    let src = orogen::io::open_inputs(&a.inputs, &a.reading.open_options())?;
     warn_georef(src.as_ref());
+    orogen::ops::note::note_band(src.as_ref(), &mut crate::cli::erode::printer(false));
     convert(src.as_ref(), &a.out, &a.run)
 }
 
@@ -23,7 +24,12 @@ pub fn run_export(a: ExportArgs) -> Result<()> {
 
 fn convert(src: &dyn RasterSource, out: &Out, run: &Run) -> Result<()> {
     let t = target(out, run)?;
-    orogen::ops::convert::run(src, &t, &engine(run)?)?;
+    orogen::ops::convert::run(
+        src,
+        &t,
+        &engine(run)?,
+        &mut crate::cli::erode::printer(false),
+    )?;
     wrote(&out.output);
     Ok(())
 }
@@ -38,7 +44,7 @@ pub struct IngestArgs {
     #[arg(required = true)]
     pub inputs: Vec<PathBuf>,
     #[command(flatten)]
-    pub png: PngArgs,
+    pub reading: InputArgs,
     #[command(flatten)]
     pub out: Out,
     #[command(flatten)]

@@ -147,7 +147,7 @@ pub fn run(a: ErodeArgs) -> Result<()> {
     let opts = a.options();
     erode::run(
         &opts,
-        &a.input.png.open_options(),
+        &a.input.reading.open_options(),
         &oo,
         &cfg,
         &mut printer(a.run.quiet),

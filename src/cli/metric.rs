@@ -1,7 +1,7 @@
 //! `orogen metric`: terrain descriptors in one pass (`ops::metric`), and
 //! `orogen metric list`.
 
-use crate::{engine, open, output_options, wrote, In, OutFmt, PngArgs, Run};
+use crate::{engine, open, output_options, wrote, In, InputArgs, OutFmt, Run};
 use anyhow::{bail, Result};
 use clap::Args;
 use orogen::ops::metric::{self, MetricOptions};
@@ -27,7 +27,7 @@ pub fn run(a: MetricArgs) -> Result<()> {
     opts.specs()?;
     let src = open(&In {
         input: a.input.clone(),
-        png: a.png,
+        reading: a.reading,
     })?;
     let oo = output_options(&a.out)?;
     let paths = metric::run(src.as_ref(), &dir, &opts, &oo, a.run.tile, &engine(&a.run)?)?;
@@ -55,7 +55,7 @@ pub struct MetricArgs {
     #[arg(long, default_value = "tif")]
     pub format: String,
     #[command(flatten)]
-    pub png: PngArgs,
+    pub reading: InputArgs,
     #[command(flatten)]
     pub out: OutFmt,
     #[command(flatten)]

@@ -278,7 +278,7 @@ pub fn run_profile(a: ProfileArgs) -> Result<()> {
         scale_density: a.scale_density,
         output: a.output,
     };
-    oro::run_profile(&opts, &a.input.png.open_options(), &mut printer(false))?;
+    oro::run_profile(&opts, &a.input.reading.open_options(), &mut printer(false))?;
     Ok(())
 }
 

@@ -52,6 +52,12 @@ pub enum NodataRule {
     /// Below every difference of two valid cells of input 0 and below its
     /// lowest cell: [`difference_nodata`].
     BelowDifference,
+    /// Input 0's declared nodata, for a step that only raises the cells of
+    /// an elevation output already written with a [`NodataRule::BelowInput`]
+    /// nodata (fill-epsilon on the filled DEM): the value chosen for the
+    /// original DEM stays below the data, and no read pass is needed.
+    /// [`NodataRule::BelowInput`] when input 0 declares none.
+    OfRaisedInput,
 }
 
 /// One output of a step: its cell type on disk, nodata rule and kind.
@@ -94,6 +100,11 @@ impl OutputSpec {
         }
     }
 
+    /// This spec with nodata rule `nodata`.
+    pub const fn with_nodata(self, nodata: NodataRule) -> OutputSpec {
+        OutputSpec { nodata, ..self }
+    }
+
     /// This spec of kind `kind`.
     pub const fn with_kind(self, kind: OutputKind) -> OutputSpec {
         OutputSpec { kind, ..self }
@@ -113,6 +124,13 @@ pub fn resolve_nodata(specs: &[OutputSpec], src: &dyn RasterSource) -> Result<Ve
                 Some(v) => v,
                 None => *below_input.insert(elevation_nodata(src)?),
             }),
+            NodataRule::OfRaisedInput => match src.info().georef.nodata {
+                Some(v) => Some(v),
+                None => Some(match below_input {
+                    Some(v) => v,
+                    None => *below_input.insert(elevation_nodata(src)?),
+                }),
+            },
             NodataRule::BelowDifference => Some(match below_difference {
                 Some(v) => v,
                 None => *below_difference.insert(difference_nodata(src)?),
@@ -296,6 +314,19 @@ mod tests {
             ]
         );
         assert_eq!(difference_nodata(&src).unwrap(), -99_999.0);
+        // A raised elevation output keeps the declared nodata of its input
+        // (a filled DEM whose -99 999 was chosen below an original -10 994
+        // m, while the filled cells themselves all lie above -9999).
+        let raised = [OutputSpec::elevation().with_nodata(NodataRule::OfRaisedInput)];
+        let filled = Grid::from_fn(8, 8, |x, y| (x + y) as f32 - 9000.0);
+        assert_eq!(
+            resolve_nodata(&raised, &mem(filled.clone(), Some(-99_999.0))).unwrap(),
+            [Some(-99_999.0)]
+        );
+        assert_eq!(
+            resolve_nodata(&raised, &mem(filled, None)).unwrap(),
+            [Some(-9999.0)]
+        );
         // Byte inputs are never scanned: nothing they hold reaches -9999.
         let b = MemRaster::from_grid(Grid::new(4, 4, 7u8), GeoRef::pixel());
         assert_eq!(difference_nodata(&b).unwrap(), -9999.0);

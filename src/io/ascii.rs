@@ -11,6 +11,7 @@
 //!   exponent, no NaN) and fits i32; otherwise f32; f64 only when some value is
 //!   written with more than 9 significant digits (9 digits round-trip any f32,
 //!   so longer text means the writer had double-precision data).
+//! - **Decimal commas** (`xllcorner 2,5`, `12,75`) read as points, as GDAL does.
 //! - **Nodata**: `NODATA_value` if given; `nan` text is accepted and is nodata
 //!   in the float types.
 //! - **CRS**: unknown (not geographic, EPSG none) unless a `.prj` beside the
@@ -84,9 +85,18 @@ enum Kind {
     F64,
 }
 
-/// Parse one value token: its f64 value and how it is written.
+/// Parse one value token: its f64 value and how it is written. A decimal
+/// comma (`12,5`, written by software in locales that use one) is read as
+/// a decimal point, as GDAL's AAIGrid driver does.
 #[inline]
 fn classify(t: &[u8]) -> Option<(f64, Kind)> {
+    if t.contains(&b',') && !t.contains(&b'.') {
+        let dotted: Vec<u8> = t
+            .iter()
+            .map(|&c| if c == b',' { b'.' } else { c })
+            .collect();
+        return classify(&dotted);
+    }
     let s = std::str::from_utf8(t).ok()?;
     let digits = s.strip_prefix(['-', '+']).unwrap_or(s);
     if !digits.is_empty() && digits.bytes().all(|c| c.is_ascii_digit()) {
@@ -154,7 +164,7 @@ fn parse_header(path: &Path, toks: &mut Tokens) -> Result<Header> {
             .next()
             .ok_or_else(|| Error::corrupt(path, format!("header key `{key}` has no value")))?;
         let text = String::from_utf8_lossy(val);
-        let num: f64 = text.parse().map_err(|_| {
+        let num: f64 = text.replace(',', ".").parse().map_err(|_| {
             Error::corrupt(
                 path,
                 format!("header `{key}` value `{text}` is not a number"),
@@ -475,5 +485,28 @@ mod tests {
         assert!(classify(b"nan").is_some_and(|(v, _)| v.is_nan()));
         assert!(classify(b"12a").is_none());
         assert!(classify(b"inf").is_none());
+        assert!(classify(b"12,75").is_some_and(|(v, k)| v == 12.75 && k == Kind::F32));
+        assert!(classify(b"1,2,3").is_none());
+    }
+
+    #[test]
+    fn decimal_commas_read_as_points() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("comma.asc");
+        std::fs::write(
+            &p,
+            "ncols 3\nnrows 2\nxllcorner 2,5\nyllcorner 10\ncellsize 0,5\nNODATA_value -9999\n1,25 2 3\n4 -9999 6,5\n",
+        )
+        .unwrap();
+        let r = read_ascii(&p).unwrap();
+        use crate::raster::RasterSource;
+        let (w, h) = (r.info().width, r.info().height);
+        let g: Grid<f32> =
+            crate::raster::read_window(&r, crate::raster::Window::full(w, h)).unwrap();
+        assert_eq!(g.data()[0], 1.25);
+        assert_eq!(g.data()[5], 6.5);
+        assert!(g.data()[4].is_nan());
+        let t = r.info().georef.transform;
+        assert_eq!((t[0], t[1], t[3]), (2.5, 0.5, 11.0));
     }
 }

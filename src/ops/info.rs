@@ -45,19 +45,50 @@ pub struct Description {
     pub transform: [f64; 6],
     pub epsg: Option<u32>,
     pub geographic: bool,
+    /// The declared nodata: a JSON number, or the text `"nan"`, `"inf"`,
+    /// `"-inf"` (JSON has no such numbers; `null` means no nodata).
+    #[serde(serialize_with = "nodata_json")]
     pub nodata: Option<f64>,
     pub raster_type: crate::raster::RasterType,
     pub georeferenced: bool,
+    /// Georeferencing the file holds that is not used (GCPs, RPCs).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub unused_georef: Option<String>,
     pub block: (usize, usize),
     /// Cell size in metres at the middle row (east-west, north-south).
     pub cell_size_m: (f64, f64),
     pub stats: Option<crate::exec::stats::StatsSummary>,
 }
 
-/// Describe a raster (and compute its statistics with a global pass if asked).
+/// `nodata` as JSON: a number when finite, else the GDAL_NODATA text of
+/// the value, `null` when there is none.
+fn nodata_json<S: serde::Serializer>(
+    v: &Option<f64>,
+    s: S,
+) -> std::result::Result<S::Ok, S::Error> {
+    match v {
+        None => s.serialize_none(),
+        Some(v) if v.is_finite() => s.serialize_f64(*v),
+        Some(v) => s.serialize_str(&crate::io::geotiff::format_nodata(*v)),
+    }
+}
+
+/// Describe a raster (and compute its statistics with a global pass if
+/// asked); its first block is read either way, so an undecodable file is
+/// an error here, not a description.
 pub fn describe(src: &dyn RasterSource, stats: bool, cfg: &EngineConfig) -> Result<Description> {
     let info = src.info();
     let g = &info.georef;
+    // The first block is decoded even without statistics: a file whose
+    // pixels cannot be read is not reported as fine.
+    if info.width > 0 && info.height > 0 {
+        let side = |block: usize, n: usize| block.clamp(1, 256).min(n);
+        let (w, h) = (
+            side(info.block.0, info.width),
+            side(info.block.1, info.height),
+        );
+        src.read_native(crate::raster::Window::new(0, 0, w, h))?;
+    }
     let stats = if stats {
         let step = crate::exec::stats::Stats::new(-1e300, 1e300, 1)?;
         let info = src.info();
@@ -78,6 +109,7 @@ pub fn describe(src: &dyn RasterSource, stats: bool, cfg: &EngineConfig) -> Resu
         nodata: g.nodata,
         raster_type: g.raster_type,
         georeferenced: g.georeferenced,
+        unused_georef: src.unused_georef().map(str::to_string),
         block: info.block,
         cell_size_m: g.cell_size_m(info.height as i64 / 2),
         stats,
@@ -95,6 +127,9 @@ pub fn describe_text(d: &Description) -> String {
         d.width, d.height, d.dtype
     );
     let _ = writeln!(s, "  block       {} x {}", d.block.0, d.block.1);
+    if let Some(u) = &d.unused_georef {
+        let _ = writeln!(s, "  not used    {u}");
+    }
     if d.georeferenced {
         let crs = match d.epsg {
             Some(e) => format!("EPSG:{e}"),

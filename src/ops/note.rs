@@ -61,9 +61,16 @@ pub fn note_band(src: &dyn RasterSource, notify: Notify<'_>) {
 }
 
 /// A warning when `src` has no georeferencing (pixel coordinates, 1 x 1
-/// cells).
+/// cells), and one naming what of its georeferencing is not used (GCPs,
+/// RPCs).
 pub fn warn_georef(src: &dyn RasterSource, notify: Notify<'_>) {
     let info = src.info();
+    if let Some(what) = src.unused_georef() {
+        notify(Note::Warning(format!(
+            "{}: its {what} are not used (orogen reads a geotransform); georeference it first, e.g. `gdalwarp -r bilinear IN OUT.tif`",
+            info.path.display()
+        )));
+    }
     if !info.georef.georeferenced {
         notify(Note::Warning(format!(
             "{} has no georeferencing; using pixel coordinates with 1 x 1 cells (slopes assume cells of 1 elevation unit)",

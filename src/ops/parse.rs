@@ -292,32 +292,36 @@ impl FormatOptions {
     }
 }
 
-/// How PNG heightmap inputs are read (`--png-scale --png-offset`).
+/// How raster inputs are read: the band of a multi-band GeoTIFF
+/// (`--band`) and the PNG heightmap scaling (`--png-scale --png-offset`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
-pub struct PngOptions {
+pub struct InputOptions {
+    /// The band read from a multi-band GeoTIFF (1-based).
+    pub band: usize,
     /// Metres per PNG unit.
     pub png_scale: f64,
     /// Elevation of PNG value 0.
     pub png_offset: f64,
 }
 
-impl Default for PngOptions {
+impl Default for InputOptions {
     fn default() -> Self {
-        PngOptions {
+        InputOptions {
+            band: 1,
             png_scale: 1.0,
             png_offset: 0.0,
         }
     }
 }
 
-impl PngOptions {
+impl InputOptions {
     /// The readers' options.
     pub fn open_options(&self) -> OpenOptions {
         OpenOptions {
+            band: self.band,
             png_scale: self.png_scale,
             png_offset: self.png_offset,
-            ..Default::default()
         }
     }
 }

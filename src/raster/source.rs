@@ -36,6 +36,12 @@ pub trait RasterSource: Send + Sync {
     fn band(&self) -> (usize, usize) {
         (1, 1)
     }
+    /// What of the file's georeferencing is not used (ground control
+    /// points, RPC coefficients), said when it is opened; `None` when
+    /// nothing is left out.
+    fn unused_georef(&self) -> Option<&str> {
+        None
+    }
 }
 
 /// Read any window of `src` converted to `T`. Cells outside the raster are

@@ -21,6 +21,14 @@ fn short(tag: u16, v: u16) -> E {
 fn long(tag: u16, v: u32) -> E {
     E(tag, LONG, 1, v.to_le_bytes().to_vec())
 }
+fn long_n(tag: u16, v: &[u32]) -> E {
+    E(
+        tag,
+        LONG,
+        v.len() as u32,
+        v.iter().flat_map(|x| x.to_le_bytes()).collect(),
+    )
+}
 
 /// A classic little-endian TIFF: header, `data` at offset 8, then the IFD
 /// (entries sorted by tag) and its out-of-line values.
@@ -178,7 +186,7 @@ fn absurd_dimensions() {
 #[test]
 fn unsupported_compressions() {
     let dir = tempfile::tempdir().unwrap();
-    for code in [7u16, 6, 34887, 34925, 2, 12345] {
+    for code in [7u16, 6, 34925, 2, 12345] {
         let p = write(
             dir.path(),
             &format!("c{code}.tif"),
@@ -193,6 +201,44 @@ fn unsupported_compressions() {
         );
         assert_names_file(&e, &p);
     }
+}
+
+/// A LERC block that is not a LERC blob, or whose additional compression
+/// is unknown, is refused as corrupt or unsupported, naming the file.
+#[test]
+fn garbage_lerc_blocks() {
+    let dir = tempfile::tempdir().unwrap();
+    let lerc = replace(base(4, 2), short(259, 34887));
+    for (name, t, data) in [
+        ("zeros.tif", lerc.clone(), vec![0u8; 8]),
+        (
+            "text.tif",
+            lerc.clone(),
+            b"Lerc2 \x03\0\0\0garbage!".to_vec(),
+        ),
+        (
+            "deflate_junk.tif",
+            [lerc.clone(), vec![long_n(50674, &[4, 1])]].concat(),
+            vec![0x78, 0x9c, 1, 2, 3, 4, 5, 6],
+        ),
+    ] {
+        let p = write(dir.path(), name, &tiff(t, &data));
+        let e = fail(&p);
+        assert!(matches!(e, Error::Corrupt { .. }), "{name}: {e:?}");
+        assert!(e.to_string().contains("LERC"), "{name}: {e}");
+        assert_names_file(&e, &p);
+    }
+    let p = write(
+        dir.path(),
+        "lerc_lzma.tif",
+        &tiff([lerc, vec![long_n(50674, &[4, 7])]].concat(), &[0; 8]),
+    );
+    let e = fail(&p);
+    assert!(
+        matches!(e, Error::Unsupported { .. })
+            && e.to_string().contains("additional compression 7"),
+        "{e:?}"
+    );
 }
 
 #[test]
@@ -337,10 +383,16 @@ fn offsets_array_of_wrong_length() {
 #[test]
 fn bits_per_sample_inconsistent_with_sample_format() {
     let dir = tempfile::tempdir().unwrap();
+    // Bit depths that exist but are not read are unsupported, saying what
+    // they are ("12-bit unsigned integer samples"); float sizes that do
+    // not exist are corrupt. 16-bit floats are read (as f32).
     for (bits, fmt, want_unsupported) in [
         (8u16, 3u16, false),
-        (24, 1, false),
-        (16, 3, true),
+        (40, 3, false),
+        (24, 1, true),
+        (12, 1, true),
+        (10, 2, true),
+        (24, 3, true),
         (64, 2, true),
         (4, 1, true),
     ] {
@@ -353,7 +405,8 @@ fn bits_per_sample_inconsistent_with_sample_format() {
         let e = fail(&p);
         if want_unsupported {
             assert!(
-                matches!(e, Error::Unsupported { .. }),
+                matches!(e, Error::Unsupported { .. })
+                    && e.to_string().contains(&format!("{bits}-bit")),
                 "{bits}/{fmt}: {e:?}"
             );
         } else {
@@ -473,4 +526,42 @@ fn block_size_limit_is_configurable() {
         ..ReaderOptions::default()
     };
     assert!(GeoTiffReader::open_with(&p, &exact).is_ok());
+}
+
+/// A block the codec cannot decode is an error naming the file, the block
+/// and its cells, with no engine prefix, and `info` without `--stats`
+/// reports it rather than describing the file as fine.
+#[test]
+fn undecodable_block_is_named_and_info_reports_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(
+        dir.path(),
+        "bad_deflate.tif",
+        &tiff(
+            replace(base(4, 2), short(259, 8)),
+            &[0x78, 0x9c, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff],
+        ),
+    );
+    let e = fail(&p);
+    let msg = e.to_string();
+    assert!(matches!(e, Error::Corrupt { .. }), "{e:?}");
+    assert!(
+        msg.contains("strip 0 (cells 0..4 x 0..2) cannot be decoded")
+            && msg.contains("re-download"),
+        "{msg}"
+    );
+    assert_names_file(&e, &p);
+    let r = GeoTiffReader::open(&p).unwrap();
+    let cfg = orogen::exec::EngineConfig::default();
+    let e = orogen::ops::info::describe(&r, false, &cfg)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("strip 0") && !e.contains("(map)"), "{e}");
+    let e = orogen::ops::info::describe(&r, true, &cfg)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("strip 0") && !e.contains("(map)") && !e.contains("tile 0:"),
+        "{e}"
+    );
 }

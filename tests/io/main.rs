@@ -7,6 +7,7 @@ mod common;
 
 mod ascii;
 mod cog;
+mod geotiff_cases;
 mod geotiff_read;
 mod geotiff_write;
 mod hgt;

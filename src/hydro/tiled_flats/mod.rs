@@ -46,7 +46,7 @@ use super::fill::{neighbours, next_up_n};
 use super::tiled::check_summaries;
 use super::{valid, D8_CODES, DX, DY, NODATA_DIR, NO_FLOW};
 use crate::error::{Error, Result};
-use crate::exec::output::OutputSpec;
+use crate::exec::output::{NodataRule, OutputSpec};
 use crate::exec::GlobalStep;
 use crate::raster::{perimeter_cells, perimeter_index, perimeter_len};
 use crate::raster::{DType, Grid, TileId, TileLayout, TileView};
@@ -672,8 +672,11 @@ impl GlobalStep for TiledEpsilon {
         serde_json::json!({"algorithm": "epsilon surface next_up^k(fill level), k = geodesic distance to the flat's draining edge"})
     }
 
+    /// Input 0 is the filled DEM, whose nodata was chosen below the
+    /// original DEM's data; the epsilon surface only raises flat cells, so
+    /// it keeps that value (the same nodata as `fill`).
     fn outputs(&self) -> Vec<OutputSpec> {
-        vec![OutputSpec::elevation()]
+        vec![OutputSpec::elevation().with_nodata(NodataRule::OfRaisedInput)]
     }
     fn apply(
         &self,

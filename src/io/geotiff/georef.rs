@@ -25,7 +25,25 @@ const US_FOOT_M: f64 = 1200.0 / 3937.0;
 /// Returns None for text that is not a number.
 pub fn parse_nodata(s: &str) -> Option<f64> {
     let t = s.trim_matches(|c: char| c == '\0' || c.is_whitespace());
-    t.parse::<f64>().ok()
+    t.parse::<f64>().ok().or_else(|| {
+        // What MSVC's printf wrote for infinities and NaN, which GDAL reads
+        // (CPLAtof): "1.#INF", "-1.#INF", "1.#QNAN", "-1.#IND".
+        let (neg, body) = match t.strip_prefix('-') {
+            Some(b) => (true, b),
+            None => (false, t.strip_prefix('+').unwrap_or(t)),
+        };
+        let body = body.to_ascii_uppercase();
+        let inf = if neg {
+            f64::NEG_INFINITY
+        } else {
+            f64::INFINITY
+        };
+        match body.as_str() {
+            "1.#INF" | "1.#INF0" | "1.#INF00" => Some(inf),
+            "1.#QNAN" | "1.#IND" | "1.#SNAN" | "1.#QNAN0" | "1.#IND00" => Some(f64::NAN),
+            _ => None,
+        }
+    })
 }
 
 /// Format a nodata value as GDAL writes GDAL_NODATA: integers without
@@ -161,6 +179,22 @@ pub(crate) fn keys_for_write(georef: &GeoRef) -> GeoKeys {
         }
     }
     let crs = &georef.crs;
+    // A raster with no known CRS (no EPSG code, not geographic, no keys:
+    // an .asc without .prj) gets no GTModelType, as GDAL writes it;
+    // GTRasterType alone when it is PixelIsPoint (GDAL's default is
+    // PixelIsArea), and no directory at all otherwise.
+    if crs.epsg.is_none() && !crs.geographic {
+        let entries: &[u16] = if raster_type == 2 {
+            &[1, 1, 0, 1, GT_RASTER_TYPE, 0, 1, 2]
+        } else {
+            &[1, 1, 0, 0]
+        };
+        return GeoKeys {
+            directory: entries.to_vec(),
+            doubles: Vec::new(),
+            ascii: String::new(),
+        };
+    }
     let mut entries: Vec<[u16; 4]> = vec![
         [GT_MODEL_TYPE, 0, 1, if crs.geographic { 2 } else { 1 }],
         [GT_RASTER_TYPE, 0, 1, raster_type],
@@ -218,6 +252,16 @@ fn set_short_key(dir: &mut Vec<u16>, id: u16, value: u16) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn msvc_infinity_and_nan_texts_are_read_as_gdal_reads_them() {
+        assert_eq!(parse_nodata("1.#INF"), Some(f64::INFINITY));
+        assert_eq!(parse_nodata("-1.#INF\0"), Some(f64::NEG_INFINITY));
+        assert!(parse_nodata("-1.#IND").is_some_and(f64::is_nan));
+        assert!(parse_nodata("1.#QNAN").is_some_and(f64::is_nan));
+        assert_eq!(parse_nodata("1.#INFINITE"), None);
+        assert_eq!(parse_nodata("-32768"), Some(-32768.0));
+    }
 
     #[test]
     fn nodata_text_round_trips_like_gdal() {

@@ -197,7 +197,12 @@ pub(super) fn geo_entries(georef: &GeoRef) -> Vec<Entry> {
         if georef.raster_type == RasterType::Point {
             half_cell_shift(&mut t, 1.0);
         }
-        if t[2] == 0.0 && t[4] == 0.0 {
+        // ModelPixelScale + ModelTiepoint only for a north-up grid (x
+        // growing east, y south); a south-up (positive row step), mirrored
+        // or rotated grid gets ModelTransformation, as GDAL writes it
+        // (a negative ModelPixelScale is read north-up by GDAL, with a
+        // warning).
+        if t[2] == 0.0 && t[4] == 0.0 && t[1] > 0.0 && t[5] < 0.0 {
             out.push(Entry::doubles(33550, &[t[1], -t[5], 0.0]));
             out.push(Entry::doubles(33922, &[0.0, 0.0, 0.0, t[0], t[3], 0.0]));
         } else {
@@ -210,7 +215,9 @@ pub(super) fn geo_entries(georef: &GeoRef) -> Vec<Entry> {
             ));
         }
         let keys = keys_for_write(georef);
-        out.push(Entry::shorts(34735, &keys.directory));
+        if keys.directory.len() > 4 {
+            out.push(Entry::shorts(34735, &keys.directory));
+        }
         if !keys.doubles.is_empty() {
             out.push(Entry::doubles(34736, &keys.doubles));
         }

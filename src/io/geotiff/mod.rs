@@ -12,6 +12,8 @@ mod cache;
 mod cog;
 mod georef;
 mod ifd;
+mod lerc;
+mod mask;
 mod photometric;
 mod reader;
 mod rows;
@@ -24,4 +26,4 @@ pub use writer::{write_geotiff, Compression, GeoTiffWriter, WriteOptions};
 
 /// TIFF compression codes orogen reads.
 pub(crate) const SUPPORTED_COMPRESSION: &str =
-    "none (1), LZW (5), DEFLATE (8 and 32946), PackBits (32773), ZSTD (50000)";
+    "none (1), LZW (5), DEFLATE (8 and 32946), PackBits (32773), ZSTD (50000), LERC (34887, with DEFLATE or ZSTD)";

@@ -27,21 +27,50 @@ pub(super) const BLACK_IS_ZERO: u16 = 1;
 /// YCbCr (JPEG colour, chroma subsampled): refused.
 pub(super) const YCBCR: u16 = 6;
 
+/// What the reader needs of one IFD, from its entries: where tag 262's
+/// value sits and what it holds (when it is a single SHORT stored in the
+/// entry itself), NewSubfileType (254), the size (256, 257) and
+/// BitsPerSample (258) when inline.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(super) struct IfdHead {
+    /// Offset of tag 262's two value bytes, and the value.
+    pub(super) photometric: Option<(u64, u16)>,
+    /// NewSubfileType (0 when absent): bit 0 reduced resolution, bit 2 mask.
+    pub(super) subfile: u64,
+    /// ImageWidth, ImageLength (0 when absent or not inline).
+    pub(super) width: u64,
+    pub(super) height: u64,
+    /// BitsPerSample of a one-sample image (0 when not inline).
+    pub(super) bits: u64,
+}
+
 /// Where tag 262's value sits in the first IFD and what it holds, from the
 /// TIFF header (classic or BigTIFF, either byte order). `None` when the tag
 /// is absent or not a single SHORT stored in the entry itself (then the
 /// decoder sees the file unchanged).
 pub(super) fn find_photometric(f: &mut File) -> io::Result<Option<(u64, u16, bool)>> {
+    let (heads, big_endian) = ifd_heads(f, 1)?;
+    Ok(heads
+        .first()
+        .and_then(|h| h.photometric)
+        .map(|(at, v)| (at, v, big_endian)))
+}
+
+/// The heads of the file's first `max` IFDs, in chain order, and whether
+/// it is big-endian; an empty list for what is not a TIFF. The walk stops
+/// at the first IFD it cannot read (the decoder reports such files).
+pub(super) fn ifd_heads(f: &mut File, max: usize) -> io::Result<(Vec<IfdHead>, bool)> {
     f.seek(SeekFrom::Start(0))?;
     let mut head = [0u8; 16];
     let n = read_full(f, &mut head)?;
+    let mut out = Vec::new();
     if n < 8 {
-        return Ok(None);
+        return Ok((out, false));
     }
     let big_endian = match &head[..2] {
         b"II" => false,
         b"MM" => true,
-        _ => return Ok(None),
+        _ => return Ok((out, false)),
     };
     let u16_at = |b: &[u8]| {
         let a = [b[0], b[1]];
@@ -61,35 +90,67 @@ pub(super) fn find_photometric(f: &mut File) -> io::Result<Option<(u64, u16, boo
             u64::from_le_bytes(a)
         }
     };
-    let (bigtiff, ifd) = match u16_at(&head[2..4]) {
+    let (bigtiff, mut ifd) = match u16_at(&head[2..4]) {
         42 => (false, u64_of(&head[4..8])),
         43 if n == 16 => (true, u64_of(&head[8..16])),
-        _ => return Ok(None),
+        _ => return Ok((out, big_endian)),
     };
     let (count_len, entry_len, value_at) = if bigtiff { (8, 20, 12) } else { (2, 12, 8) };
-    f.seek(SeekFrom::Start(ifd))?;
-    let mut count = [0u8; 8];
-    if read_full(f, &mut count[..count_len])? < count_len {
-        return Ok(None);
+    let mut seen = Vec::new();
+    while ifd != 0 && out.len() < max && !seen.contains(&ifd) {
+        seen.push(ifd);
+        f.seek(SeekFrom::Start(ifd))?;
+        let mut count = [0u8; 8];
+        if read_full(f, &mut count[..count_len])? < count_len {
+            break;
+        }
+        // At most 4096 entries are looked at: a real IFD has a few dozen.
+        let declared = u64_of(&count[..count_len]);
+        let entries = declared.min(4096) as usize;
+        let mut h = IfdHead::default();
+        let mut entry = [0u8; 20];
+        let mut whole = true;
+        for i in 0..entries {
+            if read_full(f, &mut entry[..entry_len])? < entry_len {
+                whole = false;
+                break;
+            }
+            let (tag, ty, n) = (
+                u16_at(&entry[..2]),
+                u16_at(&entry[2..4]),
+                u64_of(&entry[4..value_at]),
+            );
+            // An inline SHORT or LONG (LONG8 in BigTIFF) single value.
+            let inline = match (ty, n) {
+                (3, 1) => Some(u16_at(&entry[value_at..]) as u64),
+                (4, 1) => Some(u64_of(&entry[value_at..value_at + 4])),
+                (16, 1) if bigtiff => Some(u64_of(&entry[value_at..value_at + 8])),
+                _ => None,
+            };
+            match tag {
+                262 if ty == 3 && n == 1 => {
+                    let at = ifd + count_len as u64 + (i * entry_len + value_at) as u64;
+                    h.photometric = Some((at, u16_at(&entry[value_at..])));
+                }
+                254 => h.subfile = inline.unwrap_or(0),
+                256 => h.width = inline.unwrap_or(0),
+                257 => h.height = inline.unwrap_or(0),
+                258 => h.bits = inline.unwrap_or(0),
+                _ => {}
+            }
+        }
+        out.push(h);
+        if !whole || declared > 4096 {
+            break;
+        }
+        let mut next = [0u8; 8];
+        let len = if bigtiff { 8 } else { 4 };
+        if read_full(f, &mut next[..len])? < len {
+            break;
+        }
+        ifd = u64_of(&next[..len]);
     }
-    // At most 4096 entries are looked at: a real IFD has a few dozen.
-    let entries = u64_of(&count[..count_len]).min(4096) as usize;
-    let mut entry = [0u8; 20];
-    for i in 0..entries {
-        if read_full(f, &mut entry[..entry_len])? < entry_len {
-            return Ok(None);
-        }
-        if u16_at(&entry[..2]) != 262 {
-            continue;
-        }
-        let (ty, n) = (u16_at(&entry[2..4]), u64_of(&entry[4..value_at]));
-        if ty != 3 || n != 1 {
-            return Ok(None);
-        }
-        let at = ifd + count_len as u64 + (i * entry_len + value_at) as u64;
-        return Ok(Some((at, u16_at(&entry[value_at..]), big_endian)));
-    }
-    Ok(None)
+    Ok((out, big_endian))
 }
 
 /// Read until `buf` is full or the file ends; the bytes read.

@@ -23,7 +23,8 @@ use super::georef::{
     crs_from_keys, half_cell_shift, parse_nodata, raster_type_from_keys, transform_from_matrix,
     transform_from_scale_tiepoint,
 };
-use super::photometric::{self, find_photometric, SampleFile};
+use super::mask::{self, MaskSource};
+use super::photometric::{self, find_photometric, ifd_heads, SampleFile};
 use super::SUPPORTED_COMPRESSION;
 use crate::error::{Error, IoContext, Result};
 use crate::raster::{
@@ -82,6 +83,27 @@ pub struct GeoTiffReader {
     plane_offset: usize,
     /// The band read (1-based) and the file's band count.
     band: (usize, usize),
+    /// Georeferencing in the file that is not used (GCPs, RPCs).
+    unused_georef: Option<String>,
+    /// float16 samples, presented as float32.
+    half: bool,
+    /// LERC compression (its additional layer) and every block's offset and
+    /// byte count, read by [`super::lerc`] (the crate does not decode it).
+    lerc: Option<super::lerc::Additional>,
+    chunks: Vec<(u64, u64)>,
+    /// The cell type blocks decode to (float16 as f32) before a mask
+    /// widens them to `info.dtype`.
+    native: DType,
+    /// The nodata the file declares (sparse blocks read as it).
+    file_nodata: Option<f64>,
+    /// The per-dataset mask read as nodata, its decoders (internal mask)
+    /// and the value masked cells read as ([`super::mask`]).
+    mask: Option<(MaskSource, f64)>,
+    mask_pool: Mutex<Vec<Dec>>,
+    /// Blocks (of every plane) stored as offset 0 and 0 bytes: GDAL's
+    /// `SPARSE_OK` leaves never-written blocks so and reads them as the
+    /// nodata value (0 without one); so does this reader.
+    sparse: Vec<bool>,
     /// Where the photometric value is read as BlackIsZero (offset, big-endian).
     patch: Option<(u64, bool)>,
     limits: Limits,
@@ -282,10 +304,9 @@ impl GeoTiffReader {
 
         // Compression: refuse what cannot be decoded before any pixel read.
         let compression = single_u64(&mut dec, path, Tag::Compression, 1)?;
-        if !matches!(compression, 1 | 5 | 8 | 32946 | 32773 | 50000) {
+        if !matches!(compression, 1 | 5 | 8 | 32946 | 32773 | 50000 | 34887) {
             let name = match compression {
                 6 | 7 => "JPEG",
-                34887 => "LERC",
                 34925 => "LZMA",
                 50001 => "WebP",
                 2..=4 => "CCITT fax",
@@ -336,7 +357,11 @@ impl GeoTiffReader {
         }
         let fmt = tag_u64s(&mut dec, path, Tag::SampleFormat)?.unwrap_or_else(|| vec![1]);
         let fmt0 = fmt.first().copied().unwrap_or(1);
+        // float16 samples are presented as float32 (exact: every half is
+        // a float), as GDAL does.
+        let half = (fmt0, bits0) == (3, 16);
         let dtype = match (fmt0, bits0) {
+            (3, 16) => DType::F32,
             (1, 8) => DType::U8,
             (2, 8) => DType::I8,
             (1, 16) => DType::U16,
@@ -345,11 +370,16 @@ impl GeoTiffReader {
             (2, 32) => DType::I32,
             (3, 32) => DType::F32,
             (3, 64) => DType::F64,
-            (1..=3, 1..=7) | (1 | 2, 64) | (3, 16) => {
+            (1 | 2, 1..=64) | (3, 24) => {
+                let kind = match fmt0 {
+                    1 => "unsigned integer",
+                    2 => "signed integer",
+                    _ => "floating-point",
+                };
                 return Err(Error::unsupported(
                     path,
-                    format!("{bits0}-bit samples of format {fmt0}; orogen reads int8/16/32, uint8/16/32 and float32/64"),
-                ))
+                    format!("{bits0}-bit {kind} samples are not supported (orogen reads 8-, 16- and 32-bit integers and 16-, 32- and 64-bit floats); convert with e.g. `gdal_translate -ot {}`", if fmt0 == 3 { "Float32" } else if bits0 > 32 { "Float64" } else if bits0 > 16 { "Int32" } else { "Int16" }),
+                ));
             }
             (1..=3, _) => {
                 return Err(Error::corrupt(
@@ -394,8 +424,9 @@ impl GeoTiffReader {
         if chunk_w == 0 || chunk_h == 0 {
             return Err(Error::corrupt(path, "zero tile or strip size"));
         }
+        let stored = if half { 2 } else { dtype.size() };
         let block_bytes =
-            (chunk_w as u64) * (chunk_h as u64) * (block_samples as u64) * (dtype.size() as u64);
+            (chunk_w as u64) * (chunk_h as u64) * (block_samples as u64) * (stored as u64);
         if block_bytes > opts.max_block_bytes as u64 {
             return Err(Error::too_large(
                 path,
@@ -424,6 +455,27 @@ impl GeoTiffReader {
                 ),
             ));
         }
+        // LERC blocks are read and decoded here, not by the crate.
+        let lerc = if compression == 34887 {
+            let params = tag_u64s(&mut dec, path, Tag::from_u16_exhaustive(50674))?;
+            Some(super::lerc::additional(path, params.as_deref())?)
+        } else {
+            None
+        };
+        let chunks: Vec<(u64, u64)> = if lerc.is_some() {
+            offsets
+                .iter()
+                .copied()
+                .zip(counts.iter().copied())
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let sparse: Vec<bool> = offsets
+            .iter()
+            .zip(&counts)
+            .map(|(&o, &c)| o == 0 && c == 0)
+            .collect();
         for (i, (&o, &c)) in offsets.iter().zip(&counts).enumerate() {
             if o.checked_add(c).is_none_or(|end| end > file_len) {
                 return Err(Error::corrupt(
@@ -433,8 +485,11 @@ impl GeoTiffReader {
             }
         }
         if compression == 1 {
-            let stride = (block_samples * dtype.size()) as u64;
+            let stride = (block_samples * stored) as u64;
             for (i, &c) in counts.iter().enumerate() {
+                if sparse[i] {
+                    continue;
+                }
                 let rows = if tiled {
                     chunk_h
                 } else {
@@ -450,12 +505,66 @@ impl GeoTiffReader {
             }
         }
 
-        let georef = read_georef(&mut dec, path, dtype)?;
+        let mut georef = read_georef(&mut dec, path, dtype)?;
+        let unused_georef = unused_georef(&mut dec, path)?;
+        let extra = tag_u64s(&mut dec, path, Tag::ExtraSamples)?.unwrap_or_default();
+        let source = find_mask(path, width, height)?.or_else(|| {
+            // The first alpha among the extra samples (the last ones).
+            let first_extra = samples.checked_sub(extra.len())?;
+            let k = extra.iter().position(|&e| e == 1 || e == 2)?;
+            Some(MaskSource::Alpha {
+                sample: first_extra + k,
+            })
+        });
+        let source = source.filter(|m| {
+            *m != MaskSource::Alpha {
+                sample: opts.band - 1,
+            }
+        });
+        let file_nodata = georef.nodata;
+        let (shown, mask, mask_pool) = match source {
+            None => (dtype, None, Vec::new()),
+            Some(m) => {
+                let (shown, fill) = mask::presented(dtype, file_nodata);
+                if file_nodata.is_none() {
+                    georef.nodata = Some(f64::NAN);
+                }
+                let pool = match m {
+                    MaskSource::Ifd {
+                        index,
+                        photometric_at,
+                    } => {
+                        let mut d = mask_decoder(path, &limits, index, photometric_at, patch)?;
+                        let (mw, mh) = if d.get_chunk_type() == ChunkType::Tile {
+                            (
+                                single_u64(&mut d, path, Tag::TileWidth, 0)? as usize,
+                                single_u64(&mut d, path, Tag::TileLength, 0)? as usize,
+                            )
+                        } else {
+                            let rows =
+                                single_u64(&mut d, path, Tag::RowsPerStrip, u32::MAX as u64)?;
+                            (width, rows.min(height as u64) as usize)
+                        };
+                        if (d.get_chunk_type() == ChunkType::Tile) != tiled
+                            || (mw, mh.min(height)) != (chunk_w, chunk_h.min(height))
+                        {
+                            return Err(Error::unsupported(
+                                path,
+                                format!("its internal mask is stored in {mw} x {mh} blocks, the image in {chunk_w} x {chunk_h}; orogen reads masks stored like the image (as GDAL writes them): rewrite it with `gdal_translate`"),
+                            ));
+                        }
+                        vec![d]
+                    }
+                    MaskSource::Alpha { .. } => Vec::new(),
+                };
+                (shown, Some((m, fill)), pool)
+            }
+        };
         let dec = dec.with_limits(limits.clone());
         let info = RasterInfo {
             width,
             height,
-            dtype,
+            dtype: shown,
             georef,
             block: (chunk_w, chunk_h),
             path: path.to_path_buf(),
@@ -474,6 +583,15 @@ impl GeoTiffReader {
                 0
             },
             band: (opts.band, samples),
+            unused_georef,
+            half,
+            lerc,
+            chunks,
+            native: dtype,
+            file_nodata,
+            mask,
+            mask_pool: Mutex::new(mask_pool),
+            sparse,
             patch,
             limits,
             pool: Mutex::new(vec![dec]),
@@ -505,16 +623,113 @@ impl GeoTiffReader {
         )
     }
 
-    /// Decode block `id` into band-1 little-endian bytes of its clipped window.
+    /// Decode block `id` into little-endian cells of its clipped window,
+    /// masked cells set to their fill value ([`super::mask`]).
     fn decode_block(&self, id: usize) -> Result<Arc<Vec<u8>>> {
-        let path = &self.info.path;
-        let mut dec = match self.pool.lock().ok().and_then(|mut p| p.pop()) {
-            Some(d) => d,
-            None => open_decoder(path, &self.limits, self.patch)?,
+        let native = self.decode_native(id, self.plane_offset + id, self.sample)?;
+        let Some((source, fill)) = self.mask else {
+            return Ok(Arc::new(native));
         };
         let win = self.block_window(id);
-        let cell = self.info.dtype.size();
-        let px = cell * self.samples;
+        let valid = match source {
+            MaskSource::Alpha { sample } => {
+                // The alpha sample of the same pixels (its own plane in a
+                // band-interleaved file); valid where it is not 0.
+                let (chunk, sample) = if self.samples == 1 {
+                    (sample * self.across * self.down() + id, 0)
+                } else {
+                    (id, sample)
+                };
+                let alpha = self.decode_native(id, chunk, sample)?;
+                let size = self.native.size();
+                alpha
+                    .chunks_exact(size)
+                    .map(|c| c.iter().any(|&b| b != 0))
+                    .collect()
+            }
+            MaskSource::Ifd {
+                index,
+                photometric_at,
+            } => {
+                let path = &self.info.path;
+                let mut dec = match self.mask_pool.lock().ok().and_then(|mut p| p.pop()) {
+                    Some(d) => d,
+                    None => mask_decoder(path, &self.limits, index, photometric_at, self.patch)?,
+                };
+                let stride = self.chunk_w.div_ceil(8);
+                let mut res = DecodingResult::U8(Vec::new());
+                dec.read_chunk_to_buffer(&mut res, id as u32, stride)
+                    .map_err(|e| self.block_err(id, " of the internal mask", tiff_err(path, e)))?;
+                if let Ok(mut p) = self.mask_pool.lock() {
+                    p.push(dec);
+                }
+                mask::bits(path, res.as_buffer(0).as_bytes(), stride, win.w, win.h)?
+            }
+        };
+        Ok(Arc::new(mask::apply(
+            self.native,
+            self.info.dtype,
+            fill,
+            &native,
+            &valid,
+        )))
+    }
+
+    /// `e`, raised decoding chunk `chunk`, saying which block of the file
+    /// it is (a decoder's message, "corrupt deflate stream", names none)
+    /// and what to do.
+    fn block_err(&self, chunk: usize, of: &str, e: Error) -> Error {
+        let (path, msg) = match e {
+            Error::Corrupt { path, msg } => (path, msg),
+            // The codecs report bad streams as I/O errors (InvalidData,
+            // flate2: InvalidInput).
+            Error::Io { path, err }
+                if matches!(
+                    err.kind(),
+                    std::io::ErrorKind::InvalidData | std::io::ErrorKind::InvalidInput
+                ) =>
+            {
+                (path, err.to_string())
+            }
+            e => return e,
+        };
+        {
+            {
+                let per_band = self.across * self.down();
+                let (band, id) = (chunk / per_band, chunk % per_band);
+                let w = self.block_window(id);
+                Error::Corrupt {
+                    msg: format!(
+                        "{} {id}{of} (cells {}..{} x {}..{}{}) cannot be decoded: {msg}; the file is damaged: re-download or re-export it",
+                        if self.tiled { "tile" } else { "strip" },
+                        w.x,
+                        w.x_end(),
+                        w.y,
+                        w.y_end(),
+                        if self.samples == 1 && self.band.1 > 1 { format!(", band {}", band + 1) } else { String::new() }
+                    ),
+                    path,
+                }
+            }
+        }
+    }
+
+    /// Blocks per band (rows of blocks times blocks per row).
+    fn down(&self) -> usize {
+        self.info.height.div_ceil(self.chunk_h)
+    }
+
+    /// Decode chunk `chunk` (block `id` of its plane) into the little-endian
+    /// `native` cells of sample `sample` of block `id`'s clipped window.
+    fn decode_native(&self, id: usize, chunk: usize, sample: usize) -> Result<Vec<u8>> {
+        let path = &self.info.path;
+        if self.sparse.get(chunk) == Some(&true) {
+            return Ok(self.sparse_block(id));
+        }
+        let win = self.block_window(id);
+        let cell = self.native.size();
+        let stored = if self.half { 2 } else { cell };
+        let px = stored * self.samples;
         // Decode with the output row stride equal to the full block row, so
         // the decoder never has to read (and discard) the right-hand padding
         // of edge tiles: tiff 0.11.3's LZW reader fails with "no lzw end code
@@ -522,13 +737,43 @@ impl GeoTiffReader {
         // that padding is skipped in a separate read at the end of the stream.
         let stride = self.chunk_w * px;
         let mut res = DecodingResult::U8(Vec::new());
-        dec.read_chunk_to_buffer(&mut res, (self.plane_offset + id) as u32, stride)
-            .map_err(|e| tiff_err(path, e))?;
-        if let Ok(mut p) = self.pool.lock() {
-            p.push(dec);
-        }
-        let raw = res.as_buffer(0);
-        let raw = raw.as_bytes();
+        let (lerc_rows, decoded);
+        let raw: &[u8] = if let Some(additional) = self.lerc {
+            // Strips hold their own rows; tiles are whole.
+            let rows = if self.tiled { self.chunk_h } else { win.h };
+            let (at, len) = self.chunks.get(chunk).copied().unwrap_or((0, 0));
+            let mut bytes = vec![0u8; len as usize];
+            let mut f = File::open(path).at(path)?;
+            std::io::Seek::seek(&mut f, std::io::SeekFrom::Start(at)).at(path)?;
+            std::io::Read::read_exact(&mut f, &mut bytes).at(path)?;
+            let fill = self.file_nodata.unwrap_or(if self.native.is_float() {
+                f64::NAN
+            } else {
+                0.0
+            });
+            lerc_rows = super::lerc::decode_block(
+                path,
+                &bytes,
+                additional,
+                self.native,
+                (self.chunk_w, rows, self.samples),
+                fill,
+                self.limits.decoding_buffer_size,
+            )?;
+            &lerc_rows
+        } else {
+            let mut dec = match self.pool.lock().ok().and_then(|mut p| p.pop()) {
+                Some(d) => d,
+                None => open_decoder(path, &self.limits, self.patch)?,
+            };
+            dec.read_chunk_to_buffer(&mut res, chunk as u32, stride)
+                .map_err(|e| self.block_err(chunk, "", tiff_err(path, e)))?;
+            if let Ok(mut p) = self.pool.lock() {
+                p.push(dec);
+            }
+            decoded = res.as_buffer(0);
+            decoded.as_bytes()
+        };
         let mut buf = vec![0u8; win.w * win.h * cell];
         for r in 0..win.h {
             let src = raw
@@ -540,17 +785,31 @@ impl GeoTiffReader {
                     )
                 })?;
             let dst = &mut buf[r * win.w * cell..(r + 1) * win.w * cell];
-            if self.samples == 1 {
+            if self.half {
+                // The crate's f16 buffer is native-endian; cells are f32 LE.
+                let at = sample * 2;
+                for (d, s) in dst.chunks_exact_mut(4).zip(src.chunks_exact(px)) {
+                    let v = half::f16::from_ne_bytes([s[at], s[at + 1]]).to_f32();
+                    d.copy_from_slice(&v.to_le_bytes());
+                }
+            } else if self.samples == 1 {
                 dst.copy_from_slice(src);
             } else {
                 // The read band of pixel-interleaved samples.
-                let at = self.sample * cell;
+                let at = sample * cell;
                 for (d, s) in dst.chunks_exact_mut(cell).zip(src.chunks_exact(px)) {
                     d.copy_from_slice(&s[at..at + cell]);
                 }
             }
         }
-        Ok(Arc::new(buf))
+        Ok(buf)
+    }
+
+    /// The cells of sparse block `id`: the nodata value, 0 without one (as
+    /// GDAL reads them), little-endian.
+    fn sparse_block(&self, id: usize) -> Vec<u8> {
+        let win = self.block_window(id);
+        mask::encode(self.native, self.file_nodata.unwrap_or(0.0)).repeat(win.w * win.h)
     }
 
     /// Block `id`, from the cache or decoded (and cached).
@@ -564,6 +823,21 @@ impl GeoTiffReader {
         }
         Ok(b)
     }
+}
+
+/// What georeferencing the file holds that is not read: more than one
+/// tiepoint (ground control points, which GDAL reports as GCPs instead of
+/// a geotransform) and RPC coefficients (tag 50844).
+fn unused_georef(dec: &mut Dec, path: &Path) -> Result<Option<String>> {
+    let tie = tag_f64s(dec, path, 33922)?.unwrap_or_default();
+    let mut unused = Vec::new();
+    if tie.len() > 6 {
+        unused.push(format!("{} ground control points (GCPs)", tie.len() / 6));
+    }
+    if tag_count(dec, path, Tag::from_u16_exhaustive(50844))?.is_some() {
+        unused.push("RPC coefficients".to_string());
+    }
+    Ok((!unused.is_empty()).then(|| unused.join(" and ")))
 }
 
 /// Georeferencing from the GeoTIFF tags (see `georef.rs`).
@@ -617,9 +891,13 @@ fn read_georef(dec: &mut Dec, path: &Path, dtype: DType) -> Result<GeoRef> {
             transform_from_matrix(m)
                 .ok_or_else(|| Error::corrupt(path, "ModelTransformation needs 16 values"))?,
         ),
-        (None, Some(s), Some(t)) => Some(transform_from_scale_tiepoint(s, t).ok_or_else(|| {
-            Error::corrupt(path, "ModelPixelScale needs 3 and ModelTiepoint 6 values")
-        })?),
+        // Several tiepoints are ground control points, not a geotransform
+        // (as GDAL reads them), even beside a ModelPixelScale.
+        (None, Some(s), Some(t)) if t.len() <= 6 => {
+            Some(transform_from_scale_tiepoint(s, t).ok_or_else(|| {
+                Error::corrupt(path, "ModelPixelScale needs 3 and ModelTiepoint 6 values")
+            })?)
+        }
         _ => None,
     };
     let raster_type = raster_type_from_keys(keys.as_ref());
@@ -650,6 +928,48 @@ fn read_georef(dec: &mut Dec, path: &Path, dtype: DType) -> Result<GeoRef> {
 /// (see `photometric.rs`): `None` for files stored as BlackIsZero or
 /// without the tag; an error for interpretations whose samples are not
 /// values (CMYK, YCbCr, transparency masks, CIE L*a*b*, LogLuv).
+/// The internal mask of a `width` x `height` image ([`super::mask`]): the
+/// first IFD after the image flagged as a full-resolution mask (at most 64
+/// IFDs are looked at), one bit per cell.
+fn find_mask(path: &Path, width: usize, height: usize) -> Result<Option<MaskSource>> {
+    let mut f = File::open(path).at(path)?;
+    let (heads, _) = ifd_heads(&mut f, 64).at(path)?;
+    Ok(heads.iter().enumerate().skip(1).find_map(|(index, h)| {
+        let full_mask = h.subfile & 4 != 0 && h.subfile & 1 == 0;
+        let same = (h.width, h.height) == (width as u64, height as u64);
+        match (full_mask && same && h.bits == 1, h.photometric) {
+            (true, Some((photometric_at, 4))) => Some(MaskSource::Ifd {
+                index,
+                photometric_at,
+            }),
+            _ => None,
+        }
+    }))
+}
+
+/// A decoder on the internal mask IFD `index`, its photometric value (4,
+/// a transparency mask, which the crate will not decode) read as
+/// BlackIsZero: one-bit gray samples. The image's own photometric value
+/// `image_patch` is not needed (the decoder is moved off the image).
+fn mask_decoder(
+    path: &Path,
+    limits: &Limits,
+    index: usize,
+    photometric_at: u64,
+    image_patch: Option<(u64, bool)>,
+) -> Result<Dec> {
+    let big_endian = image_patch.map(|p| p.1).unwrap_or_else(|| {
+        let mut head = [0u8; 2];
+        std::fs::File::open(path)
+            .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut head))
+            .map(|_| &head == b"MM")
+            .unwrap_or(false)
+    });
+    let mut dec = open_decoder(path, limits, Some((photometric_at, big_endian)))?;
+    dec.seek_to_image(index).map_err(|e| tiff_err(path, e))?;
+    Ok(dec)
+}
+
 fn photometric_patch(path: &Path) -> Result<Option<(u64, bool)>> {
     let mut f = File::open(path).at(path)?;
     let Some((at, value, big_endian)) = find_photometric(&mut f).at(path)? else {
@@ -685,6 +1005,10 @@ impl RasterSource for GeoTiffReader {
 
     fn band(&self) -> (usize, usize) {
         self.band
+    }
+
+    fn unused_georef(&self) -> Option<&str> {
+        self.unused_georef.as_deref()
     }
 
     fn read_native(&self, win: Window) -> Result<AnyGrid> {

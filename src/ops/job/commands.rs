@@ -2,15 +2,15 @@
 //! `run` and `help`, a group's methods as `"synth noise"`), and the
 //! turning of a step's `args` table into the operation's options: the command's `ops::<cmd>::<Cmd>Options` (serde, unknown keys
 //! refused), the run settings ([`RunOptions`]: memory, threads, tile,
-//! quiet, engine), the output format ([`FormatOptions`]) and the PNG reading
-//! options ([`PngOptions`]), each key checked with one message naming the
+//! quiet, engine), the output format ([`FormatOptions`]) and the input
+//! reading options ([`InputOptions`]: band, PNG scaling), each key checked with one message naming the
 //! key, what the command accepts and the nearest accepted name.
 
 use super::plan::Planned;
 use super::{steps, synth_steps};
 use crate::error::{Error, Result};
 use crate::ops::note::Notify;
-use crate::ops::parse::{FormatOptions, PngOptions, RunOptions};
+use crate::ops::parse::{FormatOptions, InputOptions, RunOptions};
 use serde::de::DeserializeOwned;
 use std::collections::BTreeMap;
 
@@ -228,17 +228,17 @@ pub fn step_error(s: &Planned, msg: impl std::fmt::Display) -> Error {
 pub struct Takes {
     /// The output format keys (it writes rasters).
     pub format: bool,
-    /// The PNG reading keys (it reads a raster input).
-    pub png: bool,
+    /// The input reading keys (`band`, `png_scale`, `png_offset`: it reads a raster input).
+    pub input: bool,
 }
 
 /// A step's keys, typed: the command's options `O`, the run settings, the
-/// output format and the PNG reading options.
+/// output format and the input reading options.
 pub struct Typed<O> {
     pub options: O,
     pub run: RunOptions,
     pub format: FormatOptions,
-    pub png: PngOptions,
+    pub input: InputOptions,
 }
 
 /// Deserialize `table` into `T`; on error, find the key whose value is
@@ -311,15 +311,15 @@ pub fn typed_keys_named<O: DeserializeOwned>(
     } else {
         &[]
     };
-    let png_keys = if takes.png {
-        field_names::<PngOptions>()
+    let input_keys = if takes.input {
+        field_names::<InputOptions>()
     } else {
         &[]
     };
     let mut tables: [toml::Table; 4] = Default::default();
     for (k, v) in &s.args {
         // Keys are in `_` form; a struct may name its fields in kebab case.
-        let found = [own, run_keys, format_keys, png_keys]
+        let found = [own, run_keys, format_keys, input_keys]
             .iter()
             .enumerate()
             .find_map(|(g, keys)| {
@@ -332,7 +332,7 @@ pub fn typed_keys_named<O: DeserializeOwned>(
                 tables[g].insert(field.to_string(), v.clone());
             }
             None => {
-                let accepted: Vec<String> = [own, format_keys, png_keys, run_keys]
+                let accepted: Vec<String> = [own, format_keys, input_keys, run_keys]
                     .concat()
                     .iter()
                     .map(|f| f.replace('-', "_"))
@@ -366,7 +366,7 @@ pub fn typed_keys_named<O: DeserializeOwned>(
         options: from_table(s, &o)?,
         run,
         format,
-        png: from_table(s, &p)?,
+        input: from_table(s, &p)?,
     })
 }
 

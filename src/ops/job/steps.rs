@@ -19,22 +19,22 @@ use serde::Serialize;
 /// Reads a raster, writes rasters.
 pub(super) const RASTER: Takes = Takes {
     format: true,
-    png: true,
+    input: true,
 };
 /// Reads a raster, writes files of its own.
 pub(super) const FILES: Takes = Takes {
     format: false,
-    png: true,
+    input: true,
 };
 /// Reads no raster of its own, writes rasters.
 pub(super) const WRITES: Takes = Takes {
     format: true,
-    png: false,
+    input: false,
 };
 /// Neither.
 pub(super) const NEITHER: Takes = Takes {
     format: false,
-    png: false,
+    input: false,
 };
 
 /// The options of a command that has none of its own (`ingest`, `export`).
@@ -71,7 +71,7 @@ where
         options: t.format.output_options()?,
         tile: t.run.tile,
     };
-    let (run, png, opts) = (t.run, t.png.open_options(), t.options);
+    let (run, png, opts) = (t.run, t.input.open_options(), t.options);
     Ok(TypedStep::new(opts, move |opts, notify| {
         let cfg = engine_config(&run)?;
         let src = open_input(&input, &png, notify)?;
@@ -126,8 +126,8 @@ pub(super) fn accumulate(call: &StepCall<'_>) -> Result<TypedStep> {
 }
 
 pub(super) fn export(call: &StepCall<'_>) -> Result<TypedStep> {
-    raster_step::<NoOptions>(call, unchecked, |src, _, t, cfg, _, _| {
-        ops::convert::run(src, t, cfg)
+    raster_step::<NoOptions>(call, unchecked, |src, _, t, cfg, _, notify| {
+        ops::convert::run(src, t, cfg, notify)
     })
 }
 
@@ -145,11 +145,11 @@ pub(super) fn ingest(call: &StepCall<'_>) -> Result<TypedStep> {
         options: t.format.output_options()?,
         tile: t.run.tile,
     };
-    let (run, png) = (t.run, t.png.open_options());
+    let (run, png) = (t.run, t.input.open_options());
     Ok(TypedStep::new(t.options, move |_, notify| {
         let src = crate::io::open_inputs(&inputs, &png)?;
         warn_georef(src.as_ref(), notify);
-        ops::convert::run(src.as_ref(), &target, &engine_config(&run)?)?;
+        ops::convert::run(src.as_ref(), &target, &engine_config(&run)?, notify)?;
         notify(Note::Wrote(path.clone()));
         Ok(())
     }))
@@ -176,7 +176,7 @@ pub(super) fn metric(call: &StepCall<'_>) -> Result<TypedStep> {
     let input = one_input(s)?;
     let dir = output(s)?;
     let oo = t.format.output_options()?;
-    let (run, png, opts) = (t.run, t.png.open_options(), t.options);
+    let (run, png, opts) = (t.run, t.input.open_options(), t.options);
     Ok(TypedStep::new(opts, move |opts, notify| {
         let cfg = engine_config(&run)?;
         let src = open_input(&input, &png, notify)?;
@@ -211,7 +211,7 @@ where
     let input = one_input(s)?;
     let path = output(s)?;
     check(&t.options, &path).map_err(|e| step_error(s, e))?;
-    let (run, png) = (t.run, t.png.open_options());
+    let (run, png) = (t.run, t.input.open_options());
     Ok(TypedStep::new(t.options, move |opts, notify| {
         let cfg = engine_config(&run)?;
         let src = open_input(&input, &png, notify)?;
@@ -253,7 +253,7 @@ pub(super) fn ridges(call: &StepCall<'_>) -> Result<TypedStep> {
     let input = one_input(s)?;
     let dir = output(s)?;
     let oo = t.format.output_options()?;
-    let (run, png) = (t.run, t.png.open_options());
+    let (run, png) = (t.run, t.input.open_options());
     Ok(TypedStep::new(t.options, move |opts, notify| {
         let cfg = engine_config(&run)?;
         let src = open_input(&input, &png, notify)?;
@@ -290,7 +290,7 @@ pub(super) fn info(call: &StepCall<'_>) -> Result<TypedStep> {
     if s.output.is_some() {
         return Err(step_error(s, "`info` writes no file: leave out output"));
     }
-    let (run, png) = (t.run, t.png.open_options());
+    let (run, png) = (t.run, t.input.open_options());
     Ok(TypedStep::new(t.options, move |opts, notify| {
         let cfg = engine_config(&run)?;
         let src = open_input(&input, &png, notify)?;
@@ -300,88 +300,130 @@ pub(super) fn info(call: &StepCall<'_>) -> Result<TypedStep> {
     }))
 }
 
-/// The step's inputs as feature files, refused when there are none.
-fn feature_inputs(s: &crate::ops::job::Planned, from: usize) -> Result<Vec<std::path::PathBuf>> {
-    match s.inputs.get(from..) {
-        Some(f) if !f.is_empty() => Ok(f.to_vec()),
-        _ => Err(step_error(
-            s,
-            format!(
-                "`{}` needs feature files: input = [{}\"a.csv\", ...]",
-                s.command,
-                if from == 1 { "\"model\", " } else { "" }
-            ),
-        )),
-    }
-}
+#[cfg(feature = "learn")]
+pub(super) use classify::{classify_evaluate, classify_predict, classify_train};
 
-pub(super) fn classify_train(call: &StepCall<'_>) -> Result<TypedStep> {
-    let s = call.step;
-    let t = typed_keys::<ops::classify::ForestOptions>(call, NEITHER)?;
-    let features = feature_inputs(s, 0)?;
-    let model = output(s)?;
-    Ok(TypedStep::new(t.options, move |opts, notify| {
-        ops::classify::train_noted(&features, opts, &model, notify).map(|_| ())
-    }))
-}
+/// The `classify` steps (the `learn` feature: smartcore's random forest).
+#[cfg(feature = "learn")]
+mod classify {
+    use super::*;
 
-pub(super) fn classify_predict(call: &StepCall<'_>) -> Result<TypedStep> {
-    let s = call.step;
-    let t = typed_keys::<NoOptions>(call, NEITHER)?;
-    let features = feature_inputs(s, 1)?;
-    let model = s.inputs[0].clone();
-    let out = s.output.clone();
-    Ok(TypedStep::new(t.options, move |_, notify| {
-        ops::classify::predict_noted(&model, &features, out.as_deref(), notify)
-    }))
-}
-
-/// The keys of `classify evaluate`: [`ops::classify::EvaluateOptions`]
-/// with its forest's fields at the top (a flattened serde struct cannot
-/// refuse unknown keys).
-#[derive(Debug, Clone, Serialize, serde::Deserialize)]
-#[serde(default, deny_unknown_fields)]
-struct EvaluateKeys {
-    trees: u16,
-    seed: u64,
-    mtry: Option<usize>,
-    max_depth: Option<u16>,
-    repeats: usize,
-    test_fraction: f64,
-}
-
-impl Default for EvaluateKeys {
-    fn default() -> Self {
-        let e = ops::classify::EvaluateOptions::default();
-        EvaluateKeys {
-            trees: e.forest.trees,
-            seed: e.forest.seed,
-            mtry: e.forest.mtry,
-            max_depth: e.forest.max_depth,
-            repeats: e.repeats,
-            test_fraction: e.test_fraction,
+    /// The step's inputs as feature files, refused when there are none.
+    fn feature_inputs(
+        s: &crate::ops::job::Planned,
+        from: usize,
+    ) -> Result<Vec<std::path::PathBuf>> {
+        match s.inputs.get(from..) {
+            Some(f) if !f.is_empty() => Ok(f.to_vec()),
+            _ => Err(step_error(
+                s,
+                format!(
+                    "`{}` needs feature files: input = [{}\"a.csv\", ...]",
+                    s.command,
+                    if from == 1 { "\"model\", " } else { "" }
+                ),
+            )),
         }
     }
+
+    pub(in crate::ops::job) fn classify_train(call: &StepCall<'_>) -> Result<TypedStep> {
+        let s = call.step;
+        let t = typed_keys::<ops::classify::ForestOptions>(call, NEITHER)?;
+        let features = feature_inputs(s, 0)?;
+        let model = output(s)?;
+        Ok(TypedStep::new(t.options, move |opts, notify| {
+            ops::classify::train_noted(&features, opts, &model, notify).map(|_| ())
+        }))
+    }
+
+    pub(in crate::ops::job) fn classify_predict(call: &StepCall<'_>) -> Result<TypedStep> {
+        let s = call.step;
+        let t = typed_keys::<NoOptions>(call, NEITHER)?;
+        let features = feature_inputs(s, 1)?;
+        let model = s.inputs[0].clone();
+        let out = s.output.clone();
+        Ok(TypedStep::new(t.options, move |_, notify| {
+            ops::classify::predict_noted(&model, &features, out.as_deref(), notify)
+        }))
+    }
+
+    /// The keys of `classify evaluate`: [`ops::classify::EvaluateOptions`]
+    /// with its forest's fields at the top (a flattened serde struct cannot
+    /// refuse unknown keys).
+    #[derive(Debug, Clone, Serialize, serde::Deserialize)]
+    #[serde(default, deny_unknown_fields)]
+    struct EvaluateKeys {
+        trees: u16,
+        seed: u64,
+        mtry: Option<usize>,
+        max_depth: Option<u16>,
+        repeats: usize,
+        test_fraction: f64,
+    }
+
+    impl Default for EvaluateKeys {
+        fn default() -> Self {
+            let e = ops::classify::EvaluateOptions::default();
+            EvaluateKeys {
+                trees: e.forest.trees,
+                seed: e.forest.seed,
+                mtry: e.forest.mtry,
+                max_depth: e.forest.max_depth,
+                repeats: e.repeats,
+                test_fraction: e.test_fraction,
+            }
+        }
+    }
+
+    pub(in crate::ops::job) fn classify_evaluate(call: &StepCall<'_>) -> Result<TypedStep> {
+        let s = call.step;
+        let k = typed_keys::<EvaluateKeys>(call, NEITHER)?.options;
+        let features = feature_inputs(s, 0)?;
+        let out = s.output.clone();
+        let opts = ops::classify::EvaluateOptions {
+            forest: ops::classify::ForestOptions {
+                trees: k.trees,
+                seed: k.seed,
+                mtry: k.mtry,
+                max_depth: k.max_depth,
+            },
+            repeats: k.repeats,
+            test_fraction: k.test_fraction,
+        };
+        Ok(TypedStep::new(opts, move |opts, notify| {
+            ops::classify::evaluate_noted(&features, opts, out.as_deref(), notify).map(|_| ())
+        }))
+    }
 }
 
-pub(super) fn classify_evaluate(call: &StepCall<'_>) -> Result<TypedStep> {
-    let s = call.step;
-    let k = typed_keys::<EvaluateKeys>(call, NEITHER)?.options;
-    let features = feature_inputs(s, 0)?;
-    let out = s.output.clone();
-    let opts = ops::classify::EvaluateOptions {
-        forest: ops::classify::ForestOptions {
-            trees: k.trees,
-            seed: k.seed,
-            mtry: k.mtry,
-            max_depth: k.max_depth,
-        },
-        repeats: k.repeats,
-        test_fraction: k.test_fraction,
-    };
-    Ok(TypedStep::new(opts, move |opts, notify| {
-        ops::classify::evaluate_noted(&features, opts, out.as_deref(), notify).map(|_| ())
-    }))
+#[cfg(not(feature = "learn"))]
+pub(super) use no_classify::{classify_evaluate, classify_predict, classify_train};
+
+/// The `classify` steps of a build without the `learn` feature: each
+/// refuses with a message saying how to get them.
+#[cfg(not(feature = "learn"))]
+mod no_classify {
+    use super::*;
+
+    fn refuse(call: &StepCall<'_>) -> Result<TypedStep> {
+        Err(step_error(
+            call.step,
+            format!(
+                "`{}` needs the random-forest classifier, which this build of orogen \
+                 leaves out: build with `--features learn` (on by default)",
+                call.step.command
+            ),
+        ))
+    }
+    pub(in crate::ops::job) fn classify_train(call: &StepCall<'_>) -> Result<TypedStep> {
+        refuse(call)
+    }
+    pub(in crate::ops::job) fn classify_predict(call: &StepCall<'_>) -> Result<TypedStep> {
+        refuse(call)
+    }
+    pub(in crate::ops::job) fn classify_evaluate(call: &StepCall<'_>) -> Result<TypedStep> {
+        refuse(call)
+    }
 }
 
 /// `demo`: no input; into the step's output folder (the CLI's default,
@@ -461,7 +503,7 @@ pub(super) fn erode(call: &StepCall<'_>) -> Result<TypedStep> {
     let t = typed_keys_with::<ops::erode::ErodeOptions>(&call, RASTER, set)?;
     t.options.validate().map_err(|e| step_error(s, e))?;
     let oo = t.format.output_options()?;
-    let (run, png) = (t.run, t.png.open_options());
+    let (run, png) = (t.run, t.input.open_options());
     Ok(TypedStep::new(t.options, move |opts, notify| {
         let cfg = engine_config(&run)?;
         ops::erode::run(opts, &png, &oo, &cfg, &mut quiet_filter(run.quiet, notify))
@@ -604,7 +646,7 @@ pub(super) fn tiles(call: &StepCall<'_>) -> Result<TypedStep> {
     t.options.pyramid_options().map_err(|e| step_error(s, e))?;
     let input = one_input(s)?;
     let outputs = vec![output(s)?];
-    let (run, png) = (t.run, t.png.open_options());
+    let (run, png) = (t.run, t.input.open_options());
     Ok(TypedStep::new(t.options, move |opts, notify| {
         let src = open_input(&input, &png, notify)?;
         let info = ops::tiles::run(src.as_ref(), &outputs, opts, &engine_config(&run)?)?;

@@ -141,7 +141,7 @@ pub(super) fn synth_profile(call: &StepCall<'_>) -> Result<TypedStep> {
         ("output", path_value(&output(s)?)),
     ];
     let t = typed_keys_with::<oro::ProfileOptions>(call, FILES, set)?;
-    let png = t.png.open_options();
+    let png = t.input.open_options();
     Ok(TypedStep::new(t.options, move |opts, notify| {
         oro::run_profile(opts, &png, notify)
     }))
