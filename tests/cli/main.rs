@@ -389,3 +389,51 @@ fn closed_stdout_ends_quietly() {
         );
     }
 }
+
+/// `--band N` reads band N of a multi-band file (here pixel-interleaved,
+/// values as GDAL read them), says which band of how many it read, and a
+/// band past the last is one clear error; a job takes `band = N` too.
+#[test]
+fn band_option_reads_the_band_asked_for() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = data("gdal/bands/i16_3band_pixel_strip_lzw_p2.tif");
+    let reference = std::fs::read(data("gdal/bands/i16_3band_pixel_strip_lzw_p2.b3.bin")).unwrap();
+    let want: Vec<f32> = reference
+        .chunks_exact(2)
+        .map(|c| i16::from_le_bytes([c[0], c[1]]) as f32)
+        .collect();
+    let out = dir.path().join("b3.tif");
+    let s = ok(orogen()
+        .arg("export")
+        .arg(&src)
+        .args(["--band", "3", "-o"])
+        .arg(&out));
+    assert!(s.contains("has 3 bands; band 3 is read"), "{s}");
+    assert_eq!(common::cli::read_f32(&out).data(), &want[..]);
+    let e = fails(
+        orogen()
+            .arg("slope")
+            .arg(&src)
+            .args(["--band", "4", "-o"])
+            .arg(dir.path().join("x.tif")),
+    );
+    assert!(
+        e.contains("i16_3band_pixel_strip_lzw_p2.tif") && e.contains("--band 1 to 3"),
+        "{e}"
+    );
+    assert!(!dir.path().join("x.tif").exists());
+    // The same from a job.
+    let job = dir.path().join("job.toml");
+    let from_job = dir.path().join("job_b3.tif");
+    std::fs::write(
+        &job,
+        format!(
+            "output_dir = {:?}\n[inputs]\ndem = {:?}\n[[step]]\nname = \"b3\"\nrun = \"export\"\ninput = \"dem\"\noutput = \"job_b3.tif\"\nargs = {{ band = 3 }}\n",
+            dir.path().display().to_string(),
+            src.display().to_string()
+        ),
+    )
+    .unwrap();
+    ok(orogen().arg("run").arg(&job).arg("-q"));
+    assert_eq!(common::cli::read_f32(&from_job).data(), &want[..]);
+}

@@ -565,3 +565,102 @@ fn undecodable_block_is_named_and_info_reports_it() {
         "{e}"
     );
 }
+
+/// Tags real files omit and libtiff (so GDAL) supplies are supplied too:
+/// PhotometricInterpretation on a single-band image (BlackIsZero) and
+/// StripByteCounts of a one-strip image (its cells' bytes uncompressed,
+/// the rest of the file compressed); the values read are the stored ones.
+#[test]
+fn missing_photometric_and_strip_byte_counts_are_tolerated() {
+    let dir = tempfile::tempdir().unwrap();
+    let cells: Vec<u8> = (0..8).map(|v| v * 30 + 1).collect();
+    let without = |tags: &[u16], v: Vec<E>| -> Vec<E> {
+        v.into_iter().filter(|e| !tags.contains(&e.0)).collect()
+    };
+    let mut deflated = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::default());
+    std::io::Write::write_all(&mut deflated, &cells).unwrap();
+    let deflated = deflated.finish().unwrap();
+    for (name, tags, data) in [
+        (
+            "no_photometric.tif",
+            without(&[262], base(4, 2)),
+            cells.clone(),
+        ),
+        (
+            "no_byte_counts.tif",
+            without(&[279], base(4, 2)),
+            cells.clone(),
+        ),
+        (
+            "neither.tif",
+            without(&[262, 279], base(4, 2)),
+            cells.clone(),
+        ),
+        (
+            "no_byte_counts_deflate.tif",
+            without(&[279], replace(base(4, 2), short(259, 8))),
+            deflated.clone(),
+        ),
+    ] {
+        let p = write(dir.path(), name, &tiff(tags, &data));
+        let r = GeoTiffReader::open(&p).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let g = r.read_native(Window::full(4, 2)).unwrap();
+        let got: Vec<f64> = (0..8).map(|k| g.get_f64(k % 4, k / 4)).collect();
+        let want: Vec<f64> = cells.iter().map(|&v| v as f64).collect();
+        assert_eq!(got, want, "{name}");
+    }
+    // Several samples without a photometric tag stay refused, naming it.
+    let three = replace(without(&[262], base(4, 2)), short(277, 3));
+    let three = replace(three, long(279, 24));
+    let p = write(dir.path(), "rgb_no_photometric.tif", &tiff(three, &[7; 24]));
+    let e = fail(&p);
+    assert_names_file(&e, &p);
+}
+
+/// Old-style (pre-TIFF 6.0) LZW, LSB-first codes without the early code
+/// size change, which libtiff (so GDAL) still reads: the stored values,
+/// little- and 16-bit; with a predictor it is refused, saying why.
+#[test]
+fn old_style_lzw_reads_its_values() {
+    let dir = tempfile::tempdir().unwrap();
+    let (w, h) = (40u32, 30u32);
+    let values: Vec<i16> = (0..w * h).map(|k| (k as i16 % 97) * 13 - 400).collect();
+    let raw: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+    let stored = weezl::encode::Encoder::new(weezl::BitOrder::Lsb, 8)
+        .encode(&raw)
+        .unwrap();
+    assert_eq!((stored[0], stored[1] & 1), (0, 1), "an old-style stream");
+    let tags = [
+        replace(base(w, h), short(259, 5)),
+        vec![
+            short(258, 16),
+            short(339, 2),
+            long(279, stored.len() as u32),
+        ],
+    ];
+    let mut t = tags[0].clone();
+    for e in tags[1].clone() {
+        t = replace(t, e);
+    }
+    let p = write(dir.path(), "old_lzw.tif", &tiff(t.clone(), &stored));
+    if let Ok(keep) = std::env::var("OROGEN_KEEP_OLD_LZW") {
+        std::fs::copy(&p, keep).unwrap();
+    }
+    let r = GeoTiffReader::open(&p).unwrap();
+    let g = r.read_native(Window::full(w as usize, h as usize)).unwrap();
+    let got: Vec<f64> = (0..(w * h) as usize)
+        .map(|k| g.get_f64(k % w as usize, k / w as usize))
+        .collect();
+    let want: Vec<f64> = values.iter().map(|&v| v as f64).collect();
+    assert_eq!(got, want);
+    let p = write(
+        dir.path(),
+        "old_lzw_p2.tif",
+        &tiff(replace(t, short(317, 2)), &stored),
+    );
+    let e = GeoTiffReader::open(&p).err().expect("refused").to_string();
+    assert!(
+        e.contains("old-style") && e.contains("predictor 2") && e.contains("old_lzw_p2.tif"),
+        "{e}"
+    );
+}

@@ -24,7 +24,7 @@ use super::georef::{
     transform_from_scale_tiepoint,
 };
 use super::mask::{self, MaskSource};
-use super::photometric::{self, find_photometric, ifd_heads, SampleFile};
+use super::photometric::{self, find_photometric, ifd_heads, SampleFile, View};
 use super::SUPPORTED_COMPRESSION;
 use crate::error::{Error, IoContext, Result};
 use crate::raster::{
@@ -90,6 +90,9 @@ pub struct GeoTiffReader {
     /// LERC compression (its additional layer) and every block's offset and
     /// byte count, read by [`super::lerc`] (the crate does not decode it).
     lerc: Option<super::lerc::Additional>,
+    /// Old-style (pre-TIFF 6.0, LSB-first) LZW, which libtiff still reads
+    /// (`LZWDecodeCompat`) and the crate does not: decoded here by weezl.
+    old_lzw: bool,
     chunks: Vec<(u64, u64)>,
     /// The cell type blocks decode to (float16 as f32) before a mask
     /// widens them to `info.dtype`.
@@ -104,8 +107,9 @@ pub struct GeoTiffReader {
     /// `SPARSE_OK` leaves never-written blocks so and reads them as the
     /// nodata value (0 without one); so does this reader.
     sparse: Vec<bool>,
-    /// Where the photometric value is read as BlackIsZero (offset, big-endian).
-    patch: Option<(u64, bool)>,
+    /// How the decoder is shown the file (photometric value read as
+    /// BlackIsZero, missing tags supplied: see `photometric.rs`).
+    view: View,
     limits: Limits,
     pool: Mutex<Vec<Dec>>,
     cache: Mutex<BlockCache>,
@@ -129,12 +133,9 @@ fn tiff_err(path: &Path, e: TiffError) -> Error {
     }
 }
 
-fn open_decoder(path: &Path, limits: &Limits, patch: Option<(u64, bool)>) -> Result<Dec> {
+fn open_decoder(path: &Path, limits: &Limits, view: &View) -> Result<Dec> {
     let f = File::open(path).at(path)?;
-    let f = match patch {
-        Some((at, big_endian)) => SampleFile::black_is_zero(f, at, big_endian),
-        None => SampleFile::plain(f),
-    };
+    let f = SampleFile::new(f, view.clone()).at(path)?;
     let dec = Decoder::new(BufReader::with_capacity(64 << 10, f)).map_err(|e| tiff_err(path, e))?;
     Ok(dec.with_limits(limits.clone()))
 }
@@ -252,8 +253,8 @@ impl GeoTiffReader {
             l.decoding_buffer_size = per_file.clamp(1 << 20, l.decoding_buffer_size);
             l
         };
-        let patch = photometric_patch(path)?;
-        let mut dec = open_decoder(path, &meta_limits, patch)?;
+        let view = decoder_view(path)?;
+        let mut dec = open_decoder(path, &meta_limits, &view)?;
         let (w, h) = dec.dimensions().map_err(|e| tiff_err(path, e))?;
         let (width, height) = (w as usize, h as usize);
         if width == 0 || height == 0 {
@@ -462,7 +463,29 @@ impl GeoTiffReader {
         } else {
             None
         };
-        let chunks: Vec<(u64, u64)> = if lerc.is_some() {
+        // Old-style LZW: libtiff tells it by the first two bytes of a strip
+        // (0, then an odd byte: a clear code written LSB first); the first
+        // stored block decides for the file.
+        let old_lzw = compression == 5 && {
+            let first = offsets.iter().zip(&counts).find(|(_, &c)| c >= 2);
+            match first {
+                Some((&at, _)) => {
+                    let mut b = [0u8; 2];
+                    let mut f = File::open(path).at(path)?;
+                    std::io::Seek::seek(&mut f, std::io::SeekFrom::Start(at)).at(path)?;
+                    std::io::Read::read_exact(&mut f, &mut b).at(path)?;
+                    b[0] == 0 && b[1] & 1 == 1
+                }
+                None => false,
+            }
+        };
+        if old_lzw && predictor != 1 {
+            return Err(Error::unsupported(
+                path,
+                format!("old-style (pre-TIFF 6.0) LZW with predictor {predictor}; rewrite it with `gdal_translate -co COMPRESS=LZW`"),
+            ));
+        }
+        let chunks: Vec<(u64, u64)> = if lerc.is_some() || old_lzw {
             offsets
                 .iter()
                 .copied()
@@ -534,7 +557,7 @@ impl GeoTiffReader {
                         index,
                         photometric_at,
                     } => {
-                        let mut d = mask_decoder(path, &limits, index, photometric_at, patch)?;
+                        let mut d = mask_decoder(path, &limits, index, photometric_at, &view)?;
                         let (mw, mh) = if d.get_chunk_type() == ChunkType::Tile {
                             (
                                 single_u64(&mut d, path, Tag::TileWidth, 0)? as usize,
@@ -586,13 +609,14 @@ impl GeoTiffReader {
             unused_georef,
             half,
             lerc,
+            old_lzw,
             chunks,
             native: dtype,
             file_nodata,
             mask,
             mask_pool: Mutex::new(mask_pool),
             sparse,
-            patch,
+            view,
             limits,
             pool: Mutex::new(vec![dec]),
             cache: Mutex::new(BlockCache::new(opts.cache_bytes)),
@@ -654,7 +678,7 @@ impl GeoTiffReader {
                 let path = &self.info.path;
                 let mut dec = match self.mask_pool.lock().ok().and_then(|mut p| p.pop()) {
                     Some(d) => d,
-                    None => mask_decoder(path, &self.limits, index, photometric_at, self.patch)?,
+                    None => mask_decoder(path, &self.limits, index, photometric_at, &self.view)?,
                 };
                 let stride = self.chunk_w.div_ceil(8);
                 let mut res = DecodingResult::U8(Vec::new());
@@ -714,6 +738,46 @@ impl GeoTiffReader {
         }
     }
 
+    /// The `len` bytes of old-style LZW chunk `chunk` (LSB-first codes, the
+    /// code size growing without TIFF 6.0's early change: weezl's
+    /// GIF-style decoder), samples of `cell` bytes in native order.
+    fn old_lzw_block(&self, chunk: usize, len: usize, cell: usize) -> Result<Vec<u8>> {
+        let path = &self.info.path;
+        let (at, count) = self.chunks.get(chunk).copied().unwrap_or((0, 0));
+        let mut stored = vec![0u8; count as usize];
+        let mut f = File::open(path).at(path)?;
+        std::io::Seek::seek(&mut f, std::io::SeekFrom::Start(at)).at(path)?;
+        std::io::Read::read_exact(&mut f, &mut stored).at(path)?;
+        let mut out = vec![0u8; len];
+        let mut dec = weezl::decode::Decoder::new(weezl::BitOrder::Lsb, 8);
+        let bad = |msg: String| self.block_err(chunk, "", Error::corrupt(path, msg));
+        let (mut read, mut written) = (0, 0);
+        // The decoder returns at every clear code: go on until the block is
+        // full or the stream ends.
+        while written < len {
+            let r = dec.decode_bytes(&stored[read..], &mut out[written..]);
+            read += r.consumed_in;
+            written += r.consumed_out;
+            match r.status {
+                Err(e) => return Err(bad(format!("old-style LZW: {e}"))),
+                Ok(weezl::LzwStatus::Done) => break,
+                Ok(_) if r.consumed_in == 0 && r.consumed_out == 0 => break,
+                Ok(_) => {}
+            }
+        }
+        if written < len {
+            return Err(bad(format!(
+                "old-style LZW decoded {written} of {len} bytes"
+            )));
+        }
+        if self.view.big_endian() && cell > 1 {
+            for c in out.chunks_exact_mut(cell) {
+                c.reverse();
+            }
+        }
+        Ok(out)
+    }
+
     /// Blocks per band (rows of blocks times blocks per row).
     fn down(&self) -> usize {
         self.info.height.div_ceil(self.chunk_h)
@@ -738,7 +802,11 @@ impl GeoTiffReader {
         let stride = self.chunk_w * px;
         let mut res = DecodingResult::U8(Vec::new());
         let (lerc_rows, decoded);
-        let raw: &[u8] = if let Some(additional) = self.lerc {
+        let raw: &[u8] = if self.old_lzw {
+            let rows = if self.tiled { self.chunk_h } else { win.h };
+            lerc_rows = self.old_lzw_block(chunk, rows * stride, stored)?;
+            &lerc_rows
+        } else if let Some(additional) = self.lerc {
             // Strips hold their own rows; tiles are whole.
             let rows = if self.tiled { self.chunk_h } else { win.h };
             let (at, len) = self.chunks.get(chunk).copied().unwrap_or((0, 0));
@@ -764,7 +832,7 @@ impl GeoTiffReader {
         } else {
             let mut dec = match self.pool.lock().ok().and_then(|mut p| p.pop()) {
                 Some(d) => d,
-                None => open_decoder(path, &self.limits, self.patch)?,
+                None => open_decoder(path, &self.limits, &self.view)?,
             };
             dec.read_chunk_to_buffer(&mut res, chunk as u32, stride)
                 .map_err(|e| self.block_err(chunk, "", tiff_err(path, e)))?;
@@ -949,37 +1017,40 @@ fn find_mask(path: &Path, width: usize, height: usize) -> Result<Option<MaskSour
 
 /// A decoder on the internal mask IFD `index`, its photometric value (4,
 /// a transparency mask, which the crate will not decode) read as
-/// BlackIsZero: one-bit gray samples. The image's own photometric value
-/// `image_patch` is not needed (the decoder is moved off the image).
+/// BlackIsZero: one-bit gray samples, through the image's `view` (its
+/// IFD chain leads to the mask).
 fn mask_decoder(
     path: &Path,
     limits: &Limits,
     index: usize,
     photometric_at: u64,
-    image_patch: Option<(u64, bool)>,
+    view: &View,
 ) -> Result<Dec> {
-    let big_endian = image_patch.map(|p| p.1).unwrap_or_else(|| {
-        let mut head = [0u8; 2];
-        std::fs::File::open(path)
-            .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut head))
-            .map(|_| &head == b"MM")
-            .unwrap_or(false)
-    });
-    let mut dec = open_decoder(path, limits, Some((photometric_at, big_endian)))?;
+    let view = view.clone().black_is_zero(photometric_at);
+    let mut dec = open_decoder(path, limits, &view)?;
     dec.seek_to_image(index).map_err(|e| tiff_err(path, e))?;
     Ok(dec)
 }
 
-fn photometric_patch(path: &Path) -> Result<Option<(u64, bool)>> {
+/// How the decoder is shown `path` (see `photometric.rs`): the photometric
+/// value read as BlackIsZero where the stored samples are what GDAL
+/// returns, missing tags libtiff supplies added; colour files GDAL
+/// converts are refused.
+fn decoder_view(path: &Path) -> Result<View> {
     let mut f = File::open(path).at(path)?;
-    let Some((at, value, big_endian)) = find_photometric(&mut f).at(path)? else {
+    let patch = photometric_patch(path, &mut f)?;
+    photometric::file_view(&mut f, patch).at(path)
+}
+
+fn photometric_patch(path: &Path, f: &mut File) -> Result<Option<u64>> {
+    let Some((at, value, _)) = find_photometric(f).at(path)? else {
         return Ok(None);
     };
     match value {
         photometric::BLACK_IS_ZERO => Ok(None),
         // WhiteIsZero, RGB, palette indices: stored samples are read, as
         // GDAL reads them.
-        photometric::WHITE_IS_ZERO | 2 | 3 => Ok(Some((at, big_endian))),
+        photometric::WHITE_IS_ZERO | 2 | 3 => Ok(Some(at)),
         v => {
             let name = match v {
                 4 => "a transparency mask",
