@@ -664,3 +664,24 @@ fn old_style_lzw_reads_its_values() {
         "{e}"
     );
 }
+
+/// The decoder's messages that name nothing ("inconsistent sizes
+/// encountered") say which tags disagree.
+#[test]
+fn inconsistent_strip_counts_name_the_tags() {
+    let dir = tempfile::tempdir().unwrap();
+    // Two strips of one row each are implied, one offset is given.
+    let p = write(
+        dir.path(),
+        "one_offset_two_strips.tif",
+        &tiff(replace(base(4, 2), long(278, 1)), &[0; 8]),
+    );
+    let e = fail(&p);
+    let msg = e.to_string();
+    assert!(matches!(e, Error::Corrupt { .. }), "{e:?}");
+    assert!(
+        msg.contains("StripOffsets") && msg.contains("RowsPerStrip"),
+        "{msg}"
+    );
+    assert_names_file(&e, &p);
+}

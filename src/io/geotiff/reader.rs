@@ -123,6 +123,11 @@ fn tiff_err(path: &Path, e: TiffError) -> Error {
             format!("the file is truncated ({io}); re-download or re-export it"),
         ),
         TiffError::IoError(io) => Error::io(path, io),
+        // The decoder's messages that name no tag get the tags they mean.
+        TiffError::FormatError(tiff::TiffFormatError::InconsistentSizesEncountered) => Error::corrupt(
+            path,
+            "not a valid TIFF: the number of StripOffsets/StripByteCounts (or TileOffsets/TileByteCounts) entries does not match ImageWidth, ImageLength and RowsPerStrip (or TileWidth, TileLength)",
+        ),
         TiffError::FormatError(f) => Error::corrupt(path, format!("not a valid TIFF: {f}")),
         TiffError::UnsupportedError(u) => Error::unsupported(
             path,
@@ -140,11 +145,23 @@ fn open_decoder(path: &Path, limits: &Limits, view: &View) -> Result<Dec> {
     Ok(dec.with_limits(limits.clone()))
 }
 
+/// A decoder error reading tag `tag`, the tag named (the decoder's
+/// "tag has invalid type" does not say which).
+fn tag_err(path: &Path, tag: u16, e: TiffError) -> Error {
+    match tiff_err(path, e) {
+        Error::Corrupt { path, msg } => Error::Corrupt {
+            msg: format!("TIFF tag {tag}: {msg}"),
+            path,
+        },
+        e => e,
+    }
+}
+
 /// Read an optional tag as doubles (any numeric type accepted).
 fn tag_f64s(dec: &mut Dec, path: &Path, tag: u16) -> Result<Option<Vec<f64>>> {
     let t = Tag::from_u16_exhaustive(tag);
     tag_count(dec, path, t)?;
-    let v = dec.find_tag(t).map_err(|e| tiff_err(path, e))?;
+    let v = dec.find_tag(t).map_err(|e| tag_err(path, tag, e))?;
     match v {
         None => Ok(None),
         Some(v) => v
@@ -158,7 +175,7 @@ fn tag_f64s(dec: &mut Dec, path: &Path, tag: u16) -> Result<Option<Vec<f64>>> {
 fn tag_u64s(dec: &mut Dec, path: &Path, tag: Tag) -> Result<Option<Vec<u64>>> {
     let num = tag.to_u16();
     tag_count(dec, path, tag)?;
-    match dec.find_tag(tag).map_err(|e| tiff_err(path, e))? {
+    match dec.find_tag(tag).map_err(|e| tag_err(path, num, e))? {
         None => Ok(None),
         Some(v) => v.into_u64_vec().map(Some).map_err(|_| {
             Error::corrupt(
@@ -208,7 +225,7 @@ fn tag_ascii(dec: &mut Dec, path: &Path, tag: u16) -> Result<Option<String>> {
             ),
         ));
     }
-    match dec.find_tag(t).map_err(|e| tiff_err(path, e))? {
+    match dec.find_tag(t).map_err(|e| tag_err(path, tag, e))? {
         None => Ok(None),
         Some(v) => v
             .into_string()
