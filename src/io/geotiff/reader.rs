@@ -546,7 +546,12 @@ impl GeoTiffReader {
         }
 
         let mut georef = read_georef(&mut dec, path, dtype)?;
-        let unused_georef = unused_georef(&mut dec, path)?;
+        let (unused_georef, gcps) = unused_georef(&mut dec, path)?;
+        if gcps && !georef.georeferenced {
+            // The GeoKeys are the ground control points' CRS, not a CRS of
+            // the grid (GDAL reports the dataset without one).
+            georef.crs = Crs::default();
+        }
         let extra = tag_u64s(&mut dec, path, Tag::ExtraSamples)?.unwrap_or_default();
         let source = find_mask(path, width, height)?.or_else(|| {
             // The first alpha among the extra samples (the last ones).
@@ -912,8 +917,9 @@ impl GeoTiffReader {
 
 /// What georeferencing the file holds that is not read: more than one
 /// tiepoint (ground control points, which GDAL reports as GCPs instead of
-/// a geotransform) and RPC coefficients (tag 50844).
-fn unused_georef(dec: &mut Dec, path: &Path) -> Result<Option<String>> {
+/// a geotransform) and RPC coefficients (tag 50844); and whether there
+/// are GCPs.
+fn unused_georef(dec: &mut Dec, path: &Path) -> Result<(Option<String>, bool)> {
     let tie = tag_f64s(dec, path, 33922)?.unwrap_or_default();
     let mut unused = Vec::new();
     if tie.len() > 6 {
@@ -922,7 +928,10 @@ fn unused_georef(dec: &mut Dec, path: &Path) -> Result<Option<String>> {
     if tag_count(dec, path, Tag::from_u16_exhaustive(50844))?.is_some() {
         unused.push("RPC coefficients".to_string());
     }
-    Ok((!unused.is_empty()).then(|| unused.join(" and ")))
+    Ok((
+        (!unused.is_empty()).then(|| unused.join(" and ")),
+        tie.len() > 6,
+    ))
 }
 
 /// Georeferencing from the GeoTIFF tags (see `georef.rs`).
