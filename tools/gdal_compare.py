@@ -261,11 +261,17 @@ def band_variants():
     yield "u8_palette_strip.tif", pal, ["BLOCKYSIZE=5"]
 
 
-def make_band_fixtures():
-    out_dir = os.path.join(ROOT, "tests", "data", "gdal", "bands")
+def empty_fixture_dir(name):
+    """tests/data/gdal/NAME, created or emptied."""
+    out_dir = os.path.join(ROOT, "tests", "data", "gdal", name)
     os.makedirs(out_dir, exist_ok=True)
     for f in os.listdir(out_dir):
         os.remove(os.path.join(out_dir, f))
+    return out_dir
+
+
+def make_band_fixtures():
+    out_dir = empty_fixture_dir("bands")
     manifest = {"files": []}
     for fname, ds, co in band_variants():
         path = os.path.join(out_dir, fname)
@@ -481,10 +487,7 @@ def compare_cases():
 
 
 def make_case_fixtures():
-    out_dir = os.path.join(ROOT, "tests", "data", "gdal", "cases")
-    os.makedirs(out_dir, exist_ok=True)
-    for f in os.listdir(out_dir):
-        os.remove(os.path.join(out_dir, f))
+    out_dir = empty_fixture_dir("cases")
     manifest = {"files": []}
     for fname, make in case_variants():
         path = os.path.join(out_dir, fname)

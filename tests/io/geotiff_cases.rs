@@ -20,9 +20,7 @@ fn dir() -> PathBuf {
 }
 
 fn cases() -> Vec<Value> {
-    let text = std::fs::read_to_string(dir().join("manifest.json")).expect("cases/manifest.json");
-    let v: Value = serde_json::from_str(&text).expect("valid manifest");
-    v["files"].as_array().expect("files").clone()
+    super::geotiff_read::manifest_files(&dir())
 }
 
 /// Little-endian numpy values of `dtype` as f64 (decoded here, not by orogen).

@@ -12,7 +12,14 @@ fn dir() -> PathBuf {
 }
 
 fn manifest() -> Vec<Value> {
-    let text = std::fs::read_to_string(dir().join("manifest.json")).expect("manifest.json");
+    manifest_files(&dir())
+}
+
+/// The `files` of `folder`'s manifest.json (a fixture folder written by
+/// tools/gdal_compare.py).
+pub fn manifest_files(folder: &std::path::Path) -> Vec<Value> {
+    let path = folder.join("manifest.json");
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let v: Value = serde_json::from_str(&text).expect("valid manifest");
     v["files"].as_array().expect("files").clone()
 }
@@ -184,11 +191,9 @@ fn window_outside_the_raster_is_an_error_not_a_panic() {
 #[test]
 fn every_band_of_every_layout_matches_gdal() {
     let bands = dir().join("bands");
-    let text = std::fs::read_to_string(bands.join("manifest.json")).expect("bands/manifest.json");
-    let v: Value = serde_json::from_str(&text).expect("valid manifest");
-    let files = v["files"].as_array().expect("files");
+    let files = manifest_files(&bands);
     assert!(files.len() >= 30, "{} band references", files.len());
-    for e in files {
+    for e in &files {
         let name = e["file"].as_str().unwrap();
         let band = e["band"].as_u64().unwrap() as usize;
         let count = e["bands"].as_u64().unwrap() as usize;
