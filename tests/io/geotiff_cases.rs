@@ -88,6 +88,15 @@ pub fn assert_reads_like_gdal(
     }
 }
 
+/// A JSON array of numbers.
+pub fn numbers(v: &Value) -> Vec<f64> {
+    v.as_array()
+        .expect("an array")
+        .iter()
+        .map(|x| x.as_f64().expect("a number"))
+        .collect()
+}
+
 fn read_case(e: &Value) -> (String, GeoTiffReader, Vec<f64>, Option<Vec<u8>>) {
     let name = e["file"].as_str().unwrap().to_string();
     let r = GeoTiffReader::open(dir().join(&name)).unwrap_or_else(|err| panic!("{name}: {err}"));
@@ -218,12 +227,7 @@ fn georeferencing_is_written_with_the_tags_gdal_writes() {
             _ => assert_eq!(r.unused_georef(), None, "{name}"),
         }
         // What GDAL reported on reading: transform and EPSG.
-        let t: Vec<f64> = e["transform"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|v| v.as_f64().unwrap())
-            .collect();
+        let t = numbers(&e["transform"]);
         assert_eq!(info.georef.transform.to_vec(), t, "{name} transform");
         assert_eq!(
             info.georef.crs.epsg.map(|c| c as u64),

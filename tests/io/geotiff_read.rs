@@ -65,12 +65,7 @@ fn every_fixture_matches_gdal() {
             dtype_of(e["dtype"].as_str().unwrap()),
             "{name} dtype"
         );
-        let t: Vec<f64> = e["transform"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|v| v.as_f64().unwrap())
-            .collect();
+        let t = super::geotiff_cases::numbers(&e["transform"]);
         let g = &info.georef;
         if name.contains("nogeo") {
             assert!(!g.georeferenced, "{name}");
