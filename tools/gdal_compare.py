@@ -20,9 +20,10 @@ Modes:
                GDAL writes its own way (south-up, no CRS, PixelIsPoint without CRS; GCPs and RPCs, which orogen
                names as not used), each
                with band 1 as GDAL reads it, its mask, and the GeoTIFF tags GDAL wrote.
-  --cases      build those cases afresh and compare orogen's read and export round trip
-               with GDAL's (values, masks, geotransform, EPSG, nodata); also part of the
-               default mode.
+  --cases      build those cases afresh, and hand-made TIFFs GDAL tolerates (no
+               PhotometricInterpretation, no StripByteCounts, old-style LZW, "1.#INF"
+               nodata), and compare orogen's read and export round trip with GDAL's
+               (values, masks, geotransform, EPSG, nodata); also part of the default mode.
 """
 import json, os, shlex, struct, subprocess, sys, tempfile
 import numpy as np
@@ -453,11 +454,114 @@ def case_variants():
     yield "georef_no_crs_point.tif", georef(gt, None, True)
 
 
+def hand_tiff(entries, data):
+    """A little-endian classic TIFF: `data` at offset 8, then one IFD of `entries`
+    ((tag, type, count, value) with SHORT (3) or LONG (4) values held in the entry,
+    ASCII (2) given as bytes)."""
+    entries = sorted(entries, key=lambda e: e[0])
+    ifd = 8 + len(data) + len(data) % 2
+    out = b"II*\0" + struct.pack("<I", ifd) + data
+    out = out.ljust(ifd, b"\0")
+    extra_at = ifd + 2 + 12 * len(entries) + 4
+    extra = b""
+    out += struct.pack("<H", len(entries))
+    for tag, ty, count, v in entries:
+        out += struct.pack("<HHI", tag, ty, count)
+        if ty == 2:
+            if len(v) <= 4:
+                out += v.ljust(4, b"\0")
+            else:
+                out += struct.pack("<I", extra_at + len(extra))
+                extra += v
+        elif ty == 3:
+            out += struct.pack("<HH", v, 0)
+        else:
+            out += struct.pack("<I", v)
+    return out + b"\0\0\0\0" + extra
+
+
+def old_style_lzw(data):
+    """LZW as TIFF writers did before TIFF 6.0 (and GIF does): codes packed least
+    significant bit first, the code size growing once code 2^n has been assigned
+    (the decoder runs one entry behind: no TIFF 6.0 early change); clear 256 first,
+    end of information 257 last."""
+    out, acc, nacc = bytearray(), 0, 0
+
+    def put(code, bits):
+        nonlocal acc, nacc
+        acc |= code << nacc
+        nacc += bits
+        while nacc >= 8:
+            out.append(acc & 255)
+            acc >>= 8
+            nacc -= 8
+
+    table = {bytes([i]): i for i in range(256)}
+    nxt, bits = 258, 9
+    put(256, bits)
+    w = b""
+    for c in data:
+        wc = w + bytes([c])
+        if wc in table:
+            w = wc
+            continue
+        put(table[w], bits)
+        table[wc] = nxt
+        nxt += 1
+        if nxt == 4096:
+            put(256, bits)
+            table = {bytes([i]): i for i in range(256)}
+            nxt, bits = 258, 9
+        elif nxt > 1 << bits:
+            bits += 1
+        w = bytes([c])
+    if w:
+        put(table[w], bits)
+    put(257, bits)
+    if nacc:
+        out.append(acc & 255)
+    return bytes(out)
+
+
+def hand_made_cases():
+    """(file name, bytes) of TIFFs GDAL tolerates that no GDAL driver writes: no
+    PhotometricInterpretation, no StripByteCounts (raw and DEFLATE), old-style LZW,
+    MSVC's "1.#INF" nodata text."""
+    w, h = 40, 30
+    vals = np.array([(k % 97) * 13 - 400 for k in range(w * h)], dtype="<i2")
+    raw = vals.tobytes()
+    base = {256: (4, 1, w), 257: (4, 1, h), 258: (3, 1, 16), 259: (3, 1, 1), 262: (3, 1, 1),
+            273: (4, 1, 8), 277: (3, 1, 1), 278: (4, 1, h), 279: (4, 1, len(raw)), 339: (3, 1, 2)}
+
+    def build(changes, data, drop=()):
+        e = dict(base)
+        e.update(changes)
+        return hand_tiff([(t, *v) for t, v in e.items() if t not in drop], data)
+
+    import zlib
+    lzw = old_style_lzw(raw)
+    yield "hand_no_photometric.tif", build({}, raw, drop=(262,))
+    yield "hand_no_byte_counts.tif", build({}, raw, drop=(279,))
+    yield "hand_no_byte_counts_deflate.tif", build({259: (3, 1, 8)}, zlib.compress(raw), drop=(279,))
+    yield "hand_old_style_lzw.tif", build({259: (3, 1, 5), 279: (4, 1, len(lzw))}, lzw)
+    f32 = np.where(vals > 500, np.inf, vals).astype("<f4").tobytes()
+    yield "hand_msvc_inf_nodata.tif", build({258: (3, 1, 32), 339: (3, 1, 3), 279: (4, 1, len(f32)),
+                                             42113: (2, 7, b"1.#INF\0")}, f32)
+
+
 def compare_cases():
     """Every case of case_variants(), built afresh: orogen's `info --json` (transform,
     EPSG, nodata) and its export (uncompressed, read back by GDAL) against GDAL's
     reading; where GDAL's mask is 0 orogen's cell must be nodata."""
     with tempfile.TemporaryDirectory() as tmp:
+        for fname, data in hand_made_cases():
+            path = os.path.join(tmp, fname)
+            with open(path, "wb") as f:
+                f.write(data)
+            gdal.PushErrorHandler("CPLQuietErrorHandler")  # libtiff warns about each
+            facts, arr = gdal_facts(path)
+            gdal.PopErrorHandler()
+            compare_read(path, facts, arr, tmp)
         for fname, make in case_variants():
             path = os.path.join(tmp, fname)
             make(path)
