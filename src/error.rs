@@ -27,6 +27,10 @@ pub enum Error {
     /// A bad parameter or combination of parameters (not tied to a file).
     #[error("{0}")]
     InvalidArgument(String),
+    /// A run that needs more memory than the budget (`--memory`) allows;
+    /// the message says how much and what to change.
+    #[error("{0}")]
+    OverBudget(String),
     /// A tile store problem (missing, locked, inconsistent manifest, torn tile).
     #[error("{}: {msg}", path.display())]
     Store { path: PathBuf, msg: String },
@@ -109,12 +113,16 @@ impl Error {
             | Error::TooLarge { .. }
             | Error::Store { .. }
             | Error::Tile { .. } => source,
-            Error::InvalidArgument(_) => Error::Tile {
+            Error::InvalidArgument(_) | Error::OverBudget(_) => Error::Tile {
                 step: step.into(),
                 id,
                 inner: Box::new(source),
             },
         }
+    }
+    /// Over the memory budget.
+    pub fn over_budget(msg: impl Into<String>) -> Self {
+        Error::OverBudget(msg.into())
     }
     /// Invalid argument.
     pub fn invalid(msg: impl Into<String>) -> Self {

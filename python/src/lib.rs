@@ -67,9 +67,7 @@ pyo3::create_exception!(
     "A bug in orogen (a Rust panic), caught before it ended the interpreter."
 );
 
-/// The Python exception for a library error, by its kind. Errors of the
-/// memory-budget checks are `InvalidArgument`s whose message tells the
-/// user to raise `--memory`: they are recognised by that advice.
+/// The Python exception for a library error, by its kind.
 fn to_py(e: Error) -> PyErr {
     let msg = e.to_string();
     let mut kind = &e;
@@ -77,8 +75,9 @@ fn to_py(e: Error) -> PyErr {
         kind = inner;
     }
     match kind {
-        Error::TooLarge { .. } => MemoryBudgetError::new_err(msg),
-        Error::InvalidArgument(m) if m.contains("--memory") => MemoryBudgetError::new_err(msg),
+        Error::OverBudget(_) => MemoryBudgetError::new_err(msg),
+        // A declared size beyond what orogen reads (a hostile or broken header).
+        Error::TooLarge { .. } => CorruptInputError::new_err(msg),
         Error::InvalidArgument(_) => InvalidInputError::new_err(msg),
         Error::Unsupported { .. } => UnsupportedFormatError::new_err(msg),
         Error::Corrupt { .. } => CorruptInputError::new_err(msg),

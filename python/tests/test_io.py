@@ -196,8 +196,10 @@ def test_errors_are_orogen_errors(tmp_path, rough_dem):
         orogen.breach(rough_dem, method="hybrid")
     with pytest.raises(orogen.InvalidInputError, match="radians"):
         orogen.slope(rough_dem, units="radians")
-    with pytest.raises(orogen.MemoryBudgetError, match="memory"):
+    with pytest.raises(orogen.InvalidInputError, match="too small"):
         orogen.breach(rough_dem, memory="1KiB")
+    with pytest.raises(orogen.MemoryBudgetError, match="raise --memory"):
+        orogen.breach(rough_dem, method="least-cost", dist=3000, memory="16MiB")
     bad = tmp_path / "bad.tif"
     bad.write_bytes(b"this is not a raster at all")
     with pytest.raises(orogen.CorruptInputError, match="not a TIFF"):

@@ -235,10 +235,10 @@ pub fn histogram(v: &[f32], edges: &[f64]) -> Vec<f64> {
 pub fn load_terrain(src: &dyn RasterSource, name: &str, memory_budget: u64) -> Result<Terrain> {
     let info = src.info();
     MemoryFit::cells(info.width, info.height, BYTES_PER_CELL, memory_budget).check(|fit| {
-        Error::too_large(
-            &info.path,
+        Error::over_budget(
             format!(
-                "comparing a {} x {} raster needs about {} MiB in memory, over the budget of {} MiB; crop or downsample it (orogen export), or raise --memory",
+                "{}: comparing a {} x {} raster needs about {} MiB in memory, over the budget of {} MiB; crop or downsample it (orogen export), or raise --memory",
+                info.path.display(),
                 info.width,
                 info.height,
                 fit.need_mib(),

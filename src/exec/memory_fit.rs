@@ -95,14 +95,12 @@ impl MemoryFit {
             Some((w, h)) => format!(" for {w}x{h} cells"),
             None => String::new(),
         };
-        Error::too_large(
-            subject,
-            format!(
-                "{what} runs in memory and needs about {:.1} GiB{cells}; raise --memory (e.g. --memory {}GiB){more}",
-                self.need_gib(),
-                self.suggested_gib()
-            ),
-        )
+        Error::over_budget(format!(
+            "{}: {what} runs in memory and needs about {:.1} GiB{cells}; raise --memory (e.g. --memory {}GiB){more}",
+            subject.display(),
+            self.need_gib(),
+            self.suggested_gib()
+        ))
     }
 
     /// `Ok` when the need fits, else [`MemoryFit::runs_in_memory_error`].

@@ -165,7 +165,7 @@ fn chain(
     let side = tile as u64 + 2 * step.halo() as u64;
     let need = side * side * 2 * 12 + step.scratch_bytes(tile);
     MemoryFit::bytes(need, cfg.memory_budget).check(|f| {
-        Error::invalid(format!(
+        Error::over_budget(format!(
             "least-cost breaching with --dist {dist} on {tile}-cell tiles needs about {} MiB per tile \
              (halo 2*dist+1 = {} cells); lower --dist or --tile, or raise --memory",
             f.need_mib(),

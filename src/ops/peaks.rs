@@ -117,7 +117,7 @@ pub fn mode(src: &dyn RasterSource, opts: &PeaksOptions, cfg: &EngineConfig) -> 
     let need = fit.need;
     let go_tiled = opts.tiled || !fit.fits();
     if opts.line_parents && go_tiled {
-        return Err(Error::invalid(format!(
+        return Err(Error::over_budget(format!(
             "--line-parents needs the whole DEM in memory (about {} MiB); raise --memory and drop --tiled",
             need >> 20
         )));

@@ -228,7 +228,7 @@ pub fn run(
     let (x1, y1) = (x1.min(info.width as i64), y1.min(info.height as i64));
     let win = Window::new(x0, y0, (x1 - x0) as usize, (y1 - y0) as usize);
     MemoryFit::cells(win.w, win.h, 8, cfg.memory_budget).check(|f| {
-        Error::invalid(format!(
+        Error::over_budget(format!(
             "{}: the viewshed window is {}x{} cells ({:.1} GiB in memory); use a smaller --radius or raise --memory",
             info.path.display(),
             win.w,

@@ -194,7 +194,7 @@ pub fn run_ranked<M: LocalModel, X: HaloTransport>(
         .saturating_mul(side(info.height))
         .saturating_mul((nf + 9) as u64 * 8);
     MemoryFit::bytes(patch_bytes, cfg.memory_budget).check(|fit| {
-        Error::invalid(format!(
+        Error::over_budget(format!(
             "erosion: one {}-cell tile with a {ghost}-cell ghost zone needs {} MiB, more than the memory budget ({} MiB); use a smaller --tile or --exchange, or a larger --memory",
             layout.tile,
             fit.need_mib(),

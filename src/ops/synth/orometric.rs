@@ -517,12 +517,12 @@ fn erode_keeping_tree(
     // Heights, receivers, stack, areas, donors and queues of the in-memory solver.
     let fit = MemoryFit::cells(info.width, info.height, 100, cfg.memory_budget);
     if !fit.fits() {
-        bail!(
+        return Err(crate::error::Error::over_budget(format!(
             "--erode runs in memory and needs about {:.1} GiB for {}x{} cells; raise --memory or drop --erode",
             fit.need_gib(),
             info.width,
             info.height
-        );
+        )));
     }
     if !(t.erode_k.is_finite() && t.erode_k > 0.0) {
         bail!("--erode-k {}: give an erodibility > 0", t.erode_k);
