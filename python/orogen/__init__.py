@@ -69,6 +69,7 @@ __all__ = [
     "metrics",
     "peaks",
     "defaults",
+    "synth",
 ]
 
 __version__ = "0.1.0"
@@ -612,3 +613,6 @@ def open(path: Union[str, os.PathLike]) -> Raster:  # noqa: A001 (the package's 
     """Open a raster (GeoTIFF, tile store, .hgt, ASCII grid, PNG heightmap)
     for lazy window reads: nothing is read until :meth:`Raster.read`."""
     return Raster(path)
+
+
+from . import synth  # noqa: E402  (uses the helpers above)

@@ -114,3 +114,5 @@ def peaks(
     output: Optional[PathLike] = ..., memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
     as_dataframe: bool = ...,
 ) -> Any: ...
+
+from . import synth as synth

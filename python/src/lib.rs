@@ -510,6 +510,49 @@ fn defaults(op: &str) -> PyResult<String> {
     })
 }
 
+/// `synth noise` (`ops::synth::noise`) with `options` (JSON of its
+/// `NoiseOptions`, the CLI's kebab-case names; `output` is set here):
+/// written to `output`, or kept in memory under `scratch` and returned as
+/// `(flat array, width, height, georef dict)`.
+#[pyfunction]
+#[pyo3(signature = (options, run, format, output, scratch))]
+fn synth_noise(
+    py: Python<'_>,
+    options: &str,
+    run: &str,
+    format: &str,
+    output: Option<PathBuf>,
+    scratch: Option<PathBuf>,
+) -> PyResult<Option<RasterResult>> {
+    let mut opts: ops::synth::noise::NoiseOptions = self::options(options, "synth noise")?;
+    let (cfg, tile) = run_settings(run)?;
+    let fmt: FormatOptions = self::options(format, "format settings")?;
+    let target = match (&output, &scratch) {
+        (Some(p), _) => {
+            let mut t = Target::new(p);
+            t.options = fmt.output_options().map_err(to_py)?;
+            t
+        }
+        (None, Some(dir)) => Target::memory(dir),
+        (None, None) => {
+            return Err(InvalidInputError::new_err(
+                "give an output path or a scratch folder",
+            ))
+        }
+    };
+    opts.output = target.path.clone();
+    opts.tile = opts.tile.or(tile);
+    let (o, oo, c) = (&opts, &target.options, &cfg);
+    detached(py, move || ops::synth::noise::run(o, oo, c, &mut |_| {}))?;
+    if output.is_some() {
+        return Ok(None);
+    }
+    let res = target
+        .take_memory()
+        .ok_or_else(|| OrogenError::new_err("synth noise: no output was produced"))?;
+    Ok(Some(raster_result(py, res)?))
+}
+
 #[pymodule]
 fn _orogen(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
@@ -528,6 +571,7 @@ fn _orogen(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(peaks, m)?)?;
     m.add_function(wrap_pyfunction!(open, m)?)?;
     m.add_function(wrap_pyfunction!(defaults, m)?)?;
+    m.add_function(wrap_pyfunction!(synth_noise, m)?)?;
     m.add_class::<RasterFile>()?;
     Ok(())
 }

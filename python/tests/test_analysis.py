@@ -3,6 +3,7 @@ code shared with orogen): a brute-force fill, D8 codes by hand, Horn's
 gradient in closed form, window statistics, a flood-fill prominence."""
 
 import math
+import subprocess
 
 import numpy as np
 import pytest
@@ -283,3 +284,20 @@ def test_peaks_as_dataframe():
     df = orogen.peaks(z, min_prominence=1, as_dataframe=True)
     assert isinstance(df, pd.DataFrame) and len(df) == 1
     assert df["prominence"][0] == 50
+
+
+def test_synth_noise_is_the_clis_bytes(cli, tmp_path):
+    """orogen.synth.noise equals `orogen synth noise` with the same options,
+    in memory and written to a file; an unknown option is refused naming it."""
+    out = tmp_path / "noise.tif"
+    subprocess.run([cli, "synth", "noise", "--size", "96x80", "--seed", "11", "--kind", "ridged",
+                    "--amplitude", "800", "--cell", "25", "-o", str(out), "-q"], check=True)
+    want = orogen.open(out).read()
+    got = orogen.synth.noise((96, 80), seed=11, kind="ridged", amplitude=800.0, cell=25.0)
+    assert got.shape == (80, 96) and got.dtype == want.dtype
+    assert got.tobytes() == want.tobytes()
+    f = orogen.synth.noise("96x80", seed=11, kind="ridged", amplitude=800.0, cell=25.0, output=tmp_path / "py.tif")
+    assert f.read().tobytes() == want.tobytes()
+    assert float(np.ptp(got)) > 100.0  # real relief, not a constant
+    with pytest.raises(orogen.InvalidInputError, match="octaves_typo|octaves-typo"):
+        orogen.synth.noise(16, octaves_typo=3)
