@@ -311,7 +311,9 @@ fn run_raster(
         "watersheds" => call!(watersheds, ops::watersheds::WatershedsOptions),
         "export" => {
             let (src, target, cfg) = (&src, &target, &cfg);
-            detached(py, move || ops::convert::run(src.as_ref(), target, cfg, &mut |_| {}))?
+            detached(py, move || {
+                ops::convert::run(src.as_ref(), target, cfg, &mut |_| {})
+            })?
         }
         _ => {
             return Err(InvalidInputError::new_err(format!(
