@@ -54,20 +54,20 @@ pub(super) fn presented(native: DType, nodata: Option<f64>) -> (DType, f64) {
 /// Convert a block of `native` little-endian cells into `out` cells,
 /// masked ones (where `valid` is false) set to `fill`.
 pub(super) fn apply(native: DType, out: DType, fill: f64, block: &[u8], valid: &[bool]) -> Vec<u8> {
-    let n = valid.len();
-    let mut dst = Vec::with_capacity(n * out.size());
-    let fill_bytes = encode(out, fill);
-    let size = native.size();
-    for (k, &ok) in valid.iter().enumerate() {
+    let (size, out_size) = (native.size(), out.size());
+    let mut dst = vec![0u8; valid.len() * out_size];
+    let fill = encode(out, fill);
+    for ((&ok, c), d) in valid
+        .iter()
+        .zip(block.chunks_exact(size))
+        .zip(dst.chunks_exact_mut(out_size))
+    {
         if !ok {
-            dst.extend_from_slice(&fill_bytes);
-            continue;
-        }
-        let c = &block[k * size..(k + 1) * size];
-        if out == native {
-            dst.extend_from_slice(c);
+            d.copy_from_slice(&fill[..out_size]);
+        } else if out == native {
+            d.copy_from_slice(c);
         } else {
-            dst.extend_from_slice(&encode(out, decode(native, c)));
+            d.copy_from_slice(&encode(out, decode(native, c))[..out_size]);
         }
     }
     dst
@@ -87,18 +87,21 @@ fn decode(t: DType, c: &[u8]) -> f64 {
     }
 }
 
-/// `v` as one little-endian cell of `t` (saturating, as `as` casts do).
-pub(super) fn encode(t: DType, v: f64) -> Vec<u8> {
+/// `v` as one little-endian cell of `t` (saturating, as `as` casts do):
+/// the first `t.size()` bytes.
+pub(super) fn encode(t: DType, v: f64) -> [u8; 8] {
+    let mut b = [0u8; 8];
     match t {
-        DType::U8 => vec![v as u8],
-        DType::I8 => vec![v as i8 as u8],
-        DType::U16 => (v as u16).to_le_bytes().to_vec(),
-        DType::I16 => (v as i16).to_le_bytes().to_vec(),
-        DType::U32 => (v as u32).to_le_bytes().to_vec(),
-        DType::I32 => (v as i32).to_le_bytes().to_vec(),
-        DType::F32 => (v as f32).to_le_bytes().to_vec(),
-        DType::F64 => v.to_le_bytes().to_vec(),
+        DType::U8 => b[0] = v as u8,
+        DType::I8 => b[0] = v as i8 as u8,
+        DType::U16 => b[..2].copy_from_slice(&(v as u16).to_le_bytes()),
+        DType::I16 => b[..2].copy_from_slice(&(v as i16).to_le_bytes()),
+        DType::U32 => b[..4].copy_from_slice(&(v as u32).to_le_bytes()),
+        DType::I32 => b[..4].copy_from_slice(&(v as i32).to_le_bytes()),
+        DType::F32 => b[..4].copy_from_slice(&(v as f32).to_le_bytes()),
+        DType::F64 => b = v.to_le_bytes(),
     }
+    b
 }
 
 /// The validity of a `w` x `h` window from a decoded 1-bit mask chunk

@@ -193,18 +193,6 @@ fn read_ifd(f: &mut File, l: &Layout, ifd: u64) -> io::Result<(Vec<Entry>, u64, 
     Ok((entries, l.u64_of(&next[..len]), true))
 }
 
-/// Where tag 262's value sits in the first IFD and what it holds, from the
-/// TIFF header (classic or BigTIFF, either byte order). `None` when the tag
-/// is absent or not a single SHORT stored in the entry itself (then the
-/// decoder sees the file unchanged).
-pub(super) fn find_photometric(f: &mut File) -> io::Result<Option<(u64, u16, bool)>> {
-    let (heads, big_endian) = ifd_heads(f, 1)?;
-    Ok(heads
-        .first()
-        .and_then(|h| h.photometric)
-        .map(|(at, v)| (at, v, big_endian)))
-}
-
 /// The heads of the file's first `max` IFDs, in chain order, and whether
 /// it is big-endian; an empty list for what is not a TIFF. The walk stops
 /// at the first IFD it cannot read (the decoder reports such files).

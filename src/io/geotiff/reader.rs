@@ -24,7 +24,7 @@ use super::georef::{
     transform_from_scale_tiepoint,
 };
 use super::mask::{self, MaskSource};
-use super::photometric::{self, find_photometric, ifd_heads, SampleFile, View};
+use super::photometric::{self, ifd_heads, IfdHead, SampleFile, View};
 use super::SUPPORTED_COMPRESSION;
 use crate::error::{Error, IoContext, Result};
 use crate::raster::{
@@ -270,7 +270,7 @@ impl GeoTiffReader {
             l.decoding_buffer_size = per_file.clamp(1 << 20, l.decoding_buffer_size);
             l
         };
-        let view = decoder_view(path)?;
+        let (view, heads) = decoder_view(path)?;
         let mut dec = open_decoder(path, &meta_limits, &view)?;
         let (w, h) = dec.dimensions().map_err(|e| tiff_err(path, e))?;
         let (width, height) = (w as usize, h as usize);
@@ -484,13 +484,9 @@ impl GeoTiffReader {
         // (0, then an odd byte: a clear code written LSB first); the first
         // stored block decides for the file.
         let old_lzw = compression == 5 && {
-            let first = offsets.iter().zip(&counts).find(|(_, &c)| c >= 2);
-            match first {
+            match offsets.iter().zip(&counts).find(|(_, &c)| c >= 2) {
                 Some((&at, _)) => {
-                    let mut b = [0u8; 2];
-                    let mut f = File::open(path).at(path)?;
-                    std::io::Seek::seek(&mut f, std::io::SeekFrom::Start(at)).at(path)?;
-                    std::io::Read::read_exact(&mut f, &mut b).at(path)?;
+                    let b = stored_bytes(path, at, 2)?;
                     b[0] == 0 && b[1] & 1 == 1
                 }
                 None => false,
@@ -545,15 +541,16 @@ impl GeoTiffReader {
             }
         }
 
-        let mut georef = read_georef(&mut dec, path, dtype)?;
-        let (unused_georef, gcps) = unused_georef(&mut dec, path)?;
+        let (mut georef, tiepoints) = read_georef(&mut dec, path, dtype)?;
+        let gcps = tiepoints > 1;
+        let unused_georef = unused_georef(&mut dec, path, tiepoints)?;
         if gcps && !georef.georeferenced {
             // The GeoKeys are the ground control points' CRS, not a CRS of
             // the grid (GDAL reports the dataset without one).
             georef.crs = Crs::default();
         }
         let extra = tag_u64s(&mut dec, path, Tag::ExtraSamples)?.unwrap_or_default();
-        let source = find_mask(path, width, height)?.or_else(|| {
+        let source = find_mask(&heads, width, height).or_else(|| {
             // The first alpha among the extra samples (the last ones).
             let first_extra = samples.checked_sub(extra.len())?;
             let k = extra.iter().position(|&e| e == 1 || e == 2)?;
@@ -739,24 +736,24 @@ impl GeoTiffReader {
             }
             e => return e,
         };
-        {
-            {
-                let per_band = self.across * self.down();
-                let (band, id) = (chunk / per_band, chunk % per_band);
-                let w = self.block_window(id);
-                Error::Corrupt {
-                    msg: format!(
-                        "{} {id}{of} (cells {}..{} x {}..{}{}) cannot be decoded: {msg}; the file is damaged: re-download or re-export it",
-                        if self.tiled { "tile" } else { "strip" },
-                        w.x,
-                        w.x_end(),
-                        w.y,
-                        w.y_end(),
-                        if self.samples == 1 && self.band.1 > 1 { format!(", band {}", band + 1) } else { String::new() }
-                    ),
-                    path,
-                }
-            }
+        let per_band = self.across * self.down();
+        let (band, id) = (chunk / per_band, chunk % per_band);
+        let w = self.block_window(id);
+        let band = if self.samples == 1 && self.band.1 > 1 {
+            format!(", band {}", band + 1)
+        } else {
+            String::new()
+        };
+        Error::Corrupt {
+            msg: format!(
+                "{} {id}{of} (cells {}..{} x {}..{}{band}) cannot be decoded: {msg}; the file is damaged: re-download or re-export it",
+                if self.tiled { "tile" } else { "strip" },
+                w.x,
+                w.x_end(),
+                w.y,
+                w.y_end(),
+            ),
+            path,
         }
     }
 
@@ -765,11 +762,7 @@ impl GeoTiffReader {
     /// GIF-style decoder), samples of `cell` bytes in native order.
     fn old_lzw_block(&self, chunk: usize, len: usize, cell: usize) -> Result<Vec<u8>> {
         let path = &self.info.path;
-        let (at, count) = self.chunks.get(chunk).copied().unwrap_or((0, 0));
-        let mut stored = vec![0u8; count as usize];
-        let mut f = File::open(path).at(path)?;
-        std::io::Seek::seek(&mut f, std::io::SeekFrom::Start(at)).at(path)?;
-        std::io::Read::read_exact(&mut f, &mut stored).at(path)?;
+        let stored = self.chunk_bytes(chunk)?;
         let mut out = vec![0u8; len];
         let mut dec = weezl::decode::Decoder::new(weezl::BitOrder::Lsb, 8);
         let bad = |msg: String| self.block_err(chunk, "", Error::corrupt(path, msg));
@@ -800,6 +793,13 @@ impl GeoTiffReader {
         Ok(out)
     }
 
+    /// The stored (compressed) bytes of chunk `chunk`, for the codecs the
+    /// reader runs itself (LERC, old-style LZW).
+    fn chunk_bytes(&self, chunk: usize) -> Result<Vec<u8>> {
+        let (at, len) = self.chunks.get(chunk).copied().unwrap_or((0, 0));
+        stored_bytes(&self.info.path, at, len)
+    }
+
     /// Blocks per band (rows of blocks times blocks per row).
     fn down(&self) -> usize {
         self.info.height.div_ceil(self.chunk_h)
@@ -823,25 +823,21 @@ impl GeoTiffReader {
         // that padding is skipped in a separate read at the end of the stream.
         let stride = self.chunk_w * px;
         let mut res = DecodingResult::U8(Vec::new());
-        let (lerc_rows, decoded);
+        // Blocks the reader decodes itself: strips hold their own rows,
+        // tiles are whole.
+        let rows = if self.tiled { self.chunk_h } else { win.h };
+        let (owned, decoded);
         let raw: &[u8] = if self.old_lzw {
-            let rows = if self.tiled { self.chunk_h } else { win.h };
-            lerc_rows = self.old_lzw_block(chunk, rows * stride, stored)?;
-            &lerc_rows
+            owned = self.old_lzw_block(chunk, rows * stride, stored)?;
+            &owned
         } else if let Some(additional) = self.lerc {
-            // Strips hold their own rows; tiles are whole.
-            let rows = if self.tiled { self.chunk_h } else { win.h };
-            let (at, len) = self.chunks.get(chunk).copied().unwrap_or((0, 0));
-            let mut bytes = vec![0u8; len as usize];
-            let mut f = File::open(path).at(path)?;
-            std::io::Seek::seek(&mut f, std::io::SeekFrom::Start(at)).at(path)?;
-            std::io::Read::read_exact(&mut f, &mut bytes).at(path)?;
+            let bytes = self.chunk_bytes(chunk)?;
             let fill = self.file_nodata.unwrap_or(if self.native.is_float() {
                 f64::NAN
             } else {
                 0.0
             });
-            lerc_rows = super::lerc::decode_block(
+            owned = super::lerc::decode_block(
                 path,
                 &bytes,
                 additional,
@@ -850,7 +846,7 @@ impl GeoTiffReader {
                 fill,
                 self.limits.decoding_buffer_size,
             )?;
-            &lerc_rows
+            &owned
         } else {
             let mut dec = match self.pool.lock().ok().and_then(|mut p| p.pop()) {
                 Some(d) => d,
@@ -899,7 +895,8 @@ impl GeoTiffReader {
     /// GDAL reads them), little-endian.
     fn sparse_block(&self, id: usize) -> Vec<u8> {
         let win = self.block_window(id);
-        mask::encode(self.native, self.file_nodata.unwrap_or(0.0)).repeat(win.w * win.h)
+        let cell = mask::encode(self.native, self.file_nodata.unwrap_or(0.0));
+        cell[..self.native.size()].repeat(win.w * win.h)
     }
 
     /// Block `id`, from the cache or decoded (and cached).
@@ -915,27 +912,34 @@ impl GeoTiffReader {
     }
 }
 
-/// What georeferencing the file holds that is not read: more than one
-/// tiepoint (ground control points, which GDAL reports as GCPs instead of
-/// a geotransform) and RPC coefficients (tag 50844); and whether there
-/// are GCPs.
-fn unused_georef(dec: &mut Dec, path: &Path) -> Result<(Option<String>, bool)> {
-    let tie = tag_f64s(dec, path, 33922)?.unwrap_or_default();
+/// `len` bytes of `path` at `at` (the offsets were checked against the
+/// file's size on opening).
+fn stored_bytes(path: &Path, at: u64, len: u64) -> Result<Vec<u8>> {
+    use std::io::{Read, Seek, SeekFrom};
+    let mut f = File::open(path).at(path)?;
+    f.seek(SeekFrom::Start(at)).at(path)?;
+    let mut bytes = vec![0u8; len as usize];
+    f.read_exact(&mut bytes).at(path)?;
+    Ok(bytes)
+}
+
+/// What georeferencing the file holds that is not read: `tiepoints` > 1
+/// (ground control points, which GDAL reports as GCPs instead of a
+/// geotransform) and RPC coefficients (tag 50844).
+fn unused_georef(dec: &mut Dec, path: &Path, tiepoints: usize) -> Result<Option<String>> {
     let mut unused = Vec::new();
-    if tie.len() > 6 {
-        unused.push(format!("{} ground control points (GCPs)", tie.len() / 6));
+    if tiepoints > 1 {
+        unused.push(format!("{tiepoints} ground control points (GCPs)"));
     }
     if tag_count(dec, path, Tag::from_u16_exhaustive(50844))?.is_some() {
         unused.push("RPC coefficients".to_string());
     }
-    Ok((
-        (!unused.is_empty()).then(|| unused.join(" and ")),
-        tie.len() > 6,
-    ))
+    Ok((!unused.is_empty()).then(|| unused.join(" and ")))
 }
 
-/// Georeferencing from the GeoTIFF tags (see `georef.rs`).
-fn read_georef(dec: &mut Dec, path: &Path, dtype: DType) -> Result<GeoRef> {
+/// Georeferencing from the GeoTIFF tags (see `georef.rs`), and the number
+/// of tiepoints (more than one: ground control points, no geotransform).
+fn read_georef(dec: &mut Dec, path: &Path, dtype: DType) -> Result<(GeoRef, usize)> {
     let scale = tag_f64s(dec, path, 33550)?;
     let tie = tag_f64s(dec, path, 33922)?;
     let matrix = tag_f64s(dec, path, 34264)?;
@@ -996,7 +1000,8 @@ fn read_georef(dec: &mut Dec, path: &Path, dtype: DType) -> Result<GeoRef> {
     };
     let raster_type = raster_type_from_keys(keys.as_ref());
     let crs = keys.map(crs_from_keys).unwrap_or_else(Crs::default);
-    Ok(match transform {
+    let tiepoints = tie.as_ref().map_or(0, |t| t.len() / 6);
+    let georef = match transform {
         Some(mut t) => {
             if raster_type == RasterType::Point {
                 half_cell_shift(&mut t, -1.0);
@@ -1015,20 +1020,15 @@ fn read_georef(dec: &mut Dec, path: &Path, dtype: DType) -> Result<GeoRef> {
             raster_type,
             ..GeoRef::pixel()
         },
-    })
+    };
+    Ok((georef, tiepoints))
 }
 
-/// Where the decoder must read PhotometricInterpretation as BlackIsZero
-/// (see `photometric.rs`): `None` for files stored as BlackIsZero or
-/// without the tag; an error for interpretations whose samples are not
-/// values (CMYK, YCbCr, transparency masks, CIE L*a*b*, LogLuv).
 /// The internal mask of a `width` x `height` image ([`super::mask`]): the
-/// first IFD after the image flagged as a full-resolution mask (at most 64
-/// IFDs are looked at), one bit per cell.
-fn find_mask(path: &Path, width: usize, height: usize) -> Result<Option<MaskSource>> {
-    let mut f = File::open(path).at(path)?;
-    let (heads, _) = ifd_heads(&mut f, 64).at(path)?;
-    Ok(heads.iter().enumerate().skip(1).find_map(|(index, h)| {
+/// first IFD after the image (of the file's `heads`) flagged as a
+/// full-resolution mask, one bit per cell.
+fn find_mask(heads: &[IfdHead], width: usize, height: usize) -> Option<MaskSource> {
+    heads.iter().enumerate().skip(1).find_map(|(index, h)| {
         let full_mask = h.subfile & 4 != 0 && h.subfile & 1 == 0;
         let same = (h.width, h.height) == (width as u64, height as u64);
         match (full_mask && same && h.bits == 1, h.photometric) {
@@ -1038,7 +1038,7 @@ fn find_mask(path: &Path, width: usize, height: usize) -> Result<Option<MaskSour
             }),
             _ => None,
         }
-    }))
+    })
 }
 
 /// A decoder on the internal mask IFD `index`, its photometric value (4,
@@ -1061,15 +1061,21 @@ fn mask_decoder(
 /// How the decoder is shown `path` (see `photometric.rs`): the photometric
 /// value read as BlackIsZero where the stored samples are what GDAL
 /// returns, missing tags libtiff supplies added; colour files GDAL
-/// converts are refused.
-fn decoder_view(path: &Path) -> Result<View> {
+/// converts are refused. With the heads of its first 64 IFDs (one walk of
+/// the chain: the mask is looked for among them).
+fn decoder_view(path: &Path) -> Result<(View, Vec<IfdHead>)> {
     let mut f = File::open(path).at(path)?;
-    let patch = photometric_patch(path, &mut f)?;
-    photometric::file_view(&mut f, patch).at(path)
+    let (heads, _) = ifd_heads(&mut f, 64).at(path)?;
+    let patch = photometric_patch(path, heads.first().and_then(|h| h.photometric))?;
+    Ok((photometric::file_view(&mut f, patch).at(path)?, heads))
 }
 
-fn photometric_patch(path: &Path, f: &mut File) -> Result<Option<u64>> {
-    let Some((at, value, _)) = find_photometric(f).at(path)? else {
+/// Where the decoder must read PhotometricInterpretation as BlackIsZero
+/// (see `photometric.rs`): `None` for files stored as BlackIsZero or
+/// without the tag; an error for interpretations whose samples are not
+/// values (CMYK, YCbCr, transparency masks, CIE L*a*b*, LogLuv).
+fn photometric_patch(path: &Path, photometric: Option<(u64, u16)>) -> Result<Option<u64>> {
+    let Some((at, value)) = photometric else {
         return Ok(None);
     };
     match value {
