@@ -19,7 +19,8 @@ Modes:
                DEFLATE, with ZSTD; lossless and lossy), and georeferencing
                GDAL writes its own way (south-up, no CRS, PixelIsPoint without CRS; GCPs and RPCs, which orogen
                names as not used), each
-               with band 1 as GDAL reads it, its mask, and the GeoTIFF tags GDAL wrote.
+               with band 1 as GDAL reads it, its mask, and the GeoTIFF tags GDAL wrote;
+               and the hand-made TIFFs of --cases with GDAL's reading of them.
   --cases      build those cases afresh, and hand-made TIFFs GDAL tolerates (no
                PhotometricInterpretation, no StripByteCounts, old-style LZW, "1.#INF"
                nodata), and compare orogen's read and export round trip with GDAL's
@@ -68,7 +69,8 @@ def gdal_facts(path):
     return {
         "width": d.RasterXSize, "height": d.RasterYSize,
         "transform": list(d.GetGeoTransform()), "epsg": epsg,
-        "nodata": None if nd is None else ("nan" if nd != nd else nd),
+        # JSON has no NaN or infinity: GDAL_NODATA's text for them.
+        "nodata": None if nd is None else ("nan" if nd != nd else {np.inf: "inf", -np.inf: "-inf"}.get(nd, nd)),
         "raster_type": (d.GetMetadataItem("AREA_OR_POINT") or "Area").lower(),
     }, arr
 
@@ -604,6 +606,19 @@ def make_case_fixtures():
                      tags=geotiff_tags(path))
         facts.update(mask_reference(d.GetRasterBand(1), out_dir, fname[:-4]))
         manifest["files"].append(facts)
+    # Hand-made files no GDAL driver writes, GDAL's reading as the reference
+    # (libtiff's warnings about the missing tags are expected).
+    gdal.PushErrorHandler("CPLQuietErrorHandler")
+    for fname, data in hand_made_cases():
+        path = os.path.join(out_dir, fname)
+        with open(path, "wb") as f:
+            f.write(data)
+        facts, arr = gdal_facts(path)
+        ref = fname[:-4] + ".bin"
+        np.ascontiguousarray(arr).astype(arr.dtype.newbyteorder("<")).tofile(os.path.join(out_dir, ref))
+        facts.update(file=fname, reference=ref, dtype=str(arr.dtype), bands=1, tags={})
+        manifest["files"].append(facts)
+    gdal.PopErrorHandler()
     with open(os.path.join(out_dir, "manifest.json"), "w") as f:
         json.dump(manifest, f, indent=1)
     total = sum(os.path.getsize(os.path.join(out_dir, f)) for f in os.listdir(out_dir))

@@ -345,3 +345,25 @@ fn unstorable_nodata_is_dropped_on_export_with_a_warning() {
     let a = back.read_native(Window::full(5, 4)).unwrap();
     assert_eq!(a.get_f64(4, 3), 203.0);
 }
+
+/// TIFFs no GDAL driver writes but GDAL reads (made by hand in
+/// tools/gdal_compare.py, independently of orogen's codecs: its own
+/// old-style LZW encoder): no PhotometricInterpretation, no
+/// StripByteCounts (raw and DEFLATE), old-style LZW, "1.#INF" nodata.
+#[test]
+fn hand_made_tiffs_read_as_gdal_reads_them() {
+    let mut seen = 0;
+    for e in cases()
+        .iter()
+        .filter(|e| e["file"].as_str().unwrap().starts_with("hand_"))
+    {
+        let (name, r, reference, _) = read_case(e);
+        seen += 1;
+        assert_reads_like_gdal(&name, &r, &reference, None);
+        if name == "hand_msvc_inf_nodata.tif" {
+            assert_eq!(r.info().georef.nodata, Some(f64::INFINITY), "{name}");
+            assert!(reference.contains(&f64::INFINITY), "{name}");
+        }
+    }
+    assert_eq!(seen, 5);
+}
