@@ -108,6 +108,22 @@ fn read_case(e: &Value) -> (String, GeoTiffReader, Vec<f64>, Option<Vec<u8>>) {
     (name, r, reference, mask)
 }
 
+/// Every case whose file name starts with `prefix` (there must be `count`)
+/// reads as GDAL read it, unmasked; then `more(case, reader, reference)`.
+fn each_case(prefix: &str, count: usize, more: impl Fn(&Value, &GeoTiffReader, &[f64])) {
+    let mut seen = 0;
+    for e in cases()
+        .iter()
+        .filter(|e| e["file"].as_str().unwrap().starts_with(prefix))
+    {
+        let (name, r, reference, _) = read_case(e);
+        seen += 1;
+        assert_reads_like_gdal(&name, &r, &reference, None);
+        more(e, &r, &reference);
+    }
+    assert_eq!(seen, count, "{prefix} cases");
+}
+
 #[test]
 fn masks_and_alpha_read_as_nodata_where_gdal_masks() {
     let mut seen = 0;
@@ -146,37 +162,21 @@ fn masks_and_alpha_read_as_nodata_where_gdal_masks() {
 
 #[test]
 fn sparse_blocks_read_as_nodata_or_zero() {
-    let mut seen = 0;
-    for e in cases()
-        .iter()
-        .filter(|e| e["file"].as_str().unwrap().starts_with("sparse_"))
-    {
-        let (name, r, reference, _) = read_case(e);
-        seen += 1;
-        assert_reads_like_gdal(&name, &r, &reference, None);
+    each_case("sparse_", 3, |e, _, reference| {
         // Most of the file is sparse: the written block's cells are 1..=256.
         let fill = e["nodata"].as_f64().unwrap_or(0.0);
         let filled = reference.iter().filter(|&&v| v == fill).count();
-        assert!(filled > reference.len() / 2, "{name}: {filled} fill cells");
-    }
-    assert_eq!(seen, 3);
+        assert!(filled > reference.len() / 2, "{e}: {filled} fill cells");
+    });
 }
 
 #[test]
 fn float16_samples_read_as_the_float32_gdal_returns() {
-    let mut seen = 0;
-    for e in cases()
-        .iter()
-        .filter(|e| e["file"].as_str().unwrap().starts_with("float16_"))
-    {
-        let (name, r, reference, _) = read_case(e);
-        seen += 1;
-        assert_eq!(r.info().dtype, DType::F32, "{name}");
-        assert_reads_like_gdal(&name, &r, &reference, None);
+    each_case("float16_", 2, |e, r, reference| {
+        assert_eq!(r.info().dtype, DType::F32, "{e}");
         // Half precision: 0.37 * 499 - 3 = 181.63 is stored as 181.625.
-        assert!(reference.contains(&181.625), "{name}");
-    }
-    assert_eq!(seen, 2);
+        assert!(reference.contains(&181.625), "{e}");
+    });
 }
 
 /// The georeferencing tags of `path`'s first IFD, decoded by the tiff crate.
@@ -287,20 +287,12 @@ fn georeferencing_is_written_with_the_tags_gdal_writes() {
 
 #[test]
 fn lerc_blocks_read_as_gdal_reads_them() {
-    let mut seen = 0;
-    for e in cases()
-        .iter()
-        .filter(|e| e["file"].as_str().unwrap().starts_with("lerc_"))
-    {
-        let (name, r, reference, _) = read_case(e);
-        seen += 1;
-        assert_reads_like_gdal(&name, &r, &reference, None);
+    each_case("lerc_", 5, |e, _, reference| {
         // Nodata cells are LERC's invalid pixels; they read as the nodata.
         if let Some(v) = e["nodata"].as_f64() {
-            assert_eq!(reference.iter().filter(|&&x| x == v).count(), 66, "{name}");
+            assert_eq!(reference.iter().filter(|&&x| x == v).count(), 66, "{e}");
         }
-    }
-    assert_eq!(seen, 5);
+    });
 }
 
 /// A u8 file declaring nodata 256 (GDAL accepts it; no cell can equal it)
@@ -352,18 +344,10 @@ fn unstorable_nodata_is_dropped_on_export_with_a_warning() {
 /// StripByteCounts (raw and DEFLATE), old-style LZW, "1.#INF" nodata.
 #[test]
 fn hand_made_tiffs_read_as_gdal_reads_them() {
-    let mut seen = 0;
-    for e in cases()
-        .iter()
-        .filter(|e| e["file"].as_str().unwrap().starts_with("hand_"))
-    {
-        let (name, r, reference, _) = read_case(e);
-        seen += 1;
-        assert_reads_like_gdal(&name, &r, &reference, None);
-        if name == "hand_msvc_inf_nodata.tif" {
-            assert_eq!(r.info().georef.nodata, Some(f64::INFINITY), "{name}");
-            assert!(reference.contains(&f64::INFINITY), "{name}");
+    each_case("hand_", 5, |e, r, reference| {
+        if e["file"] == "hand_msvc_inf_nodata.tif" {
+            assert_eq!(r.info().georef.nodata, Some(f64::INFINITY));
+            assert!(reference.contains(&f64::INFINITY));
         }
-    }
-    assert_eq!(seen, 5);
+    });
 }
