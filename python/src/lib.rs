@@ -182,27 +182,19 @@ fn grid_from(a: &Bound<'_, PyUntypedArray>) -> PyResult<AnyGrid> {
     }
     let py = a.py();
     let dt = a.dtype();
-    Ok(if dt.is_equiv_to(&numpy::dtype::<f32>(py)) {
-        AnyGrid::F32(typed(a)?)
-    } else if dt.is_equiv_to(&numpy::dtype::<f64>(py)) {
-        AnyGrid::F64(typed(a)?)
-    } else if dt.is_equiv_to(&numpy::dtype::<u8>(py)) {
-        AnyGrid::U8(typed(a)?)
-    } else if dt.is_equiv_to(&numpy::dtype::<i8>(py)) {
-        AnyGrid::I8(typed(a)?)
-    } else if dt.is_equiv_to(&numpy::dtype::<u16>(py)) {
-        AnyGrid::U16(typed(a)?)
-    } else if dt.is_equiv_to(&numpy::dtype::<i16>(py)) {
-        AnyGrid::I16(typed(a)?)
-    } else if dt.is_equiv_to(&numpy::dtype::<u32>(py)) {
-        AnyGrid::U32(typed(a)?)
-    } else if dt.is_equiv_to(&numpy::dtype::<i32>(py)) {
-        AnyGrid::I32(typed(a)?)
-    } else {
-        return Err(InvalidInputError::new_err(format!(
-            "arrays of {dt} are not supported: use float32, float64 or an integer type of up to 32 bits"
-        )));
-    })
+    macro_rules! first_matching {
+        ($($t:ty => $variant:ident),*) => {
+            $(
+                if dt.is_equiv_to(&numpy::dtype::<$t>(py)) {
+                    return Ok(AnyGrid::$variant(typed(a)?));
+                }
+            )*
+        };
+    }
+    first_matching!(f32 => F32, f64 => F64, u8 => U8, i8 => I8, u16 => U16, i16 => I16, u32 => U32, i32 => I32);
+    Err(InvalidInputError::new_err(format!(
+        "arrays of {dt} are not supported: use float32, float64 or an integer type of up to 32 bits"
+    )))
 }
 
 /// A grid as a flat numpy array (the Python layer reshapes it), moved
@@ -254,6 +246,28 @@ fn raster_result(py: Python<'_>, (grid, georef): (AnyGrid, GeoRef)) -> PyResult<
     Ok((array_from(py, grid), w, h, d))
 }
 
+/// The target of a one-raster result: the file `output` written with the
+/// `format` settings (JSON of `FormatOptions`), else in memory with
+/// intermediates in `scratch`.
+fn target_for(
+    output: &Option<PathBuf>,
+    scratch: &Option<PathBuf>,
+    format: &str,
+) -> PyResult<Target> {
+    match (output, scratch) {
+        (Some(p), _) => {
+            let fmt: FormatOptions = self::options(format, "format settings")?;
+            let mut t = Target::new(p);
+            t.options = fmt.output_options().map_err(to_py)?;
+            Ok(t)
+        }
+        (None, Some(dir)) => Ok(Target::memory(dir)),
+        (None, None) => Err(InvalidInputError::new_err(
+            "give an output path or a scratch folder",
+        )),
+    }
+}
+
 /// Run the one-raster operation `op` on `input` with `options` (JSON of
 /// its ops Options). With `output` (a path) the result is written there
 /// and `None` returned; without, it is kept in memory (intermediates, if
@@ -275,19 +289,7 @@ fn run_raster(
 ) -> PyResult<Option<RasterResult>> {
     let src = source(input, georef)?;
     let (cfg, tile) = run_settings(run)?;
-    let fmt: FormatOptions = self::options(format, "format settings")?;
-    let mut target = match (&output, &scratch) {
-        (Some(p), _) => Target::new(p),
-        (None, Some(dir)) => Target::memory(dir),
-        (None, None) => {
-            return Err(InvalidInputError::new_err(
-                "give an output path or a scratch folder",
-            ))
-        }
-    };
-    if output.is_some() {
-        target.options = fmt.output_options().map_err(to_py)?;
-    }
+    let mut target = target_for(&output, &scratch, format)?;
     target.tile = tile;
     let op_name = op.to_string();
     macro_rules! call {
@@ -321,12 +323,18 @@ fn run_raster(
             )))
         }
     }
-    if output.is_some() {
+    result_of(py, &target, op)
+}
+
+/// What a run into `target` returns to Python: `None` for a file target,
+/// else the raster it left in memory (see [`raster_result`]).
+fn result_of(py: Python<'_>, target: &Target, what: &str) -> PyResult<Option<RasterResult>> {
+    if target.options.memory.is_none() {
         return Ok(None);
     }
     let res = target
         .take_memory()
-        .ok_or_else(|| OrogenError::new_err(format!("{op}: no output was produced")))?;
+        .ok_or_else(|| OrogenError::new_err(format!("{what}: no output was produced")))?;
     Ok(Some(raster_result(py, res)?))
 }
 
@@ -528,31 +536,12 @@ fn synth_noise(
 ) -> PyResult<Option<RasterResult>> {
     let mut opts: ops::synth::noise::NoiseOptions = self::options(options, "synth noise")?;
     let (cfg, tile) = run_settings(run)?;
-    let fmt: FormatOptions = self::options(format, "format settings")?;
-    let target = match (&output, &scratch) {
-        (Some(p), _) => {
-            let mut t = Target::new(p);
-            t.options = fmt.output_options().map_err(to_py)?;
-            t
-        }
-        (None, Some(dir)) => Target::memory(dir),
-        (None, None) => {
-            return Err(InvalidInputError::new_err(
-                "give an output path or a scratch folder",
-            ))
-        }
-    };
+    let target = target_for(&output, &scratch, format)?;
     opts.output = target.path.clone();
     opts.tile = opts.tile.or(tile);
     let (o, oo, c) = (&opts, &target.options, &cfg);
     detached(py, move || ops::synth::noise::run(o, oo, c, &mut |_| {}))?;
-    if output.is_some() {
-        return Ok(None);
-    }
-    let res = target
-        .take_memory()
-        .ok_or_else(|| OrogenError::new_err("synth noise: no output was produced"))?;
-    Ok(Some(raster_result(py, res)?))
+    result_of(py, &target, "synth noise")
 }
 
 #[pymodule]
