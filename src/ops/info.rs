@@ -180,3 +180,33 @@ pub fn describe_text(d: &Description) -> String {
     }
     s
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::raster::{GeoRef, Grid, MemRaster};
+
+    #[test]
+    fn json_writes_non_finite_nodata_as_text_not_null() {
+        let cfg = EngineConfig::default();
+        let opts = InfoOptions {
+            json: true,
+            ..Default::default()
+        };
+        for (nd, want) in [
+            (Some(f64::NAN), "\"nodata\": \"nan\""),
+            (Some(f64::NEG_INFINITY), "\"nodata\": \"-inf\""),
+            (Some(-9999.0), "\"nodata\": -9999.0"),
+            (None, "\"nodata\": null"),
+        ] {
+            let g = GeoRef {
+                nodata: nd,
+                ..GeoRef::pixel()
+            };
+            let src = MemRaster::from_grid(Grid::new(3, 2, 1.0f32), g);
+            let d = describe(&src, false, &cfg).unwrap();
+            let j = report_text(&d, &opts).unwrap();
+            assert!(j.contains(want), "{want} in {j}");
+        }
+    }
+}

@@ -359,6 +359,8 @@ pub(super) struct SampleFile {
     file: File,
     len: u64,
     pos: u64,
+    /// Where the file's own cursor is (a read seeks only when it differs).
+    file_pos: u64,
     view: View,
 }
 
@@ -370,6 +372,7 @@ impl SampleFile {
             file,
             len,
             pos: 0,
+            file_pos: 0,
             view,
         })
     }
@@ -401,8 +404,12 @@ impl Read for SampleFile {
                 n
             }
             _ => {
-                self.file.seek(SeekFrom::Start(start))?;
-                self.file.read(buf)?
+                if self.file_pos != start {
+                    self.file.seek(SeekFrom::Start(start))?;
+                }
+                let n = self.file.read(buf)?;
+                self.file_pos = start + n as u64;
+                n
             }
         };
         self.pos += n as u64;
