@@ -192,6 +192,7 @@ impl Run {
             tile: self.tile,
             quiet: self.quiet,
             engine: self.engine.map(EngineArg::kind),
+            observer: None,
         }
     }
 }

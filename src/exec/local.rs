@@ -88,7 +88,7 @@ impl LocalEngine {
             .tiles_in_flight(bytes_per_tile)
             .min(ids.len())
             .min(window);
-        let progress = super::Progress::tiles(name, ids.len(), self.config.progress);
+        let progress = super::Progress::of_run(name, ids.len(), &self.config);
         let (permit_tx, permit_rx) = bounded::<()>(in_flight);
         for _ in 0..in_flight {
             // Cannot fail: the channel has room for `in_flight` permits.
@@ -141,7 +141,10 @@ impl LocalEngine {
                         break 'outer;
                     }
                     next += 1;
-                    progress.inc(1);
+                    if !progress.inc(1) {
+                        failure = Some(Error::invalid(format!("{name}: cancelled")));
+                        break 'outer;
+                    }
                     let _ = permit_tx.send(());
                 }
             }

@@ -94,6 +94,8 @@ pub struct EngineConfig {
     pub memory_budget: u64,
     /// Show a progress bar on stderr.
     pub progress: bool,
+    /// Told of every tile (or round) done, and may stop the run.
+    pub observer: Option<Observer>,
     /// Which engine runs the steps ([`engine`] builds it): in this process
     /// or over the ranks of `mpirun`.
     pub engine: EngineKind,
@@ -105,6 +107,7 @@ impl Default for EngineConfig {
             threads: 0,
             memory_budget: 1 << 30,
             progress: false,
+            observer: None,
             engine: EngineKind::Local,
         }
     }
@@ -261,5 +264,5 @@ pub use copy::{copy, ingest, run_local_to_memory};
 pub use engines::{engine, EngineKind, Engines};
 pub use local::LocalEngine;
 pub use memory_fit::MemoryFit;
-pub use progress::Progress;
+pub use progress::{Observer, Progress};
 pub use tile_io::{local_tile_bytes, roundtrip_summary, tiles_in_flight};

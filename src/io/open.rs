@@ -42,6 +42,19 @@ pub enum Format {
     Store,
 }
 
+impl Format {
+    /// The format's name, as `info` reports it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Format::GeoTiff => "geotiff",
+            Format::Hgt => "hgt",
+            Format::Ascii => "ascii-grid",
+            Format::Png => "png",
+            Format::Store => "tile-store",
+        }
+    }
+}
+
 /// Detect a file's format from its magic bytes, then its extension.
 pub fn detect(path: &Path) -> Result<Format> {
     if path.is_dir() {

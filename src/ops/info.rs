@@ -99,7 +99,10 @@ pub fn describe(src: &dyn RasterSource, stats: bool, cfg: &EngineConfig) -> Resu
     };
     Ok(Description {
         path: info.path.display().to_string(),
-        format: format!("{:?}", io::detect(&info.path).ok()),
+        format: io::detect(&info.path)
+            .map(|f| f.name())
+            .unwrap_or("in memory")
+            .to_string(),
         width: info.width,
         height: info.height,
         dtype: info.dtype,

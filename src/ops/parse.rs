@@ -130,6 +130,9 @@ pub struct RunOptions {
     pub quiet: bool,
     /// Engine (None: the one this process runs on).
     pub engine: Option<EngineKind>,
+    /// Told of the run's progress (a library caller's; never a key).
+    #[serde(skip)]
+    pub observer: Option<crate::exec::Observer>,
 }
 
 impl Default for RunOptions {
@@ -140,6 +143,7 @@ impl Default for RunOptions {
             tile: None,
             quiet: false,
             engine: None,
+            observer: None,
         }
     }
 }
@@ -156,6 +160,7 @@ impl RunOptions {
             threads: self.threads,
             memory_budget: bytes(&self.memory)?,
             progress: !self.quiet && terminal,
+            observer: self.observer.clone(),
             engine: EngineKind::current(),
         })
     }

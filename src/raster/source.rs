@@ -145,3 +145,86 @@ impl RasterSource for MemRaster {
         Ok(self.data.crop(win))
     }
 }
+
+/// A raster over cells it borrows (row-major, `width` x `height`): an
+/// array owned by someone else (a numpy array in the Python package) is
+/// read in place, window by window, without a copy of the whole.
+pub struct SliceRaster<'a, T> {
+    info: RasterInfo,
+    data: &'a [T],
+}
+
+impl<'a, T: IntoAny> SliceRaster<'a, T> {
+    /// Borrow `data` as a `width` x `height` raster; refused unless
+    /// `data` holds exactly that many cells.
+    pub fn new(
+        data: &'a [T],
+        width: usize,
+        height: usize,
+        georef: GeoRef,
+        path: impl Into<PathBuf>,
+    ) -> Result<Self> {
+        if width.checked_mul(height) != Some(data.len()) {
+            return Err(crate::error::Error::invalid(format!(
+                "{width} x {height} cells need {} values, not {}",
+                width.saturating_mul(height),
+                data.len()
+            )));
+        }
+        let info = RasterInfo {
+            width,
+            height,
+            dtype: T::DTYPE,
+            georef,
+            block: (width, height.min(256)),
+            path: path.into(),
+        };
+        Ok(SliceRaster { info, data })
+    }
+}
+
+impl<T: IntoAny> RasterSource for SliceRaster<'_, T> {
+    fn info(&self) -> &RasterInfo {
+        &self.info
+    }
+    fn read_native(&self, win: Window) -> Result<AnyGrid> {
+        let w = self.info.width;
+        let mut out = Vec::with_capacity(win.len());
+        for y in win.y as usize..win.y_end() as usize {
+            let row = y * w;
+            out.extend_from_slice(&self.data[row + win.x as usize..row + win.x_end() as usize]);
+        }
+        Ok(T::wrap(Grid::from_vec(win.w, win.h, out)?))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_slice_raster_reads_the_windows_of_the_grid_it_borrows() {
+        let cells: Vec<i16> = (0..35).map(|v| v * 3 - 40).collect();
+        let borrowed = SliceRaster::new(&cells, 7, 5, GeoRef::pixel(), "<slice>").unwrap();
+        let owned = MemRaster::new(
+            AnyGrid::I16(Grid::from_vec(7, 5, cells.clone()).unwrap()),
+            GeoRef::pixel(),
+            "<mem>",
+        );
+        for win in [
+            Window::new(0, 0, 7, 5),
+            Window::new(2, 1, 3, 4),
+            Window::new(6, 4, 1, 1),
+        ] {
+            let a = borrowed.read_native(win).unwrap();
+            let b = owned.read_native(win).unwrap();
+            assert_eq!(a, b, "{win:?}");
+        }
+        // Row 2, columns 2..5 by hand: cell k = 3k - 40.
+        let AnyGrid::I16(g) = borrowed.read_native(Window::new(2, 2, 3, 1)).unwrap() else {
+            panic!("not i16");
+        };
+        assert_eq!(g.data(), &[8, 11, 14]);
+        assert!(SliceRaster::new(&cells, 6, 6, GeoRef::pixel(), "<slice>").is_err());
+    }
+}

@@ -20,6 +20,7 @@ fn engine(threads: usize) -> LocalEngine {
         threads,
         memory_budget: 1 << 28,
         progress: false,
+        observer: None,
         engine: Default::default(),
     })
 }

@@ -210,6 +210,12 @@ pub fn run_ranked<M: LocalModel, X: HaloTransport>(
     } else {
         crate::exec::Progress::hidden()
     };
+    // The observer hears of every exchange round (it cannot stop one).
+    let pb = if me == 0 {
+        pb.observed(model.name(), rounds, cfg)
+    } else {
+        pb
+    };
     let disk = match backend {
         Backend::Memory => None,
         Backend::Disk(d) => Some(d.as_path()),
@@ -251,7 +257,9 @@ pub fn run_ranked<M: LocalModel, X: HaloTransport>(
                 scratch: patch.scratch,
             })
         },
-        || pb.inc(1),
+        || {
+            pb.inc(1);
+        },
     )?;
     drop(driver);
     let mine = &plan.mine;

@@ -256,11 +256,48 @@ pub fn run(
     cfg: &EngineConfig,
     notify: Notify<'_>,
 ) -> Result<()> {
+    check(opts)?;
+    let src = open_input(&opts.input, open, &mut *notify)?;
+    run_on(opts, src.as_ref(), oo, cfg, notify)
+}
+
+/// Check `opts` without reading any input: the parameter file, `set`, the
+/// steps and exchange, and the chosen model's parameters (what [`run`]
+/// refuses before it opens the input).
+pub fn check(opts: &ErodeOptions) -> Result<()> {
+    let (table, steps, _) = settings(opts)?;
+    match opts.model {
+        Model::Hydraulic => {
+            let p: HydraulicParams = parse_params(opts, table)?;
+            Hydraulic::new(p, steps, CellSize::square(1.0)).map(|_| ())
+        }
+        Model::Thermal => {
+            let p: ThermalParams = parse_params(opts, table)?;
+            Thermal::new(p, steps, CellSize::square(1.0)).map(|_| ())
+        }
+        Model::Diffusion => {
+            let p: DiffusionParams = parse_params(opts, table)?;
+            DiffusionParams::validate(&p)?;
+            crate::erosion::check_steps(steps)
+        }
+        Model::StreamPower => Run::stream_power_options(opts, table, steps).map(|_| ()),
+    }
+}
+
+/// [`run`] on an opened input `src` (`opts.input` is not read; an array
+/// from the Python package, say): erode it and write `opts.output` (and
+/// the extra outputs and previews asked for).
+pub fn run_on(
+    opts: &ErodeOptions,
+    src: &dyn RasterSource,
+    oo: &OutputOptions,
+    cfg: &EngineConfig,
+    notify: Notify<'_>,
+) -> Result<()> {
     let a = opts;
     let (table, steps, exchange) = settings(a)?;
     let run = Run {
         a,
-        open,
         oo,
         cfg,
         exchange,
@@ -268,43 +305,31 @@ pub fn run(
     match a.model {
         Model::Hydraulic => {
             let p: HydraulicParams = parse_params(a, table)?;
-            let probe = Hydraulic::new(p.clone(), steps, CellSize::square(1.0))?;
-            let src = open_input(&a.input, open, &mut *notify)?;
-            let model = Hydraulic::new(
-                p,
-                steps,
-                cell_of(src.as_ref(), probe.params.cell.is_some())?,
-            )?;
-            run.local(&model, src.as_ref(), notify)
+            let has_cell = p.cell.is_some();
+            let model = Hydraulic::new(p, steps, cell_of(src, has_cell)?)?;
+            run.local(&model, src, notify)
         }
         Model::Thermal => {
             let p: ThermalParams = parse_params(a, table)?;
-            let probe = Thermal::new(p.clone(), steps, CellSize::square(1.0))?;
-            let src = open_input(&a.input, open, &mut *notify)?;
-            let model = Thermal::new(
-                p,
-                steps,
-                cell_of(src.as_ref(), probe.params.cell.is_some())?,
-            )?;
-            run.local(&model, src.as_ref(), notify)
+            let has_cell = p.cell.is_some();
+            let model = Thermal::new(p, steps, cell_of(src, has_cell)?)?;
+            run.local(&model, src, notify)
         }
         Model::Diffusion => {
             let p: DiffusionParams = parse_params(a, table)?;
             DiffusionParams::validate(&p)?;
             crate::erosion::check_steps(steps)?;
-            let src = open_input(&a.input, open, &mut *notify)?;
             let has_cell = p.cell.is_some();
-            let model = Diffusion::new(p, steps, cell_of(src.as_ref(), has_cell)?)?;
-            run.local(&model, src.as_ref(), notify)
+            let model = Diffusion::new(p, steps, cell_of(src, has_cell)?)?;
+            run.local(&model, src, notify)
         }
-        Model::StreamPower => run.stream_power(table, steps, notify),
+        Model::StreamPower => run.stream_power(src, table, steps, notify),
     }
 }
 
 /// What every model's run needs besides the model.
 struct Run<'a> {
     a: &'a ErodeOptions,
-    open: &'a OpenOptions,
     oo: &'a OutputOptions,
     cfg: &'a EngineConfig,
     exchange: usize,
@@ -373,11 +398,13 @@ impl Run<'_> {
         self.after_preview(notify)
     }
 
-    /// Stream power, in memory or tiled. Parameters: the `[stream-power]`
-    /// table of `params`, then `set`, then `dt`/`diffusivity` (merged in
-    /// `table` by [`gather`]), then the stream-power options, which win.
-    fn stream_power(&self, table: toml::Table, steps: u64, notify: Notify<'_>) -> Result<()> {
-        let a = self.a;
+    /// The stream-power options of `a`: its named options over the
+    /// `[stream-power]` table, checked.
+    fn stream_power_options(
+        a: &ErodeOptions,
+        table: toml::Table,
+        steps: u64,
+    ) -> Result<StreamPowerOptions> {
         let local_only = [
             (a.exchange.is_some(), "--exchange"),
             (a.water.is_some(), "--water"),
@@ -396,21 +423,34 @@ impl Run<'_> {
             None => "--set".to_string(),
         };
         sp.merge_table(table, &from)?;
+        sp.params()?;
+        Ok(sp)
+    }
+
+    /// Stream power, in memory or tiled. Parameters: the `[stream-power]`
+    /// table of `params`, then `set`, then `dt`/`diffusivity` (merged in
+    /// `table` by [`gather`]), then the stream-power options, which win.
+    fn stream_power(
+        &self,
+        src: &dyn RasterSource,
+        table: toml::Table,
+        steps: u64,
+        notify: Notify<'_>,
+    ) -> Result<()> {
+        let a = self.a;
+        let sp = Self::stream_power_options(a, table, steps)?;
         if let Some(dir) = &a.preview {
             create_preview_dir(dir)?;
-            let src = open_input(&a.input, self.open, &mut *notify)?;
             preview(
-                src.as_ref(),
+                src,
                 &dir.join("before.png"),
                 &Default::default(),
                 &mut *notify,
             )?;
         }
-        sp.params()?;
-        let src = open_input(&a.input, self.open, &mut *notify)?;
         stream_power::run(
-            &a.input,
-            src.as_ref(),
+            &src.info().path,
+            src,
             &sp,
             &a.output,
             self.oo,

@@ -96,6 +96,8 @@ pub struct StepCall<'a> {
     pub step: &'a Planned,
     /// `--quiet` for every step (the job's `quiet`).
     pub quiet: bool,
+    /// Told of the step's progress (its engine settings' observer).
+    pub observer: Option<crate::exec::Observer>,
 }
 
 /// A step turned into its operation's typed options, ready to run.
@@ -127,7 +129,11 @@ impl TypedStep {
 /// checked its name).
 pub fn typed_step(s: &Planned, quiet: bool) -> Result<TypedStep> {
     match command(&s.command) {
-        Some(c) => (c.build)(&StepCall { step: s, quiet }),
+        Some(c) => (c.build)(&StepCall {
+            step: s,
+            quiet,
+            observer: None,
+        }),
         None => Err(step_error(s, format!("unknown command `{}`", s.command))),
     }
 }
@@ -359,6 +365,7 @@ pub fn typed_keys_named<O: DeserializeOwned>(
     }
     let mut run: RunOptions = from_table(s, &r)?;
     run.quiet |= call.quiet;
+    run.observer = call.observer.clone();
     crate::ops::parse::bytes(&run.memory).map_err(|e| step_error(s, e))?;
     let format: FormatOptions = from_table(s, &f)?;
     format.output_options().map_err(|e| step_error(s, e))?;

@@ -73,6 +73,7 @@ use crate::error::{Error, Result};
 use crate::exec::EngineKind;
 use crate::ops::note::{Note, Notify};
 use crate::report::{self, Status, StepOutcome};
+use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -306,4 +307,73 @@ pub fn run(job: &Job, opts: &JobOptions, notify: Notify<'_>) -> Result<JobReport
             report: written,
         }),
     }
+}
+
+/// Run one command of the registry ([`COMMANDS`], e.g. `"basins"` or
+/// `"synth tectonic"`) as a job step would: `inputs` are its positional
+/// inputs, `output` its `-o`, `args` its options by their long names (as
+/// in a step's `args`, `_` or `-`). The keys are typed and checked exactly
+/// as [`prepare`] checks a job's, then the operation runs. The library's
+/// one door to every operation by name (the Python package's generic
+/// functions use it).
+pub fn run_command(
+    command: &str,
+    inputs: &[PathBuf],
+    output: Option<&Path>,
+    args: BTreeMap<String, toml::Value>,
+    observer: Option<crate::exec::Observer>,
+    notify: Notify<'_>,
+) -> Result<()> {
+    if command == "view" {
+        return Err(Error::invalid(
+            "`view` serves a map until stopped; run it from the command line",
+        ));
+    }
+    let names: Vec<String> = (0..inputs.len()).map(|i| format!("input{i}")).collect();
+    let file = JobFile {
+        memory: None,
+        threads: None,
+        tile: None,
+        engine: None,
+        output_dir: None,
+        log: None,
+        report: Some(false),
+        inputs: names.iter().cloned().zip(inputs.iter().cloned()).collect(),
+        steps: vec![StepSpec {
+            name: command.replace(' ', "-"),
+            run: command.to_string(),
+            input: match names.len() {
+                0 => OneOrMany::None,
+                1 => OneOrMany::One(names[0].clone()),
+                _ => OneOrMany::Many(names),
+            },
+            output: output.map(Path::to_path_buf),
+            args,
+        }],
+    };
+    // Relative paths stay relative to the working directory. Messages
+    // lose the job's framing (`orogen: step "basins": `): there is no job.
+    let step_name = command.replace(' ', "-");
+    let unframed = |e: Error| match e {
+        Error::InvalidArgument(m) => {
+            let m = m.strip_prefix("orogen: ").unwrap_or(&m);
+            let m = m
+                .strip_prefix(&format!("step {step_name:?}: "))
+                .unwrap_or(m);
+            Error::InvalidArgument(m.to_string())
+        }
+        e => e,
+    };
+    let job = plan(Path::new("orogen"), file, None, None).map_err(unframed)?;
+    let step = &job.steps[0];
+    let c = commands::command(&step.command)
+        .ok_or_else(|| commands::step_error(step, format!("unknown command `{command}`")))
+        .map_err(unframed)?;
+    let typed = (c.build)(&commands::StepCall {
+        step,
+        quiet: true,
+        observer,
+    })
+    .map_err(unframed)?;
+    typed.run(notify)
 }

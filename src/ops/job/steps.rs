@@ -163,6 +163,7 @@ pub(super) fn metric(call: &StepCall<'_>) -> Result<TypedStep> {
     let call = StepCall {
         step: &joined,
         quiet: call.quiet,
+        observer: call.observer.clone(),
     };
     let s = call.step;
     let t = typed_keys::<ops::metric::MetricOptions>(&call, RASTER)?;
@@ -499,6 +500,7 @@ pub(super) fn erode(call: &StepCall<'_>) -> Result<TypedStep> {
     let call = StepCall {
         step: &step,
         quiet: call.quiet,
+        observer: call.observer.clone(),
     };
     let t = typed_keys_with::<ops::erode::ErodeOptions>(&call, RASTER, set)?;
     t.options.validate().map_err(|e| step_error(s, e))?;
