@@ -70,6 +70,20 @@ __all__ = [
     "peaks",
     "defaults",
     "synth",
+    "erode",
+    "basins",
+    "streams",
+    "hydro_index",
+    "viewshed",
+    "render",
+    "tiles",
+    "ridges",
+    "orostats",
+    "compare",
+    "ingest",
+    "info",
+    "run_job",
+    "run_command",
 ]
 
 __version__ = "0.1.0"
@@ -303,17 +317,55 @@ def _raster_op(
     tile: Optional[int],
     threads: int,
     format: Optional[Dict[str, Any]],
+    progress: Any = None,
 ) -> Any:
     inp = _Input(dem, transform, crs, nodata)
     run = _run_settings(memory, tile, threads)
     fmt = _json(format or {})
+    cb = _progress(progress)
     if output is not None:
         out = os.fspath(output)
-        _orogen.run_raster(op, inp.value, inp.georef, _json(opts), run, fmt, out, None)
+        _orogen.run_raster(op, inp.value, inp.georef, _json(opts), run, fmt, out, None, cb)
         return open(out)
     with tempfile.TemporaryDirectory(prefix="orogen-") as scratch:
-        flat, w, h, g = _orogen.run_raster(op, inp.value, inp.georef, _json(opts), run, fmt, None, scratch)
+        flat, w, h, g = _orogen.run_raster(op, inp.value, inp.georef, _json(opts), run, fmt, None, scratch, cb)
     return inp.wrap(flat, w, h, g, op)
+
+
+class _Tqdm:
+    """A ``progress`` callback drawing one tqdm bar per engine step."""
+
+    def __init__(self) -> None:
+        from tqdm.auto import tqdm  # type: ignore
+
+        self._tqdm = tqdm
+        self._bars: Dict[str, Any] = {}
+
+    def __call__(self, step: str, done: int, total: int) -> bool:
+        bar = self._bars.get(step)
+        if bar is None:
+            bar = self._bars[step] = self._tqdm(total=total, desc=step, unit="tile", leave=False)
+        bar.update(done - bar.n)
+        if done >= total:
+            bar.close()
+            del self._bars[step]
+        return True
+
+
+def _progress(progress: Any) -> Any:
+    """The callback of a ``progress=`` argument: a callable
+    ``(step, done, total)`` (return ``False`` to stop the run), ``True``
+    for tqdm bars (tqdm must be installed), or None."""
+    if progress is None or progress is False:
+        return None
+    if progress is True:
+        try:
+            return _Tqdm()
+        except ImportError:
+            raise InvalidInputError("progress=True draws tqdm bars: pip install tqdm, or pass a callback") from None
+    if not callable(progress):
+        raise InvalidInputError("progress: give a callable (step, done, total), True for tqdm, or None")
+    return progress
 
 
 _RUN_DOC = """
@@ -323,7 +375,12 @@ _RUN_DOC = """
     (e.g. ``"512MiB"``, default ``"1GiB"``); ``tile`` the work-tile size in
     cells; ``threads`` worker threads (0: all cores); ``format`` output-file
     settings (``compress``, ``block``, ``store_tile``, ``zstd``,
-    ``overwrite``, ``cog``, …, as ``orogen <cmd> --help``)."""
+    ``overwrite``, ``cog``, …, as ``orogen <cmd> --help``); ``progress`` a
+    callback ``(step, done, total)`` called after every tile of every
+    engine step (return ``False`` to stop the run), or ``True`` for tqdm
+    bars. Ctrl-C (KeyboardInterrupt) stops a run between two tiles. The
+    input array is read in place (no copy) when its dtype is native
+    (float32/64, (u)int8/16/32) and it is C-contiguous."""
 
 
 def _doc(f):
@@ -332,7 +389,7 @@ def _doc(f):
 
 
 @_doc
-def fill(dem, *, transform=None, crs=None, nodata=None, output=None, memory=None, tile=None, threads=0, format=None):
+def fill(dem, *, transform=None, crs=None, nodata=None, output=None, memory=None, tile=None, threads=0, format=None, progress=None):
     """Fill the depressions of ``dem`` (``orogen fill``): Priority-Flood
     (Barnes, Lehman & Mulla 2014), exact across tiles (Barnes 2016). Nodata
     cells and the edge are outlets.
@@ -343,23 +400,23 @@ def fill(dem, *, transform=None, crs=None, nodata=None, output=None, memory=None
     10.0
     """
     return _raster_op("fill", dem, {}, transform=transform, crs=crs, nodata=nodata, output=output,
-                      memory=memory, tile=tile, threads=threads, format=format)
+                      memory=memory, tile=tile, threads=threads, format=format, progress=progress)
 
 
 @_doc
 def fill_epsilon(dem, *, transform=None, crs=None, nodata=None, output=None, memory=None, tile=None, threads=0,
-                 format=None):
+                 format=None, progress=None):
     """Fill to a strictly draining surface (``orogen fill-epsilon``): each
     flat cell rises k ULPs above its fill level, k its distance to the
     flat's exit (Barnes, Lehman & Mulla 2014, epsilon variant), exact
     across tiles."""
     return _raster_op("fill_epsilon", dem, {}, transform=transform, crs=crs, nodata=nodata, output=output,
-                      memory=memory, tile=tile, threads=threads, format=format)
+                      memory=memory, tile=tile, threads=threads, format=format, progress=progress)
 
 
 @_doc
 def breach(dem, *, method="breach", max_depth=None, max_length=None, dist=50, fill_remaining=False, epsilon=False,
-           transform=None, crs=None, nodata=None, output=None, memory=None, tile=None, threads=0, format=None):
+           transform=None, crs=None, nodata=None, output=None, memory=None, tile=None, threads=0, format=None, progress=None):
     """Breach depressions (``orogen breach``): ``method`` ``"breach"``
     (flood-order, every depression carved), ``"hybrid"`` (Lindsay 2016
     selective breaching within ``max_depth`` / ``max_length``, else fill) or
@@ -369,24 +426,24 @@ def breach(dem, *, method="breach", max_depth=None, max_length=None, dist=50, fi
     opts = {"method": method, "max_depth": max_depth, "max_length": max_length, "dist": dist,
             "fill_remaining": fill_remaining, "epsilon": epsilon}
     return _raster_op("breach", dem, opts, transform=transform, crs=crs, nodata=nodata, output=output,
-                      memory=memory, tile=tile, threads=threads, format=format)
+                      memory=memory, tile=tile, threads=threads, format=format, progress=progress)
 
 
 @_doc
 def flow(dem, *, method="d8", seed=0, transform=None, crs=None, nodata=None, output=None, memory=None, tile=None,
-         threads=0, format=None):
+         threads=0, format=None, progress=None):
     """D8 flow directions of a filled DEM (``orogen flow``) as ESRI codes
     (1 E, 2 SE, 4 S, 8 SW, 16 W, 32 NW, 64 N, 128 NE; 0 no flow, 255
     nodata), uint8; flats drained per Barnes, Lehman & Mulla 2014, exact
     across tiles. ``method="rho8"``: Fairfield & Leymarie 1991, seeded by
     ``seed``."""
     return _raster_op("flow", dem, {"method": method, "seed": seed}, transform=transform, crs=crs, nodata=nodata,
-                      output=output, memory=memory, tile=tile, threads=threads, format=format)
+                      output=output, memory=memory, tile=tile, threads=threads, format=format, progress=progress)
 
 
 @_doc
 def accumulate(src, *, method="d8", exponent=4.0, weights=None, transform=None, crs=None, nodata=None, output=None,
-               memory=None, tile=None, threads=0, format=None):
+               memory=None, tile=None, threads=0, format=None, progress=None):
     """Flow accumulation in cells (``orogen accumulate``), float64, nodata
     NaN. ``method="d8"`` takes D8 directions (from :func:`flow`; exact
     across tiles, Barnes 2017); ``"dinf"`` (Tarboton 1997), ``"quinn"``,
@@ -396,62 +453,62 @@ def accumulate(src, *, method="d8", exponent=4.0, weights=None, transform=None, 
     opts = {"method": method, "exponent": exponent,
             "weights": os.fspath(weights) if weights is not None else None}
     return _raster_op("accumulate", src, opts, transform=transform, crs=crs, nodata=nodata, output=output,
-                      memory=memory, tile=tile, threads=threads, format=format)
+                      memory=memory, tile=tile, threads=threads, format=format, progress=progress)
 
 
 @_doc
 def watersheds(dirs, *, transform=None, crs=None, nodata=None, output=None, memory=None, tile=None, threads=0,
-               format=None):
+               format=None, progress=None):
     """Watershed labels of D8 directions (``orogen watersheds``): every cell
     gets the row-major index + 1 of the cell where its D8 path leaves the
     DEM (uint32, 0 nodata), exact across tiles."""
     return _raster_op("watersheds", dirs, {}, transform=transform, crs=crs, nodata=nodata, output=output,
-                      memory=memory, tile=tile, threads=threads, format=format)
+                      memory=memory, tile=tile, threads=threads, format=format, progress=progress)
 
 
 @_doc
 def slope(dem, *, units="degrees", z_factor=1.0, compute_edges=False, transform=None, crs=None, nodata=None,
-          output=None, memory=None, tile=None, threads=0, format=None):
+          output=None, memory=None, tile=None, threads=0, format=None, progress=None):
     """Slope (``orogen slope``) by Horn's (1981) 3x3 gradient, as ``gdaldem
     slope``: ``units`` ``"degrees"`` or ``"percent"``; edge cells are
     nodata unless ``compute_edges``."""
     opts = {"units": units, "z_factor": z_factor, "compute_edges": compute_edges}
     return _raster_op("slope", dem, opts, transform=transform, crs=crs, nodata=nodata, output=output,
-                      memory=memory, tile=tile, threads=threads, format=format)
+                      memory=memory, tile=tile, threads=threads, format=format, progress=progress)
 
 
 @_doc
 def aspect(dem, *, zero_for_flat=False, compute_edges=False, transform=None, crs=None, nodata=None, output=None,
-           memory=None, tile=None, threads=0, format=None):
+           memory=None, tile=None, threads=0, format=None, progress=None):
     """Aspect in degrees clockwise from north (``orogen aspect``), Horn
     (1981) as ``gdaldem aspect``; flat cells are nodata unless
     ``zero_for_flat``."""
     opts = {"zero_for_flat": zero_for_flat, "compute_edges": compute_edges}
     return _raster_op("aspect", dem, opts, transform=transform, crs=crs, nodata=nodata, output=output,
-                      memory=memory, tile=tile, threads=threads, format=format)
+                      memory=memory, tile=tile, threads=threads, format=format, progress=progress)
 
 
 @_doc
 def hillshade(dem, *, azimuth=315.0, altitude=45.0, z_factor=1.0, compute_edges=False, transform=None, crs=None,
-              nodata=None, output=None, memory=None, tile=None, threads=0, format=None):
+              nodata=None, output=None, memory=None, tile=None, threads=0, format=None, progress=None):
     """Hillshade 1..255 (0 nodata), uint8 (``orogen hillshade``), Horn (1981)
     as ``gdaldem hillshade``."""
     opts = {"azimuth": azimuth, "altitude": altitude, "z_factor": z_factor, "compute_edges": compute_edges}
     return _raster_op("hillshade", dem, opts, transform=transform, crs=crs, nodata=nodata, output=output,
-                      memory=memory, tile=tile, threads=threads, format=format)
+                      memory=memory, tile=tile, threads=threads, format=format, progress=progress)
 
 
-def export(dem, output, *, transform=None, crs=None, nodata=None, memory=None, tile=None, threads=0, format=None):
+def export(dem, output, *, transform=None, crs=None, nodata=None, memory=None, tile=None, threads=0, format=None, progress=None):
     """Write ``dem`` (an array, DataArray or raster path) to ``output``
     (``orogen export`` / ``ingest``: ``.tif``, ``.tiles``, ``.png``, ``.asc``
     by extension) in its native type, tile by tile; returns a
     :class:`Raster` on it."""
     return _raster_op("export", dem, {}, transform=transform, crs=crs, nodata=nodata, output=output,
-                      memory=memory, tile=tile, threads=threads, format=format)
+                      memory=memory, tile=tile, threads=threads, format=format, progress=progress)
 
 
 def metrics(dem, metric: Union[str, Sequence[str]], *, transform=None, crs=None, nodata=None, output=None,
-            memory=None, tile=None, threads=0, format=None, file_format="tif"):
+            memory=None, tile=None, threads=0, format=None, file_format="tif", progress=None):
     """Terrain metrics (``orogen metric --metric``): ``metric`` a list of
     specs such as ``["tpi:radius=500m", "openness:radius=1km"]`` (or one
     comma-separated string; ``orogen metric --list`` names all 65 and the
@@ -467,10 +524,10 @@ def metrics(dem, metric: Union[str, Sequence[str]], *, transform=None, crs=None,
     fmt = _json(format or {})
     if output is not None:
         out = os.fspath(output)
-        files = _orogen.metrics(inp.value, inp.georef, opts, run, fmt, out, None)
+        files = _orogen.metrics(inp.value, inp.georef, opts, run, fmt, out, None, _progress(progress))
         return {os.path.splitext(os.path.basename(f))[0]: open(f) for f in files}
     with tempfile.TemporaryDirectory(prefix="orogen-") as scratch:
-        res = _orogen.metrics(inp.value, inp.georef, opts, run, fmt, None, scratch)
+        res = _orogen.metrics(inp.value, inp.georef, opts, run, fmt, None, scratch, _progress(progress))
     return {name: inp.wrap(flat, w, h, g, name) for name, flat, w, h, g in res}
 
 
@@ -494,7 +551,7 @@ def _parse_table(text: str) -> Dict[str, np.ndarray]:
 
 def peaks(dem, *, min_prominence=30.0, edge="sea-level", no_isolation=False, tiled=False, line_parents=False,
           transform=None, crs=None, nodata=None, output=None, memory=None, tile=None, threads=0,
-          as_dataframe=False):
+          as_dataframe=False, progress=None):
     """Peaks with prominence, key saddles, parents, isolation and the divide
     tree (``orogen peaks``; Kirmse & de Ferranti 2017), in memory when the
     DEM fits ``memory``, else tile by tile with the same results.
@@ -514,13 +571,66 @@ def peaks(dem, *, min_prominence=30.0, edge="sea-level", no_isolation=False, til
     opts = _json({"min_prominence": float(min_prominence), "edge": edge, "no_isolation": no_isolation,
                   "tiled": tiled, "line_parents": line_parents, "tile": tile})
     if output is not None:
-        return list(_orogen.peaks(inp.value, inp.georef, opts, run, os.fspath(output)))
-    table = _parse_table(_orogen.peaks(inp.value, inp.georef, opts, run, None))
+        return list(_orogen.peaks(inp.value, inp.georef, opts, run, os.fspath(output), _progress(progress)))
+    table = _parse_table(_orogen.peaks(inp.value, inp.georef, opts, run, None, _progress(progress)))
     if as_dataframe:
         import pandas as pd  # type: ignore
 
         return pd.DataFrame(table)
     return table
+
+
+def erode(dem, model="hydraulic", steps=None, *, water=False, sediment=False, set=None, transform=None, crs=None,
+          nodata=None, output=None, memory=None, tile=None, threads=0, format=None, progress=None, **params):
+    """Erode ``dem`` (``orogen erode``): ``model`` ``"hydraulic"`` (virtual
+    pipes, Mei, Decaudin & Hu 2007), ``"thermal"`` (talus, Musgrave, Kolb &
+    Mace 1989), ``"diffusion"`` (hillslope diffusion) — tiled with halo
+    exchange, the same bytes for any tile size — or ``"stream-power"`` with
+    uplift (Braun & Willett 2013; in memory or tiled, ``fixed_points``,
+    ``levels``, ``radius`` for the constrained and coarse-to-fine runs).
+    ``steps`` the number of steps; ``set`` a dict of model parameters
+    (``{"rain": 0.02}``, as ``--set rain=0.02``); ``params`` the CLI's
+    named options with ``_`` for ``-`` (``seed``, ``dt``, ``talus``,
+    ``diffusivity``, ``exchange``, ``k``, ``m``, ``n``, ``uplift``,
+    ``depressions``, ``base_level``, ``cell``, ``params`` a TOML file, …).
+    Returns the eroded DEM (float32), or with ``water`` / ``sediment`` a
+    dict of ``"elevation"``, ``"water"``, ``"sediment"`` arrays (hydraulic).
+    With ``output`` a path the DEM is written there (``water`` /
+    ``sediment`` then paths) and a :class:`Raster` returned.
+
+    >>> import numpy as np, orogen
+    >>> y, x = np.mgrid[0:32, 0:32]
+    >>> cone = (300.0 - 10.0 * np.hypot(x - 16, y - 16)).astype(np.float32)
+    >>> smooth = orogen.erode(cone, "diffusion", 50, diffusivity=0.5, dt=1.0)
+    >>> bool(smooth[16, 16] < cone[16, 16])   # the summit is worn down
+    True
+    """
+    inp = _Input(dem, transform, crs, nodata)
+    opts: Dict[str, Any] = {"model": model}
+    if steps is not None:
+        opts["steps"] = int(steps)
+    if set:
+        opts["set"] = [f"{k}={v}" for k, v in dict(set).items()]
+    for k, v in params.items():
+        if v is None:
+            continue
+        opts[k.replace("_", "-")] = os.fspath(v) if isinstance(v, os.PathLike) else v
+    run = _run_settings(memory, tile, threads)
+    fmt = _json(format or {})
+    cb = _progress(progress)
+    if output is not None:
+        for name, v in (("water", water), ("sediment", sediment)):
+            if v is True:
+                raise InvalidInputError(f"erode: with output=, give {name}= a path")
+            if v:
+                opts[name] = os.fspath(v)
+        _orogen.erode(inp.value, inp.georef, _json(opts), run, fmt, os.fspath(output), None, [], cb)
+        return open(output)
+    extras = [n for n, v in (("water", water), ("sediment", sediment)) if v]
+    with tempfile.TemporaryDirectory(prefix="orogen-") as scratch:
+        res = _orogen.erode(inp.value, inp.georef, _json(opts), run, fmt, None, scratch, extras, cb)
+    out = {name: inp.wrap(flat, w, h, g, name) for name, flat, w, h, g in res}
+    return out if extras else out["elevation"]
 
 
 # --------------------------------------------------------------------------
@@ -616,3 +726,18 @@ def open(path: Union[str, os.PathLike]) -> Raster:  # noqa: A001 (the package's 
 
 
 from . import synth  # noqa: E402  (uses the helpers above)
+from ._commands import (  # noqa: E402
+    basins,
+    compare,
+    hydro_index,
+    info,
+    ingest,
+    orostats,
+    render,
+    ridges,
+    run_command,
+    run_job,
+    streams,
+    tiles,
+    viewshed,
+)

@@ -14,15 +14,14 @@ use numpy::{
     IntoPyArray, PyArrayDescrMethods, PyArrayMethods, PyUntypedArray, PyUntypedArrayMethods,
 };
 use orogen::error::Error;
-use orogen::exec::EngineConfig;
+use orogen::exec::{EngineConfig, Observer};
 use orogen::ops::{self, parse::FormatOptions, parse::RunOptions, Target};
-use orogen::raster::{
-    read_window_native, AnyGrid, Crs, GeoRef, Grid, MemRaster, RasterSource, Window,
-};
+use orogen::raster::{read_window_native, AnyGrid, Crs, GeoRef, RasterSource, SliceRaster, Window};
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
 
 pyo3::create_exception!(
     orogen,
@@ -162,18 +161,14 @@ fn georef_dict<'py>(py: Python<'py>, g: &GeoRef) -> PyResult<Bound<'py, PyDict>>
     Ok(d)
 }
 
-/// A C-contiguous 2-D numpy array copied into a grid of its dtype.
-fn grid_from(a: &Bound<'_, PyUntypedArray>) -> PyResult<AnyGrid> {
-    fn typed<T: numpy::Element + Copy>(a: &Bound<'_, PyUntypedArray>) -> PyResult<Grid<T>> {
-        let a = a.cast::<numpy::PyArray2<T>>()?.readonly();
-        let shape = a.shape();
-        let (h, w) = (shape[0], shape[1]);
-        let data = a
-            .as_slice()
-            .map_err(|_| InvalidInputError::new_err("the array must be C-contiguous"))?
-            .to_vec();
-        Grid::from_vec(w, h, data).map_err(to_py)
-    }
+/// Run `f` on a C-contiguous 2-D numpy array read in place (no copy: a
+/// [`SliceRaster`] borrows the array's buffer while `f` runs; numpy's
+/// borrow flag keeps it from being written meanwhile).
+fn with_array<R>(
+    a: &Bound<'_, PyUntypedArray>,
+    georef: GeoRef,
+    f: impl FnOnce(&dyn RasterSource) -> PyResult<R>,
+) -> PyResult<R> {
     if a.ndim() != 2 {
         return Err(InvalidInputError::new_err(format!(
             "a DEM is a 2-D array; this one has {} dimensions",
@@ -183,15 +178,22 @@ fn grid_from(a: &Bound<'_, PyUntypedArray>) -> PyResult<AnyGrid> {
     let py = a.py();
     let dt = a.dtype();
     macro_rules! first_matching {
-        ($($t:ty => $variant:ident),*) => {
+        ($($t:ty),*) => {
             $(
                 if dt.is_equiv_to(&numpy::dtype::<$t>(py)) {
-                    return Ok(AnyGrid::$variant(typed(a)?));
+                    let typed = a.cast::<numpy::PyArray2<$t>>()?.readonly();
+                    let shape = typed.shape();
+                    let (h, w) = (shape[0], shape[1]);
+                    let cells = typed
+                        .as_slice()
+                        .map_err(|_| InvalidInputError::new_err("the array must be C-contiguous"))?;
+                    let src = SliceRaster::new(cells, w, h, georef, "<array>").map_err(to_py)?;
+                    return f(&src);
                 }
             )*
         };
     }
-    first_matching!(f32 => F32, f64 => F64, u8 => U8, i8 => I8, u16 => U16, i16 => I16, u32 => U32, i32 => I32);
+    first_matching!(f32, f64, u8, i8, u16, i16, u32, i32);
     Err(InvalidInputError::new_err(format!(
         "arrays of {dt} are not supported: use float32, float64 or an integer type of up to 32 bits"
     )))
@@ -212,28 +214,71 @@ fn array_from(py: Python<'_>, g: AnyGrid) -> Py<PyAny> {
     }
 }
 
-/// An operation's input: a path (opened as the CLI opens it) or an array
-/// with its georeference.
-fn source(
+/// Run `f` on an operation's input: a path (opened as the CLI opens it)
+/// or an array with its georeference (read in place, see [`with_array`]).
+fn with_source<R>(
     input: &Bound<'_, PyAny>,
     georef: Option<&Bound<'_, PyDict>>,
-) -> PyResult<Box<dyn RasterSource>> {
+    f: impl FnOnce(&dyn RasterSource) -> PyResult<R>,
+) -> PyResult<R> {
     if let Ok(a) = input.cast::<PyUntypedArray>() {
-        let grid = grid_from(a)?;
-        return Ok(Box::new(MemRaster::new(
-            grid,
-            georef_from(georef)?,
-            "<array>",
-        )));
+        return with_array(a, georef_from(georef)?, f);
     }
     let path: PathBuf = input.extract()?;
-    orogen::io::open_raster(&path, &Default::default()).map_err(to_py)
+    let src = orogen::io::open_raster(&path, &Default::default()).map_err(to_py)?;
+    f(src.as_ref())
 }
 
-/// The engine settings and work tile of the `run` JSON (ops `RunOptions`).
-fn run_settings(run_json: &str) -> PyResult<(EngineConfig, Option<usize>)> {
+/// The observer of a run: checks for Ctrl-C (a `KeyboardInterrupt` stops
+/// the run) and calls `callback(name, done, total)` after every tile or
+/// round; an exception it raises, or a return of `False`, stops the run.
+/// The exception is kept in `raised` for [`finish`] to raise in its place.
+fn observer(callback: Option<Py<PyAny>>, raised: &Arc<Mutex<Option<PyErr>>>) -> Observer {
+    let raised = Arc::clone(raised);
+    Observer(Arc::new(move |name: &str, done: u64, total: u64| {
+        Python::attach(|py| {
+            let keep = |e: PyErr| {
+                if let Ok(mut slot) = raised.lock() {
+                    slot.get_or_insert(e);
+                }
+                false
+            };
+            if let Err(e) = py.check_signals() {
+                return keep(e);
+            }
+            match &callback {
+                None => true,
+                Some(cb) => match cb.call1(py, (name, done, total)) {
+                    Ok(v) => !matches!(v.extract::<bool>(py), Ok(false)),
+                    Err(e) => keep(e),
+                },
+            }
+        })
+    }))
+}
+
+/// A run's result, with the exception its observer kept (Ctrl-C, a
+/// callback's own) raised in place of the library's "cancelled".
+fn finish<T>(r: PyResult<T>, raised: &Arc<Mutex<Option<PyErr>>>) -> PyResult<T> {
+    match r {
+        Err(e) => match raised.lock().ok().and_then(|mut s| s.take()) {
+            Some(kept) => Err(kept),
+            None => Err(e),
+        },
+        ok => ok,
+    }
+}
+
+/// The engine settings and work tile of the `run` JSON (ops `RunOptions`),
+/// with the run's observer (see [`observer`]).
+fn run_settings(
+    run_json: &str,
+    progress: Option<Py<PyAny>>,
+    raised: &Arc<Mutex<Option<PyErr>>>,
+) -> PyResult<(EngineConfig, Option<usize>)> {
     let run: RunOptions = options(run_json, "run settings")?;
-    let cfg = run.engine_config(false).map_err(to_py)?;
+    let mut cfg = run.engine_config(false).map_err(to_py)?;
+    cfg.observer = Some(observer(progress, raised));
     Ok((cfg, run.tile))
 }
 
@@ -274,7 +319,7 @@ fn target_for(
 /// the operation has any, go to the folder `scratch`) and returned as
 /// `(flat array, width, height, georef dict)`.
 #[pyfunction]
-#[pyo3(signature = (op, input, georef, options, run, format, output, scratch))]
+#[pyo3(signature = (op, input, georef, options, run, format, output, scratch, progress=None))]
 #[allow(clippy::too_many_arguments)]
 fn run_raster(
     py: Python<'_>,
@@ -286,19 +331,33 @@ fn run_raster(
     format: &str,
     output: Option<PathBuf>,
     scratch: Option<PathBuf>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<Option<RasterResult>> {
-    let src = source(input, georef)?;
-    let (cfg, tile) = run_settings(run)?;
+    let raised = Arc::new(Mutex::new(None));
+    let (cfg, tile) = run_settings(run, progress, &raised)?;
     let mut target = target_for(&output, &scratch, format)?;
     target.tile = tile;
+    let ran = with_source(input, georef, |src| {
+        run_raster_on(py, op, src, options, &target, &cfg)
+    });
+    finish(ran, &raised)?;
+    result_of(py, &target, op)
+}
+
+/// [`run_raster`]'s call of the operation `op` on `src`.
+fn run_raster_on(
+    py: Python<'_>,
+    op: &str,
+    src: &dyn RasterSource,
+    options: &str,
+    target: &Target,
+    cfg: &EngineConfig,
+) -> PyResult<()> {
     let op_name = op.to_string();
     macro_rules! call {
         ($m:ident, $o:ty) => {{
             let o: $o = self::options(options, &op_name)?;
-            let (src, target, cfg) = (&src, &target, &cfg);
-            detached(py, move || {
-                ops::$m::run(src.as_ref(), &o, target, cfg).map(|_| ())
-            })?
+            detached(py, move || ops::$m::run(src, &o, target, cfg).map(|_| ()))?
         }};
     }
     match op {
@@ -311,19 +370,14 @@ fn run_raster(
         "aspect" => call!(aspect, ops::aspect::AspectOptions),
         "hillshade" => call!(hillshade, ops::hillshade::HillshadeOptions),
         "watersheds" => call!(watersheds, ops::watersheds::WatershedsOptions),
-        "export" => {
-            let (src, target, cfg) = (&src, &target, &cfg);
-            detached(py, move || {
-                ops::convert::run(src.as_ref(), target, cfg, &mut |_| {})
-            })?
-        }
+        "export" => detached(py, move || ops::convert::run(src, target, cfg, &mut |_| {}))?,
         _ => {
             return Err(InvalidInputError::new_err(format!(
                 "unknown operation {op:?}"
             )))
         }
     }
-    result_of(py, &target, op)
+    Ok(())
 }
 
 /// What a run into `target` returns to Python: `None` for a file target,
@@ -343,7 +397,7 @@ fn result_of(py: Python<'_>, target: &Target, what: &str) -> PyResult<Option<Ras
 /// folder) the files are written there and their paths returned; without,
 /// a list of `(name, flat array, width, height, georef dict)`.
 #[pyfunction]
-#[pyo3(signature = (input, georef, options, run, format, output, scratch))]
+#[pyo3(signature = (input, georef, options, run, format, output, scratch, progress=None))]
 #[allow(clippy::too_many_arguments)]
 fn metrics<'py>(
     py: Python<'py>,
@@ -354,17 +408,34 @@ fn metrics<'py>(
     format: &str,
     output: Option<PathBuf>,
     scratch: Option<PathBuf>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyList>> {
-    let src = source(input, georef)?;
-    let (cfg, tile) = run_settings(run)?;
+    let raised = Arc::new(Mutex::new(None));
+    let (cfg, tile) = run_settings(run, progress, &raised)?;
+    let ran = with_source(input, georef, |src| {
+        metrics_on(py, src, options, format, output, scratch, tile, &cfg)
+    });
+    finish(ran, &raised)
+}
+
+/// [`metrics`] on an opened `src`.
+#[allow(clippy::too_many_arguments)]
+fn metrics_on<'py>(
+    py: Python<'py>,
+    src: &dyn RasterSource,
+    options: &str,
+    format: &str,
+    output: Option<PathBuf>,
+    scratch: Option<PathBuf>,
+    tile: Option<usize>,
+    cfg: &EngineConfig,
+) -> PyResult<Bound<'py, PyList>> {
     let opts: ops::metric::MetricOptions = self::options(options, "metrics")?;
     let fmt: FormatOptions = self::options(format, "format settings")?;
     let out = PyList::empty(py);
     if let Some(dir) = output {
         let oo = fmt.output_options().map_err(to_py)?;
-        let files = detached(py, || {
-            ops::metric::run(src.as_ref(), &dir, &opts, &oo, tile, &cfg)
-        })?;
+        let files = detached(py, || ops::metric::run(src, &dir, &opts, &oo, tile, cfg))?;
         for f in files {
             out.append(f)?;
         }
@@ -381,9 +452,7 @@ fn metrics<'py>(
         memory: Some(memory.clone()),
         ..Default::default()
     };
-    detached(py, || {
-        ops::metric::run(src.as_ref(), &dir, &opts, &oo, tile, &cfg)
-    })?;
+    detached(py, || ops::metric::run(src, &dir, &opts, &oo, tile, cfg))?;
     for p in &paths {
         let res = memory.take(p).ok_or_else(|| {
             OrogenError::new_err(format!("{}: no output was produced", p.display()))
@@ -406,7 +475,7 @@ fn file_stem(p: &Path) -> String {
 /// and their paths returned as a list; without, the peaks table as the
 /// text of `peaks.csv`.
 #[pyfunction]
-#[pyo3(signature = (input, georef, options, run, output))]
+#[pyo3(signature = (input, georef, options, run, output, progress=None))]
 fn peaks<'py>(
     py: Python<'py>,
     input: &Bound<'py, PyAny>,
@@ -414,16 +483,21 @@ fn peaks<'py>(
     options: &str,
     run: &str,
     output: Option<PathBuf>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let src = source(input, georef)?;
-    let (cfg, _) = run_settings(run)?;
+    let raised = Arc::new(Mutex::new(None));
+    let (cfg, _) = run_settings(run, progress, &raised)?;
     let opts: ops::peaks::PeaksOptions = self::options(options, "peaks")?;
-    if let Some(dir) = output {
-        let found = detached(py, || ops::peaks::run(src.as_ref(), &dir, &opts, &cfg))?;
-        return Ok(PyList::new(py, found.files)?.into_any());
-    }
-    let text = detached(py, || ops::peaks::table(src.as_ref(), &opts, &cfg))?;
-    Ok(text.into_pyobject(py)?.into_any())
+    let (opts, cfg) = (&opts, &cfg);
+    let ran = with_source(input, georef, |src| {
+        if let Some(dir) = output {
+            let found = detached(py, || ops::peaks::run(src, &dir, opts, cfg))?;
+            return Ok(PyList::new(py, found.files)?.into_any());
+        }
+        let text = detached(py, || ops::peaks::table(src, opts, cfg))?;
+        Ok(text.into_pyobject(py)?.into_any())
+    });
+    finish(ran, &raised)
 }
 
 /// A raster file or tile store opened for window reads (`orogen.open`).
@@ -525,7 +599,7 @@ fn defaults(op: &str) -> PyResult<String> {
 /// written to `output`, or kept in memory under `scratch` and returned as
 /// `(flat array, width, height, georef dict)`.
 #[pyfunction]
-#[pyo3(signature = (options, run, format, output, scratch))]
+#[pyo3(signature = (options, run, format, output, scratch, progress=None))]
 fn synth_noise(
     py: Python<'_>,
     options: &str,
@@ -533,15 +607,212 @@ fn synth_noise(
     format: &str,
     output: Option<PathBuf>,
     scratch: Option<PathBuf>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<Option<RasterResult>> {
     let mut opts: ops::synth::noise::NoiseOptions = self::options(options, "synth noise")?;
-    let (cfg, tile) = run_settings(run)?;
+    let raised = Arc::new(Mutex::new(None));
+    let (cfg, tile) = run_settings(run, progress, &raised)?;
     let target = target_for(&output, &scratch, format)?;
     opts.output = target.path.clone();
     opts.tile = opts.tile.or(tile);
     let (o, oo, c) = (&opts, &target.options, &cfg);
-    detached(py, move || ops::synth::noise::run(o, oo, c, &mut |_| {}))?;
+    finish(
+        detached(py, move || ops::synth::noise::run(o, oo, c, &mut |_| {})),
+        &raised,
+    )?;
     result_of(py, &target, "synth noise")
+}
+
+/// Erosion (`orogen erode`): `options` is the JSON of ops `ErodeOptions`
+/// (the CLI's kebab-case names; `input` and `output` are set here). With
+/// `output` (a path) the result is written there (and `water` /
+/// `sediment`, paths, when given) and `None` returned; without, the
+/// rasters are kept in memory under `scratch` and returned as a list of
+/// `(name, flat array, width, height, georef dict)`: `elevation`, then
+/// `water` and `sediment` when `extras` names them.
+#[pyfunction]
+#[pyo3(signature = (input, georef, options, run, format, output, scratch, extras, progress=None))]
+#[allow(clippy::too_many_arguments)]
+fn erode<'py>(
+    py: Python<'py>,
+    input: &Bound<'py, PyAny>,
+    georef: Option<&Bound<'py, PyDict>>,
+    options: &str,
+    run: &str,
+    format: &str,
+    output: Option<PathBuf>,
+    scratch: Option<PathBuf>,
+    extras: Vec<String>,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Option<Bound<'py, PyList>>> {
+    let mut opts: ops::erode::ErodeOptions = self::options(options, "erode")?;
+    let raised = Arc::new(Mutex::new(None));
+    let (cfg, tile) = run_settings(run, progress, &raised)?;
+    opts.tile = opts.tile.or(tile);
+    let fmt: FormatOptions = self::options(format, "format settings")?;
+    let mut oo = fmt.output_options().map_err(to_py)?;
+    let mut named = vec![];
+    match (&output, &scratch) {
+        (Some(p), _) => opts.output = p.clone(),
+        (None, Some(dir)) => {
+            let memory = orogen::store::sink::MemoryOutputs::default();
+            opts.output = dir.join("elevation.tif");
+            named.push(("elevation".to_string(), opts.output.clone()));
+            for e in &extras {
+                let p = dir.join(format!("{e}.tif"));
+                match e.as_str() {
+                    "water" => opts.water = Some(p.clone()),
+                    "sediment" => opts.sediment = Some(p.clone()),
+                    other => {
+                        return Err(InvalidInputError::new_err(format!(
+                            "erode: no output {other:?} (water, sediment)"
+                        )))
+                    }
+                }
+                named.push((e.clone(), p));
+            }
+            for (_, p) in &named {
+                memory.claim(p);
+            }
+            oo.memory = Some(memory);
+        }
+        (None, None) => {
+            return Err(InvalidInputError::new_err(
+                "give an output path or a scratch folder",
+            ))
+        }
+    }
+    ops::erode::check(&opts).map_err(to_py)?;
+    let (o, oo_ref, c) = (&opts, &oo, &cfg);
+    let ran = with_source(input, georef, |src| {
+        detached(py, move || {
+            ops::erode::run_on(o, src, oo_ref, c, &mut |_| {})
+        })
+    });
+    finish(ran, &raised)?;
+    let Some(memory) = &oo.memory else {
+        return Ok(None);
+    };
+    let out = PyList::empty(py);
+    for (name, p) in named {
+        let res = memory
+            .take(&p)
+            .ok_or_else(|| OrogenError::new_err(format!("erode: no {name} output was produced")))?;
+        let (a, w, h, d) = raster_result(py, res)?;
+        out.append((name, a, w, h, d))?;
+    }
+    Ok(Some(out))
+}
+
+/// A JSON value as the TOML value a job step's `args` holds.
+fn toml_value(v: serde_json::Value, key: &str) -> PyResult<toml::Value> {
+    use serde_json::Value as J;
+    Ok(match v {
+        J::Bool(b) => toml::Value::Boolean(b),
+        J::Number(n) => match n.as_i64() {
+            Some(i) => toml::Value::Integer(i),
+            None => toml::Value::Float(n.as_f64().unwrap_or(f64::NAN)),
+        },
+        J::String(t) => toml::Value::String(t),
+        J::Array(items) => toml::Value::Array(
+            items
+                .into_iter()
+                .map(|i| toml_value(i, key))
+                .collect::<PyResult<_>>()?,
+        ),
+        J::Null | J::Object(_) => {
+            return Err(InvalidInputError::new_err(format!(
+                "{key}: give a string, number, boolean or a list of them"
+            )))
+        }
+    })
+}
+
+/// Run any command of the library's registry by name (`"basins"`,
+/// `"synth tectonic"`, …; `ops::job::run_command`) on file paths:
+/// `inputs` its positional inputs, `output` its `-o`, `args` the JSON of
+/// its options by their long names. Returns the notes it made as
+/// `(kind, text)` pairs (`wrote`, `warning`, `info`, `message`, `print`).
+#[pyfunction]
+#[pyo3(signature = (command, inputs, output, args, progress=None))]
+fn command(
+    py: Python<'_>,
+    command: &str,
+    inputs: Vec<PathBuf>,
+    output: Option<PathBuf>,
+    args: &str,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Vec<(String, String)>> {
+    let raw: serde_json::Map<String, serde_json::Value> = self::options(args, command)?;
+    let mut table = std::collections::BTreeMap::new();
+    for (k, v) in raw {
+        let v = toml_value(v, &k)?;
+        table.insert(k, v);
+    }
+    let raised = Arc::new(Mutex::new(None));
+    let watch = Some(observer(progress, &raised));
+    let mut notes = vec![];
+    let ran = detached(py, || {
+        ops::job::run_command(
+            command,
+            &inputs,
+            output.as_deref(),
+            table,
+            watch,
+            &mut |n| notes.push(n),
+        )
+    });
+    finish(ran, &raised)?;
+    use orogen::ops::note::Note;
+    Ok(notes
+        .into_iter()
+        .map(|n| match n {
+            Note::Wrote(p) => ("wrote".to_string(), p.display().to_string()),
+            Note::Warning(t) => ("warning".to_string(), t),
+            Note::Info(t) => ("info".to_string(), t),
+            Note::Message(t) => ("message".to_string(), t),
+            Note::Print(t) => ("print".to_string(), t),
+        })
+        .collect())
+}
+
+/// Run the batch job at `path` (`orogen run`; ops `job::prepare` and
+/// `job::run`): every step checked first, then run in order, resumable.
+/// Returns the job's step lines; with `dry_run`, each step's command line
+/// and typed options, and nothing runs.
+#[pyfunction]
+#[pyo3(signature = (path, memory, threads, dry_run))]
+fn run_job(
+    py: Python<'_>,
+    path: PathBuf,
+    memory: Option<String>,
+    threads: Option<usize>,
+    dry_run: bool,
+) -> PyResult<Vec<String>> {
+    let opts = ops::job::JobOptions {
+        memory,
+        threads,
+        quiet: true,
+        ..Default::default()
+    };
+    let job = detached(py, || ops::job::prepare(&path, &opts))?;
+    if dry_run {
+        let mut lines = vec![];
+        for s in &job.steps {
+            let typed = ops::job::typed_options(s).map_err(to_py)?;
+            lines.push(format!("{}: orogen {}\n{typed}", s.name, s.argv.join(" ")));
+        }
+        return Ok(lines);
+    }
+    let mut lines = vec![];
+    detached(py, || {
+        ops::job::run(&job, &opts, &mut |n| {
+            if let orogen::ops::note::Note::Message(t) | orogen::ops::note::Note::Info(t) = n {
+                lines.push(t)
+            }
+        })
+    })?;
+    Ok(lines)
 }
 
 #[pymodule]
@@ -563,6 +834,9 @@ fn _orogen(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(open, m)?)?;
     m.add_function(wrap_pyfunction!(defaults, m)?)?;
     m.add_function(wrap_pyfunction!(synth_noise, m)?)?;
+    m.add_function(wrap_pyfunction!(erode, m)?)?;
+    m.add_function(wrap_pyfunction!(command, m)?)?;
+    m.add_function(wrap_pyfunction!(run_job, m)?)?;
     m.add_class::<RasterFile>()?;
     Ok(())
 }
