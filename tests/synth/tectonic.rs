@@ -297,12 +297,60 @@ fn cli_writes_intermediates_deterministically() {
             "{n}"
         );
     }
-    // The plates file holds as many labels as the model's merged plates.
+    // The plates file holds the model's merged plates: labels 0..n, each
+    // present, n + 1 the model's plate count, and each cell the label of
+    // the plate of its nearest peak (the Voronoi cells of the peaks, found
+    // here by brute force; cells within 0.01 cell of a tie left out).
     let plates = orogen::io::open_raster(&inter.join("plates.tif"), &Default::default()).unwrap();
     let i = plates.info().clone();
     let g: Grid<i32> = read_window(plates.as_ref(), Window::new(0, 0, i.width, i.height)).unwrap();
-    let max = g.data().iter().copied().max().unwrap();
-    assert!(max >= 1 && g.data().iter().all(|&v| v >= 0));
+    let (map, w, h, _) = sample(150.0);
+    assert_eq!((i.width, i.height), (w, h));
+    let model = TectonicModel::new(&map, w, h, 150.0, TectonicParams::default()).unwrap();
+    let n = model.plate_velocities().len();
+    assert!(
+        n >= 2 && n < map.peaks.len(),
+        "{n} plates from {} peaks",
+        map.peaks.len()
+    );
+    let mut seen = vec![0usize; n];
+    let mut checked = 0;
+    for y in 0..h {
+        for x in 0..w {
+            let v = g.get(x, y);
+            assert!(
+                v >= 0 && (v as usize) < n,
+                "label {v} at ({x}, {y}), {n} plates"
+            );
+            seen[v as usize] += 1;
+            let mut d: Vec<(f64, usize)> = map
+                .peaks
+                .iter()
+                .enumerate()
+                .map(|(k, p)| {
+                    (
+                        (p.pos[0] - x as f64 - 0.5).hypot(p.pos[1] - y as f64 - 0.5),
+                        k,
+                    )
+                })
+                .collect();
+            d.sort_by(|a, b| a.0.total_cmp(&b.0));
+            if d[1].0 - d[0].0 > 0.01 {
+                checked += 1;
+                assert_eq!(
+                    v as u32,
+                    model.plate_of_peaks()[d[0].1],
+                    "({x}, {y}): nearest peak {}",
+                    d[0].1
+                );
+            }
+        }
+    }
+    assert!(
+        seen.iter().all(|&c| c > 0),
+        "a plate without cells: {seen:?}"
+    );
+    assert!(checked > w * h * 9 / 10);
 
     // A map with a peak outside the given domain: non-zero exit, one clear line.
     let bad = dir.path().join("bad.geojson");
