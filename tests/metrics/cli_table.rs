@@ -51,12 +51,41 @@ fn metric_table_writes_cost_and_correlation() {
     let corr = std::fs::read_to_string(dir.path().join("correlation.csv")).unwrap();
     assert_eq!(corr.lines().count(), n + 1);
     assert!(corr.lines().all(|l| l.split(',').count() == n + 1));
-    let png = std::fs::read(dir.path().join("correlation.png")).unwrap();
-    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
-    // IHDR width and height (big-endian) equal: a square heat map.
-    let wh = |o: usize| u32::from_be_bytes([png[o], png[o + 1], png[o + 2], png[o + 3]]);
-    assert_eq!(wh(16), wh(20));
-    assert!(wh(16) as usize >= n * 20);
+    // The heat map: n x n cells of 20 pixels after a label margin, each in
+    // the diverging ramp of its coefficient in correlation.csv (white at 0,
+    // red (255, 255(1 − c), 255(1 − c)) up to +1, blue (255(1 + c),
+    // 255(1 + c), 255) down to −1; the CSV's 4 decimals allow ±1).
+    let d = png::Decoder::new(std::io::BufReader::new(
+        std::fs::File::open(dir.path().join("correlation.png")).unwrap(),
+    ));
+    let mut r = d.read_info().unwrap();
+    let mut px = vec![0; r.output_buffer_size().unwrap()];
+    let info = r.next_frame(&mut px).unwrap();
+    assert_eq!(info.color_type, png::ColorType::Rgb);
+    let (w, h) = (info.width as usize, info.height as usize);
+    assert_eq!(w, h, "a square heat map");
+    let margin = w - n * 20;
+    assert!((4..=40).contains(&margin), "margin {margin}");
+    for (i, line) in corr.lines().skip(1).enumerate() {
+        for (j, v) in line.split(',').skip(1).enumerate() {
+            let c: f64 = v.parse().unwrap_or(f64::NAN);
+            let want = if !c.is_finite() {
+                [160.0, 160.0, 160.0]
+            } else if c >= 0.0 {
+                [255.0, 255.0 * (1.0 - c), 255.0 * (1.0 - c)]
+            } else {
+                [255.0 * (1.0 + c), 255.0 * (1.0 + c), 255.0]
+            };
+            let (x, y) = (margin + j * 20 + 10, margin + i * 20 + 10);
+            let got = &px[(y * w + x) * 3..(y * w + x) * 3 + 3];
+            for k in 0..3 {
+                assert!(
+                    (got[k] as f64 - want[k]).abs() <= 1.0,
+                    "cell ({i}, {j}) r = {c}: {got:?}, expected {want:?}"
+                );
+            }
+        }
+    }
 }
 
 #[test]

@@ -351,6 +351,64 @@ fn cli_writes_intermediates_deterministically() {
         "a plate without cells: {seen:?}"
     );
     assert!(checked > w * h * 9 / 10);
+    // Its preview (viridis, no shading): one colour per plate, different
+    // plates in different colours, lighter for higher labels (viridis runs
+    // from dark purple to yellow).
+    let png_px = |name: &str| {
+        let d = png::Decoder::new(std::io::BufReader::new(
+            std::fs::File::open(inter.join(name)).unwrap(),
+        ));
+        let mut r = d.read_info().unwrap();
+        let mut buf = vec![0; r.output_buffer_size().unwrap()];
+        let info = r.next_frame(&mut buf).unwrap();
+        assert_eq!(info.color_type, png::ColorType::Rgba);
+        assert_eq!(info.width as usize, w, "{name}");
+        assert!(info.height as usize >= h, "{name}");
+        buf
+    };
+    let px = png_px("plates.png");
+    let mut colour = vec![None; n];
+    for k in 0..w * h {
+        let c = [px[4 * k], px[4 * k + 1], px[4 * k + 2], px[4 * k + 3]];
+        assert_eq!(c[3], 255);
+        let l = g.data()[k] as usize;
+        assert_eq!(*colour[l].get_or_insert(c), c, "plate {l} in two colours");
+    }
+    let lum = |c: [u8; 4]| 0.2126 * c[0] as f64 + 0.7152 * c[1] as f64 + 0.0722 * c[2] as f64;
+    for l in 1..n {
+        let (a, b) = (colour[l - 1].unwrap(), colour[l].unwrap());
+        assert!(
+            lum(a) < lum(b),
+            "plate {} {a:?} not darker than plate {l} {b:?}",
+            l - 1
+        );
+    }
+    // The velocity magnitude in grey: R = G = B, never darker for a faster
+    // cell, black at the slowest and white at the fastest.
+    let vm = orogen::io::open_raster(&inter.join("velocity_magnitude.tif"), &Default::default())
+        .unwrap();
+    let v: Grid<f32> = read_window(vm.as_ref(), Window::new(0, 0, w, h)).unwrap();
+    let px = png_px("velocity_magnitude.png");
+    let mut cells: Vec<(f32, u8)> = (0..w * h)
+        .map(|k| {
+            assert!(
+                px[4 * k] == px[4 * k + 1] && px[4 * k] == px[4 * k + 2],
+                "not grey"
+            );
+            (v.data()[k], px[4 * k])
+        })
+        .collect();
+    cells.sort_by(|a, b| a.0.total_cmp(&b.0));
+    assert!(
+        cells.windows(2).all(|p| p[0].1 <= p[1].1),
+        "grey not monotone in the speed"
+    );
+    assert!(
+        cells[0].1 <= 1 && cells[w * h - 1].1 >= 254,
+        "{:?} {:?}",
+        cells[0],
+        cells[w * h - 1]
+    );
 
     // A map with a peak outside the given domain: non-zero exit, one clear line.
     let bad = dir.path().join("bad.geojson");
