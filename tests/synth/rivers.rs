@@ -253,7 +253,8 @@ fn cli_is_deterministic_across_threads_and_tiles() {
 /// terrain under a node is no higher than the node (its channel cell
 /// carries the node's height, the cones only lower it). The `--preview`
 /// PNG: one pixel per cell plus a legend, open-sea cells (all 3x3 at the
-/// sea floor: flat, unshaded) in one bluish colour, land never in it.
+/// sea floor: flat, unshaded) in one bluish colour, land never in it, low
+/// land greener than high land.
 fn check_network_and_preview(dem: &Path, net: &Path, pv: &Path) {
     let v: serde_json::Value = serde_json::from_slice(&std::fs::read(net).unwrap()).unwrap();
     assert_eq!(v["type"], "FeatureCollection");
@@ -400,5 +401,31 @@ fn check_network_and_preview(dem: &Path, net: &Path, pv: &Path) {
         nsea > 1000 && land.len() > 100,
         "{nsea} sea cells, {} land colours",
         land.len()
+    );
+    // The hypsometric tint: the lowest tenth of the land greener than the
+    // highest tenth (green lowlands to brown, grey and white heights).
+    let mut by_height: Vec<(f32, usize, usize)> = (0..200)
+        .flat_map(|y| (0..300).map(move |x| (x, y)))
+        .filter(|&(x, y)| g.get(x, y) > 0.0)
+        .map(|(x, y)| (g.get(x, y), x, y))
+        .collect();
+    by_height.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let green = |ks: &[(f32, usize, usize)]| {
+        ks.iter()
+            .map(|&(_, x, y)| {
+                let c = px(x, y);
+                c[1] as f64 - (c[0] as f64 + c[2] as f64) / 2.0
+            })
+            .sum::<f64>()
+            / ks.len() as f64
+    };
+    let tenth = by_height.len() / 10;
+    let (low, high) = (
+        green(&by_height[..tenth]),
+        green(&by_height[by_height.len() - tenth..]),
+    );
+    assert!(
+        low > high + 10.0,
+        "lowest tenth greenness {low}, highest {high}"
     );
 }
