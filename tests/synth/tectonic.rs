@@ -284,7 +284,57 @@ fn cli_writes_intermediates_deterministically() {
     );
     let b = run("b.tif", &["--threads", "2", "--tile", "100"]);
     assert_eq!(a, b);
-    assert!(pv.exists());
+    // The terrain preview: one pixel per cell (plus a legend), the open sea
+    // (3x3 at the deepest level: flat, unshaded) in one bluish colour, low
+    // land greener than high land (hypsometric tint).
+    {
+        let t = orogen::io::open_raster(&dir.path().join("a.tif"), &Default::default()).unwrap();
+        let (w, h) = (t.info().width, t.info().height);
+        let z: Grid<f32> = read_window(t.as_ref(), Window::new(0, 0, w, h)).unwrap();
+        let d = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&pv).unwrap()));
+        let mut r = d.read_info().unwrap();
+        let mut px = vec![0; r.output_buffer_size().unwrap()];
+        let info = r.next_frame(&mut px).unwrap();
+        assert_eq!(info.color_type, png::ColorType::Rgba);
+        assert_eq!(info.width as usize, w);
+        assert!(info.height as usize > h, "no legend");
+        let c = |x: usize, y: usize| {
+            let i = (y * w + x) * 4;
+            [px[i], px[i + 1], px[i + 2]]
+        };
+        let deep = z.data().iter().copied().fold(f32::INFINITY, f32::min);
+        assert!(deep < 0.0, "no sea");
+        let mut sea = None;
+        let mut land = Vec::new();
+        for y in 1..h - 1 {
+            for x in 1..w - 1 {
+                if (y - 1..=y + 1).all(|yy| (x - 1..=x + 1).all(|xx| z.get(xx, yy) == deep)) {
+                    assert_eq!(*sea.get_or_insert(c(x, y)), c(x, y), "open sea ({x}, {y})");
+                } else if z.get(x, y) > 0.0 {
+                    land.push((z.get(x, y), x, y));
+                }
+            }
+        }
+        let sea = sea.expect("no open sea");
+        assert!(sea[2] > sea[0] && sea[2] > sea[1], "sea {sea:?} not blue");
+        land.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let green = |ks: &[(f32, usize, usize)]| {
+            ks.iter()
+                .map(|&(_, x, y)| {
+                    let p = c(x, y);
+                    p[1] as f64 - (p[0] as f64 + p[2] as f64) / 2.0
+                })
+                .sum::<f64>()
+                / ks.len() as f64
+        };
+        let tenth = land.len() / 10;
+        assert!(tenth > 100, "{} land cells", land.len());
+        let (low, high) = (green(&land[..tenth]), green(&land[land.len() - tenth..]));
+        assert!(
+            low > high + 10.0,
+            "lowest tenth greenness {low}, highest {high}"
+        );
+    }
     for n in [
         "plates",
         "velocity_magnitude",
