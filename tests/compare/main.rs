@@ -114,6 +114,105 @@ fn doubled_heights_follow_the_tan_law() {
     assert_eq!(c.distances["drainage_density_rel"], 0.0);
 }
 
+#[test]
+fn emd_and_total_variation_of_hand_made_histograms() {
+    // ∫ |F − G|: all the mass moved from 0 to 3 costs 3; halves moved from
+    // {0, 1} to {2, 3} cost 2 each way (F − G = 0.5, 1, 0.5 on the three
+    // unit gaps); unequal gaps count their width.
+    let x = [0.0, 1.0, 2.0, 3.0];
+    assert_eq!(
+        compare::emd::emd_1d(&x, &[1.0, 0.0, 0.0, 0.0], &[0.0, 0.0, 0.0, 1.0]),
+        3.0
+    );
+    assert_eq!(
+        compare::emd::emd_1d(&x, &[1.0, 1.0, 0.0, 0.0], &[0.0, 0.0, 3.0, 3.0]),
+        2.0
+    );
+    assert_eq!(
+        compare::emd::emd_1d(&[0.0, 1.0, 10.0], &[1.0, 0.0, 0.0], &[0.0, 0.0, 2.0]),
+        10.0
+    );
+    // p = (0.2, 0.3, 0.5), q = (0.5, 0.3, 0.2) on 0, 2, 3:
+    // |F − G| = 0.3 over [0, 2], 0.3 over [2, 3]: 0.9.
+    let d = compare::emd::emd_1d(&[0.0, 2.0, 3.0], &[0.2, 0.3, 0.5], &[0.5, 0.3, 0.2]);
+    assert!((d - 0.9).abs() < 1e-12, "{d}");
+    assert_eq!(compare::emd::total_variation(&[1.0, 0.0], &[0.0, 1.0]), 1.0);
+    let tv = compare::emd::total_variation(&[0.5, 0.25, 0.25], &[0.25, 0.25, 0.5]);
+    assert!((tv - 0.25).abs() < 1e-12, "{tv}");
+}
+
+/// Hypsometry and slope distances of a terrain and a reshaped copy against
+/// the definitions computed here: the curve (fraction of cells with
+/// relative height ≥ k/100, k = 0..=100), its integral (the mean relative
+/// height), and the slope EMD as ∫ |CDF_a − CDF_b| over 1° bins.
+#[test]
+fn distances_match_their_definitions_computed_independently() {
+    let a = load("bigtujunga_crop.tif");
+    // Heights squared (scaled): relative heights and slopes both change.
+    let b = transformed(&a, |z| z * z / 1000.0);
+    let c = compare::compare(&a, &b, &opts()).unwrap();
+    let rel = |t: &Terrain| -> Vec<f64> {
+        let v: Vec<f64> = t
+            .dem
+            .data()
+            .iter()
+            .filter(|v| v.is_finite())
+            .map(|&v| v as f64)
+            .collect();
+        let (lo, hi) = v
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+                (a.min(x), b.max(x))
+            });
+        v.iter().map(|x| (x - lo) / (hi - lo)).collect()
+    };
+    let (ra, rb) = (rel(&a), rel(&b));
+    let curve = |r: &[f64]| -> Vec<f64> {
+        (0..=100)
+            .map(|k| {
+                r.iter().filter(|&&x| x >= k as f64 / 100.0 - 1e-12).count() as f64 / r.len() as f64
+            })
+            .collect()
+    };
+    let (ca, cb) = (curve(&ra), curve(&rb));
+    let l1 = ca.iter().zip(&cb).map(|(x, y)| (x - y).abs()).sum::<f64>() / 101.0;
+    let d = &c.distances;
+    assert!(l1 > 0.05, "the reshaping changes the curve ({l1})");
+    assert!(
+        (d["hypsometric_curve_l1"] - l1).abs() < 1e-9,
+        "{} vs {l1}",
+        d["hypsometric_curve_l1"]
+    );
+    let mean = |r: &[f64]| r.iter().sum::<f64>() / r.len() as f64;
+    let hi = (mean(&ra) - mean(&rb)).abs();
+    assert!(
+        (d["hypsometric_integral_abs"] - hi).abs() < 1e-9,
+        "{} vs {hi}",
+        d["hypsometric_integral_abs"]
+    );
+    // Slope EMD from the slopes themselves.
+    let hist = |s: &[f32]| {
+        let mut h = vec![0.0; 90];
+        for &v in s {
+            h[(v.floor() as usize).min(89)] += 1.0 / s.len() as f64;
+        }
+        h
+    };
+    let (ha, hb) = (hist(&c.a.slope_deg), hist(&c.b.slope_deg));
+    let (mut fa, mut fb, mut emd) = (0.0, 0.0, 0.0);
+    for i in 0..89 {
+        fa += ha[i];
+        fb += hb[i];
+        emd += (fa - fb).abs();
+    }
+    assert!(emd > 1.0, "the reshaping changes the slopes ({emd})");
+    assert!(
+        (d["slope_emd_deg"] - emd).abs() < 1e-9,
+        "{} vs {emd}",
+        d["slope_emd_deg"]
+    );
+}
+
 fn orogen() -> Command {
     Command::new(env!("CARGO_BIN_EXE_orogen"))
 }

@@ -643,7 +643,7 @@ fn mutated_divide_trees_and_multi_tile_stores_never_panic() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/corpus");
     let tmp = tempfile::tempdir().unwrap();
     let mut s = 12u64;
-    let mut loaded = 0;
+    let (mut loaded, mut pruned_some) = (0, 0);
     for e in std::fs::read_dir(root.join("divide_tree"))
         .unwrap()
         .flatten()
@@ -659,13 +659,48 @@ fn mutated_divide_trees_and_multi_tile_stores_never_panic() {
                 std::fs::write(&p, rest).unwrap();
                 if let Ok(t) = orogen::synth::orometric::tree_synth::SynthTree::load(&p) {
                     assert_eq!(t.prominences().len(), t.peaks.len());
-                    let _ = t.to_geojson();
+                    // The GeoJSON of any tree that loads is JSON: a point per
+                    // peak and saddle, a line per saddle, the peaks' values.
+                    let g: serde_json::Value = serde_json::from_str(&t.to_geojson())
+                        .unwrap_or_else(|e| panic!("GeoJSON of a loaded tree: {e}"));
+                    let f = g["features"].as_array().unwrap();
+                    assert_eq!(f.len(), t.peaks.len() + 2 * t.saddles.len());
+                    for (i, p) in t.peaks.iter().enumerate() {
+                        assert_eq!(f[i]["properties"]["id"], i);
+                        assert_eq!(f[i]["properties"]["elevation"].as_f64(), Some(p.elevation));
+                    }
                     loaded += 1;
                 }
             } else {
                 std::fs::write(&p, &b).unwrap();
                 if let Ok(t) = orogen::oro::DivideTree::load_json(&p) {
-                    let _ = t.pruned(10.0);
+                    // Pruning at the median prominence keeps exactly the
+                    // peaks at or above it, in order, each with the nearest
+                    // kept ancestor as its parent, as a tree that validates.
+                    let mut proms: Vec<f64> = t.peaks.iter().map(|p| p.prominence).collect();
+                    proms.sort_by(f64::total_cmp);
+                    let min = proms.get(proms.len() / 2).copied().unwrap_or(10.0);
+                    let pr = t.pruned(min);
+                    let kept: Vec<usize> = (0..t.peaks.len())
+                        .filter(|&i| t.peaks[i].prominence >= min)
+                        .collect();
+                    assert_eq!(pr.peaks.len(), kept.len());
+                    for (a, &i) in pr.peaks.iter().zip(&kept) {
+                        let b = &t.peaks[i];
+                        assert_eq!((a.col, a.row, a.prominence), (b.col, b.row, b.prominence));
+                        let mut anc = b.parent;
+                        for _ in 0..=t.peaks.len() {
+                            match anc {
+                                Some(j) if !kept.contains(&j) => anc = t.peaks[j].parent,
+                                _ => break,
+                            }
+                        }
+                        let want = anc.and_then(|j| kept.iter().position(|&k| k == j));
+                        assert_eq!(a.parent, want, "parent of kept peak {i}");
+                    }
+                    pruned_some += (kept.len() < t.peaks.len()) as usize;
+                    orogen::oro::DivideTree::from_json(&pr.to_json())
+                        .unwrap_or_else(|e| panic!("pruned tree does not validate: {e}"));
                     assert_eq!(orogen::oro::DivideTree::from_json(&t.to_json()).unwrap(), t);
                     loaded += 1;
                 }
@@ -676,6 +711,7 @@ fn mutated_divide_trees_and_multi_tile_stores_never_panic() {
         loaded > 0,
         "no mutant loaded: the mutations are too destructive to test much"
     );
+    assert!(pruned_some > 0, "no loaded tree lost a peak to pruning");
     let mut opened = 0;
     for e in std::fs::read_dir(root.join("store_tiles"))
         .unwrap()

@@ -12,11 +12,17 @@
 //! - fill: valid cells stay valid and are never lowered, invalid cells are
 //!   nodata; flow: invalid cells get 255, valid ones an ESRI code or 0;
 //!   accumulation: ≥ 1 on valid cells; slope: within [0°, 90°] or nodata,
-//!   nodata on invalid cells; erosion: invalid cells stay nodata, valid
-//!   cells finite; peaks: finite elevations and prominences, never on an
-//!   invalid cell (a DEM with ±inf is refused by orometry with one error).
+//!   nodata on invalid cells; TPI: refused (one error line) exactly when a
+//!   value is beyond ±5e7 or infinite, else nodata on invalid cells and 0
+//!   on a plane; erosion (never refused): invalid cells stay nodata, valid
+//!   cells finite, the volume conserved, diffusion within the input's
+//!   [min, max], and every cell equal to the model written out by hand in
+//!   this file (FTCS diffusion, Musgrave's thermal weathering); peaks:
+//!   finite elevations and prominences, never on an invalid cell (a DEM
+//!   with ±inf is refused by orometry with one error).
 //!   Closed forms where the input allows: on a plane the slope equals
-//!   atan(|∇z|) (Horn's kernel is exact on planes).
+//!   atan(|∇z|) (Horn's kernel is exact on planes) and erosion leaves the
+//!   plane's interior as it was.
 
 // Cell loops index the input, the validity mask and an output together.
 #![allow(clippy::needless_range_loop)]
@@ -68,14 +74,16 @@ fn valid_mask(g: &Grid<f64>, nodata: Option<f64>) -> Vec<bool> {
 }
 
 /// Run every step on `input` and check the defined behaviour. `z` is the
-/// DEM as written (f64 values), `plane` an optional (a, b) such that cells
-/// at least 2 away from any invalid or non-planar cell have z = c + a x + b y.
+/// DEM as written (f64 values), `plane` an optional mask of the cells on a
+/// plane z = c + a x + b y (sloping less than the thermal talus, 35°),
+/// `gradient` its (a, b) when the slope is to be checked against it.
 fn check_all(
     dir: &Path,
     input: &Path,
     z: &Grid<f64>,
     nodata: Option<f64>,
-    plane_mask: Option<(&[bool], f64, f64)>,
+    plane: Option<&[bool]>,
+    gradient: Option<(f64, f64)>,
 ) {
     let valid = valid_mask(z, nodata);
     let p = |n: &str| dir.join(n);
@@ -150,7 +158,7 @@ fn check_all(
             assert!(v.is_nan(), "slope at invalid cell {k}: {v}");
         }
     }
-    if let Some((mask, ga, gb)) = plane_mask {
+    if let (Some(mask), Some((ga, gb))) = (plane, gradient) {
         let want = ((ga * ga + gb * gb).sqrt() / CELL).atan().to_degrees();
         let mut n = 0;
         for y in 1..H - 1 {
@@ -169,7 +177,10 @@ fn check_all(
         assert!(n > 100, "too few plane cells checked ({n})");
     }
 
-    // a descriptor
+    // a descriptor: TPI refuses elevations beyond ±5e7 (the fixed-point
+    // range of the windowed statistics), ±inf included (unlike slope, it does
+    // not take ±inf for nodata), with one error naming the input and the
+    // fix, and succeeds on everything else.
     let (ok, e) = run(&[
         "metric",
         inp,
@@ -179,25 +190,47 @@ fn check_all(
         &s(&p("m")),
         "-q",
     ]);
-    if !ok {
-        // The windowed statistics refuse elevations beyond ±5e7 (their
-        // fixed-point range): one error naming the input and the fix.
+    let beyond_windowed = (0..W * H).any(|k| {
+        let v = z.data()[k] as f32 as f64;
+        Some(z.data()[k]) != nodata && !v.is_nan() && v.abs() > 5e7
+    });
+    if beyond_windowed {
         assert!(
-            e.contains(inp) && e.contains("rescale the input") && e.trim().lines().count() == 1,
-            "metric: {e}"
+            !ok && e.contains(inp)
+                && e.contains("rescale the input")
+                && e.trim().lines().count() == 1,
+            "metric on elevations beyond ±5e7: {e}"
         );
-    }
-    for ent in std::fs::read_dir(p("m")).into_iter().flatten().flatten() {
-        let g = read(&ent.path());
-        no_inf(&g, "tpi");
-        for k in 0..W * H {
-            if !valid[k] {
-                assert!(g.data()[k].is_nan(), "tpi at invalid cell {k}");
+    } else {
+        assert!(ok, "metric: {e}");
+        let mut n = 0;
+        for ent in std::fs::read_dir(p("m")).unwrap().flatten() {
+            let g = read(&ent.path());
+            no_inf(&g, "tpi");
+            n += 1;
+            for k in 0..W * H {
+                if !valid[k] {
+                    assert!(g.data()[k].is_nan(), "tpi at invalid cell {k}");
+                }
+            }
+            // On a plane every window symmetric about its centre has the
+            // centre's elevation as its mean: TPI = 0 where the radius-2
+            // window lies on the plane.
+            if let Some(mask) = plane {
+                for (x, y) in interior(mask, 2) {
+                    let (v, zc) = (g.data()[y * W + x], z.data()[y * W + x]);
+                    assert!(
+                        v.abs() <= 1e-6 * zc.abs().max(1.0),
+                        "tpi ({x},{y}) on the plane = {v}"
+                    );
+                }
             }
         }
+        assert!(n > 0, "metric wrote nothing");
     }
 
-    // erosion
+    // erosion: both models succeed on every input (nodata is a wall, not an
+    // error) and are checked against their defining properties.
     for model in ["diffusion", "thermal"] {
         let out = p(&format!("e_{model}.tif"));
         let (ok, e) = run(&[
@@ -211,31 +244,8 @@ fn check_all(
             &s(&out),
             "-q",
         ]);
-        if !ok {
-            // A refusal is defined behaviour only as one clear error line.
-            assert!(
-                e.trim().lines().count() <= 3 && e.contains("error"),
-                "erode {model}: {e}"
-            );
-            continue;
-        }
-        let g = read(&out);
-        no_inf(&g, &format!("erode {model}"));
-        for k in 0..W * H {
-            if valid[k] {
-                assert!(
-                    g.data()[k].is_finite(),
-                    "erode {model}: valid cell {k} became {}",
-                    g.data()[k]
-                );
-            } else {
-                assert!(
-                    g.data()[k].is_nan(),
-                    "erode {model}: invalid cell {k} got {}",
-                    g.data()[k]
-                );
-            }
-        }
+        assert!(ok, "erode {model}: {e}");
+        check_erosion(model, z, &valid, plane, &read(&out));
     }
 
     // peaks
@@ -270,6 +280,207 @@ fn check_all(
         );
         let (col, row): (usize, usize) = (c[9].parse().unwrap(), c[10].parse().unwrap());
         assert!(valid[row * W + col], "peak on an invalid cell: {line}");
+    }
+}
+
+/// Cells (x, y) whose (2r+1)² window lies inside the raster and on the plane.
+fn interior(mask: &[bool], r: usize) -> Vec<(usize, usize)> {
+    let mut v = Vec::new();
+    for y in r..H - r {
+        for x in r..W - r {
+            if (y - r..=y + r).all(|yy| (x - r..=x + r).all(|xx| mask[yy * W + xx])) {
+                v.push((x, y));
+            }
+        }
+    }
+    v
+}
+
+/// The CLI's default diffusion (D = 0.01 m²/yr, dt = 1000 yr) on 10 m cells
+/// is one FTCS substep per step with rx = ry = D·dt/dx² = 0.1; `steps` of
+/// h' = h + rx·Σ(h_n − h) over the 4-neighbours with data (a missing
+/// neighbour contributes 0: zero-flux walls), written from the formula.
+fn diffusion_by_hand(h: &[f64], steps: usize) -> Vec<f64> {
+    let r = 0.01 * 1000.0 / (CELL * CELL);
+    let mut h = h.to_vec();
+    for _ in 0..steps {
+        let mut n = h.clone();
+        for y in 0..H as i64 {
+            for x in 0..W as i64 {
+                let i = (y * W as i64 + x) as usize;
+                if !h[i].is_finite() {
+                    continue;
+                }
+                let mut lap = 0.0;
+                for (dx, dy) in [(1, 0), (-1, 0), (0, 1), (0, -1)] {
+                    let (nx, ny) = (x + dx, y + dy);
+                    if nx >= 0 && ny >= 0 && nx < W as i64 && ny < H as i64 {
+                        let hj = h[(ny * W as i64 + nx) as usize];
+                        if hj.is_finite() {
+                            lap += hj - h[i];
+                        }
+                    }
+                }
+                n[i] = h[i] + r * lap;
+            }
+        }
+        h = n;
+    }
+    h
+}
+
+/// Musgrave et al. 1989 thermal weathering with the CLI's defaults (talus
+/// 35°, rate 1/2), written from the paper: on the 8-neighbourhood the excess
+/// towards n is e = (h − h_n) − tan(35°)·|offset|; a cell whose largest
+/// excess is positive sends rate·max e, shared in proportion to the
+/// positive excesses; all cells move at once. Edges and nodata are walls.
+fn thermal_by_hand(h: &[f64], steps: usize) -> Vec<f64> {
+    let t = 35f64.to_radians().tan();
+    let mut h = h.to_vec();
+    let at = |x: i64, y: i64| {
+        (x >= 0 && y >= 0 && x < W as i64 && y < H as i64).then(|| (y * W as i64 + x) as usize)
+    };
+    for _ in 0..steps {
+        let mut n = h.clone();
+        for y in 0..H as i64 {
+            for x in 0..W as i64 {
+                let i = at(x, y).unwrap();
+                if !h[i].is_finite() {
+                    continue;
+                }
+                let mut ex = Vec::new();
+                for dy in -1..=1i64 {
+                    for dx in -1..=1i64 {
+                        if let Some(j) = at(x + dx, y + dy) {
+                            let l = CELL * ((dx * dx + dy * dy) as f64).sqrt();
+                            let e = h[i] - h[j] - t * l;
+                            if j != i && h[j].is_finite() && e > 0.0 {
+                                ex.push((j, e));
+                            }
+                        }
+                    }
+                }
+                let emax = ex.iter().map(|p| p.1).fold(0.0, f64::max);
+                let esum: f64 = ex.iter().map(|p| p.1).sum();
+                for (j, e) in ex {
+                    let m = 0.5 * emax * e / esum;
+                    n[i] -= m;
+                    n[j] += m;
+                }
+            }
+        }
+        h = n;
+    }
+    h
+}
+
+/// Check `erode --model <model> --steps 3` (`out`) on the DEM `z` against
+/// the model written by hand, and against the properties both models have
+/// whatever their implementation: nodata stays nodata, the volume over the
+/// cells with data is conserved (zero-flux walls), diffusion keeps every
+/// value within the input's [min, max], and a plane below the talus far from anything else
+/// does not move.
+fn check_erosion(
+    model: &str,
+    z: &Grid<f64>,
+    valid: &[bool],
+    plane: Option<&[bool]>,
+    out: &Grid<f64>,
+) {
+    no_inf(out, &format!("erode {model}"));
+    let zin: Vec<f64> = (0..W * H)
+        .map(|k| {
+            if valid[k] {
+                z.data()[k] as f32 as f64
+            } else {
+                f64::NAN
+            }
+        })
+        .collect();
+    let g = out.data();
+    let scale = zin
+        .iter()
+        .filter(|v| v.is_finite())
+        .fold(0.0f64, |m, v| m.max(v.abs()));
+    let floor = 1e-12 * scale + 1e-44;
+    for k in 0..W * H {
+        if valid[k] {
+            assert!(
+                g[k].is_finite(),
+                "erode {model}: valid cell {k} became {}",
+                g[k]
+            );
+        } else {
+            assert!(
+                g[k].is_nan(),
+                "erode {model}: invalid cell {k} got {}",
+                g[k]
+            );
+        }
+    }
+    // Volume.
+    let (mut vin, mut vout, mut vabs, mut n) = (0.0, 0.0, 0.0, 0.0);
+    for k in (0..W * H).filter(|&k| valid[k]) {
+        vin += zin[k];
+        vout += g[k];
+        vabs += zin[k].abs();
+        n += 1.0;
+    }
+    assert!(
+        (vout - vin).abs() <= 1e-6 * vabs + n * 1.5e-45,
+        "erode {model}: volume {vin} became {vout}"
+    );
+    // Bounds: diffusion's update is a convex combination of the cell and its
+    // neighbours (rx + ry <= 1/4), so no value leaves the input's [min, max].
+    // (Thermal's is not: a pit between several higher neighbours receives
+    // up to half of each excess at once and can rise above them.)
+    if model == "diffusion" {
+        let lo = zin
+            .iter()
+            .copied()
+            .filter(|v| v.is_finite())
+            .fold(f64::INFINITY, f64::min);
+        let hi = zin
+            .iter()
+            .copied()
+            .filter(|v| v.is_finite())
+            .fold(f64::NEG_INFINITY, f64::max);
+        let tol = 1e-6 * scale + 1e-44;
+        for k in (0..W * H).filter(|&k| valid[k]) {
+            assert!(
+                g[k] >= lo - tol && g[k] <= hi + tol,
+                "erode {model}: cell {k} = {} outside the input's [{lo}, {hi}]",
+                g[k]
+            );
+        }
+    }
+    // The model by hand, cell by cell.
+    let want = match model {
+        "diffusion" => diffusion_by_hand(&zin, 3),
+        _ => thermal_by_hand(&zin, 3),
+    };
+    for k in (0..W * H).filter(|&k| valid[k]) {
+        assert!(
+            (g[k] - want[k]).abs() <= 1e-6 * want[k].abs() + floor,
+            "erode {model}: cell ({}, {}) = {}, by hand {}",
+            k % W,
+            k / W,
+            g[k],
+            want[k]
+        );
+    }
+    // The plane: 3 steps reach 3 cells, so a cell whose radius-3 window is
+    // plane (and inside the raster: the walls bend a plane) keeps its value.
+    if let Some(mask) = plane {
+        for (x, y) in interior(mask, 3) {
+            let k = y * W + x;
+            assert!(
+                (g[k] - zin[k]).abs() <= 1e-6 * zin[k].abs() + floor,
+                "erode {model}: plane cell ({x},{y}) moved from {} to {}",
+                zin[k],
+                g[k]
+            );
+        }
     }
 }
 
@@ -336,7 +547,14 @@ fn nan_infinities_and_declared_nodata() {
     );
     let p = tmp.path().join("in.tif");
     write_f32(&p, &z, Some(-9999.0));
-    check_all(tmp.path(), &p, &z, Some(-9999.0), Some((&mask, 0.5, 0.25)));
+    check_all(
+        tmp.path(),
+        &p,
+        &z,
+        Some(-9999.0),
+        Some(&mask),
+        Some((0.5, 0.25)),
+    );
 }
 
 #[test]
@@ -357,7 +575,9 @@ fn subnormal_elevations() {
         .all(|v| (*v as f32) == 0.0 || !(*v as f32).is_normal()));
     let p = tmp.path().join("in.tif");
     write_f32(&p, &z, None);
-    check_all(tmp.path(), &p, &z, None, None);
+    let mut mask = vec![true; W * H];
+    mask[15 * W + 20] = false;
+    check_all(tmp.path(), &p, &z, None, Some(&mask), None);
     // The plane's slope is below any f32 resolution: exactly 0 or tiny.
     let sl = read(&tmp.path().join("slope.tif"));
     assert!(sl.data().iter().all(|v| v.is_nan() || *v < 1e-30));
@@ -373,7 +593,7 @@ fn huge_and_negative_elevations() {
     std::fs::create_dir(&d).unwrap();
     let p = d.join("in.tif");
     write_f32(&p, &z, None);
-    check_all(&d, &p, &z, None, Some((&mask, 3.0, -2.0)));
+    check_all(&d, &p, &z, None, Some(&mask), Some((3.0, -2.0)));
 
     // Elevations near ±f32::MAX: differences overflow f32.
     let (mut z, mut mask) = terrain(1e37, 1e35, 5e34, 1e36);
@@ -390,7 +610,8 @@ fn huge_and_negative_elevations() {
     std::fs::create_dir(&d).unwrap();
     let p = d.join("in.tif");
     write_f32(&p, &z, None);
-    check_all(&d, &p, &z, None, None);
+    // (The plane slopes far beyond the talus: thermal moves it everywhere.)
+    check_all(&d, &p, &z, None, None, None);
 }
 
 #[test]
@@ -409,7 +630,7 @@ fn bathymetry_holding_the_old_fill_nodata_stays_data() {
     std::fs::create_dir(&d).unwrap();
     let p = d.join("in.tif");
     write_f32(&p, &z, None);
-    check_all(&d, &p, &z, None, None);
+    check_all(&d, &p, &z, None, Some(&mask), None);
     let inp = p.to_str().unwrap();
     let nodata_of = |p: &Path| {
         orogen::io::open_raster(p, &orogen::io::OpenOptions::default())
@@ -461,7 +682,7 @@ fn f64_beyond_the_f32_range() {
     );
     let p = tmp.path().join("in.tif");
     write_f64(&p, &z, None);
-    check_all(tmp.path(), &p, &z, None, None);
+    check_all(tmp.path(), &p, &z, None, Some(&mask), None);
     // The f64 input itself is read back exactly (no silent f32 rounding in I/O).
     let back = read(&p);
     for k in 0..W * H {

@@ -15,6 +15,7 @@ mod gdaldem_slope_aspect;
 mod gdaldem_tri_tpi;
 mod landform;
 mod multiscale_peakedness;
+mod percentile_and_normal_z;
 mod pointwise_descriptors;
 mod slope_closed_form;
 mod solar;

@@ -422,7 +422,18 @@ fn every_registered_metric_tiled_equals_untiled() {
     assert_eq!(seen, METRICS.len());
     // The registry includes the new whole-raster metrics.
     assert!(METRICS.iter().any(|d| d.kind == MetricKind::PeakednessDw));
-    let _ = MetricSpec::new(MetricKind::PeakPrototypicality);
+    // Its defaults: top = 0.2 (the share of peaks averaged into the
+    // centroid), the plain name as label, and the bare name parses to it.
+    let d = MetricSpec::new(MetricKind::PeakPrototypicality);
+    assert_eq!(d.threshold, Some(0.2));
+    assert_eq!(d.label(), "peak_prototypicality");
+    assert_eq!(
+        parse_specs("peak_prototypicality").unwrap(),
+        vec![d.clone()]
+    );
+    let top = parse_specs("peak_prototypicality:top=0.5").unwrap();
+    assert_eq!(top[0].threshold, Some(0.5));
+    assert_ne!(top[0], d);
 }
 
 /// Xu's spherical measures evaluated with explicit 2-D vectors in the plane

@@ -199,4 +199,151 @@ fn ridges_writes_networks() {
     assert!(feats
         .iter()
         .all(|f| f["properties"]["level"].as_u64().unwrap() >= 1));
+    // The rasters mark exactly the cells of the GeoJSON paths, each with
+    // the smallest level and an order among those of the paths through it.
+    let (w, h) = (info.width, info.height);
+    let orders = raster(&out.join("ridge_orders.tif"));
+    let mut level = vec![0u64; w * h];
+    let mut ords = vec![Vec::new(); w * h];
+    for f in feats {
+        let p = &f["properties"];
+        for c in f["geometry"]["coordinates"].as_array().unwrap() {
+            let (col, row) = info
+                .georef
+                .map_to_pixel(c[0].as_f64().unwrap(), c[1].as_f64().unwrap())
+                .unwrap();
+            let k = row.floor() as usize * w + col.floor() as usize;
+            let l = p["level"].as_u64().unwrap();
+            level[k] = if level[k] == 0 { l } else { level[k].min(l) };
+            ords[k].push(p["order"].as_u64().unwrap());
+        }
+    }
+    for k in 0..w * h {
+        let (x, y) = (k % w, k / w);
+        // Consecutive path cells may be apart across flats: only the cells
+        // the GeoJSON names are checked for their values.
+        if level[k] > 0 {
+            assert_eq!(g.get(x, y) as u64, level[k], "level at ({x}, {y})");
+            assert!(
+                ords[k].contains(&(orders.get(x, y) as u64)),
+                "order at ({x}, {y})"
+            );
+        }
+    }
+    // PPA marks only Chang et al.'s candidates.
+    let dem = raster(&data("whitebox_DEM.tif"));
+    let z: Vec<f64> = dem.data().iter().map(|&v| v as f64).collect();
+    let ppa = raster(&out.join("ppa_ridges.tif"));
+    let mut n = 0;
+    for y in 0..h {
+        for x in 0..w {
+            if ppa.get(x, y) == 1.0 {
+                n += 1;
+                assert!(
+                    ppa_candidate(&z, w, h, x, y, 3),
+                    "PPA ridge ({x}, {y}) is no candidate"
+                );
+            }
+        }
+    }
+    assert!(n > 100, "{n} PPA ridge cells");
+}
+
+/// A raster written by `orogen ridges`, as f32.
+fn raster(p: &Path) -> orogen::raster::Grid<f32> {
+    let src = orogen::io::open_raster(p, &Default::default()).unwrap();
+    let i = src.info().clone();
+    orogen::raster::read_window::<f32>(
+        src.as_ref(),
+        orogen::raster::Window::full(i.width, i.height),
+    )
+    .unwrap()
+}
+
+/// Chang et al.'s candidate test, by hand: along one of the four profiles
+/// through (x, y), a lower cell within `hw` cells on both sides.
+fn ppa_candidate(z: &[f64], w: usize, h: usize, x: usize, y: usize, hw: i64) -> bool {
+    let at = |x: i64, y: i64| {
+        (x >= 0 && y >= 0 && x < w as i64 && y < h as i64).then(|| z[y as usize * w + x as usize])
+    };
+    let c = z[y * w + x];
+    [(1, 0), (0, 1), (1, 1), (1, -1)].iter().any(|&(dx, dy)| {
+        let lower = |s: i64| {
+            (1..=hw)
+                .any(|k| at(x as i64 + s * k * dx, y as i64 + s * k * dy).is_some_and(|v| v < c))
+        };
+        lower(1) && lower(-1)
+    })
+}
+
+/// One straight ridge along row 20 of a 61 x 41 DEM (100 m cells) with two
+/// summits, P1 (15, 20) at 1000 m and P2 (45, 20) at 900 m, and their key
+/// saddle at (35, 20), 800 m: z = max(1000 − 10|x − 15|, 900 − 10|x − 45|)
+/// − 20|y − 20|. The divide-tree ridges are the two steepest ascents from
+/// the saddle along the crest, one tree whose longest path is the whole
+/// crest (level 1) with Strahler order 1; PPA keeps only candidate cells,
+/// the crest among them.
+#[test]
+fn ridges_of_a_two_summit_crest() {
+    let dir = tempfile::tempdir().unwrap();
+    let (w, h) = (61, 41);
+    let f = |x: usize, y: usize| {
+        let (x, y) = (x as f64, y as f64);
+        (1000.0 - 10.0 * (x - 15.0).abs()).max(900.0 - 10.0 * (x - 45.0).abs())
+            - 20.0 * (y - 20.0).abs()
+    };
+    let dem = dir.path().join("crest.asc");
+    asc(&dem, w, h, f);
+    let z: Vec<f64> = (0..w * h).map(|k| f(k % w, k / w)).collect();
+    let out = dir.path().join("r");
+    ok(orogen()
+        .args(["ridges", "--min-prominence", "20", "-o"])
+        .arg(&out)
+        .arg(&dem));
+    let levels = raster(&out.join("ridge_levels.tif"));
+    let orders = raster(&out.join("ridge_orders.tif"));
+    let ppa = raster(&out.join("ppa_ridges.tif"));
+    for y in 0..h {
+        for x in 0..w {
+            let on = y == 20 && (15..=45).contains(&x);
+            let want = if on { 1.0 } else { 0.0 };
+            assert_eq!(levels.get(x, y), want, "level at ({x}, {y})");
+            assert_eq!(orders.get(x, y), want, "order at ({x}, {y})");
+            if ppa.get(x, y) == 1.0 {
+                assert!(
+                    ppa_candidate(&z, w, h, x, y, 3),
+                    "PPA ridge ({x}, {y}) is no candidate"
+                );
+            } else {
+                assert_eq!(ppa.get(x, y), 0.0);
+            }
+        }
+    }
+    for x in 3..w - 3 {
+        assert_eq!(ppa.get(x, 20), 1.0, "PPA misses the crest at ({x}, 20)");
+    }
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("ridges.geojson")).unwrap())
+            .unwrap();
+    let mut feats: Vec<(f64, f64, f64, u64, u64)> = v["features"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| {
+            let p = &f["properties"];
+            (
+                p["saddle_elevation"].as_f64().unwrap(),
+                p["peak_elevation"].as_f64().unwrap(),
+                p["length_m"].as_f64().unwrap(),
+                p["level"].as_u64().unwrap(),
+                p["order"].as_u64().unwrap(),
+            )
+        })
+        .collect();
+    feats.sort_by(|a, b| a.1.total_cmp(&b.1));
+    // Saddle to P2: 10 cells east; to P1: 20 cells west.
+    assert_eq!(
+        feats,
+        [(800.0, 900.0, 1000.0, 1, 1), (800.0, 1000.0, 2000.0, 1, 1)]
+    );
 }

@@ -291,14 +291,17 @@ fn real_dems_in_tests_data() {
 }
 
 #[test]
-fn aconcagua_tiled_equals_in_memory_when_shared_data_is_present() {
-    let p =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/srtm3_S33W071.tif");
-    if !p.exists() {
-        eprintln!("skipped: {} is absent", p.display());
-        return;
-    }
-    check_real(&p, &[256], 30.0);
+fn aconcagua_crop_tiled_equals_in_memory() {
+    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/oro/srtm3_S33W071_crop.tif");
+    check_real(&p, &[97, 256], 30.0);
+}
+
+#[test]
+fn alps_crop_with_voids_tiled_equals_in_memory() {
+    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/oro/srtm3_N46E008_crop.tif");
+    check_real(&p, &[64, 131], 30.0);
 }
 
 #[test]

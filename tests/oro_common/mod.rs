@@ -12,9 +12,8 @@ use orogen::synth::orometric::*;
 use std::path::PathBuf;
 
 /// A real DEM: the copy in `tests/data/oro/` (so `cargo test` needs nothing
-/// outside the repository). Its absence fails the test instead of skipping
-/// the real-data check; the `Option` only lets callers use `?`.
-pub fn shared(name: &str) -> Option<PathBuf> {
+/// outside the repository). Its absence fails the test.
+pub fn shared(name: &str) -> PathBuf {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let local = root.join("tests/data/oro").join(name);
     assert!(
@@ -22,15 +21,15 @@ pub fn shared(name: &str) -> Option<PathBuf> {
         "{} is missing: the real-data checks need the repository's copy",
         local.display()
     );
-    Some(local)
+    local
 }
 
-pub fn load(name: &str) -> Option<(Grid<f32>, GeoRef)> {
-    let p = shared(name)?;
+pub fn load(name: &str) -> (Grid<f32>, GeoRef) {
+    let p = shared(name);
     let src = open_raster(&p, &OpenOptions::default()).unwrap();
     let (w, h) = (src.info().width, src.info().height);
     let g = read_window::<f32>(&*src, Window::full(w, h)).unwrap();
-    Some((g, src.info().georef.clone()))
+    (g, src.info().georef.clone())
 }
 
 /// A profile from hand-made peak values (no DEM needed).

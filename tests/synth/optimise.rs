@@ -555,7 +555,48 @@ fn cli_writes_output_and_previews() {
     );
     let levels = std::fs::read_dir(&prev).unwrap().count();
     assert!(levels >= 2);
-    assert!(prev.join("level_0.png").exists());
+    // One preview per level, the size of that level (halving, rounding up:
+    // 120x90, 60x45, 30x23, ...), opaque; level 0 shows the output with the
+    // hypsometric tint: its lowest tenth greener than its highest tenth
+    // (green lowlands to grey and white summits).
+    let decode = |p: &Path| {
+        let d = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(p).unwrap()));
+        let mut r = d.read_info().unwrap();
+        let mut buf = vec![0; r.output_buffer_size().unwrap()];
+        let info = r.next_frame(&mut buf).unwrap();
+        assert_eq!(info.color_type, png::ColorType::Rgba);
+        (info.width as usize, info.height as usize, buf)
+    };
+    for k in 0..levels {
+        let (w, h, px) = decode(&prev.join(format!("level_{k}.png")));
+        let (mut ew, mut eh) = (120usize, 90usize);
+        for _ in 0..k {
+            (ew, eh) = (ew.div_ceil(2), eh.div_ceil(2));
+        }
+        assert_eq!((w, h), (ew, eh), "level {k}");
+        assert!(
+            px.chunks(4).all(|c| c[3] == 255),
+            "level {k}: a transparent pixel"
+        );
+    }
+    let (_, _, px) = decode(&prev.join("level_0.png"));
+    let mut by_height: Vec<(f32, usize)> = g.data().iter().copied().zip(0..).collect();
+    by_height.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let green = |ks: &[(f32, usize)]| {
+        ks.iter()
+            .map(|&(_, k)| px[4 * k + 1] as f64 - (px[4 * k] as f64 + px[4 * k + 2] as f64) / 2.0)
+            .sum::<f64>()
+            / ks.len() as f64
+    };
+    let tenth = by_height.len() / 10;
+    let (low, high) = (
+        green(&by_height[..tenth]),
+        green(&by_height[by_height.len() - tenth..]),
+    );
+    assert!(
+        low > high + 10.0,
+        "lowest tenth greenness {low}, highest {high}"
+    );
     // a guide larger than the output: one clear sentence, non-zero exit
     let o = Command::new(bin)
         .args(["synth", "optimise", "--source"])

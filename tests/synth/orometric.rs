@@ -354,11 +354,11 @@ fn split_errors(
     )
 }
 
-/// The profile of a shared real DEM (None: the data are absent).
-fn real_profile(name: &str, thr: f64) -> Option<(Grid<f32>, GeoRef, SynthProfile)> {
-    let (g, geo) = load(name)?;
+/// The profile of a real DEM of `tests/data/oro`.
+fn real_profile(name: &str, thr: f64) -> (Grid<f32>, GeoRef, SynthProfile) {
+    let (g, geo) = load(name);
     let prof = SynthProfile::from_dem(&g, &geo, thr, name, name).unwrap();
-    Some((g, geo, prof))
+    (g, geo, prof)
 }
 
 const ALPS: (&str, f64) = ("terraindescriptors_alps_montblanc.tif", 30.0);
@@ -368,12 +368,12 @@ const SEEDS: [u64; 6] = [1, 2, 3, 4, 5, 6];
 
 /// Terrain errors over [`SEEDS`]: (worst, mean) per [isolation,
 /// prominence, dominance].
-fn terrain_errors(name: &str, thr: f64) -> Option<([f64; 3], [f64; 3])> {
+fn terrain_errors(name: &str, thr: f64) -> ([f64; 3], [f64; 3]) {
     terrain_errors_scaled(name, thr, 1)
 }
 
-fn terrain_errors_scaled(name: &str, thr: f64, scale: usize) -> Option<([f64; 3], [f64; 3])> {
-    let (g, geo, prof) = real_profile(name, thr)?;
+fn terrain_errors_scaled(name: &str, thr: f64, scale: usize) -> ([f64; 3], [f64; 3]) {
+    let (g, geo, prof) = real_profile(name, thr);
     let (mut worst, mut mean) = ([0.0f64; 3], [0.0f64; 3]);
     for seed in SEEDS {
         let (tree, ter) = split_errors(&g, &geo, &prof, seed, true, true, scale);
@@ -385,7 +385,7 @@ fn terrain_errors_scaled(name: &str, thr: f64, scale: usize) -> Option<([f64; 3]
         }
     }
     println!("{name}: worst {worst:.4?} mean {mean:.4?}");
-    Some((worst, mean))
+    (worst, mean)
 }
 
 #[test]
@@ -425,11 +425,9 @@ fn distributions_match_the_low_relief_profile() {
 
 /// Each of the isolation, prominence and dominance errors of the terrains
 /// of profile `(name, thr)` ([`terrain_errors`]) at most `worst_max` on
-/// every seed and `mean_max` on the mean (nothing checked without the DEM).
+/// every seed and `mean_max` on the mean .
 fn distributions_within((name, thr): (&str, f64), worst_max: [f64; 3], mean_max: [f64; 3]) {
-    let Some((worst, mean)) = terrain_errors(name, thr) else {
-        return;
-    };
+    let (worst, mean) = terrain_errors(name, thr);
     for (k, what) in ["isolation", "prominence", "dominance"].iter().enumerate() {
         assert!(
             worst[k] <= worst_max[k] && mean[k] <= mean_max[k],
@@ -452,9 +450,7 @@ fn low_relief_isolation_holds_per_seed_on_a_larger_domain() {
 /// ≤ `mean_iso` on the mean; prominence and dominance ≤ `prom_dom` on
 /// every seed.
 fn per_seed_on_a_larger_domain((name, thr): (&str, f64), mean_iso: f64, prom_dom: f64) {
-    let Some((worst, mean)) = terrain_errors_scaled(name, thr, 2) else {
-        return;
-    };
+    let (worst, mean) = terrain_errors_scaled(name, thr, 2);
     assert!(
         worst[0] <= 0.08 && mean[0] <= mean_iso,
         "{name}: isolation {mean:?} {worst:?}"
@@ -483,9 +479,7 @@ fn alps_isolation_holds_per_seed_on_a_larger_domain() {
 #[test]
 fn saddle_refinement_lowers_the_tree_errors() {
     for (name, thr) in [ALPS, DALLAS] {
-        let Some((g, geo, prof)) = real_profile(name, thr) else {
-            return;
-        };
+        let (g, geo, prof) = real_profile(name, thr);
         for seed in [1, 2, 3] {
             let (a, _) = split_errors(&g, &geo, &prof, seed, false, false, 1);
             let (b, _) = split_errors(&g, &geo, &prof, seed, true, false, 1);
@@ -508,9 +502,7 @@ fn saddle_refinement_lowers_the_tree_errors() {
 #[test]
 fn ridge_bases_change_the_trees_they_were_made_for() {
     for (name, thr) in [ALPS, DALLAS] {
-        let Some((g, geo, prof)) = real_profile(name, thr) else {
-            return;
-        };
+        let (g, geo, prof) = real_profile(name, thr);
         let (w, h) = (g.width(), g.height());
         let (sx, sy) = geo.cell_size_m(g.height() as i64 / 2);
         let mut o = TreeOptions::new(w, h, (sx * sy).sqrt(), 3);

@@ -284,7 +284,57 @@ fn cli_writes_intermediates_deterministically() {
     );
     let b = run("b.tif", &["--threads", "2", "--tile", "100"]);
     assert_eq!(a, b);
-    assert!(pv.exists());
+    // The terrain preview: one pixel per cell (plus a legend), the open sea
+    // (3x3 at the deepest level: flat, unshaded) in one bluish colour, low
+    // land greener than high land (hypsometric tint).
+    {
+        let t = orogen::io::open_raster(&dir.path().join("a.tif"), &Default::default()).unwrap();
+        let (w, h) = (t.info().width, t.info().height);
+        let z: Grid<f32> = read_window(t.as_ref(), Window::new(0, 0, w, h)).unwrap();
+        let d = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&pv).unwrap()));
+        let mut r = d.read_info().unwrap();
+        let mut px = vec![0; r.output_buffer_size().unwrap()];
+        let info = r.next_frame(&mut px).unwrap();
+        assert_eq!(info.color_type, png::ColorType::Rgba);
+        assert_eq!(info.width as usize, w);
+        assert!(info.height as usize > h, "no legend");
+        let c = |x: usize, y: usize| {
+            let i = (y * w + x) * 4;
+            [px[i], px[i + 1], px[i + 2]]
+        };
+        let deep = z.data().iter().copied().fold(f32::INFINITY, f32::min);
+        assert!(deep < 0.0, "no sea");
+        let mut sea = None;
+        let mut land = Vec::new();
+        for y in 1..h - 1 {
+            for x in 1..w - 1 {
+                if (y - 1..=y + 1).all(|yy| (x - 1..=x + 1).all(|xx| z.get(xx, yy) == deep)) {
+                    assert_eq!(*sea.get_or_insert(c(x, y)), c(x, y), "open sea ({x}, {y})");
+                } else if z.get(x, y) > 0.0 {
+                    land.push((z.get(x, y), x, y));
+                }
+            }
+        }
+        let sea = sea.expect("no open sea");
+        assert!(sea[2] > sea[0] && sea[2] > sea[1], "sea {sea:?} not blue");
+        land.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let green = |ks: &[(f32, usize, usize)]| {
+            ks.iter()
+                .map(|&(_, x, y)| {
+                    let p = c(x, y);
+                    p[1] as f64 - (p[0] as f64 + p[2] as f64) / 2.0
+                })
+                .sum::<f64>()
+                / ks.len() as f64
+        };
+        let tenth = land.len() / 10;
+        assert!(tenth > 100, "{} land cells", land.len());
+        let (low, high) = (green(&land[..tenth]), green(&land[land.len() - tenth..]));
+        assert!(
+            low > high + 10.0,
+            "lowest tenth greenness {low}, highest {high}"
+        );
+    }
     for n in [
         "plates",
         "velocity_magnitude",
@@ -297,12 +347,118 @@ fn cli_writes_intermediates_deterministically() {
             "{n}"
         );
     }
-    // The plates file holds as many labels as the model's merged plates.
+    // The plates file holds the model's merged plates: labels 0..n, each
+    // present, n + 1 the model's plate count, and each cell the label of
+    // the plate of its nearest peak (the Voronoi cells of the peaks, found
+    // here by brute force; cells within 0.01 cell of a tie left out).
     let plates = orogen::io::open_raster(&inter.join("plates.tif"), &Default::default()).unwrap();
     let i = plates.info().clone();
     let g: Grid<i32> = read_window(plates.as_ref(), Window::new(0, 0, i.width, i.height)).unwrap();
-    let max = g.data().iter().copied().max().unwrap();
-    assert!(max >= 1 && g.data().iter().all(|&v| v >= 0));
+    let (map, w, h, _) = sample(150.0);
+    assert_eq!((i.width, i.height), (w, h));
+    let model = TectonicModel::new(&map, w, h, 150.0, TectonicParams::default()).unwrap();
+    let n = model.plate_velocities().len();
+    assert!(
+        n >= 2 && n < map.peaks.len(),
+        "{n} plates from {} peaks",
+        map.peaks.len()
+    );
+    let mut seen = vec![0usize; n];
+    let mut checked = 0;
+    for y in 0..h {
+        for x in 0..w {
+            let v = g.get(x, y);
+            assert!(
+                v >= 0 && (v as usize) < n,
+                "label {v} at ({x}, {y}), {n} plates"
+            );
+            seen[v as usize] += 1;
+            let mut d: Vec<(f64, usize)> = map
+                .peaks
+                .iter()
+                .enumerate()
+                .map(|(k, p)| {
+                    (
+                        (p.pos[0] - x as f64 - 0.5).hypot(p.pos[1] - y as f64 - 0.5),
+                        k,
+                    )
+                })
+                .collect();
+            d.sort_by(|a, b| a.0.total_cmp(&b.0));
+            if d[1].0 - d[0].0 > 0.01 {
+                checked += 1;
+                assert_eq!(
+                    v as u32,
+                    model.plate_of_peaks()[d[0].1],
+                    "({x}, {y}): nearest peak {}",
+                    d[0].1
+                );
+            }
+        }
+    }
+    assert!(
+        seen.iter().all(|&c| c > 0),
+        "a plate without cells: {seen:?}"
+    );
+    assert!(checked > w * h * 9 / 10);
+    // Its preview (viridis, no shading): one colour per plate, different
+    // plates in different colours, lighter for higher labels (viridis runs
+    // from dark purple to yellow).
+    let png_px = |name: &str| {
+        let d = png::Decoder::new(std::io::BufReader::new(
+            std::fs::File::open(inter.join(name)).unwrap(),
+        ));
+        let mut r = d.read_info().unwrap();
+        let mut buf = vec![0; r.output_buffer_size().unwrap()];
+        let info = r.next_frame(&mut buf).unwrap();
+        assert_eq!(info.color_type, png::ColorType::Rgba);
+        assert_eq!(info.width as usize, w, "{name}");
+        assert!(info.height as usize >= h, "{name}");
+        buf
+    };
+    let px = png_px("plates.png");
+    let mut colour = vec![None; n];
+    for k in 0..w * h {
+        let c = [px[4 * k], px[4 * k + 1], px[4 * k + 2], px[4 * k + 3]];
+        assert_eq!(c[3], 255);
+        let l = g.data()[k] as usize;
+        assert_eq!(*colour[l].get_or_insert(c), c, "plate {l} in two colours");
+    }
+    let lum = |c: [u8; 4]| 0.2126 * c[0] as f64 + 0.7152 * c[1] as f64 + 0.0722 * c[2] as f64;
+    for l in 1..n {
+        let (a, b) = (colour[l - 1].unwrap(), colour[l].unwrap());
+        assert!(
+            lum(a) < lum(b),
+            "plate {} {a:?} not darker than plate {l} {b:?}",
+            l - 1
+        );
+    }
+    // The velocity magnitude in grey: R = G = B, never darker for a faster
+    // cell, black at the slowest and white at the fastest.
+    let vm = orogen::io::open_raster(&inter.join("velocity_magnitude.tif"), &Default::default())
+        .unwrap();
+    let v: Grid<f32> = read_window(vm.as_ref(), Window::new(0, 0, w, h)).unwrap();
+    let px = png_px("velocity_magnitude.png");
+    let mut cells: Vec<(f32, u8)> = (0..w * h)
+        .map(|k| {
+            assert!(
+                px[4 * k] == px[4 * k + 1] && px[4 * k] == px[4 * k + 2],
+                "not grey"
+            );
+            (v.data()[k], px[4 * k])
+        })
+        .collect();
+    cells.sort_by(|a, b| a.0.total_cmp(&b.0));
+    assert!(
+        cells.windows(2).all(|p| p[0].1 <= p[1].1),
+        "grey not monotone in the speed"
+    );
+    assert!(
+        cells[0].1 <= 1 && cells[w * h - 1].1 >= 254,
+        "{:?} {:?}",
+        cells[0],
+        cells[w * h - 1]
+    );
 
     // A map with a peak outside the given domain: non-zero exit, one clear line.
     let bad = dir.path().join("bad.geojson");

@@ -319,44 +319,73 @@ fn large_sources_are_streamed_in_bounded_chunks() {
     assert_eq!(src.total.load(Ordering::SeqCst), w * h);
 }
 
-fn shared(name: &str) -> Option<PathBuf> {
-    crate::common::shared_data(name, "render")
-}
-
 fn out_dir(tmp: &Path) -> PathBuf {
     std::env::var_os("OROGEN_RENDER_DIR").map_or(tmp.to_path_buf(), PathBuf::from)
 }
 
+/// The 200 x 300 crop of the Mont Blanc PNG in `tests/data`: the source's
+/// range as GDAL reports it, one opaque pixel per cell, and a relief that
+/// shows (most pixels differ from their neighbours).
 #[test]
+fn real_dem_crop_renders() {
+    let dir = tempfile::tempdir().unwrap();
+    let od = out_dir(dir.path());
+    let p = crate::common::test_data("terraindescriptors_alps-montblanc_crop.png");
+    let r = read_png_heightmap(p, (4810.0 - 454.0) / 65535.0, 454.0).unwrap();
+    let opts = RenderOptions {
+        cell_size_m: Some(60000.0 / 647.0),
+        ..Default::default()
+    };
+    let out = od.join("montblanc_crop.png");
+    let info = render_preview(&r, &out, &opts).unwrap();
+    assert_eq!((info.width, info.height, info.factor), (200, 300, 1));
+    // gdalinfo -mm of the same window of the GeoTIFF: 785.344, 4810.000.
+    assert!((info.data_min - 785.344).abs() < 1e-3 && (info.data_max - 4810.0).abs() < 1e-3);
+    assert!(!info.sea && !info.legend);
+    let (w, h, px) = load(&out);
+    assert_eq!((w, h), (200, 300));
+    assert!(
+        px.iter().all(|p| p[3] == 255),
+        "a cell with data drawn transparent"
+    );
+    let differ = (1..w * h).filter(|&i| px[i] != px[i - 1]).count();
+    assert!(
+        differ > w * h * 3 / 4,
+        "only {differ} pixels differ from their left neighbour"
+    );
+}
+
+#[test]
+#[ignore = "needs ../shared/data (whole SRTM tiles and the 0.8 MB PNG): cargo test -- --ignored"]
 fn real_dems_render() {
     let dir = tempfile::tempdir().unwrap();
     let od = out_dir(dir.path());
-    if let (Some(a), Some(b)) = (shared("N43E006.hgt"), shared("N43E007.hgt")) {
-        let m = Mosaic::new(vec![
-            Box::new(read_hgt(a).unwrap()),
-            Box::new(read_hgt(b).unwrap()),
-        ])
-        .unwrap();
-        let opts = RenderOptions {
-            max_size: 1200,
-            legend: true,
-            ..Default::default()
-        };
-        let info = render_preview(&m, &od.join("n43_e006_e007.png"), &opts).unwrap();
-        assert_eq!(info.factor, 3);
-        assert_eq!((info.data_min, info.data_max), (-16.0, 2060.0));
-        assert!(info.sea, "the Mediterranean is in the tiles");
-        println!("{info:?}");
-    }
-    if let Some(p) = shared("terraindescriptors_alps-montblanc.png") {
-        let r = read_png_heightmap(p, (4810.0 - 454.0) / 65535.0, 454.0).unwrap();
-        let opts = RenderOptions {
-            legend: true,
-            cell_size_m: Some(60000.0 / 647.0),
-            ..Default::default()
-        };
-        let info = render_preview(&r, &od.join("montblanc.png"), &opts).unwrap();
-        assert!(!info.sea);
-        println!("{info:?}");
-    }
+    let (a, b) = (
+        crate::common::shared_data("N43E006.hgt"),
+        crate::common::shared_data("N43E007.hgt"),
+    );
+    let m = Mosaic::new(vec![
+        Box::new(read_hgt(a).unwrap()),
+        Box::new(read_hgt(b).unwrap()),
+    ])
+    .unwrap();
+    let opts = RenderOptions {
+        max_size: 1200,
+        legend: true,
+        ..Default::default()
+    };
+    let info = render_preview(&m, &od.join("n43_e006_e007.png"), &opts).unwrap();
+    assert_eq!(info.factor, 3);
+    assert_eq!((info.data_min, info.data_max), (-16.0, 2060.0));
+    assert!(info.sea, "the Mediterranean is in the tiles");
+    let p = crate::common::shared_data("terraindescriptors_alps-montblanc.png");
+    let r = read_png_heightmap(p, (4810.0 - 454.0) / 65535.0, 454.0).unwrap();
+    let opts = RenderOptions {
+        legend: true,
+        cell_size_m: Some(60000.0 / 647.0),
+        ..Default::default()
+    };
+    let info = render_preview(&r, &od.join("montblanc.png"), &opts).unwrap();
+    assert!(!info.sea);
+    assert!((info.data_min - 454.0).abs() < 1e-3 && (info.data_max - 4810.0).abs() < 1e-3);
 }

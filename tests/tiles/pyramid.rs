@@ -5,9 +5,7 @@
 use orogen::raster::{AnyGrid, Crs, GeoRef, Grid, MemRaster};
 use orogen::tiles::archive::{write_mbtiles, write_pmtiles};
 use orogen::tiles::proj::{lonlat_to_merc, merc_to_lonlat, TransverseMercator};
-use orogen::tiles::pyramid::{
-    decode_terrain_rgb, decode_terrarium, encode_pixels, pixel_merc, tile_of,
-};
+use orogen::tiles::pyramid::{encode_pixels, pixel_merc, tile_of};
 use orogen::tiles::{build_pyramid, Encoding, PyramidOptions, Resampling};
 
 #[test]
@@ -42,6 +40,66 @@ fn utm_matches_proj_to_the_millimetre() {
     assert!((x2 - 1_234_567.0).abs() < 1e-6 && (y2 - 6_543_210.0).abs() < 1e-6);
 }
 
+/// Mapbox Terrain-RGB as published (Mapbox docs, "Terrain-RGB"):
+/// h = −10000 + (R·65536 + G·256 + B)·0.1 m.
+fn terrain_rgb(r: u8, g: u8, b: u8) -> f64 {
+    -10000.0 + (r as f64 * 65536.0 + g as f64 * 256.0 + b as f64) * 0.1
+}
+
+/// Terrarium as published (Mapzen / AWS Terrain Tiles):
+/// h = R·256 + G + B/256 − 32768 m.
+fn terrarium(r: u8, g: u8, b: u8) -> f64 {
+    r as f64 * 256.0 + g as f64 + b as f64 / 256.0 - 32768.0
+}
+
+#[test]
+fn encodings_give_the_published_pixels() {
+    // By hand. Terrain-RGB: 0 m = 100000 = 0x0186A0, 1234.5 m = 112345 =
+    // 0x01B6D9, −10000 m = 0, 8848 m = 188480 = 0x02E040, −420.2 m (f32:
+    // −420.20001) = 95798 = 0x0176B6. Terrarium (heights that are whole
+    // 256ths, so that no rounding rule matters): 0 m = 32768 = (128, 0, 0),
+    // 1234.5 m = 34002.5 = (132, 210, 128), −10000 m = 22768 = (88, 240, 0),
+    // −420.25 m = 32347.75 = (126, 91, 192).
+    let lut = [[0u8; 3]; 256];
+    let rgb: [(f32, [u8; 3]); 5] = [
+        (0.0, [1, 134, 160]),
+        (1234.5, [1, 182, 217]),
+        (-10000.0, [0, 0, 0]),
+        (8848.0, [2, 224, 64]),
+        (-420.2, [1, 118, 54]),
+    ];
+    let tr: [(f32, [u8; 3]); 5] = [
+        (0.0, [128, 0, 0]),
+        (1234.5, [132, 210, 128]),
+        (-10000.0, [88, 240, 0]),
+        (8848.0, [162, 144, 0]),
+        (-420.25, [126, 91, 192]),
+    ];
+    for (enc, cases) in [(Encoding::TerrainRgb, rgb), (Encoding::Terrarium, tr)] {
+        for (h, c) in cases {
+            let a = encode_pixels(&[h], &enc, &lut, (0.0, 1.0));
+            assert_eq!(&a[..4], &[c[0], c[1], c[2], 255], "{enc:?} {h}");
+        }
+    }
+    // The crate's decoders are the published formulas.
+    for r in (0..=255u8).step_by(17) {
+        for g in (0..=255u8).step_by(15) {
+            for b in [0u8, 1, 127, 128, 255] {
+                let d = orogen::tiles::pyramid::decode_terrain_rgb(r, g, b);
+                assert!(
+                    (d - terrain_rgb(r, g, b)).abs() < 1e-6,
+                    "Terrain-RGB {r} {g} {b}"
+                );
+                let d = orogen::tiles::pyramid::decode_terrarium(r, g, b);
+                assert!(
+                    (d - terrarium(r, g, b)).abs() < 1e-9,
+                    "Terrarium {r} {g} {b}"
+                );
+            }
+        }
+    }
+}
+
 #[test]
 fn encodings_decode_within_their_precision() {
     let lut = [[0u8; 3]; 256];
@@ -62,8 +120,8 @@ fn encodings_decode_within_their_precision() {
             }
             assert_eq!(p[3], 255);
             let d = match enc {
-                Encoding::TerrainRgb => decode_terrain_rgb(p[0], p[1], p[2]),
-                _ => decode_terrarium(p[0], p[1], p[2]),
+                Encoding::TerrainRgb => terrain_rgb(p[0], p[1], p[2]),
+                _ => terrarium(p[0], p[1], p[2]),
             };
             assert!((d - h as f64).abs() <= tol, "{enc:?} {h} -> {d}");
         }
@@ -148,7 +206,7 @@ fn tile_pixels_are_the_dem_at_that_point() {
             let want = (vals[0] as f64 * (1.0 - tx_) + vals[1] as f64 * tx_) * (1.0 - ty_)
                 + (vals[2] as f64 * (1.0 - tx_) + vals[3] as f64 * tx_) * ty_;
             let i = (py * 256 + px) * 4;
-            let got = decode_terrarium(rgba[i], rgba[i + 1], rgba[i + 2]);
+            let got = terrarium(rgba[i], rgba[i + 1], rgba[i + 2]);
             assert_eq!(
                 rgba[i + 3],
                 255,
@@ -226,7 +284,7 @@ fn lower_zooms_are_means_of_their_children_and_nodata_is_transparent() {
         for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
             let i = ((ly + dy) * 256 + lx + dx) * 4;
             if child[i + 3] == 255 {
-                vals.push(decode_terrain_rgb(child[i], child[i + 1], child[i + 2]));
+                vals.push(terrain_rgb(child[i], child[i + 1], child[i + 2]));
             }
         }
         let i = (py * 256 + px) * 4;
@@ -235,7 +293,7 @@ fn lower_zooms_are_means_of_their_children_and_nodata_is_transparent() {
             continue;
         }
         let want = vals.iter().sum::<f64>() / vals.len() as f64;
-        let got = decode_terrain_rgb(parent[i], parent[i + 1], parent[i + 2]);
+        let got = terrain_rgb(parent[i], parent[i + 1], parent[i + 2]);
         // Children are stored at 0.1 m steps; the parent is made from unrounded values.
         assert!((got - want).abs() <= 0.1 + 1e-6, "{got} vs {want}");
         checked += 1;
