@@ -40,6 +40,7 @@ fn bench(c: &mut Criterion) {
         threads: 1,
         memory_budget: 1 << 30,
         progress: false,
+        observer: None,
         engine: Default::default(),
     };
     g.bench_function("hydraulic_tiled_64_exchange_8_1thread", |b| {

@@ -62,6 +62,7 @@ fn main() {
         threads: 2,
         memory_budget: 32 << 20,
         progress: false,
+        observer: None,
         engine: Default::default(),
     };
     let t = std::time::Instant::now();

@@ -133,6 +133,7 @@ fn main() -> anyhow::Result<()> {
         threads: 0,
         memory_budget: mem << 20,
         progress: false,
+        observer: None,
         engine: Default::default(),
     };
     orogen::ops::convert(&src, &out, &oo, Some(1024), &cfg)?;

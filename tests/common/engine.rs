@@ -9,6 +9,7 @@ pub fn engine(threads: usize) -> LocalEngine {
         threads,
         memory_budget: 1 << 22,
         progress: false,
+        observer: None,
         engine: Default::default(),
     })
 }

@@ -190,6 +190,7 @@ fn engine(threads: usize) -> LocalEngine {
         threads,
         memory_budget: 1 << 26,
         progress: false,
+        observer: None,
         engine: Default::default(),
     })
 }
@@ -388,6 +389,7 @@ fn memory_budget_bounds_tiles_in_flight() {
             threads: 2,
             memory_budget: budget,
             progress: false,
+            observer: None,
             engine: Default::default(),
         })
         .run_local(

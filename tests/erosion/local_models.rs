@@ -16,6 +16,7 @@ fn cfg(threads: usize) -> EngineConfig {
         threads,
         memory_budget: 1 << 30,
         progress: false,
+        observer: None,
         engine: Default::default(),
     }
 }

@@ -45,6 +45,7 @@ fn write_cog(src: &MemRaster, path: &Path, opts: &WriteOptions, r: Resampling, t
         threads: 2,
         memory_budget: 256 << 20,
         progress: false,
+        observer: None,
         engine: Default::default(),
     };
     let engine = LocalEngine::new(cfg);

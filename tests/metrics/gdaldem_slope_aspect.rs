@@ -32,6 +32,7 @@ fn run<S: LocalStep>(
         threads,
         memory_budget: 64 << 20,
         progress: false,
+        observer: None,
         engine: Default::default(),
     });
     let layout = TileLayout::new(info.width, info.height, tile);
@@ -166,6 +167,7 @@ fn from_stores_of_several_tile_sizes_equal_in_memory() {
         threads: 2,
         memory_budget: 64 << 20,
         progress: false,
+        observer: None,
         engine: Default::default(),
     };
     for tile in [64, 257, 1024] {

@@ -76,6 +76,7 @@ fn cfg(threads: usize) -> EngineConfig {
         threads,
         memory_budget: 1 << 20,
         progress: false,
+        observer: None,
         engine: Default::default(),
     }
 }
