@@ -1,7 +1,7 @@
 """Type stubs of the orogen package (see ``__init__.py`` for the docs)."""
 
 import os
-from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -25,6 +25,8 @@ Transform = Any
 # An EPSG code, "EPSG:n", WKT, or a pyproj / rasterio CRS.
 CrsLike = Any
 Window = Tuple[int, int, int, int]
+# A callback (step, done, total) -> False to stop, or True for a tqdm bar.
+Progress = Union[None, bool, Callable[[str, int, int], Optional[bool]]]
 
 class Raster:
     def __init__(self, path: PathLike) -> None: ...
@@ -48,71 +50,131 @@ def defaults(op: str) -> Dict[str, Any]: ...
 def fill(
     dem: DemInput, *, transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ...,
     output: Optional[PathLike] = ..., memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
-    format: Optional[Mapping[str, Any]] = ...,
+    format: Optional[Mapping[str, Any]] = ..., progress: Progress = ...,
 ) -> Any: ...
 def fill_epsilon(
     dem: DemInput, *, transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ...,
     output: Optional[PathLike] = ..., memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
-    format: Optional[Mapping[str, Any]] = ...,
+    format: Optional[Mapping[str, Any]] = ..., progress: Progress = ...,
 ) -> Any: ...
 def breach(
     dem: DemInput, *, method: str = ..., max_depth: Optional[float] = ..., max_length: Optional[int] = ...,
     dist: int = ..., fill_remaining: bool = ..., epsilon: bool = ...,
     transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ...,
     output: Optional[PathLike] = ..., memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
-    format: Optional[Mapping[str, Any]] = ...,
+    format: Optional[Mapping[str, Any]] = ..., progress: Progress = ...,
 ) -> Any: ...
 def flow(
     dem: DemInput, *, method: str = ..., seed: int = ...,
     transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ...,
     output: Optional[PathLike] = ..., memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
-    format: Optional[Mapping[str, Any]] = ...,
+    format: Optional[Mapping[str, Any]] = ..., progress: Progress = ...,
 ) -> Any: ...
 def accumulate(
     src: DemInput, *, method: str = ..., exponent: float = ..., weights: Optional[PathLike] = ...,
     transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ...,
     output: Optional[PathLike] = ..., memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
-    format: Optional[Mapping[str, Any]] = ...,
+    format: Optional[Mapping[str, Any]] = ..., progress: Progress = ...,
 ) -> Any: ...
 def watersheds(
     dirs: DemInput, *, transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ...,
     output: Optional[PathLike] = ..., memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
-    format: Optional[Mapping[str, Any]] = ...,
+    format: Optional[Mapping[str, Any]] = ..., progress: Progress = ...,
 ) -> Any: ...
 def slope(
     dem: DemInput, *, units: str = ..., z_factor: float = ..., compute_edges: bool = ...,
     transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ...,
     output: Optional[PathLike] = ..., memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
-    format: Optional[Mapping[str, Any]] = ...,
+    format: Optional[Mapping[str, Any]] = ..., progress: Progress = ...,
 ) -> Any: ...
 def aspect(
     dem: DemInput, *, zero_for_flat: bool = ..., compute_edges: bool = ...,
     transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ...,
     output: Optional[PathLike] = ..., memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
-    format: Optional[Mapping[str, Any]] = ...,
+    format: Optional[Mapping[str, Any]] = ..., progress: Progress = ...,
 ) -> Any: ...
 def hillshade(
     dem: DemInput, *, azimuth: float = ..., altitude: float = ..., z_factor: float = ..., compute_edges: bool = ...,
     transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ...,
     output: Optional[PathLike] = ..., memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
-    format: Optional[Mapping[str, Any]] = ...,
+    format: Optional[Mapping[str, Any]] = ..., progress: Progress = ...,
 ) -> Any: ...
 def export(
     dem: DemInput, output: PathLike, *, transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ...,
     memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
-    format: Optional[Mapping[str, Any]] = ...,
+    format: Optional[Mapping[str, Any]] = ..., progress: Progress = ...,
 ) -> Raster: ...
 def metrics(
     dem: DemInput, metric: Union[str, Sequence[str]], *,
     transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ...,
     output: Optional[PathLike] = ..., memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
-    format: Optional[Mapping[str, Any]] = ..., file_format: str = ...,
+    format: Optional[Mapping[str, Any]] = ..., file_format: str = ..., progress: Progress = ...,
 ) -> Dict[str, Any]: ...
 def peaks(
     dem: DemInput, *, min_prominence: float = ..., edge: str = ..., no_isolation: bool = ..., tiled: bool = ...,
     line_parents: bool = ..., transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ...,
     output: Optional[PathLike] = ..., memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
-    as_dataframe: bool = ...,
+    as_dataframe: bool = ..., progress: Progress = ...,
 ) -> Any: ...
+
+def erode(
+    dem: DemInput, model: str = ..., steps: Optional[int] = ..., *, water: Union[bool, PathLike] = ...,
+    sediment: Union[bool, PathLike] = ..., set: Optional[Mapping[str, Any]] = ...,
+    transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ...,
+    output: Optional[PathLike] = ..., memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
+    format: Optional[Mapping[str, Any]] = ..., progress: Progress = ..., **params: Any,
+) -> Any: ...
+
+# The registry commands (orogen._commands): every keyword beyond these is an
+# option of `orogen <command> --help` with `_` for `-`.
+def run_command(
+    command: str, inputs: Sequence[Any] = ..., output: Optional[PathLike] = ..., *, progress: Progress = ...,
+    transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., **options: Any,
+) -> List[Tuple[str, str]]: ...
+def basins(
+    dirs: DemInput, *, output: Optional[PathLike] = ..., progress: Progress = ..., transform: Transform = ...,
+    crs: CrsLike = ..., nodata: Optional[float] = ..., **options: Any,
+) -> Any: ...
+def streams(
+    dirs: DemInput, *, output: PathLike, progress: Progress = ..., transform: Transform = ...,
+    crs: CrsLike = ..., nodata: Optional[float] = ..., **options: Any,
+) -> List[str]: ...
+def hydro_index(
+    index: str, *, output: Optional[PathLike] = ..., progress: Progress = ..., transform: Transform = ...,
+    crs: CrsLike = ..., nodata: Optional[float] = ..., **options: Any,
+) -> Any: ...
+def viewshed(
+    dem: DemInput, *, output: Optional[PathLike] = ..., progress: Progress = ..., transform: Transform = ...,
+    crs: CrsLike = ..., nodata: Optional[float] = ..., **options: Any,
+) -> Any: ...
+def render(
+    dem: DemInput, *, output: PathLike, progress: Progress = ..., transform: Transform = ...,
+    crs: CrsLike = ..., nodata: Optional[float] = ..., **options: Any,
+) -> List[str]: ...
+def tiles(
+    dem: DemInput, *, output: PathLike, progress: Progress = ..., transform: Transform = ...,
+    crs: CrsLike = ..., nodata: Optional[float] = ..., **options: Any,
+) -> List[str]: ...
+def ridges(
+    dem: DemInput, *, output: PathLike, progress: Progress = ..., transform: Transform = ...,
+    crs: CrsLike = ..., nodata: Optional[float] = ..., **options: Any,
+) -> List[str]: ...
+def orostats(
+    dem: DemInput, *, output: PathLike, progress: Progress = ..., transform: Transform = ...,
+    crs: CrsLike = ..., nodata: Optional[float] = ..., **options: Any,
+) -> List[str]: ...
+def compare(
+    a: DemInput, b: DemInput, *, output: PathLike, progress: Progress = ..., transform: Transform = ...,
+    crs: CrsLike = ..., nodata: Optional[float] = ..., **options: Any,
+) -> Dict[str, Any]: ...
+def ingest(
+    inputs: Union[PathLike, Sequence[PathLike]], *, output: PathLike, progress: Progress = ..., **options: Any,
+) -> Raster: ...
+def info(
+    src: DemInput, *, stats: bool = ..., transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ...,
+) -> Dict[str, Any]: ...
+def run_job(
+    path: PathLike, *, memory: Optional[str] = ..., threads: Optional[int] = ..., dry_run: bool = ...,
+) -> List[str]: ...
 
 from . import synth as synth

@@ -163,14 +163,15 @@ def _doc(cmd: str):
 @_doc("basins")
 def basins(dirs, *, output=None, progress=None, transform=None, crs=None, nodata=None, **options):
     """Basin labels of every outlet of D8 directions (``orogen basins``,
-    exact across tiles), or the watersheds of ``pour_points`` (a CSV or
-    GeoJSON path); ``metrics="basins.csv"`` also writes per-basin area,
-    perimeter, circularity and hypsometry. uint32 labels, 0 nodata.
+    exact across tiles): a basin's label is its outlet's row-major index + 1;
+    or the watersheds of ``points`` (a CSV or GeoJSON path; label = the
+    point's number); ``metrics="basins.csv"`` with ``dem=`` also writes
+    per-basin area, perimeter, circularity and hypsometry. 0 is nodata.
 
     >>> import numpy as np, orogen
     >>> d8 = np.full((3, 4), 1, dtype=np.uint8); d8[:, 3] = 0   # all flow east
-    >>> orogen.basins(d8).tolist()
-    [[1, 1, 1, 1], [2, 2, 2, 2], [3, 3, 3, 3]]
+    >>> orogen.basins(d8).tolist()   # outlets at cells 3, 7 and 11
+    [[4, 4, 4, 4], [8, 8, 8, 8], [12, 12, 12, 12]]
     """
     return _raster_command("basins", [dirs], output, progress, transform, crs, nodata, options)
 

@@ -16,7 +16,10 @@ use std::io::IsTerminal;
 /// ask the run to stop (it then fails with [`crate::Error::InvalidArgument`]
 /// "cancelled").
 #[derive(Clone)]
-pub struct Observer(pub Arc<dyn Fn(&str, u64, u64) -> bool + Send + Sync>);
+pub struct Observer(pub Arc<ObserverFn>);
+
+/// The callback an [`Observer`] holds.
+pub type ObserverFn = dyn Fn(&str, u64, u64) -> bool + Send + Sync;
 
 /// Two observers are equal when they are the same callback.
 impl PartialEq for Observer {
