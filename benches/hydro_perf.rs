@@ -109,7 +109,14 @@ fn perf_large_dem() {
         GeoRef::pixel(),
     );
     let t = Instant::now();
-    let ta = tiled(&TiledAccumulation { weighted: false }, &dsrc, 1024);
+    let ta = tiled(
+        &TiledAccumulation {
+            weighted: false,
+            sca: false,
+        },
+        &dsrc,
+        1024,
+    );
     time("tiled accum (1024, 1 thr)", t);
     assert!(ta
         .data()

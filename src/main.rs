@@ -47,7 +47,8 @@ enum Cmd {
     /// Fill depressions (Priority-Flood; exact across tiles after Barnes 2016).
     Fill(cli::fill::FillArgs),
     /// D8 flow directions of a filled DEM (ESRI codes 1..128, 0 = no flow, 255 = nodata),
-    /// flats drained per Barnes, Lehman & Mulla 2014, exact across tiles.
+    /// flats drained per Barnes, Lehman & Mulla 2014, exact across tiles; true distances
+    /// per row on lat/lon grids.
     Flow(cli::flow::FlowArgs),
     /// Breach depressions: carve channels out of pits instead of filling them
     /// (flood-order, Lindsay's selective hybrid, or least-cost within a distance).

@@ -37,6 +37,7 @@ WB = "data/whitebox_DEM.tif"  # 237 x 188 float32, local CRS, nodata
 BT = "data/bigtujunga_crop.tif"  # 301 x 203 int16, UTM 11N
 ASC = "data/landlab_SRTMGL3_frontrange.asc"  # 240 x 144, geographic
 ALPS = "data/oro/terraindescriptors_alps_montblanc.tif"
+SRTM46 = "data/oro/srtm3_N46E008_crop.tif"  # 300 x 300 int16, EPSG:4326, voids
 TREE = "data/oro/crossing_ridges_tree.json"
 TECTONIC_MAP = "configs/tectonic-map.geojson"
 
@@ -85,6 +86,10 @@ COMMANDS = [
     ("flow_rho8", ["flow", "filled.tif", "-o", "rho8.tif", "--method", "rho8", "--seed", "3"] + Q, ["rho8.tif"]),
     ("accumulate", ["accumulate", "d8.tif", "-o", "acc.tif", "--tile", "53"] + Q, ["acc.tif"]),
     ("accumulate_dinf", ["accumulate", "filled.tif", "-o", "dinf.tif", "--method", "dinf"] + Q, ["dinf.tif"]),
+    ("fill_latlon", ["fill", SRTM46, "-o", "ll_filled.tif", "--tile", "71"] + Q, ["ll_filled.tif"]),
+    ("flow_latlon", ["flow", "ll_filled.tif", "-o", "ll_d8.tif", "--tile", "71"] + Q, ["ll_d8.tif"]),
+    ("accumulate_latlon_km2", ["accumulate", "ll_d8.tif", "-o", "ll_km2.tif", "--units", "km2", "--tile", "71"] + Q, ["ll_km2.tif"]),
+    ("accumulate_latlon_sca", ["accumulate", "ll_filled.tif", "-o", "ll_sca.tif", "--method", "dinf", "--units", "sca"] + Q, ["ll_sca.tif"]),
     ("noise_big", ["synth", "noise", "--size", "500x400", "--seed", "9", "-o", "big.tif"] + Q, ["big.tif"]),
     ("fill_big", ["fill", "big.tif", "-o", "big_filled.tif", "--tile", "97"] + Q, ["big_filled.tif"]),
     (

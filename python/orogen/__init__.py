@@ -442,16 +442,19 @@ def flow(dem, *, method="d8", seed=0, transform=None, crs=None, nodata=None, out
 
 
 @_doc
-def accumulate(src, *, method="d8", exponent=4.0, weights=None, transform=None, crs=None, nodata=None, output=None,
-               memory=None, tile=None, threads=0, format=None, progress=None):
+def accumulate(src, *, method="d8", exponent=4.0, weights=None, units="cells", transform=None, crs=None, nodata=None,
+               output=None, memory=None, tile=None, threads=0, format=None, progress=None):
     """Flow accumulation in cells (``orogen accumulate``), float64, nodata
     NaN. ``method="d8"`` takes D8 directions (from :func:`flow`; exact
     across tiles, Barnes 2017); ``"dinf"`` (Tarboton 1997), ``"quinn"``,
     ``"holmgren"`` (with ``exponent``) and ``"freeman"`` take a filled DEM.
     ``weights``: a path to a raster of the same size whose values are
-    accumulated instead of cells."""
+    accumulated instead of cells. ``units``: ``"cells"``, or true cell
+    areas ``"m2"`` / ``"km2"`` (per row on lat/lon grids, WGS 84; times the
+    weights when given) or ``"sca"`` (specific catchment area, m² per m of
+    contour width √(cell area)); these need georeferencing."""
     opts = {"method": method, "exponent": exponent,
-            "weights": os.fspath(weights) if weights is not None else None}
+            "weights": os.fspath(weights) if weights is not None else None, "units": units}
     return _raster_op("accumulate", src, opts, transform=transform, crs=crs, nodata=nodata, output=output,
                       memory=memory, tile=tile, threads=threads, format=format, progress=progress)
 

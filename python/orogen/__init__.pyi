@@ -72,7 +72,7 @@ def flow(
 ) -> Any: ...
 def accumulate(
     src: DemInput, *, method: str = ..., exponent: float = ..., weights: Optional[PathLike] = ...,
-    transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ...,
+    units: str = ..., transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ...,
     output: Optional[PathLike] = ..., memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
     format: Optional[Mapping[str, Any]] = ..., progress: Progress = ...,
 ) -> Any: ...

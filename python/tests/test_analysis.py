@@ -135,6 +135,27 @@ def test_accumulate_counts_upstream_cells():
         np.testing.assert_array_equal(acc[r, :], np.arange(1, 10, dtype=np.float64))
 
 
+def test_accumulate_in_true_areas_on_lat_lon():
+    """A 1-degree band at 60 N flowing east: each cell is the area of a
+    1 x 1 degree quadrangle of WGS 84, integrated here numerically from the
+    area element M(p) N(p) cos p (the radii of curvature)."""
+    d8 = np.ones((1, 8), dtype=np.uint8)
+    d8[0, 7] = 0
+    t = (0.0, 1.0, 0.0, 61.0, 0.0, -1.0)
+    km2 = orogen.accumulate(d8, units="km2", transform=t, crs=4326, nodata=255)
+    a, e2 = 6378.137, 0.006694379990141317
+    p = np.radians(np.linspace(60.0, 61.0, 2001))
+    w = np.sqrt(1 - e2 * np.sin(p) ** 2)
+    f = (a * (1 - e2) / w ** 3) * (a / w) * np.cos(p)
+    trap = getattr(np, "trapezoid", None) or np.trapz
+    cell = trap(f, p) * np.radians(1.0)
+    np.testing.assert_allclose(km2[0], cell * np.arange(1, 9), rtol=1e-6)
+    sca = orogen.accumulate(d8, units="sca", transform=t, crs=4326, nodata=255)
+    np.testing.assert_allclose(sca[0] * np.sqrt(km2[0, 0] * 1e6), km2[0] * 1e6, rtol=1e-6)
+    with pytest.raises(orogen.InvalidInputError, match="no georeferencing"):
+        orogen.accumulate(d8, units="m2")
+
+
 def test_accumulate_random_dem_matches_path_walk(rough_dem):
     d8 = orogen.flow(orogen.fill(rough_dem))
     acc = orogen.accumulate(d8)

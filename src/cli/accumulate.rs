@@ -12,6 +12,7 @@ pub fn run(a: AccumulateArgs) -> Result<()> {
         method: a.method.parse()?,
         exponent: a.exponent,
         weights: a.weights.clone(),
+        units: a.units.parse()?,
     };
     let src = open(&a.input)?;
     let t = target(&a.out, &a.run)?;
@@ -29,7 +30,7 @@ pub fn run(a: AccumulateArgs) -> Result<()> {
 /// Arguments of `orogen accumulate`.
 #[derive(Args)]
 #[command(
-    after_help = "Examples:\n  orogen accumulate d8.tif -o acc.tif\n  orogen accumulate d8.tif --weights rain.tif -o acc.tif\n  orogen accumulate filled.tif --method dinf -o acc_dinf.tif\n  orogen accumulate filled.tif --method holmgren --exponent 4 -o acc_mfd.tif\nMethods: d8 (input: D8 directions), dinf (Tarboton 1997), quinn (Quinn et al. 1991),\nholmgren (Holmgren 1994, --exponent), freeman (Freeman 1991): input a filled DEM."
+    after_help = "Examples:\n  orogen accumulate d8.tif -o acc.tif\n  orogen accumulate d8.tif --weights rain.tif -o acc.tif\n  orogen accumulate d8.tif --units km2 -o area_km2.tif\n  orogen accumulate filled.tif --method dinf -o acc_dinf.tif\n  orogen accumulate filled.tif --method holmgren --exponent 4 -o acc_mfd.tif\nMethods: d8 (input: D8 directions), dinf (Tarboton 1997), quinn (Quinn et al. 1991),\nholmgren (Holmgren 1994, --exponent), freeman (Freeman 1991): input a filled DEM.\nOn lat/lon grids every router uses true distances per row (WGS 84) and --units\nm2/km2/sca true cell areas per row."
 )]
 pub struct AccumulateArgs {
     /// D8 directions from `orogen flow` (method d8), or a filled DEM (other methods).
@@ -44,6 +45,12 @@ pub struct AccumulateArgs {
     /// Weights raster (same size): accumulate its values instead of cells.
     #[arg(long)]
     pub weights: Option<PathBuf>,
+    /// Units: cells (counts), m2 or km2 (true cell areas: per row on
+    /// geographic grids, on the WGS 84 ellipsoid), or sca (specific
+    /// catchment area, m² per m of contour width √(cell area)); with
+    /// --weights, area × weight.
+    #[arg(long, default_value = "cells")]
+    pub units: String,
     #[command(flatten)]
     pub out: Out,
     #[command(flatten)]

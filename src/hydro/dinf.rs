@@ -6,11 +6,16 @@
 //! neighbour e1 and the diagonal neighbour e2 next to it are fitted with a
 //! plane; the facet with the steepest downslope gradient gives the flow
 //! angle (radians, 0 = east, counter-clockwise, north up, as Tarboton and
-//! TauDEM). Within a facet, with s1 = (e0 − e1) and s2 = (e1 − e2) (square
-//! cells, unit spacing), r = atan2(s2, s1) is clamped to [0, π/4]: at 0 the
-//! slope is s1, at π/4 it is (e0 − e2)/√2, in between √(s1² + s2²). The flow
-//! is split between e1 and e2 in proportion to angular proximity: e2 gets
-//! r / (π/4), e1 the rest. Ties between facets go to the first facet in
+//! TauDEM). Within a facet, with s1 = (e0 − e1)/d1 and s2 = (e1 − e2)/d2
+//! (d1 the distance to e1, d2 the spacing from e1 to e2: 1 and 1 on square
+//! cells), r = atan2(s2, s1) is clamped to [0, atan(d2/d1)]: at 0 the slope
+//! is s1, at the facet's angle it is (e0 − e2)/√(d1² + d2²), in between
+//! √(s1² + s2²) (Tarboton 1997, eqs. 1–3, written there for rectangular
+//! cells d1 x d2). The flow is split between e1 and e2 in proportion to
+//! angular proximity: e2 gets r / atan(d2/d1), e1 the rest. The legs come
+//! from [`CellGeometry`]: square cells give the paper's π/4 facets bit for
+//! bit; on geographic grids each row has its own legs in metres (as TauDEM
+//! does with its per-row dx on geographic grids). Ties between facets go to the first facet in
 //! Tarboton's order (E–NE, N–NE, N–NW, W–NW, W–SW, S–SW, S–SE, E–SE).
 //!
 //! Facets with a nodata or off-raster vertex are not considered. A cell with
@@ -25,8 +30,9 @@
 use super::mfd::{neighbour, route_with_fallback, FlowFractions};
 use super::valid;
 use crate::error::Result;
+use crate::raster::neighbours::{CellGeometry, RowGeometry};
 use crate::raster::Grid;
-use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, SQRT_2};
+use std::f64::consts::{FRAC_PI_2, FRAC_PI_4};
 
 /// Angle of a valid cell that does not drain (pit of an unfilled DEM).
 pub const DINF_NO_FLOW: f32 = -1.0;
@@ -70,6 +76,7 @@ pub(crate) fn dinf_cell(
     h: usize,
     x: usize,
     y: usize,
+    g: &RowGeometry,
     f: &mut [f64; 8],
 ) -> Option<f64> {
     let e0 = z[y * w + x] as f64;
@@ -84,15 +91,16 @@ pub(crate) fn dinf_cell(
             continue;
         }
         let (e1, e2) = (z1 as f64, z2 as f64);
-        let s1 = e0 - e1;
-        let s2 = e1 - e2;
+        let (l1, l2, r_max, hyp) = g.facet[k];
+        let s1 = (e0 - e1) / l1;
+        let s2 = (e1 - e2) / l2;
         let mut r = s2.atan2(s1);
         let s = if r <= 0.0 {
             r = 0.0;
             s1
-        } else if r >= FRAC_PI_4 {
-            r = FRAC_PI_4;
-            (e0 - e2) / SQRT_2
+        } else if r >= r_max {
+            r = r_max;
+            (e0 - e2) / hyp
         } else {
             s1.hypot(s2)
         };
@@ -103,7 +111,7 @@ pub(crate) fn dinf_cell(
     }
     let (k, r) = best?;
     let (d1, d2, ac, af) = FACETS[k];
-    let p2 = r / FRAC_PI_4;
+    let p2 = r / g.facet[k].2;
     f[d2] = p2;
     f[d1] = 1.0 - p2;
     let mut a = ac * FRAC_PI_2 + af * r;
@@ -116,16 +124,23 @@ pub(crate) fn dinf_cell(
 /// D∞ flow angles and fractions of `dem` (normally a filled DEM; NaN =
 /// nodata; square cells). Errors only for grids of more than 2^32 cells.
 pub fn dinf(dem: &Grid<f32>) -> Result<Dinf> {
+    dinf_on(dem, &CellGeometry::square())
+}
+
+/// [`dinf`] with the facet legs of `geo` (one row per row of `dem`; true
+/// distances on geographic grids).
+pub fn dinf_on(dem: &Grid<f32>, geo: &CellGeometry) -> Result<Dinf> {
     let (w, h) = (dem.width(), dem.height());
     let mut angle = vec![f32::NAN; w * h];
-    let (flow, fell_back) =
-        route_with_fallback(dem, |z, x, y, f| match dinf_cell(z, w, h, x, y, f) {
+    let (flow, fell_back) = route_with_fallback(dem, geo, |z, x, y, g, f| {
+        match dinf_cell(z, w, h, x, y, g, f) {
             Some(a) => {
                 angle[y * w + x] = a as f32;
                 true
             }
             None => false,
-        })?;
+        }
+    })?;
     for y in 0..h {
         for x in 0..w {
             let c = y * w + x;

@@ -32,6 +32,7 @@
 
 use super::{order_key, outlet_cells, valid, DX, DY, NODATA_DIR, NO_FLOW};
 use crate::error::{Error, Result};
+use crate::raster::neighbours::CellGeometry;
 use crate::raster::Grid;
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, VecDeque};
@@ -302,7 +303,8 @@ pub fn epsilon_surface(filled: &Grid<f32>) -> Result<Grid<f32>> {
     let (w, h) = (filled.width(), filled.height());
     too_many(w, h)?;
     let z = filled.data();
-    let codes = super::flow::steepest_descent(z, w, h);
+    // only which cells drain matters here, not where: square distances
+    let codes = super::flow::steepest_descent(z, w, h, &CellGeometry::square());
     let n = z.len();
     const UNSET: u32 = u32::MAX;
     // k: breadth-first distance over NO_FLOW cells from the draining edge

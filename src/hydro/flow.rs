@@ -2,8 +2,13 @@
 //!
 //! - Steepest descent (O'Callaghan & Mark 1984, "The extraction of drainage
 //!   networks from digital elevation data", CVGIP 28): each cell drains to the
-//!   neighbour with the largest drop / distance, distance 1 for edge
-//!   neighbours and √2 for diagonals (cells are taken as square).
+//!   neighbour with the largest drop / distance. Distances are the grid's
+//!   true ones ([`CellGeometry`]): 1 and √2 on square cells, the cells'
+//!   aspect ratio on rectangular projected cells, and metres on the WGS 84
+//!   ellipsoid per row on geographic (lat/lon) grids, where the east-west
+//!   spacing shrinks with cos φ (a departure from the paper's square cells,
+//!   which would send flow on a 3" SRTM tile at 49.5°N elsewhere than the
+//!   true steepest descent on about a quarter of the cells).
 //! - Flats: Barnes, R., Lehman, C., Mulla, D. (2014). "An efficient assignment
 //!   of drainage direction over flat surfaces in raster digital elevation
 //!   models". Computers & Geosciences 62, 128–135. Cells of a flat get a
@@ -18,16 +23,23 @@
 
 use super::{code_to_dir, valid, D8_CODES, NODATA_DIR, NO_FLOW};
 use crate::error::{Error, Result};
-use crate::raster::neighbours::{neighbour, DIST};
+use crate::raster::neighbours::{neighbour, CellGeometry};
 use crate::raster::Grid;
 
-/// D8 flow directions of `dem` (normally a filled DEM) with flats resolved.
-/// Valid cells get an ESRI code; cells in pits or in flats with no outlet
-/// (possible only on unfilled DEMs) get [`NO_FLOW`]; nodata gets [`NODATA_DIR`].
+/// D8 flow directions of `dem` (normally a filled DEM) with flats resolved,
+/// on square cells. Valid cells get an ESRI code; cells in pits or in flats
+/// with no outlet (possible only on unfilled DEMs) get [`NO_FLOW`]; nodata
+/// gets [`NODATA_DIR`].
 pub fn d8_directions(dem: &Grid<f32>) -> Grid<u8> {
+    d8_directions_on(dem, &CellGeometry::square())
+}
+
+/// [`d8_directions`] with the distances of `geo` (one row per row of
+/// `dem`, e.g. `CellGeometry::of_rows(georef, 0, height)`).
+pub fn d8_directions_on(dem: &Grid<f32>, geo: &CellGeometry) -> Grid<u8> {
     let (w, h) = (dem.width(), dem.height());
     let z = dem.data();
-    let mut dir = steepest_descent(z, w, h);
+    let mut dir = steepest_descent(z, w, h, geo);
     resolve_flats(z, w, h, &mut dir);
     Grid::from_vec(w, h, dir).expect("same size as the input")
 }
@@ -95,11 +107,14 @@ pub fn outlet_labels(dirs: &Grid<u8>) -> Result<Grid<u32>> {
     Grid::from_vec(w, h, lab)
 }
 
-/// Steepest-descent codes; cells without a lower neighbour get NO_FLOW unless
-/// they are outlet cells, which point at their first nodata/off-grid neighbour.
-pub(crate) fn steepest_descent(z: &[f32], w: usize, h: usize) -> Vec<u8> {
+/// Steepest-descent codes with the distances of `geo` (row `y` of the
+/// array is its row `y`); cells without a lower neighbour get NO_FLOW unless
+/// they are outlet cells, which point at their first nodata/off-grid
+/// neighbour.
+pub(crate) fn steepest_descent(z: &[f32], w: usize, h: usize, geo: &CellGeometry) -> Vec<u8> {
     let mut dir = vec![NODATA_DIR; z.len()];
     for y in 0..h {
+        let dists = &geo.row(y).dist;
         for x in 0..w {
             let c = y * w + x;
             let zc = z[c];
@@ -109,7 +124,7 @@ pub(crate) fn steepest_descent(z: &[f32], w: usize, h: usize) -> Vec<u8> {
             let mut best = 0.0f64;
             let mut best_d = usize::MAX;
             let mut exit_d = usize::MAX;
-            for (d, &dist) in DIST.iter().enumerate() {
+            for (d, &dist) in dists.iter().enumerate() {
                 match neighbour(x, y, d, w, h) {
                     Some(n) if valid(z[n]) => {
                         let s = (zc as f64 - z[n] as f64) / dist;

@@ -45,22 +45,11 @@ use super::accum::{fixed_to_f64, weight_to_fixed};
 use super::{code_to_dir, valid, NODATA_DIR};
 use crate::error::{Error, Result};
 pub(crate) use crate::raster::neighbours::neighbour;
-use crate::raster::neighbours::DIST;
+use crate::raster::neighbours::{CellGeometry, RowGeometry};
 use crate::raster::Grid;
 
 /// Fractions marking a nodata cell (never routed, never counted).
 const NODATA_FRAC: [f64; 8] = [f64::NAN; 8];
-/// Quinn et al. (1991) contour lengths (cell sizes), order E..NE.
-const QUINN_L: [f64; 8] = [
-    0.5,
-    std::f64::consts::SQRT_2 / 4.0,
-    0.5,
-    std::f64::consts::SQRT_2 / 4.0,
-    0.5,
-    std::f64::consts::SQRT_2 / 4.0,
-    0.5,
-    std::f64::consts::SQRT_2 / 4.0,
-];
 
 /// Largest grid routed in memory (the flow graph uses 64 bytes per cell).
 const MAX_CELLS: usize = u32::MAX as usize;
@@ -122,11 +111,13 @@ pub(crate) fn check_size(w: usize, h: usize) -> Result<()> {
 }
 
 /// Builds a [`FlowFractions`] from `route`, which fills the fractions of a
-/// valid cell and returns false when the cell has no downslope direction;
-/// such cells take their D8 direction (flats, outlet cells, pits).
+/// valid cell (given its row's geometry from `geo`) and returns false when
+/// the cell has no downslope direction; such cells take their D8 direction
+/// on the same geometry (flats, outlet cells, pits).
 pub(crate) fn route_with_fallback(
     dem: &Grid<f32>,
-    mut route: impl FnMut(&[f32], usize, usize, &mut [f64; 8]) -> bool,
+    geo: &CellGeometry,
+    mut route: impl FnMut(&[f32], usize, usize, &RowGeometry, &mut [f64; 8]) -> bool,
 ) -> Result<(FlowFractions, Vec<bool>)> {
     let (w, h) = (dem.width(), dem.height());
     check_size(w, h)?;
@@ -141,7 +132,7 @@ pub(crate) fn route_with_fallback(
                 continue;
             }
             let mut f = [0.0f64; 8];
-            if !route(z, x, y, &mut f) {
+            if !route(z, x, y, geo.row(y), &mut f) {
                 fell_back[c] = true;
                 any_fallback = true;
             }
@@ -149,7 +140,7 @@ pub(crate) fn route_with_fallback(
         }
     }
     if any_fallback {
-        let d8 = super::d8_directions(dem);
+        let d8 = super::d8_directions_on(dem, geo);
         for (c, &fb) in fell_back.iter().enumerate() {
             if !fb {
                 continue;
@@ -189,6 +180,7 @@ pub(crate) fn mfd_params(method: MfdMethod) -> Result<(f64, bool)> {
 /// into `f`; false when no valid neighbour is lower (the caller falls back
 /// to D8). Shared by the in-memory and the tiled routers, so both get the
 /// same bits.
+#[allow(clippy::too_many_arguments, clippy::needless_range_loop)]
 pub(crate) fn mfd_cell(
     z: &[f32],
     w: usize,
@@ -196,6 +188,7 @@ pub(crate) fn mfd_cell(
     x: usize,
     y: usize,
     (exponent, contour): (f64, bool),
+    g: &RowGeometry,
     f: &mut [f64; 8],
 ) -> bool {
     let zc = z[y * w + x] as f64;
@@ -207,7 +200,7 @@ pub(crate) fn mfd_cell(
         if let Some(n) = neighbour(x, y, d, w, h) {
             let zn = z[n];
             if valid(zn) && (zn as f64) < zc {
-                tan[d] = (zc - zn as f64) / DIST[d];
+                tan[d] = (zc - zn as f64) / g.dist[d];
                 max_tan = max_tan.max(tan[d]);
             }
         }
@@ -224,7 +217,7 @@ pub(crate) fn mfd_cell(
                 (tan[d] / max_tan).powf(exponent)
             };
             if contour {
-                wgt *= QUINN_L[d];
+                wgt *= g.contour[d];
             }
             f[d] = wgt;
             sum += wgt;
@@ -254,9 +247,21 @@ pub(crate) fn d8_fallback(code: u8) -> [f64; 8] {
 /// the weighting `method`. Errors for a Holmgren exponent that is not a
 /// finite positive number and for grids of more than 2^32 cells.
 pub fn mfd_flow(dem: &Grid<f32>, method: MfdMethod) -> Result<FlowFractions> {
+    mfd_flow_on(dem, method, &CellGeometry::square())
+}
+
+/// [`mfd_flow`] with the distances and contour lengths of `geo` (one row per
+/// row of `dem`; true distances on geographic grids).
+pub fn mfd_flow_on(
+    dem: &Grid<f32>,
+    method: MfdMethod,
+    geo: &CellGeometry,
+) -> Result<FlowFractions> {
     let params = mfd_params(method)?;
     let (w, h) = (dem.width(), dem.height());
-    let (flow, _) = route_with_fallback(dem, |z, x, y, f| mfd_cell(z, w, h, x, y, params, f))?;
+    let (flow, _) = route_with_fallback(dem, geo, |z, x, y, g, f| {
+        mfd_cell(z, w, h, x, y, params, g, f)
+    })?;
     Ok(flow)
 }
 

@@ -31,6 +31,7 @@
 //!   off-raster neighbour (in the order above): its water leaves the DEM.
 
 pub mod accum;
+pub mod areas;
 pub mod basin_metrics;
 pub mod basins;
 pub mod breach;
@@ -53,7 +54,7 @@ pub use accum::{accumulate, accumulate_weighted, WEIGHT_SCALE_BITS};
 pub use basins::{basin_labels, hand, watersheds};
 pub use breach::{breach, breach_masked, BreachMethod, BreachOptions};
 pub use fill::{fill, fill_epsilon, watershed_labels};
-pub use flow::d8_directions;
+pub use flow::{d8_directions, d8_directions_on};
 pub use rho8::rho8_directions;
 
 /// The output nodata rule of elevation outputs, now [`crate::exec::output`].

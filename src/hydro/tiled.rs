@@ -108,6 +108,18 @@ pub(crate) fn weighted_amounts(
     Ok(own)
 }
 
+/// Divide each row of a tile's output by its contour width (specific
+/// catchment area, [`super::areas`]).
+pub(crate) fn per_contour_width<T>(o: &mut Grid<f64>, v: &TileView<T>) {
+    let w = o.width();
+    for (y, row) in o.data_mut().chunks_mut(w.max(1)).enumerate() {
+        let cw = super::areas::contour_width(&v.georef, v.core.y + y as i64);
+        for cell in row {
+            *cell /= cw;
+        }
+    }
+}
+
 fn need_halo<T>(v: &TileView<T>, step: &str) -> Result<()> {
     if v.halo < 1 {
         return Err(Error::invalid(format!(
@@ -433,6 +445,10 @@ impl GlobalStep for TiledFill {
 pub struct TiledAccumulation {
     /// Sum weights (input 1) instead of counting cells.
     pub weighted: bool,
+    /// Divide the result by each row's contour width
+    /// ([`super::areas::contour_width`]): specific catchment area when the
+    /// weights are cell areas in m² ([`super::areas::CellAreas`]).
+    pub sca: bool,
 }
 
 /// Where the flow of a perimeter cell goes next, seen from its tile.
@@ -555,7 +571,7 @@ impl GlobalStep for TiledAccumulation {
         "accumulate".into()
     }
     fn params(&self) -> serde_json::Value {
-        serde_json::json!({"algorithm": "D8 accumulation (Barnes 2017)", "weighted": self.weighted})
+        serde_json::json!({"algorithm": "D8 accumulation (Barnes 2017)", "weighted": self.weighted, "sca": self.sca})
     }
     fn halo(&self) -> usize {
         1
@@ -754,6 +770,9 @@ impl GlobalStep for TiledAccumulation {
             } else {
                 acc[i] as f64
             };
+        }
+        if self.sca {
+            per_contour_width(o, &inputs[0]);
         }
         Ok(())
     }

@@ -66,6 +66,7 @@ use super::{valid, ACCUMULATION_NODATA, DX, DY};
 use crate::error::{Error, Result};
 use crate::exec::output::OutputSpec;
 use crate::exec::{Engine, GlobalStep, Run, TileSink};
+use crate::raster::neighbours::CellGeometry;
 use crate::raster::{DType, Grid, RasterSource, TileId, TileLayout, TileView};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -94,6 +95,9 @@ pub struct TiledMultiAccumulation {
     pub inflow: Arc<PerimeterInflow>,
     /// Final run: skip the map work and reduce to `inflow` unchanged.
     pub final_pass: bool,
+    /// Divide the result by each row's contour width (specific catchment
+    /// area when the weights are cell areas in m², [`super::areas`]).
+    pub sca: bool,
 }
 
 /// Per-tile summary of one round: for each perimeter cell (row-major
@@ -126,6 +130,7 @@ impl TiledMultiAccumulation {
             weighted,
             inflow: Arc::new(PerimeterInflow::default()),
             final_pass: false,
+            sca: false,
         }
     }
 
@@ -154,7 +159,9 @@ impl TiledMultiAccumulation {
         let z = dem.grid.data();
         let mut frac = vec![[f64::NAN; 8]; w * h];
         let mut valid_core = vec![false; w * h];
+        let geo = CellGeometry::of_rows(&dem.georef, dem.core.y, h);
         for y in 0..h {
+            let g = geo.row(y);
             for x in 0..w {
                 let (vx, vy) = (x + hl, y + hl);
                 if !valid(z[vy * gw + vx]) {
@@ -164,8 +171,8 @@ impl TiledMultiAccumulation {
                 valid_core[c] = true;
                 let mut f = [0.0f64; 8];
                 let routed = match params {
-                    Some(p) => mfd_cell(z, gw, gh, vx, vy, p, &mut f),
-                    None => dinf_cell(z, gw, gh, vx, vy, &mut f).is_some(),
+                    Some(p) => mfd_cell(z, gw, gh, vx, vy, p, g, &mut f),
+                    None => dinf_cell(z, gw, gh, vx, vy, g, &mut f).is_some(),
                 };
                 if !routed {
                     let code = decode_code(d8.grid.data()[vy * gw + vx], || {
@@ -299,6 +306,7 @@ impl GlobalStep for TiledMultiAccumulation {
             "algorithm": "divergent accumulation, exact fixed point, block-Jacobi rounds over tiles",
             "router": router,
             "weighted": self.weighted,
+            "sca": self.sca,
         })
     }
     fn halo(&self) -> usize {
@@ -454,6 +462,9 @@ impl GlobalStep for TiledMultiAccumulation {
                 f64::NAN
             };
         }
+        if self.sca {
+            super::tiled::per_contour_width(o, &inputs[0]);
+        }
         Ok(())
     }
 }
@@ -476,7 +487,24 @@ pub fn run_multi_accumulation<E: Engine>(
     layout: TileLayout,
     sinks: Vec<Box<dyn TileSink>>,
 ) -> Result<MultiRun> {
-    let mut step = TiledMultiAccumulation::new(router, weighted);
+    run_multi(
+        engine,
+        TiledMultiAccumulation::new(router, weighted),
+        inputs,
+        layout,
+        sinks,
+    )
+}
+
+/// [`run_multi_accumulation`] of a step set up by the caller (e.g. with
+/// [`TiledMultiAccumulation::sca`]); `step` must be a first round.
+pub fn run_multi<E: Engine>(
+    engine: &E,
+    mut step: TiledMultiAccumulation,
+    inputs: &[&dyn RasterSource],
+    layout: TileLayout,
+    sinks: Vec<Box<dyn TileSink>>,
+) -> Result<MultiRun> {
     // L + 2 rounds suffice and L < the number of perimeter cells (module
     // docs); more means the inputs are not one DEM and its own directions
     let limit = (0..layout.count())

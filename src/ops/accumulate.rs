@@ -6,6 +6,8 @@ use crate::error::{Error, Result};
 use crate::exec::plan::{check_inputs, make_sinks};
 use crate::exec::MemoryFit;
 use crate::exec::{Engine, EngineConfig, GlobalStep, Run};
+pub use crate::hydro::areas::AreaUnits;
+use crate::hydro::areas::CellAreas;
 use crate::io::{self, OutputOptions};
 use crate::raster::{DType, RasterSource};
 use crate::store::scratch::ScratchDir;
@@ -56,6 +58,10 @@ pub struct AccumulateOptions {
     pub exponent: f64,
     /// Weights raster (same size): accumulate its values instead of cells.
     pub weights: Option<PathBuf>,
+    /// Units: cell counts, or true areas (m², km², or the specific
+    /// catchment area in m²/m), per row on geographic grids
+    /// ([`crate::hydro::areas`]); with `weights`, area × weight.
+    pub units: AreaUnits,
 }
 
 impl Default for AccumulateOptions {
@@ -64,6 +70,7 @@ impl Default for AccumulateOptions {
             method: AccumulateMethod::D8,
             exponent: 4.0,
             weights: None,
+            units: AreaUnits::Cells,
         }
     }
 }
@@ -103,12 +110,19 @@ pub fn run(
             None => None,
         })
     };
+    let sca = opts.units == AreaUnits::Sca;
     if let Some(m) = opts.flow_method() {
         let w = open_weights()?;
-        let rounds = accumulate_multi(
+        let areas = CellAreas::new(src.info(), w.as_deref(), opts.units)?;
+        let weights: Option<&dyn RasterSource> = match &areas {
+            Some(a) => Some(a),
+            None => w.as_deref(),
+        };
+        let rounds = accumulate_multi_in(
             src,
-            w.as_deref(),
+            weights,
             m,
+            sca,
             &target.path,
             &target.options,
             target.tile,
@@ -124,12 +138,16 @@ pub fn run(
         )));
     }
     let w = open_weights()?;
+    let areas = CellAreas::new(src.info(), w.as_deref(), opts.units)?;
     let mut inputs: Vec<&dyn RasterSource> = vec![src];
-    if let Some(w) = &w {
+    if let Some(a) = &areas {
+        inputs.push(a);
+    } else if let Some(w) = &w {
         inputs.push(w.as_ref());
     }
     let step = crate::hydro::tiled::TiledAccumulation {
-        weighted: opts.weights.is_some(),
+        weighted: inputs.len() > 1,
+        sca,
     };
     target.run_global(&step, &inputs, cfg)?;
     Ok(AccumulateOutcome { rounds: 0 })
@@ -167,7 +185,24 @@ pub fn accumulate_multi(
     tile: Option<usize>,
     cfg: &EngineConfig,
 ) -> Result<usize> {
-    use crate::hydro::tiled_mfd::{run_multi_accumulation, Router};
+    accumulate_multi_in(dem, weights, method, false, out, oo, tile, cfg)
+}
+
+/// [`accumulate_multi`], the result divided by each row's contour width
+/// when `sca` (the weights then are cell areas in m²,
+/// [`crate::hydro::areas::CellAreas`]).
+#[allow(clippy::too_many_arguments)]
+pub fn accumulate_multi_in(
+    dem: &dyn RasterSource,
+    weights: Option<&dyn RasterSource>,
+    method: FlowMethod,
+    sca: bool,
+    out: &Path,
+    oo: &OutputOptions,
+    tile: Option<usize>,
+    cfg: &EngineConfig,
+) -> Result<usize> {
+    use crate::hydro::tiled_mfd::{run_multi, Router};
     let mut inputs: Vec<&dyn RasterSource> = vec![dem];
     if let Some(w) = weights {
         inputs.push(w);
@@ -178,9 +213,10 @@ pub fn accumulate_multi(
     if fit.fits() && (info.width as u64) * (info.height as u64) <= u32::MAX as u64 {
         let full = crate::raster::Window::full(info.width, info.height);
         let z = crate::raster::read_window::<f32>(dem, full)?;
+        let geo = crate::raster::neighbours::CellGeometry::of_rows(&info.georef, 0, info.height);
         let flow = match method {
-            FlowMethod::Dinf => crate::hydro::dinf::dinf(&z)?.flow,
-            FlowMethod::Mfd(m) => crate::hydro::mfd::mfd_flow(&z, m)?,
+            FlowMethod::Dinf => crate::hydro::dinf::dinf_on(&z, &geo)?.flow,
+            FlowMethod::Mfd(m) => crate::hydro::mfd::mfd_flow_on(&z, m, &geo)?,
         };
         drop(z);
         let acc = match weights {
@@ -191,6 +227,16 @@ pub fn accumulate_multi(
             None => crate::hydro::mfd::accumulate_cells(&flow)?,
         };
         drop(flow);
+        let mut acc = acc;
+        if sca {
+            let w = acc.width();
+            for (y, row) in acc.data_mut().chunks_mut(w.max(1)).enumerate() {
+                let cw = crate::hydro::areas::contour_width(&info.georef, y as i64);
+                for v in row {
+                    *v /= cw;
+                }
+            }
+        }
         let acc = acc.map(|v| if v.is_nan() { -1.0 } else { v });
         let georef = info.georef.clone().with_nodata(Some(-1.0));
         let mem = crate::raster::MemRaster::new(
@@ -235,7 +281,9 @@ pub fn accumulate_multi(
             FlowMethod::Dinf => Router::Dinf,
             FlowMethod::Mfd(m) => Router::Mfd(m),
         };
-        let probe = crate::hydro::tiled_mfd::TiledMultiAccumulation::new(router, weights.is_some());
+        let mut probe =
+            crate::hydro::tiled_mfd::TiledMultiAccumulation::new(router, weights.is_some());
+        probe.sca = sca;
         let sinks = make_sinks(
             probe.name(),
             probe.params(),
@@ -244,14 +292,7 @@ pub fn accumulate_multi(
             &probe.outputs(),
             oo,
         )?;
-        let run = run_multi_accumulation(
-            &engine,
-            router,
-            weights.is_some(),
-            &acc_inputs,
-            layout,
-            sinks,
-        )?;
+        let run = run_multi(&engine, probe, &acc_inputs, layout, sinks)?;
         Ok(run.rounds)
     })();
     let rounds = result?;

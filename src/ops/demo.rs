@@ -146,7 +146,10 @@ pub fn demo(
     let d8_src = io::open_raster(&d8, &io::OpenOptions::default())?;
     let acc = dir.join("accumulation.tif");
     run_global_to(
-        &crate::hydro::tiled::TiledAccumulation { weighted: false },
+        &crate::hydro::tiled::TiledAccumulation {
+            weighted: false,
+            sca: false,
+        },
         &[d8_src.as_ref()],
         &acc,
         &oo,

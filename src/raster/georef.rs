@@ -171,6 +171,13 @@ impl GeoRef {
     /// e.g. Snyder 1987, *Map Projections — A Working Manual*, eqs. 4-18, 4-20).
     /// Without georeferencing: 1 x 1.
     pub fn cell_size_m(&self, row: i64) -> (f64, f64) {
+        self.cell_size_m_at(row as f64 + 0.5)
+    }
+    /// [`GeoRef::cell_size_m`] at the pixel-space line `pixel_y` (`row + 0.5`
+    /// is a row's centre, `row` the edge between `row − 1` and `row`): on
+    /// geographic grids the east-west spacing of cells along that latitude
+    /// and the north-south spacing of rows across it.
+    pub fn cell_size_m_at(&self, pixel_y: f64) -> (f64, f64) {
         let (cx, cy) = self.cell_size_units();
         if !self.georeferenced {
             return (cx, cy);
@@ -179,7 +186,7 @@ impl GeoRef {
             let u = self.crs.linear_unit_m;
             return (cx * u, cy * u);
         }
-        let (_, lat) = self.pixel_to_map(0.5, row as f64 + 0.5);
+        let (_, lat) = self.pixel_to_map(0.5, pixel_y);
         let phi = lat.clamp(-90.0, 90.0).to_radians();
         let s2 = phi.sin() * phi.sin();
         let w = (1.0 - WGS84_E2 * s2).sqrt();
@@ -187,5 +194,33 @@ impl GeoRef {
         let m = WGS84_A * (1.0 - WGS84_E2) / (w * w * w);
         let rad = std::f64::consts::PI / 180.0;
         ((n * phi.cos() * cx * rad).abs(), (m * cy * rad).abs())
+    }
+    /// True area in m² of a cell on `row`, or `None` without georeferencing.
+    ///
+    /// Projected CRSs: |det| of the transform times the linear unit squared.
+    /// Geographic CRSs: the exact area of the cell's quadrangle on the WGS 84
+    /// ellipsoid, `A = (a²(1−e²)/2)·Δλ·[q(φ)]` between the row's edge
+    /// latitudes, with `q(φ) = sin φ/(1−e² sin²φ) + (1/2e)·ln((1+e sin φ)/(1−e sin φ))`
+    /// (the authalic-latitude function, Snyder 1987, eq. 3-12; summed over
+    /// the globe it gives the ellipsoid's area, 5.10066e14 m²). Assumes a
+    /// north-up grid (no rotation terms) on geographic CRSs.
+    pub fn cell_area_m2(&self, row: i64) -> Option<f64> {
+        if !self.georeferenced {
+            return None;
+        }
+        let t = &self.transform;
+        if !self.crs.geographic {
+            let u = self.crs.linear_unit_m;
+            return Some((t[1] * t[5] - t[2] * t[4]).abs() * u * u);
+        }
+        let e = WGS84_E2.sqrt();
+        let q = |lat: f64| {
+            let s = lat.clamp(-90.0, 90.0).to_radians().sin();
+            s / (1.0 - WGS84_E2 * s * s) + ((1.0 + e * s) / (1.0 - e * s)).ln() / (2.0 * e)
+        };
+        let (_, lat0) = self.pixel_to_map(0.5, row as f64);
+        let (_, lat1) = self.pixel_to_map(0.5, row as f64 + 1.0);
+        let dlon = self.cell_size_units().0.to_radians();
+        Some(WGS84_A * WGS84_A * (1.0 - WGS84_E2) / 2.0 * dlon * (q(lat0) - q(lat1)).abs())
     }
 }

@@ -17,6 +17,7 @@ mod divergent;
 mod divergent_tiled;
 mod fill_region_growing;
 mod flow_graph;
+mod geographic;
 mod in_memory;
 mod network;
 mod tiled;

@@ -265,11 +265,25 @@ fn check_all(g: &Grid<f32>, tiles: &[usize]) -> Result<(), TestCaseError> {
             "d8 on the unfilled DEM, tile {}",
             t
         );
-        let got = run_global(&TiledAccumulation { weighted: false }, &[&dsrc], t)
-            .expect("tiled accumulation");
+        let got = run_global(
+            &TiledAccumulation {
+                weighted: false,
+                sca: false,
+            },
+            &[&dsrc],
+            t,
+        )
+        .expect("tiled accumulation");
         prop_assert_eq!(bits64(&got), bits64(&want_acc), "accumulation, tile {}", t);
-        let got = run_global(&TiledAccumulation { weighted: true }, &[&dsrc, &wsrc], t)
-            .expect("tiled weighted accumulation");
+        let got = run_global(
+            &TiledAccumulation {
+                weighted: true,
+                sca: false,
+            },
+            &[&dsrc, &wsrc],
+            t,
+        )
+        .expect("tiled weighted accumulation");
         prop_assert_eq!(
             bits64(&got),
             bits64(&want_wacc),
@@ -383,7 +397,10 @@ fn one_flat_lake_across_many_whole_tiles() {
 
 #[test]
 fn bad_directions_and_summaries_are_errors() {
-    let step = TiledAccumulation { weighted: false };
+    let step = TiledAccumulation {
+        weighted: false,
+        sca: false,
+    };
     // a cycle across two tiles: E then W
     let d = Grid::from_vec(2, 1, vec![1.0f32, 16.0]).unwrap();
     let src = mem(&d, None);
@@ -394,7 +411,15 @@ fn bad_directions_and_summaries_are_errors() {
     assert!(run_global(&step, &[&mem(&d, None)], 1).is_err());
     // the weighted step without weights
     let d = Grid::from_vec(2, 1, vec![1.0f32, 1.0]).unwrap();
-    assert!(run_global(&TiledAccumulation { weighted: true }, &[&mem(&d, None)], 1).is_err());
+    assert!(run_global(
+        &TiledAccumulation {
+            weighted: true,
+            sca: false
+        },
+        &[&mem(&d, None)],
+        1
+    )
+    .is_err());
     // summaries that do not match the layout
     let layout = TileLayout::new(4, 4, 2);
     assert!(TiledFill.reduce(&layout, Vec::new()).is_err());

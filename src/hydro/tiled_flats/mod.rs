@@ -48,6 +48,7 @@ use super::{valid, D8_CODES, DX, DY, NODATA_DIR, NO_FLOW};
 use crate::error::{Error, Result};
 use crate::exec::output::{NodataRule, OutputSpec};
 use crate::exec::GlobalStep;
+use crate::raster::neighbours::CellGeometry;
 use crate::raster::{perimeter_cells, perimeter_index, perimeter_len};
 use crate::raster::{DType, Grid, TileId, TileLayout, TileView};
 use serde::{Deserialize, Serialize};
@@ -205,7 +206,8 @@ impl D8Prep {
         let gh = v.grid.height();
         let hl = v.halo;
         let z = v.grid.data();
-        let codes = super::flow::steepest_descent(z, gw, gh);
+        let geo = CellGeometry::of_rows(&v.georef, v.core.y - hl as i64, gh);
+        let codes = super::flow::steepest_descent(z, gw, gh, &geo);
         let mut nf = vec![false; w * h];
         let mut seed_t = Vec::new();
         let mut seed_a = Vec::new();
