@@ -9,8 +9,8 @@ use clap::{Parser, Subcommand};
 mod cli;
 
 pub(crate) use cli::args::{
-    distance, engine, open, output_options, target, warn_georef, wrote, EngineArg, In, InputArgs,
-    Out, OutFmt, Run,
+    distance, engine, open, output_options, target, warn_georef, wrote, EngineArg, GeoJsonArg, In,
+    InputArgs, Out, OutFmt, Run,
 };
 
 #[derive(Parser)]

@@ -12,6 +12,9 @@ tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
 echo "== every CLI output byte-identical to its recorded sha256 (tools/cli_golden.py)"
 /usr/bin/python3 tools/cli_golden.py --bin "$OROGEN"
 
+echo "== GeoJSON outputs placed by GDAL: lon/lat (RFC 7946) and --geojson-crs native (tools/geojson_crs_check.sh)"
+OROGEN="$OROGEN" bash tools/geojson_crs_check.sh
+
 echo "== demo"
 "$OROGEN" demo -o "$tmp/demo" --quiet
 for f in terrain.tif slope.tif aspect.tif hillshade.tif preview.png; do

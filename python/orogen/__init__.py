@@ -554,7 +554,7 @@ def _parse_table(text: str) -> Dict[str, np.ndarray]:
 
 def peaks(dem, *, min_prominence=30.0, edge="sea-level", no_isolation=False, tiled=False, line_parents=False,
           transform=None, crs=None, nodata=None, output=None, memory=None, tile=None, threads=0,
-          as_dataframe=False, progress=None):
+          as_dataframe=False, progress=None, geojson_crs="wgs84"):
     """Peaks with prominence, key saddles, parents, isolation and the divide
     tree (``orogen peaks``; Kirmse & de Ferranti 2017), in memory when the
     DEM fits ``memory``, else tile by tile with the same results.
@@ -567,12 +567,14 @@ def peaks(dem, *, min_prominence=30.0, edge="sea-level", no_isolation=False, til
     ``as_dataframe`` (pandas must be installed). With ``output`` a folder,
     writes ``peaks.csv``, ``peaks.geojson``, ``saddles.geojson``,
     ``divide_tree.geojson`` and ``divide_tree.json`` there and returns
-    their paths.
+    their paths. The GeoJSON files are WGS 84 longitude/latitude (RFC 7946)
+    unless ``geojson_crs="native"`` (the DEM's CRS with a ``crs`` member),
+    as ``--geojson-crs`` of the CLI.
     """
     inp = _Input(dem, transform, crs, nodata)
     run = _run_settings(memory, tile, threads)
     opts = _json({"min_prominence": float(min_prominence), "edge": edge, "no_isolation": no_isolation,
-                  "tiled": tiled, "line_parents": line_parents, "tile": tile})
+                  "tiled": tiled, "line_parents": line_parents, "tile": tile, "geojson_crs": geojson_crs})
     if output is not None:
         return list(_orogen.peaks(inp.value, inp.georef, opts, run, os.fspath(output), _progress(progress)))
     table = _parse_table(_orogen.peaks(inp.value, inp.georef, opts, run, None, _progress(progress)))

@@ -114,7 +114,7 @@ def peaks(
     dem: DemInput, *, min_prominence: float = ..., edge: str = ..., no_isolation: bool = ..., tiled: bool = ...,
     line_parents: bool = ..., transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ...,
     output: Optional[PathLike] = ..., memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
-    as_dataframe: bool = ..., progress: Progress = ...,
+    as_dataframe: bool = ..., progress: Progress = ..., geojson_crs: str = ...,
 ) -> Any: ...
 
 def erode(

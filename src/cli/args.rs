@@ -271,3 +271,22 @@ pub(crate) fn target(out: &Out, run: &Run) -> Result<orogen::ops::Target> {
         tile: run.tile,
     })
 }
+
+/// `--geojson-crs` of every command writing GeoJSON (`peaks`, `ridges`,
+/// `streams`, `basins --metrics`); the rules are `orogen::io::geojson`'s.
+#[derive(Args, Clone)]
+pub(crate) struct GeoJsonArg {
+    /// Coordinates of the GeoJSON outputs. wgs84 (default): longitude/latitude
+    /// as RFC 7946 requires, projected from a geographic, UTM (EPSG:326zz,
+    /// 327zz, 258zz) or Web Mercator (EPSG:3857) raster; any other EPSG code is
+    /// an error (nothing is written); a raster without a CRS is written in its
+    /// own coordinates with a warning. native: the raster's coordinates, with a
+    /// "crs" member naming its EPSG code (GDAL places it). Properties (lengths,
+    /// areas) are metres either way.
+    #[arg(long = "geojson-crs", value_name = "wgs84|native", default_value = "wgs84", value_parser = geojson_crs_arg)]
+    pub(crate) crs: parse::GeoJsonCrs,
+}
+
+fn geojson_crs_arg(s: &str) -> std::result::Result<parse::GeoJsonCrs, String> {
+    parse::geojson_crs(s).map_err(|e| e.to_string())
+}

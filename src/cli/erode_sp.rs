@@ -61,7 +61,9 @@ pub struct StreamPowerArgs {
     pub tiled: bool,
     /// Fixed points to keep (constrained erosion): CSV with col,row columns
     /// (orogen's peaks.csv; its saddle_x/saddle_y columns are kept too) or x,y
-    /// map coordinates, or GeoJSON (Point, MultiPoint, LineString vertices).
+    /// map coordinates, or GeoJSON (Point, MultiPoint, LineString vertices) in
+    /// the DEM's CRS unless the file has a "crs" member (CRS84/EPSG:4326:
+    /// lon/lat; orogen's --geojson-crs native outputs read back as they are).
     #[arg(long)]
     pub fixed_points: Option<PathBuf>,
     /// Radius of the compensating uplift around each fixed point, in metres.

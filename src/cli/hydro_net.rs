@@ -14,7 +14,7 @@ use std::path::PathBuf;
 
 #[derive(Args)]
 #[command(
-    after_help = "Examples:\n  orogen basins d8.tif -o basins.tif\n  orogen basins d8.tif --points gauges.csv --snap 5 --acc acc.tif -o watersheds.tif\n  orogen basins d8.tif -o basins.tif --metrics basins.csv --dem filled.tif --min-cells 1000\nLabels: a basin is labelled by its outlet's row-major cell index + 1; with --points by the\npoint's number (1 = first point). --metrics runs in memory (about 64 bytes per cell)."
+    after_help = "Examples:\n  orogen basins d8.tif -o basins.tif\n  orogen basins d8.tif --points gauges.csv --snap 5 --acc acc.tif -o watersheds.tif\n  orogen basins d8.tif -o basins.tif --metrics basins.csv --dem filled.tif --min-cells 1000\nLabels: a basin is labelled by its outlet's row-major cell index + 1; with --points by the\npoint's number (1 = first point). --metrics runs in memory (about 64 bytes per cell).\nThe outlines GeoJSON of --metrics is WGS 84 longitude/latitude (RFC 7946) unless\n--geojson-crs native; areas, lengths and outlet_x/outlet_y (as in the CSV) stay in the\nraster's CRS units. GeoJSON pour points are in the rasters' CRS unless the file has a \"crs\"\nmember (CRS84/EPSG:4326: longitude/latitude; the rasters' EPSG code)."
 )]
 pub struct BasinsArgs {
     /// D8 flow directions (from `orogen flow`).
@@ -47,6 +47,8 @@ pub struct BasinsArgs {
     #[arg(long, default_value_t = 21)]
     pub hyp_samples: usize,
     #[command(flatten)]
+    pub geojson: crate::GeoJsonArg,
+    #[command(flatten)]
     pub fmt: crate::OutFmt,
     #[command(flatten)]
     pub run: crate::Run,
@@ -64,6 +66,7 @@ pub fn run_basins(a: BasinsArgs) -> Result<()> {
         dem: a.dem.clone(),
         min_cells: a.min_cells,
         hyp_samples: a.hyp_samples,
+        geojson_crs: a.geojson.crs,
     };
     let t = Target {
         path: a.output.clone(),
@@ -71,6 +74,9 @@ pub fn run_basins(a: BasinsArgs) -> Result<()> {
         tile: a.run.tile,
     };
     let labels = basins::write_labels(dirs.as_ref(), &opts, &t, &cfg)?;
+    if let Some(w) = labels.warning(&opts) {
+        super::erode::printer(false)(orogen::ops::note::Note::Warning(w.to_string()));
+    }
     crate::wrote(&a.output);
     for f in basins::write_metrics(dirs.as_ref(), &opts, &labels, &cfg)? {
         crate::wrote(&f);
@@ -82,7 +88,7 @@ pub fn run_basins(a: BasinsArgs) -> Result<()> {
 
 #[derive(Args)]
 #[command(
-    after_help = "Examples:\n  orogen streams d8.tif -o streams.geojson --threshold 500 --raster order.tif --stats stats.json\n  orogen streams d8.tif -o streams.geojson --area 1e6 --csv links.csv --nodes nodes.geojson\n  orogen streams d8.tif --dem filled.tif --slope-area 200 -o streams.geojson\nRuns in memory (about 64 bytes per cell); --memory must allow it."
+    after_help = "Examples:\n  orogen streams d8.tif -o streams.geojson --threshold 500 --raster order.tif --stats stats.json\n  orogen streams d8.tif -o streams.geojson --area 1e6 --csv links.csv --nodes nodes.geojson\n  orogen streams d8.tif --dem filled.tif --slope-area 200 -o streams.geojson\nRuns in memory (about 64 bytes per cell); --memory must allow it.\nThe links and --nodes GeoJSON are WGS 84 longitude/latitude (RFC 7946) unless\n--geojson-crs native; length_m and area_m2 are metres either way:\n  orogen streams d8_utm.tif -o streams.geojson --geojson-crs native"
 )]
 pub struct StreamsArgs {
     /// D8 flow directions (from `orogen flow`).
@@ -118,6 +124,8 @@ pub struct StreamsArgs {
     #[arg(long, default_value_t = 10)]
     pub valley_window: usize,
     #[command(flatten)]
+    pub geojson: crate::GeoJsonArg,
+    #[command(flatten)]
     pub fmt: crate::OutFmt,
     #[command(flatten)]
     pub run: crate::Run,
@@ -136,6 +144,7 @@ pub fn run_streams(a: StreamsArgs) -> Result<()> {
         csv: a.csv.clone(),
         nodes: a.nodes.clone(),
         valley_window: a.valley_window,
+        geojson_crs: a.geojson.crs,
     };
     // Checked before the directions are opened.
     opts.rule()?;
@@ -151,6 +160,9 @@ pub fn run_streams(a: StreamsArgs) -> Result<()> {
         tile: a.run.tile,
     };
     let net = streams::run(dirs.as_ref(), &opts, &t, &cfg)?;
+    for w in &net.warnings {
+        super::erode::printer(false)(orogen::ops::note::Note::Warning(w.clone()));
+    }
     for f in &net.files {
         crate::wrote(f);
     }

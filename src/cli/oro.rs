@@ -189,7 +189,7 @@ pub fn run_classify(a: ClassifyArgs) -> Result<()> {
 
 #[derive(Args)]
 #[command(
-    after_help = "Example:\n  orogen ridges ../shared/data/srtm3_S33W071.tif --min-prominence 100 -o ridges/\nWrites ridges.geojson (steepest-ascent paths saddle -> peak, with longest-path level and\nStrahler order), ridge_levels.tif, ridge_orders.tif (0 = no ridge) and ppa_ridges.tif\n(Chang et al. 1998 profile recognition + maximum spanning tree, 1 = ridge). Runs in memory."
+    after_help = "Example:\n  orogen ridges ../shared/data/srtm3_S33W071.tif --min-prominence 100 -o ridges/\nWrites ridges.geojson (steepest-ascent paths saddle -> peak, with longest-path level and\nStrahler order), ridge_levels.tif, ridge_orders.tif (0 = no ridge) and ppa_ridges.tif\n(Chang et al. 1998 profile recognition + maximum spanning tree, 1 = ridge). Runs in memory.\nridges.geojson is WGS 84 longitude/latitude (RFC 7946) unless --geojson-crs native; length_m is metres."
 )]
 pub struct RidgesArgs {
     #[command(flatten)]
@@ -213,6 +213,8 @@ pub struct RidgesArgs {
     #[arg(short, long)]
     output: PathBuf,
     #[command(flatten)]
+    geojson: crate::GeoJsonArg,
+    #[command(flatten)]
     fmt: crate::OutFmt,
     #[command(flatten)]
     run: crate::Run,
@@ -226,6 +228,7 @@ pub fn run_ridges(a: RidgesArgs) -> Result<()> {
         half_window: a.half_window,
         min_branch: a.min_branch,
         no_ppa: a.no_ppa,
+        geojson_crs: a.geojson.crs,
     };
     opts.validate()?;
     let cfg = crate::engine(&a.run)?;

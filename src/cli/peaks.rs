@@ -15,6 +15,7 @@ pub fn run(a: PeaksArgs) -> Result<()> {
         tiled: a.tiled,
         line_parents: a.line_parents,
         tile: a.run.tile,
+        geojson_crs: a.geojson.crs,
     };
     opts.validate()?;
     let cfg = engine(&a.run)?;
@@ -27,7 +28,7 @@ pub fn run(a: PeaksArgs) -> Result<()> {
 /// Arguments of `orogen peaks`.
 #[derive(Args)]
 #[command(
-    after_help = "Example:\n  orogen peaks ../shared/data/srtm3_S33W071.tif --min-prominence 30 -o out/\nWrites peaks.csv, peaks.geojson, saddles.geojson, divide_tree.geojson and divide_tree.json.\nConventions (Kirmse & de Ferranti 2017): with --edge sea-level (default) the DEM's edge and\nnodata are sea level 0; with --edge unknown the outside is ignored.\nRuns in memory (about 28 bytes per cell) when --memory allows it, else tile by tile with the\nsame results (--tiled forces it):\n  orogen peaks poland.tif --memory 512MiB -o out/"
+    after_help = "Example:\n  orogen peaks ../shared/data/srtm3_S33W071.tif --min-prominence 30 -o out/\nWrites peaks.csv, peaks.geojson, saddles.geojson, divide_tree.geojson and divide_tree.json.\nThe GeoJSON files are WGS 84 longitude/latitude (RFC 7946) unless --geojson-crs native;\npeaks.csv keeps the DEM's coordinates. Keep projected coordinates (with a \"crs\" member):\n  orogen peaks utm.tif --geojson-crs native -o out/\nConventions (Kirmse & de Ferranti 2017): with --edge sea-level (default) the DEM's edge and\nnodata are sea level 0; with --edge unknown the outside is ignored.\nRuns in memory (about 28 bytes per cell) when --memory allows it, else tile by tile with the\nsame results (--tiled forces it):\n  orogen peaks poland.tif --memory 512MiB -o out/"
 )]
 pub struct PeaksArgs {
     #[command(flatten)]
@@ -51,6 +52,8 @@ pub struct PeaksArgs {
     /// Output folder.
     #[arg(short, long)]
     pub output: PathBuf,
+    #[command(flatten)]
+    pub geojson: crate::GeoJsonArg,
     #[command(flatten)]
     pub run: Run,
 }

@@ -175,7 +175,8 @@ pub struct DivideTreeArgs {
     /// Output divide tree (.json, editable).
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Also write the tree as GeoJSON (peaks, saddles, ridges).
+    /// Also write the tree as GeoJSON (peaks, saddles, ridges), in the tree's
+    /// local metric frame (synthetic: not RFC 7946 lon/lat, no "crs" member).
     #[arg(long)]
     pub geojson: Option<PathBuf>,
 }

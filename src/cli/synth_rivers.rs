@@ -90,7 +90,9 @@ pub struct RiversArgs {
     pub land_threshold: f64,
     #[command(flatten)]
     pub river: RiverArgs,
-    /// Write the river trees as GeoJSON lines (drainage area, heights) here.
+    /// Write the river trees as GeoJSON lines (drainage area, heights) here,
+    /// in the synthetic terrain's map metres (it has no place on Earth, so
+    /// not RFC 7946 lon/lat and no "crs" member).
     #[arg(long)]
     pub network: Option<PathBuf>,
     /// Write a hillshaded preview PNG here.

@@ -23,7 +23,8 @@ pub struct ViewshedArgs {
     #[arg(long = "at", value_name = "X,Y", allow_hyphen_values = true)]
     at: Vec<String>,
     /// Observers from a CSV file (header with x,y or lon,lat columns) or a
-    /// GeoJSON file of Point features, in the DEM's coordinates.
+    /// GeoJSON file of Point features, in the DEM's coordinates (a GeoJSON
+    /// "crs" member is honoured: CRS84/EPSG:4326 means lon/lat).
     #[arg(long)]
     points: Option<PathBuf>,
     /// Read --at as COL,ROW cell indices instead of coordinates.

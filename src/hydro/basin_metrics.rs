@@ -35,6 +35,7 @@ use super::accum::accumulate_core;
 use super::streams::{receivers, row_sizes};
 use super::NODATA_DIR;
 use crate::error::{Error, Result};
+use crate::io::geojson::GeoJsonCoords;
 use crate::raster::{GeoRef, Grid};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -383,12 +384,16 @@ pub fn write_csv(path: &Path, georef: &GeoRef, basins: &[BasinMetrics]) -> Resul
 }
 
 /// Write the basins as GeoJSON features with every metric as a property (the
-/// hypsometric curve as an array, the outlet's map coordinates as
-/// `outlet_x`/`outlet_y`): MultiPolygons of their outlines when `outlines`
-/// (from [`basin_outlines`]) are given, else Points at their outlets.
+/// hypsometric curve as an array, the outlet's map coordinates in the
+/// raster's CRS as `outlet_x`/`outlet_y`, as in the CSV): MultiPolygons of
+/// their outlines when `outlines` (from [`basin_outlines`]) are given, else
+/// Points at their outlets. Geometry is in the coordinates `coords` says
+/// (WGS 84 lon/lat by default, RFC 7946; see [`crate::io::geojson`]);
+/// areas and lengths are metric either way.
 pub fn write_geojson(
     path: &Path,
     georef: &GeoRef,
+    coords: &GeoJsonCoords,
     basins: &[BasinMetrics],
     outlines: Option<&[(u64, Outline)]>,
 ) -> Result<()> {
@@ -419,9 +424,15 @@ pub fn write_geojson(
             let geometry = match outline {
                 Some(o) => serde_json::json!({
                     "type": "MultiPolygon",
-                    "coordinates": outline_coordinates(georef, o),
+                    "coordinates": outline_coordinates(georef, o)
+                        .into_iter()
+                        .map(|part| part
+                            .into_iter()
+                            .map(|ring| ring.into_iter().map(|[x, y]| coords.map(x, y)).collect::<Vec<_>>())
+                            .collect::<Vec<_>>())
+                        .collect::<Vec<_>>(),
                 }),
-                None => serde_json::json!({"type": "Point", "coordinates": [x, y]}),
+                None => serde_json::json!({"type": "Point", "coordinates": coords.map(x, y)}),
             };
             serde_json::json!({
                 "type": "Feature",
@@ -430,7 +441,7 @@ pub fn write_geojson(
             })
         })
         .collect();
-    let v = serde_json::json!({"type": "FeatureCollection", "features": feats});
+    let v = coords.collection(feats);
     super::streams::write_atomic(path, |f| f.write_all(v.to_string().as_bytes()))
 }
 

@@ -670,6 +670,12 @@ pub fn read_points(path: &Path) -> Result<Vec<PourPoint>> {
     crate::io::vector::read_points(path, POUR_POINTS)
 }
 
+/// [`read_points`] in the map coordinates of rasters with `georef` (a
+/// GeoJSON `crs` member honoured, [`crate::io::vector::read_points_in`]).
+pub fn read_points_in(path: &Path, georef: &crate::raster::GeoRef) -> Result<Vec<PourPoint>> {
+    crate::io::vector::read_points_in(path, POUR_POINTS, georef)
+}
+
 /// Cell (col, row) of each map point in a raster of `src`'s georeference;
 /// errors naming points that fall outside. With `snap_radius` > 0, each point
 /// moves to the cell of largest `acc` within that many cells (Chebyshev

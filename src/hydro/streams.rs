@@ -56,6 +56,7 @@
 use super::accum::{accumulate_core, fixed_to_f64, weight_to_fixed};
 use super::{code_to_dir, DX, DY, NODATA_DIR, NO_FLOW};
 use crate::error::{Error, Result};
+use crate::io::geojson::GeoJsonCoords;
 use crate::raster::{GeoRef, Grid};
 use serde::Serialize;
 use std::io::Write;
@@ -673,25 +674,27 @@ fn num(v: f64) -> serde_json::Value {
 }
 
 impl Network {
-    fn centre(&self, c: usize) -> [f64; 2] {
+    fn centre(&self, coords: &GeoJsonCoords, c: usize) -> [f64; 2] {
         let w = self.order.width();
-        let (x, y) = self
-            .georef
-            .pixel_to_map((c % w) as f64 + 0.5, (c / w) as f64 + 0.5);
-        [x, y]
+        coords.pixel((c % w) as f64 + 0.5, (c / w) as f64 + 0.5)
     }
 
-    /// Write the links as a GeoJSON FeatureCollection of LineStrings (map
-    /// coordinates of cell centres) with their properties.
-    pub fn write_geojson(&self, path: &Path) -> Result<()> {
+    /// Write the links as a GeoJSON FeatureCollection of LineStrings (cell
+    /// centres, in the coordinates `coords` says: WGS 84 lon/lat by default,
+    /// RFC 7946; see [`crate::io::geojson`]) with their properties (lengths
+    /// and areas metric).
+    pub fn write_geojson(&self, path: &Path, coords: &GeoJsonCoords) -> Result<()> {
         write_atomic(path, |f| {
-            write!(f, "{{\"type\":\"FeatureCollection\",\"features\":[")?;
+            write!(f, "{}", coords.collection_head())?;
             for (i, l) in self.links.iter().enumerate() {
-                let coords: Vec<[f64; 2]> =
-                    l.cells.iter().map(|&c| self.centre(c as usize)).collect();
+                let line: Vec<[f64; 2]> = l
+                    .cells
+                    .iter()
+                    .map(|&c| self.centre(coords, c as usize))
+                    .collect();
                 let feat = serde_json::json!({
                     "type": "Feature",
-                    "geometry": {"type": "LineString", "coordinates": coords},
+                    "geometry": {"type": "LineString", "coordinates": line},
                     "properties": {
                         "id": l.id, "from_node": l.from, "to_node": l.to,
                         "strahler": l.strahler, "shreve": l.shreve, "stream": l.stream,
@@ -709,8 +712,9 @@ impl Network {
         })
     }
 
-    /// Write nodes as a GeoJSON FeatureCollection of Points.
-    pub fn write_nodes_geojson(&self, path: &Path) -> Result<()> {
+    /// Write nodes as a GeoJSON FeatureCollection of Points (coordinates as
+    /// in [`Network::write_geojson`]).
+    pub fn write_nodes_geojson(&self, path: &Path, coords: &GeoJsonCoords) -> Result<()> {
         let w = self.order.width();
         let feats: Vec<serde_json::Value> = self
             .nodes
@@ -718,12 +722,12 @@ impl Network {
             .map(|nd| {
                 serde_json::json!({
                     "type": "Feature",
-                    "geometry": {"type": "Point", "coordinates": self.centre(nd.y * w + nd.x)},
+                    "geometry": {"type": "Point", "coordinates": self.centre(coords, nd.y * w + nd.x)},
                     "properties": {"id": nd.id, "kind": nd.kind, "col": nd.x, "row": nd.y}
                 })
             })
             .collect();
-        let v = serde_json::json!({"type": "FeatureCollection", "features": feats});
+        let v = coords.collection(feats);
         write_atomic(path, |f| f.write_all(v.to_string().as_bytes()))
     }
 

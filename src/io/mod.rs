@@ -1,9 +1,11 @@
 //! Readers and writers: GeoTIFF (streamed, no GDAL), SRTM .hgt, ESRI ASCII,
 //! PNG heightmaps, mosaics of several files, previews, points from CSV and
-//! GeoJSON files (`vector`); plus opening any of them by path.
+//! GeoJSON files (`vector`), the coordinates of GeoJSON outputs and the `crs`
+//! member of GeoJSON inputs (`geojson`); plus opening any of them by path.
 
 pub mod ascii;
 pub mod atomic;
+pub mod geojson;
 pub mod geotiff;
 pub mod hgt;
 pub mod memsink;

@@ -13,9 +13,14 @@
 //! coordinate columns. Line numbers in errors count the header as line 1.
 //!
 //! GeoJSON: every feature must be a Point with at least two numeric
-//! coordinates; the `id` (else `name`) property names it.
+//! coordinates; the `id` (else `name`) property names it. Coordinates are in
+//! the raster's CRS unless the file has a `crs` member: [`read_points_in`]
+//! then reads longitude/latitude (CRS84, EPSG:4326) through the raster's
+//! projection and refuses another CRS ([`crate::io::geojson::input_crs`]);
+//! so the `--geojson-crs native` outputs of orogen read back as they are.
 
 use crate::error::{Error, Result};
+use crate::raster::GeoRef;
 use std::path::Path;
 
 /// A point read from a CSV or GeoJSON file, in map coordinates.
@@ -43,7 +48,23 @@ pub struct PointNoun<'a> {
 
 /// Read points: a `.geojson`/`.json` file (see the module doc), else a CSV.
 /// Errors name the file and what is wrong; an empty result is an error.
+/// Coordinates as in the file (a GeoJSON `crs` member is not looked at; see
+/// [`read_points_in`]).
 pub fn read_points(path: &Path, noun: PointNoun) -> Result<Vec<MapPoint>> {
+    read_points_with(path, noun, None)
+}
+
+/// [`read_points`] in the map coordinates of a raster with `georef`: a
+/// GeoJSON file's `crs` member is honoured (see the module doc).
+pub fn read_points_in(path: &Path, noun: PointNoun, georef: &GeoRef) -> Result<Vec<MapPoint>> {
+    read_points_with(path, noun, Some(georef))
+}
+
+fn read_points_with(
+    path: &Path,
+    noun: PointNoun,
+    georef: Option<&GeoRef>,
+) -> Result<Vec<MapPoint>> {
     let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
     if meta.len() > MAX_POINT_FILE_BYTES {
         return Err(Error::too_large(
@@ -61,7 +82,16 @@ pub fn read_points(path: &Path, noun: PointNoun) -> Result<Vec<MapPoint>> {
         .unwrap_or("")
         .to_ascii_lowercase();
     let pts = if ext == "geojson" || ext == "json" {
-        points_geojson(path, &text, noun)?
+        let v = parse_geojson(path, &text)?;
+        let mut pts = points_of(path, &v, noun)?;
+        if let Some(g) = georef {
+            let crs = crate::io::geojson::input_crs(&v, path)?;
+            let to_map = crate::io::geojson::input_to_map(crs, g, path)?;
+            for p in &mut pts {
+                (p.x, p.y) = to_map(p.x, p.y);
+            }
+        }
+        pts
     } else {
         points_csv(path, &text, noun)?
     };
@@ -79,10 +109,16 @@ fn too_many(path: &Path, noun: PointNoun) -> Error {
     Error::too_large(path, format!("more than 10 million {}", noun.many))
 }
 
-/// Points of a GeoJSON text (see the module doc).
+fn parse_geojson(path: &Path, text: &str) -> Result<serde_json::Value> {
+    serde_json::from_str(text).map_err(|e| Error::corrupt(path, format!("not valid GeoJSON: {e}")))
+}
+
+/// Points of a GeoJSON text (see the module doc), coordinates as in the file.
 pub fn points_geojson(path: &Path, text: &str, noun: PointNoun) -> Result<Vec<MapPoint>> {
-    let v: serde_json::Value = serde_json::from_str(text)
-        .map_err(|e| Error::corrupt(path, format!("not valid GeoJSON: {e}")))?;
+    points_of(path, &parse_geojson(path, text)?, noun)
+}
+
+fn points_of(path: &Path, v: &serde_json::Value, noun: PointNoun) -> Result<Vec<MapPoint>> {
     let feats: Vec<&serde_json::Value> = match v.get("features").and_then(|f| f.as_array()) {
         Some(a) => a.iter().collect(),
         None => vec![&v],

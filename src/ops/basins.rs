@@ -9,6 +9,8 @@ use crate::error::{Error, Result};
 use crate::exec::EngineConfig;
 use crate::hydro::basin_metrics;
 use crate::hydro::basins::{self, Seeds, TiledDownstream};
+use crate::io::geojson::GeoJsonCoords;
+use crate::ops::parse::GeoJsonCrs;
 use crate::raster::{read_window, Grid, RasterSource};
 use std::path::PathBuf;
 
@@ -32,6 +34,10 @@ pub struct BasinsOptions {
     pub min_cells: u64,
     /// Samples on the hypsometric curve in `metrics`.
     pub hyp_samples: usize,
+    /// Coordinates of the GeoJSON outputs: `wgs84` (longitude/latitude,
+    /// RFC 7946) or `native` (the raster's CRS, named in a `crs` member);
+    /// see [`crate::io::geojson`].
+    pub geojson_crs: GeoJsonCrs,
 }
 
 impl Default for BasinsOptions {
@@ -44,16 +50,28 @@ impl Default for BasinsOptions {
             dem: None,
             min_cells: 1,
             hyp_samples: 21,
+            geojson_crs: GeoJsonCrs::Wgs84,
         }
     }
 }
 
 /// The labels [`write_labels`] wrote: the pour points' cells (`None`:
 /// every outlet's basin), for [`write_metrics`].
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 pub struct Labels {
     /// Cells (column, row) of the located pour points.
     pub cells: Option<Vec<(usize, usize)>>,
+    /// How the outlines GeoJSON of `metrics` is written (checked before the
+    /// labels are: an unprojectable CRS writes nothing).
+    pub coords: GeoJsonCoords,
+}
+
+impl Labels {
+    /// The warning of a raster without a known CRS, when `metrics` writes
+    /// GeoJSON (see [`crate::io::geojson`]).
+    pub fn warning(&self, opts: &BasinsOptions) -> Option<&str> {
+        opts.metrics.as_ref().and(self.coords.warning())
+    }
 }
 
 /// Label the basins of the D8 directions `dirs` into `target` (u32, or f64
@@ -81,11 +99,15 @@ pub fn write_labels(
 ) -> Result<Labels> {
     let a = opts;
     let info = dirs.info().clone();
+    let coords = match &a.metrics {
+        Some(_) => a.geojson_crs.coords(&info.georef, &info.path)?,
+        None => GeoJsonCoords::native(&info.georef),
+    };
     let mut cells = None;
     let seeds = match &a.points {
         None => Seeds::Outlets,
         Some(p) => {
-            let pts = basins::read_points(p)?;
+            let pts = basins::read_points_in(p, &info.georef)?;
             let acc = match &a.acc {
                 Some(ap) => {
                     let s = open_path(ap)?;
@@ -110,7 +132,7 @@ pub fn write_labels(
         labels: TiledDownstream::label_type(info.width, info.height),
     };
     target.run_global(&step, &[dirs], cfg)?;
-    Ok(Labels { cells })
+    Ok(Labels { cells, coords })
 }
 
 /// The per-basin metrics CSV and outlines GeoJSON of [`run`] (none without
@@ -123,6 +145,7 @@ pub fn write_metrics(
 ) -> Result<Vec<PathBuf>> {
     let a = opts;
     let info = dirs.info();
+    let labels_in = labels;
     let cells = &labels.cells;
     let mut files = Vec::new();
     if let Some(mp) = &a.metrics {
@@ -160,7 +183,7 @@ pub fn write_metrics(
         files.push(mp.clone());
         let gj = mp.with_extension("geojson");
         let outlines = basin_metrics::basin_outlines(&labels)?;
-        basin_metrics::write_geojson(&gj, &info.georef, &m, Some(&outlines))?;
+        basin_metrics::write_geojson(&gj, &info.georef, &labels_in.coords, &m, Some(&outlines))?;
         files.push(gj);
     }
     Ok(files)

@@ -79,6 +79,22 @@ pub fn warn_georef(src: &dyn RasterSource, notify: Notify<'_>) {
     }
 }
 
+/// How the GeoJSON outputs of `src` are written (`crs`, see
+/// [`crate::io::geojson`]), resolved before anything is computed or
+/// written; the warning for a raster without a known CRS goes to `notify`.
+pub fn geojson_coords(
+    crs: crate::io::geojson::GeoJsonCrs,
+    src: &dyn RasterSource,
+    notify: Notify<'_>,
+) -> Result<crate::io::geojson::GeoJsonCoords> {
+    let info = src.info();
+    let c = crs.coords(&info.georef, &info.path)?;
+    if let Some(w) = c.warning() {
+        notify(Note::Warning(w.to_string()));
+    }
+    Ok(c)
+}
+
 /// Render the hillshaded preview of `src` to `path` and note it.
 pub(crate) fn preview(
     src: &dyn RasterSource,

@@ -8,6 +8,15 @@ use crate::exec::{EngineConfig, EngineKind};
 use crate::io::geotiff::{Compression, Resampling, WriteOptions};
 use crate::io::{OpenOptions, OutputOptions, Overviews};
 
+/// `--geojson-crs` of every command writing GeoJSON (`peaks`, `ridges`,
+/// `streams`, `basins --metrics`) and their job steps' `geojson_crs`.
+pub use crate::io::geojson::GeoJsonCrs;
+
+/// `--geojson-crs wgs84|native` ([`GeoJsonCrs`]).
+pub fn geojson_crs(s: &str) -> Result<GeoJsonCrs> {
+    GeoJsonCrs::parse(s)
+}
+
 /// A byte size such as `512MiB`, `2GiB` or `1048576` (binary units: K, M, G,
 /// T with or without `B`/`iB`, any case); at least 16 MiB, the smallest
 /// budget the engine works in.

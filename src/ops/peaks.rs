@@ -5,7 +5,9 @@
 use crate::error::{Error, Result};
 use crate::exec::EngineConfig;
 use crate::exec::MemoryFit;
+use crate::io::geojson::GeoJsonCoords;
 use crate::ops::note::{Note, Notify};
+use crate::ops::parse::GeoJsonCrs;
 use crate::oro::EdgeConvention;
 use crate::raster::RasterSource;
 use std::path::{Path, PathBuf};
@@ -31,6 +33,10 @@ pub struct PeaksOptions {
     pub line_parents: bool,
     /// Work-tile size of a tiled run (`None`: the input store's, else the default).
     pub tile: Option<usize>,
+    /// Coordinates of the GeoJSON outputs: `wgs84` (longitude/latitude,
+    /// RFC 7946) or `native` (the raster's CRS, named in a `crs` member);
+    /// see [`crate::io::geojson`].
+    pub geojson_crs: GeoJsonCrs,
 }
 
 impl Default for PeaksOptions {
@@ -42,6 +48,7 @@ impl Default for PeaksOptions {
             tiled: false,
             line_parents: false,
             tile: None,
+            geojson_crs: GeoJsonCrs::Wgs84,
         }
     }
 }
@@ -162,8 +169,9 @@ pub fn run(
     cfg: &EngineConfig,
 ) -> Result<PeaksOutcome> {
     opts.validate()?;
+    let coords = crate::ops::note::geojson_coords(opts.geojson_crs, dem, &mut |_| {})?;
     let m = mode(dem, opts, cfg)?;
-    run_in(dem, dir, opts, m, cfg)
+    run_in(dem, dir, opts, m, &coords, cfg)
 }
 
 /// [`run`], telling `notify` how it runs (tile by tile), how many peaks it
@@ -176,6 +184,7 @@ pub fn run_noted(
     notify: Notify<'_>,
 ) -> Result<PeaksOutcome> {
     opts.validate()?;
+    let coords = crate::ops::note::geojson_coords(opts.geojson_crs, dem, notify)?;
     let m = mode(dem, opts, cfg)?;
     if let PeaksMode::Tiled { tile } = m {
         let info = dem.info();
@@ -184,7 +193,7 @@ pub fn run_noted(
             info.width, info.height
         )));
     }
-    let found = run_in(dem, dir, opts, m, cfg)?;
+    let found = run_in(dem, dir, opts, m, &coords, cfg)?;
     notify(Note::Info(format!(
         "{} peaks with prominence >= {}",
         found.peaks, opts.min_prominence
@@ -195,12 +204,14 @@ pub fn run_noted(
     Ok(found)
 }
 
-/// [`run`] in the given mode (from [`mode`]).
+/// [`run`] in the given mode (from [`mode`]), GeoJSON coordinates as
+/// `coords` says (from `opts.geojson_crs`, [`crate::ops::note::geojson_coords`]).
 pub fn run_in(
     dem: &dyn RasterSource,
     dir: &Path,
     opts: &PeaksOptions,
     mode: PeaksMode,
+    coords: &GeoJsonCoords,
     cfg: &EngineConfig,
 ) -> Result<PeaksOutcome> {
     let (list, grid) = find(dem, opts, mode, cfg)?;
@@ -208,8 +219,8 @@ pub fn run_in(
     // memory (line_parents); otherwise those columns are empty, so the
     // files are the same bytes tiled and untiled.
     let files = match &grid {
-        Some(g) if opts.line_parents => list.write_all_with_dem(dir, g)?,
-        _ => list.write_all(dir)?,
+        Some(g) if opts.line_parents => list.write_all_with_dem(dir, g, coords)?,
+        _ => list.write_all(dir, coords)?,
     };
     Ok(PeaksOutcome {
         peaks: list.tree.peaks.len(),

@@ -9,6 +9,7 @@ use crate::error::{Error, Result};
 use crate::exec::EngineConfig;
 use crate::io::OutputOptions;
 use crate::ops::note::{Note, Notify};
+use crate::ops::parse::GeoJsonCrs;
 use crate::oro::EdgeConvention;
 use crate::raster::{GeoRef, Grid, RasterSource};
 use std::path::{Path, PathBuf};
@@ -29,6 +30,10 @@ pub struct RidgesOptions {
     pub min_branch: usize,
     /// Skip the PPA ridges.
     pub no_ppa: bool,
+    /// Coordinates of the GeoJSON outputs: `wgs84` (longitude/latitude,
+    /// RFC 7946) or `native` (the raster's CRS, named in a `crs` member);
+    /// see [`crate::io::geojson`].
+    pub geojson_crs: GeoJsonCrs,
 }
 
 impl Default for RidgesOptions {
@@ -39,6 +44,7 @@ impl Default for RidgesOptions {
             half_window: 3,
             min_branch: 10,
             no_ppa: false,
+            geojson_crs: GeoJsonCrs::Wgs84,
         }
     }
 }
@@ -90,7 +96,20 @@ pub fn run(
     oo: &OutputOptions,
     cfg: &EngineConfig,
 ) -> Result<RidgesOutcome> {
+    run_with(dem, dir, opts, oo, cfg, &mut |_| {})
+}
+
+/// [`run`], the warning of a raster without a known CRS told to `notify`.
+fn run_with(
+    dem: &dyn RasterSource,
+    dir: &Path,
+    opts: &RidgesOptions,
+    oo: &OutputOptions,
+    cfg: &EngineConfig,
+    notify: Notify<'_>,
+) -> Result<RidgesOutcome> {
     opts.validate()?;
+    let coords = crate::ops::note::geojson_coords(opts.geojson_crs, dem, notify)?;
     let per_cell = if opts.no_ppa {
         40
     } else {
@@ -111,7 +130,7 @@ pub fn run(
     let list = crate::oro::peaks(&grid, &georef, &popts)?;
     let net = crate::oro::ridges::divide_tree_ridges(&list.tree, &grid, &georef)?;
     let gj = dir.join("ridges.geojson");
-    net.write_geojson(&gj, &georef)?;
+    net.write_geojson(&gj, &coords)?;
     let mut files = vec![gj];
     let levels = dir.join("ridge_levels.tif");
     write_u8(net.rasterise_levels(), &georef, &levels, oo, cfg)?;
@@ -149,7 +168,7 @@ pub fn run_noted(
     cfg: &EngineConfig,
     notify: Notify<'_>,
 ) -> Result<RidgesOutcome> {
-    let done = run(dem, dir, opts, oo, cfg)?;
+    let done = run_with(dem, dir, opts, oo, cfg, notify)?;
     for f in &done.files {
         notify(Note::Wrote(f.clone()));
     }

@@ -8,6 +8,7 @@ use super::Target;
 use crate::error::{Error, Result};
 use crate::exec::EngineConfig;
 use crate::hydro::{streams, NODATA_DIR};
+use crate::ops::parse::GeoJsonCrs;
 use crate::raster::{read_window, DType, MemRaster, RasterSource};
 use std::path::PathBuf;
 
@@ -33,6 +34,10 @@ pub struct StreamsOptions {
     pub nodes: Option<PathBuf>,
     /// Half window (cells) of the valley-line smoothing for Mueller's valley length.
     pub valley_window: usize,
+    /// Coordinates of the GeoJSON outputs: `wgs84` (longitude/latitude,
+    /// RFC 7946) or `native` (the raster's CRS, named in a `crs` member);
+    /// see [`crate::io::geojson`].
+    pub geojson_crs: GeoJsonCrs,
 }
 
 impl Default for StreamsOptions {
@@ -47,6 +52,7 @@ impl Default for StreamsOptions {
             csv: None,
             nodes: None,
             valley_window: 10,
+            geojson_crs: GeoJsonCrs::Wgs84,
         }
     }
 }
@@ -95,6 +101,8 @@ pub struct StreamsOutcome {
     pub max_order: u32,
     /// Files written, in order.
     pub files: Vec<PathBuf>,
+    /// Warnings (a raster without a known CRS: GeoJSON in its own coordinates).
+    pub warnings: Vec<String>,
 }
 
 /// Extract the stream network of the D8 directions `dirs` and write its
@@ -115,6 +123,7 @@ pub fn run(
         cfg,
     )?;
     let info = dirs.info().clone();
+    let coords = opts.geojson_crs.coords(&info.georef, &info.path)?;
     let d = read_dirs(dirs)?;
     let dem = match &a.dem {
         Some(p) => {
@@ -138,14 +147,14 @@ pub fn run(
             valley_window: a.valley_window,
         },
     )?;
-    net.write_geojson(&target.path)?;
+    net.write_geojson(&target.path, &coords)?;
     let mut files = vec![target.path.clone()];
     if let Some(p) = &a.csv {
         net.write_links_csv(p)?;
         files.push(p.clone());
     }
     if let Some(p) = &a.nodes {
-        net.write_nodes_geojson(p)?;
+        net.write_nodes_geojson(p, &coords)?;
         files.push(p.clone());
     }
     if let Some(p) = &a.stats {
@@ -171,5 +180,6 @@ pub fn run(
         nodes: net.nodes.len(),
         max_order: net.links.iter().map(|l| l.strahler).max().unwrap_or(0),
         files,
+        warnings: coords.warning().map(str::to_string).into_iter().collect(),
     })
 }

@@ -128,11 +128,12 @@ impl ViewshedOptions {
     }
 }
 
-/// The observers of a point file (map coordinates): GeoJSON Points, or a
-/// CSV with x,y (lon,lat, easting,northing) columns, read by
-/// [`crate::io::vector::read_points`].
-pub fn read_points(path: &Path) -> Result<Vec<(f64, f64)>> {
-    let pts = crate::io::vector::read_points(path, OBSERVERS)?;
+/// The observers of a point file in the map coordinates of a DEM with
+/// `georef`: GeoJSON Points (in the DEM's CRS unless the file has a `crs`
+/// member), or a CSV with x,y (lon,lat, easting,northing) columns, read by
+/// [`crate::io::vector::read_points_in`].
+pub fn read_points(path: &Path, georef: &crate::raster::GeoRef) -> Result<Vec<(f64, f64)>> {
+    let pts = crate::io::vector::read_points_in(path, OBSERVERS, georef)?;
     Ok(pts.into_iter().map(|p| (p.x, p.y)).collect())
 }
 
@@ -182,7 +183,7 @@ pub fn run(
     let mut pts: Vec<(f64, f64)> = a.at.clone();
     let n_at = pts.len();
     if let Some(p) = &a.points {
-        pts.extend(read_points(p)?);
+        pts.extend(read_points(p, &info.georef)?);
     }
     if pts.is_empty() {
         return Err(Error::invalid(

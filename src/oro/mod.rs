@@ -40,6 +40,7 @@ pub use write::{write_peaks_csv_with, write_peaks_geojson_with, EXTRA_COLUMNS};
 
 use crate::error::{Error, Result};
 use crate::exec::Engine;
+use crate::io::geojson::GeoJsonCoords;
 use crate::raster::{GeoRef, Grid, RasterSource};
 use std::path::{Path, PathBuf};
 
@@ -77,21 +78,27 @@ impl PeakList {
     /// `divide_tree.geojson` and `divide_tree.json` into `dir` (created if
     /// missing); returns the paths written. Each file is written atomically
     /// (temporary, then rename), so none is ever seen half-written.
-    pub fn write_all(&self, dir: &Path) -> Result<Vec<PathBuf>> {
+    /// GeoJSON coordinates as `coords` says (see [`crate::io::geojson`]).
+    pub fn write_all(&self, dir: &Path, coords: &GeoJsonCoords) -> Result<Vec<PathBuf>> {
         let m = metrics::peak_metrics_tree_only(&self.tree, &self.georef);
-        self.write_files(dir, &m)
+        self.write_files(dir, &m, coords)
     }
 
     /// [`PeakList::write_all`] with the per-peak metrics `m`: every file
     /// is written once, so a kill between two writes never leaves a peaks
     /// file that is complete but lacks the DEM's metrics.
-    fn write_files(&self, dir: &Path, m: &[metrics::PeakMetrics]) -> Result<Vec<PathBuf>> {
+    fn write_files(
+        &self,
+        dir: &Path,
+        m: &[metrics::PeakMetrics],
+        coords: &GeoJsonCoords,
+    ) -> Result<Vec<PathBuf>> {
         std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
         let p = |n: &str| dir.join(n);
         write::write_peaks_csv_with(&p("peaks.csv"), &self.tree, &self.georef, m)?;
-        write::write_peaks_geojson_with(&p("peaks.geojson"), &self.tree, &self.georef, m)?;
-        write_saddles_geojson(&p("saddles.geojson"), &self.tree, &self.georef)?;
-        write_divide_tree_geojson(&p("divide_tree.geojson"), &self.tree, &self.georef)?;
+        write::write_peaks_geojson_with(&p("peaks.geojson"), &self.tree, coords, m)?;
+        write_saddles_geojson(&p("saddles.geojson"), &self.tree, coords)?;
+        write_divide_tree_geojson(&p("divide_tree.geojson"), &self.tree, coords)?;
         self.tree.save_json(&p("divide_tree.json"))?;
         Ok([
             "peaks.csv",

@@ -41,6 +41,7 @@ use super::metrics::{check_dims, tree_index, PlanarFrame};
 use super::regions::NONE;
 use super::tree::DivideTree;
 use crate::error::{Error, Result};
+use crate::io::geojson::GeoJsonCoords;
 use crate::raster::{GeoRef, Grid, UnionFind};
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Value};
@@ -424,9 +425,11 @@ impl RidgeNetwork {
         g
     }
 
-    /// GeoJSON: one LineString per edge (cell centres in the DEM's CRS) with
-    /// saddle and peak elevations, length, level and order.
-    pub fn write_geojson(&self, path: &Path, georef: &GeoRef) -> Result<()> {
+    /// GeoJSON: one LineString per edge (cell centres, in the coordinates
+    /// `coords` says: WGS 84 lon/lat by default, RFC 7946; see
+    /// [`crate::io::geojson`]) with saddle and peak elevations, length
+    /// (metres), level and order.
+    pub fn write_geojson(&self, path: &Path, coords: &GeoJsonCoords) -> Result<()> {
         let num = |v: f64| {
             serde_json::Number::from_f64(v)
                 .map(Value::Number)
@@ -440,7 +443,7 @@ impl RidgeNetwork {
                     .path
                     .iter()
                     .map(|&(c, r)| {
-                        let (x, y) = georef.pixel_to_map(c as f64 + 0.5, r as f64 + 0.5);
+                        let [x, y] = coords.pixel(c as f64 + 0.5, r as f64 + 0.5);
                         json!([num(x), num(y)])
                     })
                     .collect();
@@ -459,7 +462,7 @@ impl RidgeNetwork {
                 })
             })
             .collect();
-        let v = json!({"type": "FeatureCollection", "features": feats});
+        let v = coords.collection(feats);
         let bytes = serde_json::to_vec(&v)
             .map_err(|e| Error::invalid(format!("ridges do not serialise: {e}")))?;
         crate::io::atomic::write_file_atomic(path, &bytes)

@@ -1,11 +1,15 @@
 //! Writers: peaks.csv and GeoJSON for peaks, saddles and the divide tree.
-//! Coordinates are cell centres in the DEM's CRS (longitude/latitude for
-//! geographic CRSs, as RFC 7946 GeoJSON expects; projected x/y otherwise).
+//! Coordinates are cell centres. peaks.csv has them in the DEM's CRS
+//! (longitude/latitude for geographic CRSs; projected x/y otherwise); the
+//! GeoJSON files as a [`GeoJsonCoords`] says: WGS 84 longitude/latitude
+//! (RFC 7946 §4) by default, or the DEM's CRS named in a `crs` member (see
+//! [`crate::io::geojson`]). Properties are the same either way.
 
 use super::metrics::{peak_metrics, peak_metrics_tree_only, PeakMetrics};
 use super::tree::{DivideTree, Peak, Saddle};
 use super::PeakList;
 use crate::error::{Error, Result};
+use crate::io::geojson::GeoJsonCoords;
 use crate::raster::{GeoRef, Grid};
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
@@ -107,9 +111,14 @@ impl PeakList {
     /// Like [`PeakList::write_all`], with the DEM the list was computed from,
     /// so that peaks.csv and peaks.geojson also carry line parents,
     /// normalised elevation and relevance.
-    pub fn write_all_with_dem(&self, dir: &Path, dem: &Grid<f32>) -> Result<Vec<PathBuf>> {
+    pub fn write_all_with_dem(
+        &self,
+        dir: &Path,
+        dem: &Grid<f32>,
+        coords: &GeoJsonCoords,
+    ) -> Result<Vec<PathBuf>> {
         let m = peak_metrics(&self.tree, dem, &self.georef)?;
-        self.write_files(dir, &m)
+        self.write_files(dir, &m, coords)
     }
 
     /// The text of peaks.csv, as [`PeakList::write_all`] (`dem` `None`) or
@@ -128,9 +137,14 @@ fn write(path: &Path, bytes: &[u8]) -> Result<()> {
     crate::io::atomic::write_file_atomic(path, bytes)
 }
 
-fn collection(features: Vec<Value>) -> Vec<u8> {
-    serde_json::to_vec(&json!({"type": "FeatureCollection", "features": features}))
-        .expect("GeoJSON of finite numbers serialises")
+fn collection(coords: &GeoJsonCoords, features: Vec<Value>) -> Vec<u8> {
+    serde_json::to_vec(&coords.collection(features)).expect("GeoJSON of finite numbers serialises")
+}
+
+/// The GeoJSON coordinates of the centre of cell (`col`, `row`).
+fn point(coords: &GeoJsonCoords, col: u32, row: u32) -> Value {
+    let [x, y] = coords.pixel(col as f64 + 0.5, row as f64 + 0.5);
+    json!([num(x), num(y)])
 }
 
 /// A FeatureCollection with `feature(i, peak, key saddle)` for each peak of
@@ -138,6 +152,7 @@ fn collection(features: Vec<Value>) -> Vec<u8> {
 fn write_key_saddle_features(
     path: &Path,
     tree: &DivideTree,
+    coords: &GeoJsonCoords,
     feature: impl Fn(usize, &Peak, &Saddle) -> Option<Value>,
 ) -> Result<()> {
     let feats = tree
@@ -146,7 +161,7 @@ fn write_key_saddle_features(
         .enumerate()
         .filter_map(|(i, p)| feature(i, p, tree.saddles.get(p.key_saddle?)?))
         .collect();
-    write(path, &collection(feats))
+    write(path, &collection(coords, feats))
 }
 
 /// Finite numbers only in JSON: NaN/inf become null.
@@ -159,15 +174,20 @@ fn num(v: f64) -> Value {
 /// peaks.geojson: Points with elevation, prominence, key saddle elevation,
 /// isolation (km), dominance, parent index, and the tree-only metrics of
 /// [`EXTRA_COLUMNS`] (see [`write_peaks_geojson_with`] for all of them).
-pub fn write_peaks_geojson(path: &Path, tree: &DivideTree, georef: &GeoRef) -> Result<()> {
-    write_peaks_geojson_with(path, tree, georef, &peak_metrics_tree_only(tree, georef))
+pub fn write_peaks_geojson(
+    path: &Path,
+    tree: &DivideTree,
+    georef: &GeoRef,
+    coords: &GeoJsonCoords,
+) -> Result<()> {
+    write_peaks_geojson_with(path, tree, coords, &peak_metrics_tree_only(tree, georef))
 }
 
 /// peaks.geojson with the metrics `m` (one per peak) as extra properties.
 pub fn write_peaks_geojson_with(
     path: &Path,
     tree: &DivideTree,
-    georef: &GeoRef,
+    coords: &GeoJsonCoords,
     m: &[PeakMetrics],
 ) -> Result<()> {
     check_len(tree, m)?;
@@ -177,10 +197,9 @@ pub fn write_peaks_geojson_with(
         .zip(m)
         .enumerate()
         .map(|(i, (p, pm))| {
-            let (x, y) = centre(georef, p.col, p.row);
             json!({
                 "type": "Feature",
-                "geometry": {"type": "Point", "coordinates": [num(x), num(y)]},
+                "geometry": {"type": "Point", "coordinates": point(coords, p.col, p.row)},
                 "properties": {
                     "id": i,
                     "elevation": num(p.elevation as f64),
@@ -203,17 +222,16 @@ pub fn write_peaks_geojson_with(
             })
         })
         .collect();
-    write(path, &collection(feats))
+    write(path, &collection(coords, feats))
 }
 
 /// saddles.geojson: Points of the key saddles, with the peak they are the key
 /// saddle of and its parent.
-pub fn write_saddles_geojson(path: &Path, tree: &DivideTree, georef: &GeoRef) -> Result<()> {
-    write_key_saddle_features(path, tree, |i, p, s| {
-        let (x, y) = centre(georef, s.col, s.row);
+pub fn write_saddles_geojson(path: &Path, tree: &DivideTree, coords: &GeoJsonCoords) -> Result<()> {
+    write_key_saddle_features(path, tree, coords, |i, p, s| {
         Some(json!({
             "type": "Feature",
-            "geometry": {"type": "Point", "coordinates": [num(x), num(y)]},
+            "geometry": {"type": "Point", "coordinates": point(coords, s.col, s.row)},
             "properties": {
                 "elevation": num(s.elevation as f64),
                 "peak": i,
@@ -226,15 +244,16 @@ pub fn write_saddles_geojson(path: &Path, tree: &DivideTree, georef: &GeoRef) ->
 }
 
 /// divide_tree.geojson: one LineString peak → key saddle → parent per edge.
-pub fn write_divide_tree_geojson(path: &Path, tree: &DivideTree, georef: &GeoRef) -> Result<()> {
-    write_key_saddle_features(path, tree, |i, p, s| {
+pub fn write_divide_tree_geojson(
+    path: &Path,
+    tree: &DivideTree,
+    coords: &GeoJsonCoords,
+) -> Result<()> {
+    write_key_saddle_features(path, tree, coords, |i, p, s| {
         let q = tree.peaks.get(p.parent?)?;
         let pts: Vec<Value> = [(p.col, p.row), (s.col, s.row), (q.col, q.row)]
             .iter()
-            .map(|&(c, r)| {
-                let (x, y) = centre(georef, c, r);
-                json!([num(x), num(y)])
-            })
+            .map(|&(c, r)| point(coords, c, r))
             .collect();
         Some(json!({
             "type": "Feature",

@@ -168,6 +168,26 @@ pub enum SourceCrs {
 }
 
 impl SourceCrs {
+    /// The CRS of `georef` when it is one of those above (geographic, UTM
+    /// on WGS 84 / ETRS89, Web Mercator), else `None`.
+    pub fn known(georef: &GeoRef) -> Option<SourceCrs> {
+        let crs = &georef.crs;
+        if !georef.georeferenced {
+            return None;
+        }
+        if crs.geographic {
+            return Some(SourceCrs::Geographic);
+        }
+        match crs.epsg? {
+            3857 | 900913 => Some(SourceCrs::WebMercator),
+            e @ 32601..=32660 => Some(SourceCrs::Utm(TransverseMercator::utm(e - 32600, true))),
+            e @ 32701..=32760 => Some(SourceCrs::Utm(TransverseMercator::utm(e - 32700, false))),
+            // ETRS89 / UTM zones 28N-38N: GRS 80 differs from WGS 84 by < 0.1 mm here.
+            e @ 25828..=25838 => Some(SourceCrs::Utm(TransverseMercator::utm(e - 25800, true))),
+            _ => None,
+        }
+    }
+
     /// The CRS of `georef`, or an error naming what is supported.
     pub fn of(georef: &GeoRef, what: &std::path::Path) -> Result<SourceCrs> {
         let crs = &georef.crs;
@@ -177,23 +197,16 @@ impl SourceCrs {
                 "the raster has no coordinate reference system; web-map tiles need one (geographic, UTM or EPSG:3857)",
             ));
         }
-        if crs.geographic {
-            return Ok(SourceCrs::Geographic);
+        if let Some(known) = SourceCrs::known(georef) {
+            return Ok(known);
         }
-        match crs.epsg {
-            Some(3857) | Some(900913) => Ok(SourceCrs::WebMercator),
-            Some(e @ 32601..=32660) => Ok(SourceCrs::Utm(TransverseMercator::utm(e - 32600, true))),
-            Some(e @ 32701..=32760) => Ok(SourceCrs::Utm(TransverseMercator::utm(e - 32700, false))),
-            // ETRS89 / UTM zones 28N-38N: GRS 80 differs from WGS 84 by < 0.1 mm here.
-            Some(e @ 25828..=25838) => Ok(SourceCrs::Utm(TransverseMercator::utm(e - 25800, true))),
-            other => Err(Error::unsupported(
-                what,
-                format!(
-                    "coordinate reference system {} is not supported for web-map tiles: use a geographic CRS, UTM (EPSG:326zz/327zz/258zz) or EPSG:3857 (reproject with gdalwarp first)",
-                    other.map(|e| format!("EPSG:{e}")).unwrap_or_else(|| "without EPSG code".into())
-                ),
-            )),
-        }
+        Err(Error::unsupported(
+            what,
+            format!(
+                "coordinate reference system {} is not supported for web-map tiles: use a geographic CRS, UTM (EPSG:326zz/327zz/258zz) or EPSG:3857 (reproject with gdalwarp first)",
+                crs.epsg.map(|e| format!("EPSG:{e}")).unwrap_or_else(|| "without EPSG code".into())
+            ),
+        ))
     }
 
     /// Map coordinates of a longitude/latitude.

@@ -5,6 +5,8 @@ mod common;
 
 use common::cli::{data, fails, ok, orogen};
 
+mod geojson_crs;
+
 #[test]
 fn demo_writes_everything_it_lists() {
     let dir = tempfile::tempdir().unwrap();

@@ -766,7 +766,8 @@ fn divide_tree_ridges_follow_the_crest() {
     // GeoJSON parses back.
     let dir = tempfile::tempdir().unwrap();
     let f = dir.path().join("r.geojson");
-    net.write_geojson(&f, &gr).unwrap();
+    net.write_geojson(&f, &orogen::io::geojson::GeoJsonCoords::native(&gr))
+        .unwrap();
     let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&f).unwrap()).unwrap();
     assert_eq!(v["features"].as_array().unwrap().len(), 2);
 }
@@ -820,7 +821,13 @@ fn peaks_csv_and_geojson_carry_the_new_columns() {
     };
     let list = oro::peaks(&g, &gr, &opts).unwrap();
     let dir = tempfile::tempdir().unwrap();
-    let files = list.write_all_with_dem(dir.path(), &g).unwrap();
+    let files = list
+        .write_all_with_dem(
+            dir.path(),
+            &g,
+            &orogen::io::geojson::GeoJsonCoords::native(&gr),
+        )
+        .unwrap();
     let csv = std::fs::read_to_string(&files[0]).unwrap();
     let mut lines = csv.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();

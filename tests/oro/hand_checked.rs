@@ -296,9 +296,13 @@ fn writers_and_json_round_trip() {
     let pj = dir.path().join("peaks.geojson");
     let sj = dir.path().join("saddles.geojson");
     let tj = dir.path().join("divide_tree.geojson");
-    oro::write_peaks_geojson(&pj, &l.tree, &geo).unwrap();
-    oro::write_saddles_geojson(&sj, &l.tree, &geo).unwrap();
-    oro::write_divide_tree_geojson(&tj, &l.tree, &geo).unwrap();
+    // Geographic: lon/lat as they are in either mode (RFC 7946).
+    let gj = orogen::io::geojson::GeoJsonCrs::Wgs84
+        .coords(&geo, std::path::Path::new("geo.tif"))
+        .unwrap();
+    oro::write_peaks_geojson(&pj, &l.tree, &geo, &gj).unwrap();
+    oro::write_saddles_geojson(&sj, &l.tree, &gj).unwrap();
+    oro::write_divide_tree_geojson(&tj, &l.tree, &gj).unwrap();
     let read = |p: &std::path::Path| -> serde_json::Value {
         serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
     };
@@ -340,7 +344,7 @@ fn writers_and_json_round_trip() {
         .contains("tree.json"));
     // Everything at once, into a new directory.
     let out = dir.path().join("out");
-    let files = l.write_all(&out).unwrap();
+    let files = l.write_all(&out, &gj).unwrap();
     assert_eq!(files.len(), 5);
     assert_eq!(std::fs::read_to_string(&files[0]).unwrap(), text);
     assert_eq!(DivideTree::load_json(&files[4]).unwrap(), l.tree);

@@ -355,7 +355,11 @@ fn pasted_real_fragment_is_kept_and_completed() {
     )
     .unwrap();
     let dir = tempfile::tempdir().unwrap();
-    pl.write_all(dir.path()).unwrap();
+    pl.write_all(
+        dir.path(),
+        &orogen::io::geojson::GeoJsonCoords::native(&pl.georef),
+    )
+    .unwrap();
     let csv = dir.path().join("peaks.csv");
     let (c0, r0, ww) = (250i64, 250i64, 150usize);
     let frag = Fragment::from_peaks_csv(&csv, Window::new(c0, r0, ww, ww), cell).unwrap();

@@ -1,7 +1,9 @@
 //! Fixed points of constrained erosion (`--fixed-points`): cells read from a
 //! CSV (`col,row` cells, as in orogen's peaks.csv with its key saddles, or
 //! `x,y` / `lon,lat` map coordinates) or a GeoJSON file (Point, MultiPoint,
-//! LineString vertices).
+//! LineString vertices; in the DEM's CRS unless the file has a `crs` member,
+//! see [`crate::io::geojson::input_crs`], so the `--geojson-crs native`
+//! outputs of `orogen peaks` read back as they are).
 
 use crate::error::{Error, Result};
 use crate::ops::note::{bail, Note, Notify};
@@ -55,9 +57,13 @@ pub fn read_fixed_points(
     if ext == "geojson" || ext == "json" {
         let v: serde_json::Value = serde_json::from_str(&text)
             .map_err(|e| Error::invalid(format!("{}: not valid JSON: {e}", path.display())))?;
+        // In the DEM's CRS unless a `crs` member says otherwise.
+        let crs = crate::io::geojson::input_crs(&v, path)?;
+        let to_map = crate::io::geojson::input_to_map(crs, georef, path)?;
         let mut coords = Vec::new();
         collect_geojson(&v, &mut coords, 0);
         for (x, y) in coords {
+            let (x, y) = to_map(x, y);
             px.push(to_px(x, y)?);
         }
     } else if ext == "csv" {

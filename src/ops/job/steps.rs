@@ -541,6 +541,9 @@ where
 pub(super) fn basins(call: &StepCall<'_>) -> Result<TypedStep> {
     dirs_step(call, unchecked, |dirs, o, t, cfg, _, notify| {
         let labels = ops::basins::write_labels(dirs, o, t, cfg)?;
+        if let Some(w) = labels.warning(o) {
+            notify(Note::Warning(w.to_string()));
+        }
         notify(Note::Wrote(t.path.clone()));
         for f in ops::basins::write_metrics(dirs, o, &labels, cfg)? {
             notify(Note::Wrote(f));
@@ -560,6 +563,9 @@ pub(super) fn streams(call: &StepCall<'_>) -> Result<TypedStep> {
                 t.options = Default::default();
             }
             let net = ops::streams::run(dirs, o, &t, cfg)?;
+            for w in &net.warnings {
+                notify(Note::Warning(w.clone()));
+            }
             for f in &net.files {
                 notify(Note::Wrote(f.clone()));
             }
