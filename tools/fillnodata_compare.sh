@@ -55,18 +55,22 @@ PY
 
 echo "fill-nodata, max distance $MD cells, $(nproc) cores, $(date -u +'%Y-%m-%d %H:%M UTC'), load $(cut -d' ' -f1 /proc/loadavg)"
 echo "$("$OROGEN" --version 2>/dev/null || echo orogen) vs $(gdalinfo --version)"
-printf "| input | void cells | orogen s | orogen peak RSS MiB | gdal_fillnodata s | GDAL peak RSS MiB | GDAL/orogen time |\n|---|---|---|---|---|---|---|\n"
+# Outputs: uncompressed GeoTIFF (gdal_fillnodata's default), then DEFLATE for both.
+printf "| input | void cells | orogen s | GDAL s | GDAL/orogen | orogen s, DEFLATE | GDAL s, DEFLATE | GDAL/orogen | orogen peak RSS MiB | GDAL peak RSS MiB |\n|---|---|---|---|---|---|---|---|---|---|\n"
 for pair in "voids:$VOIDS" "holdout:$tmp/holdout.tif" "poland:$POLAND"; do
   name=${pair%%:*}; dem=${pair#*:}
-  read -r os orss < <(measure "$OROGEN" fill-nodata "$dem" -o "$tmp/o_$name.tif" --max-distance "$MD" -q)
+  read -r os orss < <(measure "$OROGEN" fill-nodata "$dem" -o "$tmp/o_$name.tif" --max-distance "$MD" --compress none -q)
   read -r gs grss < <(measure "$FILL" -q -md "$MD" "$dem" "$tmp/g_$name.tif")
+  read -r oz _ < <(measure "$OROGEN" fill-nodata "$dem" -o "$tmp/oz.tif" --max-distance "$MD" -q)
+  read -r gz _ < <(measure "$FILL" -q -md "$MD" "$dem" "$tmp/gz.tif" -co COMPRESS=DEFLATE)
+  rm -f "$tmp/oz.tif" "$tmp/gz.tif"
   "$OROGEN" fill-nodata "$dem" -o "$tmp/o_${name}_t.tif" --max-distance "$MD" --tile 257 --threads 1 -q
   nv=$(/usr/bin/python3 -c "
 from osgeo import gdal
 ds = gdal.Open('$dem'); b = ds.GetRasterBand(1)
 print(int((b.ReadAsArray() == b.GetNoDataValue()).sum()))")
-  awk -v n="$name" -v v="$nv" -v os="$os" -v orss="$orss" -v gs="$gs" -v grss="$grss" 'BEGIN{
-    printf "| %s | %d | %.2f | %.0f | %.2f | %.0f | %.2fx |\n", n, v, os, orss/1024, gs, grss/1024, gs/os }'
+  awk -v n="$name" -v v="$nv" -v os="$os" -v orss="$orss" -v gs="$gs" -v grss="$grss" -v oz="$oz" -v gz="$gz" 'BEGIN{
+    printf "| %s | %d | %.2f | %.2f | %.2fx | %.2f | %.2f | %.2fx | %.0f | %.0f |\n", n, v, os, gs, gs/os, oz, gz, gz/oz, orss/1024, grss/1024 }'
 done
 
 /usr/bin/python3 - "$tmp" "$VOIDS" "$FULL" "$POLAND" <<'PY'
@@ -96,11 +100,11 @@ for name, src in (("voids", voids), ("holdout", d + "/holdout.tif"), ("poland", 
           f"{np.median(diff):.1f} | {np.percentile(diff, 95):.1f} | {diff.max():.0f} | {same_valid} | {tiled} |")
     if name == "holdout":
         truth = rd(full).astype(float)
-        print()
-        print("| hold-out on srtm3_S33W071 (cells cut out) | median abs(fill-truth) m | p95 | RMSE |")
-        print("|---|---|---|---|")
-        for who, x in (("orogen", o), ("gdal_fillnodata", g)):
-            e = np.abs(x[both].astype(float) - truth[both])
-            print(f"| {who} ({both.sum()} cells) | {np.median(e):.1f} | {np.percentile(e, 95):.1f} | {np.sqrt((e ** 2).mean()):.1f} |")
+        holdout = [(who, np.abs(x[both].astype(float) - truth[both])) for who, x in (("orogen", o), ("gdal_fillnodata", g))]
+print()
+print("| hold-out on srtm3_S33W071 (cells cut out) | median abs(fill-truth) m | p95 | RMSE |")
+print("|---|---|---|---|")
+for who, e in holdout:
+    print(f"| {who} ({e.size} cells) | {np.median(e):.1f} | {np.percentile(e, 95):.1f} | {np.sqrt((e ** 2).mean()):.1f} |")
 sys.exit(0 if ok else 1)
 PY
