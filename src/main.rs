@@ -44,6 +44,9 @@ enum Cmd {
     Classify(cli::oro::ClassifyArgs),
     /// Ridge networks: divide-tree ridges with hierarchy levels and orders, and PPA ridges.
     Ridges(cli::oro::RidgesArgs),
+    /// Fill voids (nodata cells) before hydrology: inverse-distance weighting of the
+    /// first valid cell on each of 16 rays, out to --max-distance; exact across tiles.
+    FillNodata(cli::fill_nodata::FillNodataArgs),
     /// Fill depressions (Priority-Flood; exact across tiles after Barnes 2016).
     Fill(cli::fill::FillArgs),
     /// D8 flow directions of a filled DEM (ESRI codes 1..128, 0 = no flow, 255 = nodata),
@@ -157,6 +160,7 @@ fn run(cli: Cli) -> Result<()> {
         Cmd::Orostats(a) => cli::oro::run_orostats(a)?,
         Cmd::Classify(a) => cli::oro::run_classify(a)?,
         Cmd::Ridges(a) => cli::oro::run_ridges(a)?,
+        Cmd::FillNodata(a) => cli::fill_nodata::run(a)?,
         Cmd::Fill(a) => cli::fill::run(a)?,
         Cmd::Flow(a) => cli::flow::run(a)?,
         Cmd::Breach(args) => cli::breach::run(args)?,

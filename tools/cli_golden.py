@@ -36,6 +36,7 @@ GOLDEN = ROOT / "tests" / "golden" / "cli_outputs.sha256"
 WB = "data/whitebox_DEM.tif"  # 237 x 188 float32, local CRS, nodata
 BT = "data/bigtujunga_crop.tif"  # 301 x 203 int16, UTM 11N
 ASC = "data/landlab_SRTMGL3_frontrange.asc"  # 240 x 144, geographic
+VOIDS = "data/hydro/srtm3_N46E008_voids_crop.tif"  # 300 x 300 int16, geographic, SRTM voids
 ALPS = "data/oro/terraindescriptors_alps_montblanc.tif"
 SRTM46 = "data/oro/srtm3_N46E008_crop.tif"  # 300 x 300 int16, EPSG:4326, voids
 TREE = "data/oro/crossing_ridges_tree.json"
@@ -76,6 +77,7 @@ COMMANDS = [
         ["metrics"],
     ),
     ("metric_table", ["metric", "table", WB, "-o", "mtable", "--no-cost"] + Q, ["mtable"]),
+    ("fill_nodata", ["fill-nodata", VOIDS, "-o", "voids_filled.tif", "--tile", "53", "--max-distance", "40"] + Q, ["voids_filled.tif"]),
     ("fill", ["fill", WB, "-o", "filled.tif", "--tile", "53"] + Q, ["filled.tif"]),
     ("fill_store", ["fill", "wb.tiles", "-o", "filled.tiles"] + Q, ["filled.tiles"]),
     ("fill_epsilon", ["fill-epsilon", WB, "-o", "eps.tif", "--tile", "53"] + Q, ["eps.tif"]),

@@ -16,6 +16,7 @@ pub mod erode;
 pub mod erode_sp;
 pub mod fill;
 pub mod fill_epsilon;
+pub mod fill_nodata;
 pub mod flow;
 pub mod hydro_net;
 pub mod info;

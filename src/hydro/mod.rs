@@ -38,6 +38,7 @@ pub mod breach;
 pub mod depressions;
 pub mod dinf;
 pub mod fill;
+pub mod fill_nodata;
 pub mod fill_zhou;
 pub mod flow;
 pub mod indices;

@@ -18,6 +18,7 @@ pub mod convert;
 pub mod demo;
 pub mod fill;
 pub mod fill_epsilon;
+pub mod fill_nodata;
 pub mod flow;
 pub mod hillshade;
 pub mod hydro_index;

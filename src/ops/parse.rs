@@ -17,6 +17,8 @@ pub fn geojson_crs(s: &str) -> Result<GeoJsonCrs> {
     GeoJsonCrs::parse(s)
 }
 
+pub use crate::hydro::fill_nodata::Reach;
+
 /// A byte size such as `512MiB`, `2GiB` or `1048576` (binary units: K, M, G,
 /// T with or without `B`/`iB`, any case); at least 16 MiB, the smallest
 /// budget the engine works in.
@@ -72,6 +74,57 @@ pub fn distance(s: &str) -> Result<f64> {
         return Err(Error::invalid(format!("{s:?}: give a positive distance")));
     }
     Ok(d)
+}
+
+/// A maximum distance in cells or with a unit: `100` or `100c` (cells, as
+/// gdal_fillnodata's `-md`), `500m`, `3km` (metres). The error names the
+/// value, not the option.
+pub fn reach(s: &str) -> Result<Reach> {
+    let t = s.trim().to_ascii_lowercase();
+    let bad = |why: &str| {
+        Error::invalid(format!(
+            "{s:?}: {why}; write cells (100 or 100c) or metres (500m, 3km)"
+        ))
+    };
+    let (num, unit) = if let Some(v) = t.strip_suffix("km") {
+        (v, Some(1000.0))
+    } else if let Some(v) = t.strip_suffix('m') {
+        (v, Some(1.0))
+    } else if let Some(v) = t.strip_suffix('c') {
+        (v, None)
+    } else {
+        (t.as_str(), None)
+    };
+    let v: f64 = num.trim().parse().map_err(|_| bad("expected a distance"))?;
+    if !(v.is_finite() && v > 0.0) {
+        return Err(bad("give a positive, finite distance"));
+    }
+    Ok(match unit {
+        Some(m) => Reach::Metres(v * m),
+        None => Reach::Cells(v),
+    })
+}
+
+/// Serde form of a [`Reach`]: a number of cells (`max_distance = 100`) or
+/// text parsed by [`reach`] (`max_distance = "3km"`); written as text.
+pub mod serde_reach {
+    use super::Reach;
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(v: &Reach, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(&match v {
+            Reach::Cells(c) => format!("{c}"),
+            Reach::Metres(m) => format!("{m}m"),
+        })
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Reach, D::Error> {
+        match super::NumberOrText::deserialize(d)? {
+            super::NumberOrText::Number(v) => super::reach(&v.to_string()),
+            super::NumberOrText::Text(t) => super::reach(&t),
+        }
+        .map_err(serde::de::Error::custom)
+    }
 }
 
 /// A number or text, as a job file may write a distance.

@@ -12,9 +12,11 @@ const NB: [(i64, i64); 8] = [(1, 0), (1, 1), (0, 1), (-1, 1), (-1, 0), (-1, -1),
 
 mod breach;
 mod cli_breach;
+mod cli_fill_nodata;
 mod cli_fill_watersheds;
 mod divergent;
 mod divergent_tiled;
+mod fill_nodata;
 mod fill_region_growing;
 mod flow_graph;
 mod geographic;

@@ -59,6 +59,7 @@ pub const COMMANDS: &[Command] = &[
     unset("classify predict", steps::classify_predict),
     unset("classify evaluate", steps::classify_evaluate),
     typed("ridges", steps::ridges),
+    typed("fill-nodata", steps::fill_nodata),
     typed("fill", steps::fill),
     typed("flow", steps::flow),
     typed("breach", steps::breach),

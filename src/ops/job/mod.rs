@@ -105,8 +105,16 @@ pub struct JobReport {
 }
 
 /// Commands whose raster outputs are elevations (previewed with hillshade).
-const ELEVATION_COMMANDS: [&str; 8] = [
-    "fill", "breach", "export", "ingest", "demo", "synth", "erode", "convert",
+const ELEVATION_COMMANDS: [&str; 9] = [
+    "fill-nodata",
+    "fill",
+    "breach",
+    "export",
+    "ingest",
+    "demo",
+    "synth",
+    "erode",
+    "convert",
 ];
 
 /// Read and check the job file at `path` (see [`load`]) and type every

@@ -96,6 +96,7 @@ macro_rules! plain_raster_steps {
 }
 
 plain_raster_steps! {
+    fill_nodata => ops::fill_nodata::run,
     fill => ops::fill::run,
     fill_epsilon => ops::fill_epsilon::run,
     watersheds => ops::watersheds::run,
