@@ -58,6 +58,7 @@ __all__ = [
     "open",
     "fill",
     "fill_epsilon",
+    "fill_nodata",
     "breach",
     "flow",
     "accumulate",
@@ -734,6 +735,7 @@ from . import synth  # noqa: E402  (uses the helpers above)
 from ._commands import (  # noqa: E402
     basins,
     compare,
+    fill_nodata,
     hydro_index,
     info,
     ingest,

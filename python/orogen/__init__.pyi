@@ -131,6 +131,10 @@ def run_command(
     command: str, inputs: Sequence[Any] = ..., output: Optional[PathLike] = ..., *, progress: Progress = ...,
     transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., **options: Any,
 ) -> List[Tuple[str, str]]: ...
+def fill_nodata(
+    dem: DemInput, *, output: Optional[PathLike] = ..., progress: Progress = ..., transform: Transform = ...,
+    crs: CrsLike = ..., nodata: Optional[float] = ..., **options: Any,
+) -> Any: ...
 def basins(
     dirs: DemInput, *, output: Optional[PathLike] = ..., progress: Progress = ..., transform: Transform = ...,
     crs: CrsLike = ..., nodata: Optional[float] = ..., **options: Any,

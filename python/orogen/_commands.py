@@ -160,6 +160,22 @@ def _doc(cmd: str):
     return deco
 
 
+@_doc("fill-nodata")
+def fill_nodata(dem, *, output=None, progress=None, transform=None, crs=None, nodata=None, **options):
+    """Fill voids (``orogen fill-nodata``) before hydrology: each nodata cell
+    gets the inverse-distance-weighted mean (Shepard 1968, power 2) of the
+    first valid cells on 16 rays within ``max_distance`` (cells, or
+    ``"3km"``), exact across tiles; farther voids stay nodata, valid cells
+    are copied unchanged. The input's cell type and nodata.
+
+    >>> import numpy as np, orogen
+    >>> z = np.full((1, 5), 10.0, dtype=np.float32); z[0, 2] = np.nan
+    >>> orogen.fill_nodata(z, transform=(0, 1, 0, 0, 0, -1)).tolist()   # both sides 1 cell away
+    [[10.0, 10.0, 10.0, 10.0, 10.0]]
+    """
+    return _raster_command("fill-nodata", [dem], output, progress, transform, crs, nodata, options)
+
+
 @_doc("basins")
 def basins(dirs, *, output=None, progress=None, transform=None, crs=None, nodata=None, **options):
     """Basin labels of every outlet of D8 directions (``orogen basins``,

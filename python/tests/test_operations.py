@@ -302,3 +302,18 @@ def test_orometric_synthesis_chain_is_the_clis_files(cli, tmp_path):
               "-o", tmp_path / "opt.tif")
     opt = orogen.synth.optimise(ALPS, tmp_path / "o.tif", size="120x100")
     same(opt, orogen.open(tmp_path / "opt.tif").read())
+
+
+def test_fill_nodata_is_the_clis_and_idw_by_hand(cli, tmp_path):
+    """Two void cells in a row of a 1-row raster (no valid cell on the
+    other rays): the first has 10 one cell west and 30 two cells east,
+    Shepard's weights 1/d^2 give (10/1 + 30/4) / (1 + 1/4) = 14; the second
+    (10 two cells west, 30 one east) 26."""
+    z = np.array([[7.0, 10.0, np.nan, 50.0, 30.0]], dtype=np.float32)
+    z[0, 3] = np.nan
+    out = orogen.fill_nodata(z, transform=(0, 1, 0, 0, 0, -1))
+    assert out[0, 0] == 7.0 and out[0, 1] == 10.0 and out[0, 4] == 30.0
+    assert out[0, 2] == pytest.approx(14.0, rel=1e-6) and out[0, 3] == pytest.approx(26.0, rel=1e-6)
+    # the CLI on a real crop with voids: the same bytes, tiled in Python
+    run_cli(cli, "fill-nodata", ALPS, "--max-distance", "20", "-o", tmp_path / "f.tif")
+    same(orogen.fill_nodata(ALPS, max_distance="20", tile=37), orogen.open(tmp_path / "f.tif").read())
