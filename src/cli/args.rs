@@ -14,7 +14,8 @@ use std::path::{Path, PathBuf};
 
 #[derive(Args, Clone)]
 pub(crate) struct Run {
-    /// Worker threads (0 = all cores).
+    /// Worker threads (0 = all cores; more than the cores are clamped to them: the
+    /// results are the same for any count).
     #[arg(long, default_value_t = 0, global = true)]
     pub(crate) threads: usize,
     /// Memory budget for tiles in flight, e.g. 512MiB, 2GiB.

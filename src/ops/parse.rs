@@ -214,12 +214,22 @@ impl RunOptions {
     /// The engine settings: the engine named is made the process's engine
     /// first (MPI starts here), then the process's current one is used; a
     /// progress bar when not quiet and `terminal`.
+    ///
+    /// `tile = 0` is refused; more threads than the machine has cores are
+    /// clamped to its cores (the results are the same bytes for any thread
+    /// count; thousands of threads only make a run crawl).
     pub fn engine_config(&self, terminal: bool) -> Result<EngineConfig> {
+        if self.tile == Some(0) {
+            return Err(Error::invalid(
+                "--tile 0: a work tile needs at least 1 cell (default: the input store's tile, else 1024)",
+            ));
+        }
         if let Some(e) = self.engine {
             crate::exec::select_engine(e)?;
         }
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
         Ok(EngineConfig {
-            threads: self.threads,
+            threads: self.threads.min(cores),
             memory_budget: bytes(&self.memory)?,
             progress: !self.quiet && terminal,
             observer: self.observer.clone(),

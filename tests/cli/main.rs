@@ -439,3 +439,33 @@ fn band_option_reads_the_band_asked_for() {
     ok(orogen().arg("run").arg(&job).arg("-q"));
     assert_eq!(common::cli::read_f32(&from_job).data(), &want[..]);
 }
+
+#[test]
+fn absurd_run_settings_are_clamped_or_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let dem = data("bigtujunga_crop.tif");
+    // 100 000 threads: clamped to the cores, the same bytes as one thread
+    let (a, b) = (dir.path().join("a.tif"), dir.path().join("b.tif"));
+    ok(orogen()
+        .arg("slope")
+        .arg(&dem)
+        .args(["--threads", "100000", "--tile", "37", "-q", "-o"])
+        .arg(&a));
+    ok(orogen()
+        .arg("slope")
+        .arg(&dem)
+        .args(["--threads", "1", "--tile", "37", "-q", "-o"])
+        .arg(&b));
+    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+    // a work tile of 0 cells: one clear error, no output
+    let c = dir.path().join("c.tif");
+    let e = fails(
+        orogen()
+            .arg("slope")
+            .arg(&dem)
+            .args(["--tile", "0", "-q", "-o"])
+            .arg(&c),
+    );
+    assert!(e.contains("--tile 0") && e.lines().count() == 1, "{e}");
+    assert!(!c.exists());
+}
