@@ -468,4 +468,20 @@ fn absurd_run_settings_are_clamped_or_refused() {
     );
     assert!(e.contains("--tile 0") && e.lines().count() == 1, "{e}");
     assert!(!c.exists());
+    // a whole-file output too large to buffer: refused before allocating
+    let huge = dir.path().join("huge.tif");
+    let e = fails(
+        orogen()
+            .args(["synth", "noise", "--size", "10000000x10000000", "-q", "-o"])
+            .arg(&huge),
+    );
+    assert!(
+        e.contains("huge.tif") && e.contains("tile store") && e.lines().count() == 1,
+        "{e}"
+    );
+    assert!(std::fs::read_dir(dir.path()).unwrap().all(|f| !f
+        .unwrap()
+        .file_name()
+        .to_string_lossy()
+        .contains("huge")));
 }

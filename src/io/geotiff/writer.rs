@@ -218,6 +218,10 @@ pub(super) fn clean_stale_temps(path: &Path) {
 /// The checks both writers make before creating a file: the size fits a
 /// TIFF (each side 1..2^32-1), the block size is valid, the predictor suits
 /// `dtype` and the nodata value can be stored in it. Returns the predictor.
+/// The most memory a GeoTIFF writer may need for its strip and tile tables
+/// (4 GiB: a 100000-cell-wide float64 raster at 256-row blocks needs 0.4).
+pub const MAX_WRITER_BUFFERS: u64 = 4 << 30;
+
 pub(super) fn check_create(
     path: &Path,
     width: usize,
@@ -236,6 +240,22 @@ pub(super) fn check_create(
     if block == 0 || !block.is_multiple_of(16) || block > 1 << 15 {
         return Err(Error::invalid(format!(
             "block size {block} must be a positive multiple of 16 (at most 32768)"
+        )));
+    }
+    // The writer holds one strip of `block` rows (and its encoded copy) and
+    // the offset and byte-count tables of every tile: refuse, before any
+    // allocation, a raster whose buffers alone would not fit a machine.
+    let strip = width as u128 * block as u128 * dtype.size() as u128;
+    let tiles = width.div_ceil(block) as u128 * height.div_ceil(block) as u128;
+    let need = 2 * strip + 32 * tiles;
+    if need > MAX_WRITER_BUFFERS as u128 {
+        return Err(Error::invalid(format!(
+            "{}: a {width} x {height} {dtype} GeoTIFF needs {:.1} GiB of write buffers (a strip of \
+             {block} rows and the tables of {tiles} tiles; at most {} GiB): write a tile store \
+             (.tiles) or a smaller raster",
+            path.display(),
+            need as f64 / (1u64 << 30) as f64,
+            MAX_WRITER_BUFFERS >> 30
         )));
     }
     let predictor = resolve_predictor(opts, dtype)?;
