@@ -37,7 +37,7 @@ fn convert(src: &dyn RasterSource, out: &Out, run: &Run) -> Result<()> {
 /// Arguments of `orogen ingest`.
 #[derive(Args)]
 #[command(
-    after_help = "Examples:\n  orogen ingest ../shared/data/poland_N49-55_E014-025.tif -o poland.tiles --memory 256MiB\n  orogen ingest N43E006.hgt N43E007.hgt -o alps.tiles --tile 512\n  orogen ingest srtm_folder/ -o mosaic.tiles\nRerunning an interrupted ingest resumes it."
+    after_help = "Examples:\n  orogen ingest ../shared/data/poland_N49-55_E014-025.tif -o poland.tiles --memory 256MiB\n  orogen ingest N43E006.hgt N43E007.hgt -o alps.tiles --store-tile 512\n  orogen ingest srtm_folder/ -o mosaic.tiles\nRerunning an interrupted ingest resumes it."
 )]
 pub struct IngestArgs {
     /// Input rasters or folders (several = one mosaic).

@@ -40,7 +40,7 @@ pub fn run(a: MetricArgs) -> Result<()> {
 /// Arguments of `orogen metric`.
 #[derive(Args)]
 #[command(
-    after_help = "Examples:\n  orogen metric list\n  orogen metric table [DEM] -o table/   (cost table and correlation matrix; see orogen metric table --help)\n  orogen metric dem.tif --metric slope,aspect,tpi:radius=500m,openness:radius=1km -o out/\n  orogen metric dem.tiles --metric curv_mean:radius=5c,relief:radius=300m -o out/ --format tiles\nOne file per metric is written into the output folder, named after the metric and its parameters."
+    after_help = "Examples:\n  orogen metric list\n  orogen metric table [DEM] -o table/   (cost table and correlation matrix; see orogen metric table --help)\n  orogen metric dem.tif --metric slope,aspect,tpi:radius=500m,openness:radius=1km -o out/\n  orogen metric dem.tiles --metric mean_curvature:radius=5c,relief:radius=300m -o out/ --format tiles\nOne file per metric is written into the output folder, named after the metric and its parameters."
 )]
 pub struct MetricArgs {
     /// Input raster, or `list` to print the metrics and their parameters.

@@ -273,7 +273,8 @@ pub fn parse_specs(s: &str) -> Result<Vec<MetricSpec>> {
         let name = parts.next().unwrap_or("").trim();
         let d = METRICS.iter().find(|d| d.name == name).ok_or_else(|| {
             Error::invalid(format!(
-                "unknown metric '{name}'; known metrics: {}",
+                "unknown metric '{name}'{}; known metrics: {}",
+                did_you_mean(name),
                 all_names()
             ))
         })?;
@@ -338,6 +339,23 @@ impl Resolved {
     /// Halo in cells the metric needs ([`super::Metric::halo`]).
     pub fn halo(&self) -> usize {
         metric(self.spec.kind).halo(self)
+    }
+}
+
+/// ` (did you mean 'x'?)` for the metric names nearest `name` (Damerau–
+/// Levenshtein distance at most 2 or a third of the name), or nothing.
+fn did_you_mean(name: &str) -> String {
+    let limit = (name.chars().count() / 3).max(2);
+    let mut near: Vec<(usize, &str)> = METRICS
+        .iter()
+        .map(|d| (strsim::damerau_levenshtein(name, d.name), d.name))
+        .filter(|&(k, _)| k <= limit)
+        .collect();
+    near.sort();
+    match near.as_slice() {
+        [] => String::new(),
+        [(_, a)] => format!(" (did you mean '{a}'?)"),
+        [(_, a), (_, b), ..] => format!(" (did you mean '{a}' or '{b}'?)"),
     }
 }
 

@@ -514,6 +514,12 @@ fn bad_parameters_are_clear_errors() {
         e.contains("unknown metric") && e.contains("jut") && e.contains("shary_landform"),
         "{e}"
     );
+    // the nearest names are offered
+    assert!(e.contains("(did you mean 'peakedness'"), "{e}");
+    let e = err("geomorphn");
+    assert!(e.contains("(did you mean 'geomorphon'?)"), "{e}");
+    let e = err("xyzzy");
+    assert!(!e.contains("did you mean"), "{e}");
     let e = err("average_slope:azimuth=3");
     assert!(
         e.contains("no parameter 'azimuth'") && e.contains("radius"),
