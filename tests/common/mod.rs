@@ -16,24 +16,6 @@ use orogen::metrics::{parse_specs, MultiMetric};
 use orogen::oro::stats::SplitMix64;
 use orogen::raster::{Crs, DType, GeoRef, Grid, MemRaster, RasterSource, TileLayout};
 
-/// A file of the data folder shared beside the repository
-/// (`../shared/data/NAME`), for the few real-data tests whose files are too
-/// large for `tests/data` (whole SRTM tiles). Those tests are `#[ignore]`d,
-/// so `cargo test` needs nothing outside the repository; run with
-/// `cargo test -- --ignored` beside `../shared`, they fail, never skip,
-/// when the file is absent.
-pub fn shared_data(name: &str) -> std::path::PathBuf {
-    let p = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data")
-        .join(name);
-    assert!(
-        p.exists(),
-        "{} is absent: this ignored test needs ../shared/data beside the repository",
-        p.display()
-    );
-    p
-}
-
 /// A file of the repository's `tests/data`.
 pub fn test_data(name: &str) -> std::path::PathBuf {
     std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))

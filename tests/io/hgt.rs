@@ -1,7 +1,7 @@
 //! SRTM .hgt reading: synthetic files in a temp dir (values and georeference
-//! against closed forms) and, ignored by default (a whole tile is 2.9 MB,
-//! too large for `tests/data`), the real N43E006 tile in `../shared/data`
-//! against values and georeference reported by GDAL 3.6.
+//! against closed forms) and the real N43E006 tile (`tests/data/srtm`; an
+//! .hgt cannot be cropped) against values and georeference reported by
+//! GDAL 3.6.
 
 use orogen::io::hgt::{hgt_georef, read_hgt};
 use orogen::raster::{AnyGrid, DType, RasterSource};
@@ -117,9 +117,8 @@ fn err<T>(r: orogen::Result<T>) -> Error {
 }
 
 #[test]
-#[ignore = "needs ../shared/data/N43E006.hgt (2.9 MB): cargo test -- --ignored"]
 fn real_tile_matches_gdal() {
-    let p = crate::common::shared_data("N43E006.hgt");
+    let p = crate::common::test_data("srtm/N43E006.hgt");
     let r = read_hgt(&p).unwrap();
     let i = r.info();
     assert_eq!((i.width, i.height), (1201, 1201));

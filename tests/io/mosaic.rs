@@ -320,10 +320,9 @@ fn directories_expand_to_sorted_raster_files() {
 }
 
 #[test]
-#[ignore = "needs ../shared/data/N43E00{6,7}.hgt (2.9 MB each): cargo test -- --ignored"]
 fn real_srtm_pair() {
-    let p6 = crate::common::shared_data("N43E006.hgt");
-    let p7 = crate::common::shared_data("N43E007.hgt");
+    let p6 = crate::common::test_data("srtm/N43E006.hgt");
+    let p7 = crate::common::test_data("srtm/N43E007.hgt");
     let (a, b) = (read_hgt(&p6).unwrap(), read_hgt(&p7).unwrap());
     let (ga, gb) = (a.grid().clone(), b.grid().clone());
     // Given in reverse order: the mosaic orders by path.

@@ -219,9 +219,8 @@ fn mont_blanc_crop_matches_its_geotiff() {
 }
 
 #[test]
-#[ignore = "needs ../shared/data/terraindescriptors_alps-montblanc.png (0.8 MB): cargo test -- --ignored"]
 fn mont_blanc_matches_its_geotiff() {
-    let p = crate::common::shared_data("terraindescriptors_alps-montblanc.png");
+    let p = crate::common::test_data("terraindescriptors_alps-montblanc.png");
     let r = read_png_heightmap(&p, (4810.0 - 454.0) / 65535.0, 454.0).unwrap();
     assert_eq!((r.info().width, r.info().height), (647, 647));
     let AnyGrid::F32(g) = r.grid() else {

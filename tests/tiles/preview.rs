@@ -356,13 +356,12 @@ fn real_dem_crop_renders() {
 }
 
 #[test]
-#[ignore = "needs ../shared/data (whole SRTM tiles and the 0.8 MB PNG): cargo test -- --ignored"]
 fn real_dems_render() {
     let dir = tempfile::tempdir().unwrap();
     let od = out_dir(dir.path());
     let (a, b) = (
-        crate::common::shared_data("N43E006.hgt"),
-        crate::common::shared_data("N43E007.hgt"),
+        crate::common::test_data("srtm/N43E006.hgt"),
+        crate::common::test_data("srtm/N43E007.hgt"),
     );
     let m = Mosaic::new(vec![
         Box::new(read_hgt(a).unwrap()),
@@ -378,7 +377,7 @@ fn real_dems_render() {
     assert_eq!(info.factor, 3);
     assert_eq!((info.data_min, info.data_max), (-16.0, 2060.0));
     assert!(info.sea, "the Mediterranean is in the tiles");
-    let p = crate::common::shared_data("terraindescriptors_alps-montblanc.png");
+    let p = crate::common::test_data("terraindescriptors_alps-montblanc.png");
     let r = read_png_heightmap(p, (4810.0 - 454.0) / 65535.0, 454.0).unwrap();
     let opts = RenderOptions {
         legend: true,
