@@ -74,6 +74,18 @@ pub fn contour_width(georef: &GeoRef, row: i64) -> f64 {
     georef.cell_area_m2(row).unwrap_or(1.0).sqrt()
 }
 
+/// Divide each row of `g` (raster rows from `first_row` on) by its contour
+/// width: an accumulation of m² becomes the specific catchment area.
+pub fn divide_by_contour_width(g: &mut Grid<f64>, georef: &GeoRef, first_row: i64) {
+    let w = g.width().max(1);
+    for (y, row) in g.data_mut().chunks_mut(w).enumerate() {
+        let cw = contour_width(georef, first_row + y as i64);
+        for v in row {
+            *v /= cw;
+        }
+    }
+}
+
 /// A weights raster of true cell areas in `units` (times the cells of
 /// `base` when given: a weights file), of the size and georeference of
 /// `like`; f32, no nodata (a NaN weight counts 0, as in every weighted

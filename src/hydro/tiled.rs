@@ -108,18 +108,6 @@ pub(crate) fn weighted_amounts(
     Ok(own)
 }
 
-/// Divide each row of a tile's output by its contour width (specific
-/// catchment area, [`super::areas`]).
-pub(crate) fn per_contour_width<T>(o: &mut Grid<f64>, v: &TileView<T>) {
-    let w = o.width();
-    for (y, row) in o.data_mut().chunks_mut(w.max(1)).enumerate() {
-        let cw = super::areas::contour_width(&v.georef, v.core.y + y as i64);
-        for cell in row {
-            *cell /= cw;
-        }
-    }
-}
-
 fn need_halo<T>(v: &TileView<T>, step: &str) -> Result<()> {
     if v.halo < 1 {
         return Err(Error::invalid(format!(
@@ -772,7 +760,7 @@ impl GlobalStep for TiledAccumulation {
             };
         }
         if self.sca {
-            per_contour_width(o, &inputs[0]);
+            super::areas::divide_by_contour_width(o, &inputs[0].georef, inputs[0].core.y);
         }
         Ok(())
     }

@@ -463,7 +463,7 @@ impl GlobalStep for TiledMultiAccumulation {
             };
         }
         if self.sca {
-            super::tiled::per_contour_width(o, &inputs[0]);
+            super::areas::divide_by_contour_width(o, &inputs[0].georef, inputs[0].core.y);
         }
         Ok(())
     }

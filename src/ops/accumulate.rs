@@ -229,13 +229,7 @@ pub fn accumulate_multi_in(
         drop(flow);
         let mut acc = acc;
         if sca {
-            let w = acc.width();
-            for (y, row) in acc.data_mut().chunks_mut(w.max(1)).enumerate() {
-                let cw = crate::hydro::areas::contour_width(&info.georef, y as i64);
-                for v in row {
-                    *v /= cw;
-                }
-            }
+            crate::hydro::areas::divide_by_contour_width(&mut acc, &info.georef, 0);
         }
         let acc = acc.map(|v| if v.is_nan() { -1.0 } else { v });
         let georef = info.georef.clone().with_nodata(Some(-1.0));
