@@ -184,6 +184,10 @@ if command -v gdal_translate >/dev/null && python3 -c 'import numpy' 2>/dev/null
     fi
 else
     echo "uneven work: skipped (no gdal_translate or numpy)"
+    if [ "${OROGEN_REQUIRE_PEERS:-0}" = 1 ]; then
+        echo "error: OROGEN_REQUIRE_PEERS=1: the uneven-work check must run (install gdal-bin and python3-numpy: tools/install_gdal.sh)" >&2
+        fails=$((fails + 1))
+    fi
 fi
 
 # Kill rank 1 mid-job (fill to a tile store), then resume to identical

@@ -1,14 +1,17 @@
 #!/usr/bin/env python3
 """Compare orogen's Priority-Flood fill with RichDEM's on a real DEM.
 
-Usage:  python3 tools/richdem_compare.py DEM.tif [more.tif ...]
+Usage:  python3 tools/richdem_compare.py [--max-differ N] DEM.tif [more.tif ...]
 
 For each DEM: GDAL converts it to raw float32 (nodata kept as its value),
 RichDEM's FillDepressions (epsilon=False) fills it and is timed, then the
 bench binary `benches/hydro_perf.rs` (release build, `richdem_fill_matches`)
 times orogen's fill on the same raw file and compares the two results bit
 for bit. Prints one line per DEM: cells, differing cells, both timings and
-the ratio.
+the ratio. Exits 1 when any DEM has more than --max-differ (default 0)
+differing valid cells or any nodata mismatch: both are Priority-Flood fills
+without epsilon, so they must agree bit for bit (the CI's RichDEM gate on a
+real DEM is tools/python_peers.py, which needs no bench build).
 
 Installing RichDEM: `pip install richdem` (0.3.4, the last release) does not
 build on Python 3.11 because its bundled pybind11 is too old. Build it with
@@ -44,7 +47,8 @@ def gdal_size_nodata(path):
     return w, h, nodata
 
 
-def main(paths):
+def main(paths, max_differ):
+    bad = []
     subprocess.run(
         ["cargo", "bench", "--bench", "hydro_perf", "--no-run", "-q"],
         cwd=ROOT, check=True)
@@ -80,9 +84,19 @@ def main(paths):
                   f"valid cells differ ({fields['richdem_higher']} higher in RichDEM, "
                   f"{fields['nodata_differ']} nodata mismatches); RichDEM {t_rd:.3f} s, orogen {t_or:.3f} s, "
                   f"orogen is {t_rd / t_or:.2f}x RichDEM's speed")
+            if int(fields["differ"]) > max_differ or int(fields["nodata_differ"]) > 0:
+                bad.append(os.path.basename(path))
+    if bad:
+        print(f"FAIL: fills differ from RichDEM's (more than {max_differ} cells, or nodata) on: {', '.join(bad)}")
+        return 1
+    return 0
 
 
 if __name__ == "__main__":
-    if len(sys.argv) < 2:
+    args = sys.argv[1:]
+    max_differ = 0
+    if len(args) >= 2 and args[0] == "--max-differ":
+        max_differ, args = int(args[1]), args[2:]
+    if not args:
         sys.exit(__doc__)
-    main(sys.argv[1:])
+    sys.exit(main(args, max_differ))

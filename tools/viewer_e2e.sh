@@ -24,7 +24,24 @@ trap 'kill $vpid $vpid2 2>/dev/null || true' EXIT
 for _ in $(seq 50); do grep -q http "$out/view.log" && grep -q http "$out/view2.log" && break; sleep 0.2; done
 url=$(grep -o 'http://[^ ]*' "$out/view.log"); url2=$(grep -o 'http://[^ ]*' "$out/view2.log")
 echo "viewer at $url"
-node tools/viewer_check.mjs "$url" "$out/viewer.png"
+# Points near the DEM's centre, their elevations by GDAL (bilinear); the
+# tolerance covers MapLibre's coarser terrain mesh at the view's zoom on
+# this steep ground (relief 5 km: a wrong encoding is off by kilometres).
+python3 - "$dem" "$out/points.json" <<'PY'
+import json, math, struct, sys
+sys.path.insert(0, '/usr/lib/python3/dist-packages')
+from osgeo import gdal
+ds = gdal.Open(sys.argv[1]); b = ds.GetRasterBand(1); gt = ds.GetGeoTransform()
+pts = []
+for lon, lat in [(-70.5, -32.5), (-70.45, -32.55), (-70.55, -32.45), (-70.4, -32.4)]:
+    fx = (lon - gt[0]) / gt[1] - 0.5; fy = (lat - gt[3]) / gt[5] - 0.5
+    x0, y0 = int(math.floor(fx)), int(math.floor(fy))
+    a, c, d, e = struct.unpack('<4d', b.ReadRaster(x0, y0, 2, 2, buf_type=gdal.GDT_Float64))
+    tx, ty = fx - x0, fy - y0
+    pts.append([lon, lat, (a * (1 - tx) + c * tx) * (1 - ty) + (d * (1 - tx) + e * tx) * ty, 150.0])
+json.dump(pts, open(sys.argv[2], 'w'))
+PY
+node tools/viewer_check.mjs "$url" "$out/viewer.png" "$out/points.json"
 python3 - "$out/dem.pmtiles" "$url2" "$dem" <<'PY'
 import io, math, sys, urllib.request, struct
 from PIL import Image
