@@ -6,6 +6,7 @@
 mod oro_common;
 
 mod noise;
+mod noise_oracles;
 mod optimise;
 mod orometric;
 mod orometric_author;
