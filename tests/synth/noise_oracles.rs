@@ -58,11 +58,12 @@ fn least_squares(rows: &[(Vec<f64>, f64)], n: usize) -> (Vec<f64>, f64) {
             .unwrap();
         m.swap(c, p);
         assert!(m[c][c].abs() > 1e-18, "singular fit");
-        for r in 0..n {
+        let pivot = m[c].clone();
+        for (r, row) in m.iter_mut().enumerate() {
             if r != c {
-                let f = m[r][c] / m[c][c];
-                for k in c..=n {
-                    m[r][k] -= f * m[c][k];
+                let f = row[c] / pivot[c];
+                for (x, p) in row[c..].iter_mut().zip(&pivot[c..]) {
+                    *x -= f * p;
                 }
             }
         }
@@ -104,7 +105,9 @@ fn check_perlin_octave(
     what: &str,
 ) -> (usize, [bool; 32]) {
     use std::collections::HashMap;
-    let mut cells: HashMap<(i64, i64), Vec<(f64, f64, f64)>> = HashMap::new();
+    // per lattice cell: (fx, fy, value) of its samples
+    type Samples = Vec<(f64, f64, f64)>;
+    let mut cells: HashMap<(i64, i64), Samples> = HashMap::new();
     for r in 0..win.h {
         for c in 0..win.w {
             let x = ((win.x + c as i64) as f64 + 0.5) * freq + ox;
