@@ -429,9 +429,7 @@ fn mei_substeps(
                 }
                 if sum > 0.0 {
                     let kf = (d1[i] * area / (sum * p.dt)).min(1.0);
-                    for k in 0..4 {
-                        f[i][k] *= kf;
-                    }
+                    f[i].iter_mut().for_each(|v| *v *= kf);
                 }
             }
         }
@@ -465,9 +463,9 @@ fn mei_substeps(
                 if d1[i] <= 0.0 {
                     continue;
                 }
-                for k in 0..4 {
+                for (k, &fk) in f[i].iter().enumerate() {
                     if let Some(j) = nb(x, y, k) {
-                        let m = s[i] * f[i][k] * p.dt / (d1[i] * area);
+                        let m = s[i] * fk * p.dt / (d1[i] * area);
                         s2[i] -= m;
                         s2[j] += m;
                     }
