@@ -221,11 +221,32 @@ fn with_source<R>(
     georef: Option<&Bound<'_, PyDict>>,
     f: impl FnOnce(&dyn RasterSource) -> PyResult<R>,
 ) -> PyResult<R> {
+    // `sea_level` (and for a path, `nodata`) as the CLI's --sea-level / --nodata
+    let key = |k: &str| -> PyResult<Option<f64>> {
+        match georef.map(|d| d.get_item(k)).transpose()?.flatten() {
+            Some(v) => v.extract::<Option<f64>>(),
+            None => Ok(None),
+        }
+    };
+    let sea_level = key("sea_level")?;
     if let Ok(a) = input.cast::<PyUntypedArray>() {
-        return with_array(a, georef_from(georef)?, f);
+        return with_array(a, georef_from(georef)?, |src| {
+            let r = orogen::io::reassign::reassign(
+                Box::new(orogen::io::reassign::Borrowed(src)),
+                None,
+                sea_level,
+            )
+            .map_err(to_py)?;
+            f(r.as_ref())
+        });
     }
     let path: PathBuf = input.extract()?;
-    let src = orogen::io::open_raster(&path, &Default::default()).map_err(to_py)?;
+    let opts = orogen::io::OpenOptions {
+        nodata: key("nodata")?,
+        sea_level,
+        ..Default::default()
+    };
+    let src = orogen::io::open_raster(&path, &opts).map_err(to_py)?;
     f(src.as_ref())
 }
 

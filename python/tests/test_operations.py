@@ -317,3 +317,30 @@ def test_fill_nodata_is_the_clis_and_idw_by_hand(cli, tmp_path):
     # the CLI on a real crop with voids: the same bytes, tiled in Python
     run_cli(cli, "fill-nodata", ALPS, "--max-distance", "20", "-o", tmp_path / "f.tif")
     same(orogen.fill_nodata(ALPS, max_distance="20", tile=37), orogen.open(tmp_path / "f.tif").read())
+
+
+def test_sea_level_and_nodata_are_the_clis(cli, tmp_path):
+    """``sea_level=`` and ``nodata=`` read an input as the CLI's --sea-level
+    and --nodata do, for a path and for an array: on SRTM3 N43E007 (the
+    Mediterranean at 0 m) every cell at or below the level is nodata in the
+    output, and the bytes are the CLI's."""
+    hgt = ROOT / "tests" / "data" / "srtm" / "N43E007.hgt"
+    out = tmp_path / "cli.tif"
+    run_cli(cli, "fill", hgt, "--sea-level", "0", "-o", out)
+    want = orogen.open(out).read()
+    z = orogen.open(hgt).read()
+    assert (z <= 0).mean() > 0.5
+    nd = orogen.open(out).nodata
+    sea = want[z <= 0]
+    assert (np.isnan(sea) if want.dtype.kind == "f" else sea == nd).all()
+    same(orogen.fill(hgt, sea_level=0), want)
+    # an array: int16 with SRTM's nodata, the same rule
+    r = orogen.open(hgt)
+    same(orogen.fill(z, transform=r.transform, crs=r.crs, nodata=-32768, sea_level=0), want)
+    # --nodata on a path: the cells at exactly 0 m become nodata, as the CLI's
+    out0 = tmp_path / "cli0.tif"
+    run_cli(cli, "slope", hgt, "--nodata", "0", "-o", out0)
+    same(orogen.slope(hgt, nodata=0), orogen.open(out0).read())
+    # an integer array without nodata cannot take a sea level
+    with pytest.raises(orogen.InvalidInputError, match="--nodata"):
+        orogen.fill(z.astype(np.int16), transform=r.transform, crs=r.crs, sea_level=0)

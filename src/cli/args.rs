@@ -163,6 +163,16 @@ pub(crate) struct InputArgs {
     /// PNG heightmaps: elevation of PNG value 0.
     #[arg(long, default_value_t = 0.0)]
     pub(crate) png_offset: f64,
+    /// The input's nodata value: replaces the file's (cells of the old value
+    /// become data, as GDAL's -a_nodata) or assigns one to a file without
+    /// it (`nan` for NaN).
+    #[arg(long, value_name = "V", allow_negative_numbers = true)]
+    pub(crate) nodata: Option<f64>,
+    /// Read every cell at or below Z (m) as nodata, so the sea is an outlet
+    /// that drains the land instead of a flat the flow crosses (SRTM's sea
+    /// is 0). Integer rasters need a nodata value (the file's or --nodata).
+    #[arg(long, value_name = "Z", allow_negative_numbers = true)]
+    pub(crate) sea_level: Option<f64>,
 }
 
 impl InputArgs {
@@ -171,6 +181,8 @@ impl InputArgs {
             band: self.band as usize,
             png_scale: self.png_scale,
             png_offset: self.png_offset,
+            nodata: self.nodata,
+            sea_level: self.sea_level,
         }
         .open_options()
     }

@@ -12,6 +12,7 @@ pub mod memsink;
 pub mod mosaic;
 pub mod open;
 pub mod png;
+pub mod reassign;
 pub mod vector;
 
 pub use open::{

@@ -20,6 +20,12 @@ pub struct OpenOptions {
     /// The band read from a multi-band GeoTIFF (1-based); every other
     /// format has one band.
     pub band: usize,
+    /// The input's nodata value, replacing the file's or assigning one
+    /// ([`super::reassign`]).
+    pub nodata: Option<f64>,
+    /// Cells at or below this elevation are read as nodata: the sea becomes
+    /// an outlet ([`super::reassign`]).
+    pub sea_level: Option<f64>,
 }
 
 impl Default for OpenOptions {
@@ -28,6 +34,8 @@ impl Default for OpenOptions {
             png_scale: 1.0,
             png_offset: 0.0,
             band: 1,
+            nodata: None,
+            sea_level: None,
         }
     }
 }
@@ -108,7 +116,7 @@ pub fn open_raster(path: &Path, opts: &OpenOptions) -> Result<Box<dyn RasterSour
             opts.band
         )));
     }
-    Ok(match format {
+    let src: Box<dyn RasterSource> = match format {
         Format::GeoTiff => Box::new(GeoTiffReader::open_with(
             path,
             &ReaderOptions {
@@ -124,7 +132,8 @@ pub fn open_raster(path: &Path, opts: &OpenOptions) -> Result<Box<dyn RasterSour
             opts.png_offset,
         )?),
         Format::Store => Box::new(TileStore::open(path)?),
-    })
+    };
+    super::reassign::reassign(src, opts.nodata, opts.sea_level)
 }
 
 /// Open one input or a mosaic of several (directories expand to the rasters

@@ -370,7 +370,8 @@ impl FormatOptions {
 }
 
 /// How raster inputs are read: the band of a multi-band GeoTIFF
-/// (`--band`) and the PNG heightmap scaling (`--png-scale --png-offset`).
+/// (`--band`), the PNG heightmap scaling (`--png-scale --png-offset`), the
+/// nodata value (`--nodata`) and the sea masked as nodata (`--sea-level`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct InputOptions {
@@ -380,6 +381,10 @@ pub struct InputOptions {
     pub png_scale: f64,
     /// Elevation of PNG value 0.
     pub png_offset: f64,
+    /// The input's nodata value (replaces the file's, or assigns one).
+    pub nodata: Option<f64>,
+    /// Cells at or below this elevation are nodata (the sea is an outlet).
+    pub sea_level: Option<f64>,
 }
 
 impl Default for InputOptions {
@@ -388,6 +393,8 @@ impl Default for InputOptions {
             band: 1,
             png_scale: 1.0,
             png_offset: 0.0,
+            nodata: None,
+            sea_level: None,
         }
     }
 }
@@ -399,6 +406,8 @@ impl InputOptions {
             band: self.band,
             png_scale: self.png_scale,
             png_offset: self.png_offset,
+            nodata: self.nodata,
+            sea_level: self.sea_level,
         }
     }
 }

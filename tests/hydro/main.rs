@@ -14,6 +14,7 @@ mod breach;
 mod cli_breach;
 mod cli_fill_nodata;
 mod cli_fill_watersheds;
+mod cli_sea_level;
 mod divergent;
 mod divergent_tiled;
 mod fill_nodata;

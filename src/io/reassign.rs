@@ -1,0 +1,209 @@
+//! An input read with its nodata value reassigned and its sea masked, the
+//! readers' options `--nodata V` and `--sea-level Z` ([`super::OpenOptions`]).
+//!
+//! - `nodata`: V is the input's nodata value, replacing the file's (as GDAL's
+//!   `-a_nodata` does: cells holding the file's old value become data) or
+//!   assigning one to a file that has none (a GeoTIFF without the
+//!   GDAL_NODATA tag, an ASCII grid without NODATA_value).
+//! - `sea_level`: every cell at or below Z becomes nodata. Nodata cells are
+//!   outlets of routing, so the sea drains the land instead of being a flat
+//!   the flow must cross: on an SRTM tile the sea is 0 m, and without the
+//!   mask D8 accumulation gathers the coast's rivers into channels across
+//!   the sea. Integer rasters need a nodata value to write into those cells
+//!   (the file's or `nodata`); float rasters without one get NaN.
+//!
+//! The wrapper changes nothing else: size, type, georeferencing, blocks and
+//! path are the inner source's, so tiling and error messages are as for the
+//! file itself.
+
+use crate::error::{Error, Result};
+use crate::raster::{AnyGrid, Cell, DType, Grid, RasterInfo, RasterSource, Window};
+
+/// `inner` with nodata `nodata` (if given) and the cells `<= sea_level` (if
+/// given) read as nodata. Errors name the file and the fix: a nodata value
+/// its cells cannot hold, or a sea level on an integer raster without a
+/// nodata value.
+pub fn reassign<'a>(
+    inner: Box<dyn RasterSource + 'a>,
+    nodata: Option<f64>,
+    sea_level: Option<f64>,
+) -> Result<Box<dyn RasterSource + 'a>> {
+    if nodata.is_none() && sea_level.is_none() {
+        return Ok(inner);
+    }
+    let mut info = inner.info().clone();
+    let path = info.path.display().to_string();
+    if let Some(v) = nodata {
+        info.georef.nodata = Some(representable(v, info.dtype).ok_or_else(|| {
+            let (lo, hi) = range(info.dtype);
+            Error::invalid(format!(
+                "{path}: --nodata {v} is not a value its {} cells can hold; give an integer in {lo}..={hi}",
+                info.dtype.name()
+            ))
+        })?);
+    }
+    if let Some(z) = sea_level {
+        if !z.is_finite() {
+            return Err(Error::invalid(format!(
+                "{path}: --sea-level {z} is not a finite elevation"
+            )));
+        }
+        if !info.dtype.is_float() && info.georef.nodata.is_none() {
+            return Err(Error::invalid(format!(
+                "{path}: --sea-level needs a nodata value to write into the sea's {} cells and the file has none; add --nodata V with a value the data does not use",
+                info.dtype.name()
+            )));
+        }
+    }
+    Ok(Box::new(Reassigned {
+        inner,
+        info,
+        sea_level,
+    }))
+}
+
+/// The value `v` as the cells of `dtype` hold it (f32: rounded to f32), or
+/// None when they cannot hold it exactly (integers: fractions, out of range).
+fn representable(v: f64, dtype: DType) -> Option<f64> {
+    match dtype {
+        DType::F64 => Some(v),
+        DType::F32 => {
+            let f = v as f32;
+            (v.is_nan() || f.is_finite() || v.is_infinite()).then_some(f as f64)
+        }
+        _ => {
+            let (lo, hi) = range(dtype);
+            (v.fract() == 0.0 && v >= lo && v <= hi).then_some(v)
+        }
+    }
+}
+
+/// The range of an integer `dtype` (floats: ±infinity).
+fn range(dtype: DType) -> (f64, f64) {
+    match dtype {
+        DType::U8 => (0.0, u8::MAX as f64),
+        DType::I8 => (i8::MIN as f64, i8::MAX as f64),
+        DType::U16 => (0.0, u16::MAX as f64),
+        DType::I16 => (i16::MIN as f64, i16::MAX as f64),
+        DType::U32 => (0.0, u32::MAX as f64),
+        DType::I32 => (i32::MIN as f64, i32::MAX as f64),
+        DType::F32 | DType::F64 => (f64::NEG_INFINITY, f64::INFINITY),
+    }
+}
+
+struct Reassigned<'a> {
+    inner: Box<dyn RasterSource + 'a>,
+    info: RasterInfo,
+    sea_level: Option<f64>,
+}
+
+/// A borrowed source as an owned one, for [`reassign`] over a source the
+/// caller keeps (an array read in place).
+pub struct Borrowed<'a>(pub &'a dyn RasterSource);
+
+impl RasterSource for Borrowed<'_> {
+    fn info(&self) -> &RasterInfo {
+        self.0.info()
+    }
+    fn read_native(&self, win: Window) -> Result<AnyGrid> {
+        self.0.read_native(win)
+    }
+    fn band(&self) -> (usize, usize) {
+        self.0.band()
+    }
+    fn unused_georef(&self) -> Option<&str> {
+        self.0.unused_georef()
+    }
+}
+
+/// Cells `<= z` of `g` set to `nodata` (NaN when None: float rasters only).
+fn mask_sea<T: Cell>(g: &mut Grid<T>, z: f64, nodata: Option<f64>) {
+    let fill = T::from_f64(nodata.unwrap_or(f64::NAN));
+    for v in g.data_mut() {
+        if v.to_f64() <= z {
+            *v = fill;
+        }
+    }
+}
+
+impl RasterSource for Reassigned<'_> {
+    fn info(&self) -> &RasterInfo {
+        &self.info
+    }
+
+    fn read_native(&self, win: Window) -> Result<AnyGrid> {
+        let mut g = self.inner.read_native(win)?;
+        if let Some(z) = self.sea_level {
+            let nd = self.info.georef.nodata;
+            crate::dispatch_any!(&mut g, x => mask_sea(x, z, nd));
+        }
+        Ok(g)
+    }
+
+    fn band(&self) -> (usize, usize) {
+        self.inner.band()
+    }
+
+    fn unused_georef(&self) -> Option<&str> {
+        self.inner.unused_georef()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::raster::{read_window, GeoRef, MemRaster};
+
+    fn src(g: AnyGrid, nodata: Option<f64>) -> Box<dyn RasterSource> {
+        let mut georef = GeoRef::pixel();
+        georef.nodata = nodata;
+        Box::new(MemRaster::new(g, georef, "t.tif"))
+    }
+
+    #[test]
+    fn nodata_is_assigned_or_replaced() {
+        let g = AnyGrid::I16(Grid::from_vec(3, 1, vec![-9999i16, 5, -32768]).unwrap());
+        // assigned where the file has none
+        let r = reassign(src(g.clone(), None), Some(-9999.0), None).unwrap();
+        let f: Grid<f32> = read_window(r.as_ref(), Window::full(3, 1)).unwrap();
+        assert!(f.get(0, 0).is_nan() && f.get(1, 0) == 5.0 && f.get(2, 0) == -32768.0);
+        // replaced: the old value becomes data
+        let r = reassign(src(g, Some(-32768.0)), Some(-9999.0), None).unwrap();
+        let f: Grid<f32> = read_window(r.as_ref(), Window::full(3, 1)).unwrap();
+        assert!(f.get(0, 0).is_nan() && f.get(2, 0) == -32768.0);
+    }
+
+    #[test]
+    fn sea_at_or_below_the_level_is_nodata() {
+        let g = AnyGrid::I16(Grid::from_vec(4, 1, vec![0i16, 1, -3, -32768]).unwrap());
+        let r = reassign(src(g, Some(-32768.0)), None, Some(0.0)).unwrap();
+        match r.read_native(Window::full(4, 1)).unwrap() {
+            AnyGrid::I16(n) => assert_eq!(n.data(), &[-32768, 1, -32768, -32768]),
+            other => panic!("{other:?}"),
+        }
+        let f = AnyGrid::F32(Grid::from_vec(3, 1, vec![0.5f32, 0.0, f32::NAN]).unwrap());
+        let r = reassign(src(f, None), None, Some(0.0)).unwrap();
+        let v: Grid<f32> = read_window(r.as_ref(), Window::full(3, 1)).unwrap();
+        assert!(v.get(0, 0) == 0.5 && v.get(1, 0).is_nan() && v.get(2, 0).is_nan());
+    }
+
+    #[test]
+    fn impossible_requests_name_the_file_and_the_fix() {
+        let g = AnyGrid::U8(Grid::from_vec(1, 1, vec![3u8]).unwrap());
+        let e = reassign(src(g.clone(), None), Some(-1.0), None)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains("t.tif") && e.contains("0..=255"), "{e}");
+        let e = reassign(src(g.clone(), None), Some(2.5), None)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains("2.5"), "{e}");
+        let e = reassign(src(g, None), None, Some(0.0))
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains("t.tif") && e.contains("--nodata"), "{e}");
+    }
+}
