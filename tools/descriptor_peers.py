@@ -17,6 +17,8 @@ import sys
 import numpy as np
 from osgeo import gdal
 
+from gates import Gates
+
 d, R = sys.argv[1], int(sys.argv[2])
 
 
@@ -38,15 +40,7 @@ def rd(p):
     return a
 
 
-failures = []
-
-
-def gate(name, ok, what):
-    """Records a failure of `name` unless `ok`; returns the suffix to print."""
-    if ok:
-        return ""
-    failures.append(f"{name}: {what}")
-    return f"  FAIL ({what})"
+gate = Gates()
 
 
 def cmp(name, ours, theirs, conv=lambda x: x, note="", min_r=None, max_p99=None, max_abs=None, scale=None):
@@ -156,9 +150,4 @@ for peer, ours in pairs:
         continue
     print(f"{peer:<20} {p:8.3f} s   orogen 1 thread {o1:7.3f} s (x{p / o1:6.2f})   all cores {o0:7.3f} s (x{p / o0:6.2f})")
 
-if failures:
-    print(f"descriptor peers: {len(failures)} gate(s) failed:")
-    for f in failures:
-        print(f"  {f}")
-    sys.exit(1)
-print("descriptor peers: every gate passed")
+sys.exit(gate.report("descriptor peers"))

@@ -61,6 +61,8 @@ import time
 import numpy as np
 from scipy import ndimage
 
+from gates import Gates
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DATA = os.path.normpath(os.path.join(ROOT, "..", "shared", "data"))
 DEFAULT = [
@@ -114,15 +116,7 @@ def write_like(src, path, arr):
         w.write(out, 1)
 
 
-FAILS = []
-
-
-def gate(what, ok, detail):
-    """Records a failed gate unless `ok`; returns the text to print after the figure."""
-    if ok:
-        return ""
-    FAILS.append(f"{what}: {detail}")
-    return f"  FAIL ({detail})"
+gate = Gates()
 
 
 def d8_ties(z, dist=None, margin=0.0):
@@ -561,13 +555,7 @@ def main():
                 print("  the peers take the degrees as square cells: orogen and peers compared on a square-cell copy")
                 dem = square_copy(dem, work)
             compare_dem(dem, work, ob)
-    if FAILS:
-        print(f"hydro peers: {len(FAILS)} gate(s) failed:")
-        for f in FAILS:
-            print(f"  {f}")
-        return 1
-    print("hydro peers: every gate passed")
-    return 0
+    return gate.report("hydro peers")
 
 
 if __name__ == "__main__":

@@ -177,7 +177,9 @@ if [ "$profile" = release ]; then kill_flags="--release"; fi
 
 # Uneven work (nodata stripes): the work queue and round robin both give the
 # in-process bytes (tools/mpi_uneven.sh; needs GDAL's gdal_translate and numpy).
-if command -v gdal_translate >/dev/null && python3 -c 'import numpy' 2>/dev/null; then
+# GDAL's Python (python3-gdal, which brings python3-numpy) is the system's;
+# a pyenv or venv python3 on PATH may have no numpy.
+if command -v gdal_translate >/dev/null && /usr/bin/python3 -c 'import numpy' 2>/dev/null; then
     if ! tools/mpi_uneven.sh $kill_flags; then
         echo "DIFFER: uneven work (tools/mpi_uneven.sh)"
         fails=$((fails + 1))

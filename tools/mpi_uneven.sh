@@ -19,7 +19,7 @@
 # parity; release builds need larger tiles to take measurable time, e.g.
 #  --release --dem ../shared/data/poland_N49-55_E014-025.tif --srcwin "5600 4128 4096 3072" --tile 512)
 # (assumes `cargo build [--release] --features mpi`; GDAL's gdal_translate and
-# python3 with numpy make the input)
+# /usr/bin/python3 with numpy, from tools/install_gdal.sh, make the input)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 profile=debug
@@ -47,7 +47,7 @@ fails=0
 # Odd tile columns to nodata: through GDAL's raw ENVI format (a flat int16
 # file and a header), so only numpy is needed.
 gdal_translate -q -of ENVI -ot Int16 $srcwin "$dem" "$work/dem.img"
-python3 - "$work/dem.img" "$work/dem.hdr" "$tile" <<'EOF2'
+/usr/bin/python3 - "$work/dem.img" "$work/dem.hdr" "$tile" <<'EOF2'
 import sys
 import numpy as np
 img, hdr, tile = sys.argv[1], sys.argv[2], int(sys.argv[3])
@@ -84,7 +84,7 @@ for sched in round-robin queue; do
         $mpirun_ -n 2 "$bin" 2>"$work/$sched.stats"
     t1=$(date +%s.%N)
     echo "== $sched: 2 ranks, $(echo "$t1 - $t0" | bc) s for the four steps"
-    python3 - "$work/$sched.stats" <<'EOF'
+    /usr/bin/python3 - "$work/$sched.stats" <<'EOF'
 import json, sys
 for line in open(sys.argv[1]):
     line = line.strip()

@@ -35,9 +35,14 @@ pub fn reassign<'a>(
     let path = info.path.display().to_string();
     if let Some(v) = nodata {
         info.georef.nodata = Some(representable(v, info.dtype).ok_or_else(|| {
-            let (lo, hi) = range(info.dtype);
+            let (lo, hi) = info.dtype.int_range();
+            let within = if info.dtype.is_float() {
+                format!("a value within ±{:e}", f32::MAX)
+            } else {
+                format!("an integer in {lo}..={hi}")
+            };
             Error::invalid(format!(
-                "{path}: --nodata {v} is not a value its {} cells can hold; give an integer in {lo}..={hi}",
+                "{path}: --nodata {v} is not a value its {} cells can hold; give {within}",
                 info.dtype.name()
             ))
         })?);
@@ -62,32 +67,15 @@ pub fn reassign<'a>(
     }))
 }
 
-/// The value `v` as the cells of `dtype` hold it (f32: rounded to f32), or
-/// None when they cannot hold it exactly (integers: fractions, out of range).
+/// The value `v` as the cells of `dtype` hold it (f32: rounded to f32, so
+/// `--nodata 0.1` finds the cells holding 0.1f32), or None when they cannot
+/// hold it (integers: fractions or out of range; f32: beyond its range).
 fn representable(v: f64, dtype: DType) -> Option<f64> {
     match dtype {
-        DType::F64 => Some(v),
         DType::F32 => {
-            let f = v as f32;
-            (v.is_nan() || f.is_finite() || v.is_infinite()).then_some(f as f64)
+            (v.is_nan() || v.is_infinite() || (v as f32).is_finite()).then_some(v as f32 as f64)
         }
-        _ => {
-            let (lo, hi) = range(dtype);
-            (v.fract() == 0.0 && v >= lo && v <= hi).then_some(v)
-        }
-    }
-}
-
-/// The range of an integer `dtype` (floats: ±infinity).
-fn range(dtype: DType) -> (f64, f64) {
-    match dtype {
-        DType::U8 => (0.0, u8::MAX as f64),
-        DType::I8 => (i8::MIN as f64, i8::MAX as f64),
-        DType::U16 => (0.0, u16::MAX as f64),
-        DType::I16 => (i16::MIN as f64, i16::MAX as f64),
-        DType::U32 => (0.0, u32::MAX as f64),
-        DType::I32 => (i32::MIN as f64, i32::MAX as f64),
-        DType::F32 | DType::F64 => (f64::NEG_INFINITY, f64::INFINITY),
+        _ => dtype.represents(v).then_some(v),
     }
 }
 
