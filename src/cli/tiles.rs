@@ -13,7 +13,7 @@ use std::path::PathBuf;
 pub struct TilesArgs {
     #[command(flatten)]
     pub input: crate::In,
-    /// Output: a folder (z/x/y.png), FILE.mbtiles or FILE.pmtiles; repeat -o for several.
+    /// Output: a folder (z/x/y.png; a name with a dot ends with /), FILE.mbtiles or FILE.pmtiles; repeat -o for several.
     #[arg(short, long, required = true)]
     pub output: Vec<PathBuf>,
     /// Tile encoding: terrain-rgb, terrarium (elevation) or color (any raster, with --ramp).
@@ -51,7 +51,9 @@ pub fn run(a: TilesArgs) -> Result<()> {
         resampling: a.resampling.clone(),
     };
     let info = tiles::run(src.as_ref(), &a.output, &opts, &cfg)?;
-    eprintln!("{}", tiles::summary(&info));
+    if !a.run.quiet {
+        eprintln!("{}", tiles::summary(&info));
+    }
     for o in &a.output {
         crate::wrote(o);
     }

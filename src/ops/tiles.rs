@@ -119,13 +119,47 @@ impl TilesOptions {
     }
 }
 
-/// What an output path of `orogen tiles` is, by its extension.
+/// What an output path of `orogen tiles` is, by its extension: `.mbtiles`,
+/// `.pmtiles`, else a folder (checked by [`check_outputs`] first).
 fn kind(p: &Path) -> &'static str {
+    if ends_with_separator(p) {
+        return "dir";
+    }
     match p.extension().and_then(|e| e.to_str()) {
-        Some("mbtiles") => "mbtiles",
-        Some("pmtiles") => "pmtiles",
+        Some(e) if e.eq_ignore_ascii_case("mbtiles") => "mbtiles",
+        Some(e) if e.eq_ignore_ascii_case("pmtiles") => "pmtiles",
         _ => "dir",
     }
+}
+
+fn ends_with_separator(p: &Path) -> bool {
+    let s = p.as_os_str().to_string_lossy();
+    s.ends_with('/') || s.ends_with(std::path::MAIN_SEPARATOR)
+}
+
+/// Every output is a folder (no extension, or a path ending with `/`),
+/// `.mbtiles` or `.pmtiles`, and a folder output is not an existing file:
+/// `-o bad.png` is refused before any work instead of becoming a folder
+/// named `bad.png`.
+fn check_outputs(outputs: &[PathBuf]) -> Result<()> {
+    for o in outputs {
+        let ext = o.extension().and_then(|e| e.to_str());
+        if kind(o) == "dir" {
+            if let (Some(e), false) = (ext, ends_with_separator(o)) {
+                return Err(Error::invalid(format!(
+                    "{}: orogen tiles writes a folder of z/x/y tiles, a .mbtiles or a .pmtiles archive, not a .{e} file; for a folder whose name has a dot, end the path with /",
+                    o.display()
+                )));
+            }
+            if o.is_file() {
+                return Err(Error::invalid(format!(
+                    "{}: is a file; a folder output of orogen tiles must be a folder or a new path",
+                    o.display()
+                )));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Cut `src` into a pyramid and write it to every path of `outputs` (a
@@ -140,6 +174,7 @@ pub fn run(
     opts: &TilesOptions,
     cfg: &EngineConfig,
 ) -> Result<PyramidInfo> {
+    check_outputs(outputs)?;
     let popts = opts.pyramid_options()?;
     let data_range = if matches!(popts.encoding, Encoding::Color { range: None, .. }) {
         let d = super::describe(src, true, cfg)?;
