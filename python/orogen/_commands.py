@@ -41,7 +41,7 @@ def _spill(v: Any, tmp: str, name: str, georef: Dict[str, Any]) -> str:
         return os.fspath(v)
     out = os.path.join(tmp, f"{name}.tif")
     _raster_op("export", v, {}, transform=georef.get("transform"), crs=georef.get("crs"),
-               nodata=georef.get("nodata"), sea_level=None, output=out, memory=None, tile=None, threads=0,
+               nodata=georef.get("nodata"), sea_level=None, mask=None, output=out, memory=None, tile=None, threads=0,
                format={"compress": "none"}, progress=None)
     return out
 

@@ -229,12 +229,23 @@ fn with_source<R>(
         }
     };
     let sea_level = key("sea_level")?;
+    let mask: Option<PathBuf> = match georef.map(|d| d.get_item("mask")).transpose()?.flatten() {
+        Some(v) => v.extract::<Option<PathBuf>>()?,
+        None => None,
+    };
     if let Ok(a) = input.cast::<PyUntypedArray>() {
         return with_array(a, georef_from(georef)?, |src| {
+            let mask = match &mask {
+                Some(m) => Some(
+                    orogen::io::open_raster(m, &Default::default()).map_err(to_py)?,
+                ),
+                None => None,
+            };
             let r = orogen::io::reassign::reassign(
                 Box::new(orogen::io::reassign::Borrowed(src)),
                 None,
                 sea_level,
+                mask,
             )
             .map_err(to_py)?;
             f(r.as_ref())
@@ -244,6 +255,7 @@ fn with_source<R>(
     let opts = orogen::io::OpenOptions {
         nodata: key("nodata")?,
         sea_level,
+        mask,
         ..Default::default()
     };
     let src = orogen::io::open_raster(&path, &opts).map_err(to_py)?;

@@ -320,8 +320,8 @@ def test_fill_nodata_is_the_clis_and_idw_by_hand(cli, tmp_path):
 
 
 def test_sea_level_and_nodata_are_the_clis(cli, tmp_path):
-    """``sea_level=`` and ``nodata=`` read an input as the CLI's --sea-level
-    and --nodata do, for a path and for an array: on SRTM3 N43E007 (the
+    """``sea_level=``, ``mask=`` and ``nodata=`` read an input as the CLI's
+    --sea-level, --mask and --nodata do, for a path and for an array: on SRTM3 N43E007 (the
     Mediterranean at 0 m) every cell at or below the level is nodata in the
     output, and the bytes are the CLI's."""
     hgt = ROOT / "tests" / "data" / "srtm" / "N43E007.hgt"
@@ -337,6 +337,9 @@ def test_sea_level_and_nodata_are_the_clis(cli, tmp_path):
     # an array: int16 with SRTM's nodata, the same rule
     r = orogen.open(hgt)
     same(orogen.fill(z, transform=r.transform, crs=r.crs, nodata=-32768, sea_level=0), want)
+    # mask=: a raster on the grid, nodata on the sea (the CLI's own output), as --mask
+    same(orogen.fill(hgt, mask=out), want)
+    same(orogen.fill(z, transform=r.transform, crs=r.crs, nodata=-32768, mask=orogen.open(out)), want)
     # --nodata on a path: the cells at exactly 0 m become nodata, as the CLI's
     out0 = tmp_path / "cli0.tif"
     run_cli(cli, "slope", hgt, "--nodata", "0", "-o", out0)

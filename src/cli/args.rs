@@ -173,6 +173,10 @@ pub(crate) struct InputArgs {
     /// is 0). Integer rasters need a nodata value (the file's or --nodata).
     #[arg(long, value_name = "Z", allow_negative_numbers = true)]
     pub(crate) sea_level: Option<f64>,
+    /// A raster on the input's grid (e.g. a land mask): where it is 0 or
+    /// nodata the input is read as nodata, an outlet.
+    #[arg(long, value_name = "FILE")]
+    pub(crate) mask: Option<PathBuf>,
 }
 
 impl InputArgs {
@@ -183,6 +187,7 @@ impl InputArgs {
             png_offset: self.png_offset,
             nodata: self.nodata,
             sea_level: self.sea_level,
+            mask: self.mask.clone(),
         }
         .open_options()
     }

@@ -26,6 +26,9 @@ pub struct OpenOptions {
     /// Cells at or below this elevation are read as nodata: the sea becomes
     /// an outlet ([`super::reassign`]).
     pub sea_level: Option<f64>,
+    /// A raster on the input's grid: where it is 0 or nodata the input is
+    /// read as nodata ([`super::reassign`]).
+    pub mask: Option<PathBuf>,
 }
 
 impl Default for OpenOptions {
@@ -36,6 +39,7 @@ impl Default for OpenOptions {
             band: 1,
             nodata: None,
             sea_level: None,
+            mask: None,
         }
     }
 }
@@ -133,7 +137,11 @@ pub fn open_raster(path: &Path, opts: &OpenOptions) -> Result<Box<dyn RasterSour
         )?),
         Format::Store => Box::new(TileStore::open(path)?),
     };
-    super::reassign::reassign(src, opts.nodata, opts.sea_level)
+    let mask = match &opts.mask {
+        Some(m) => Some(open_raster(m, &OpenOptions::default())?),
+        None => None,
+    };
+    super::reassign::reassign(src, opts.nodata, opts.sea_level, mask)
 }
 
 /// Open one input or a mosaic of several (directories expand to the rasters

@@ -1,5 +1,6 @@
 //! An input read with its nodata value reassigned and its sea masked, the
-//! readers' options `--nodata V` and `--sea-level Z` ([`super::OpenOptions`]).
+//! readers' options `--nodata V`, `--sea-level Z` and `--mask FILE`
+//! ([`super::OpenOptions`]).
 //!
 //! - `nodata`: V is the input's nodata value, replacing the file's (as GDAL's
 //!   `-a_nodata` does: cells holding the file's old value become data) or
@@ -11,6 +12,10 @@
 //!   mask D8 accumulation gathers the coast's rivers into channels across
 //!   the sea. Integer rasters need a nodata value to write into those cells
 //!   (the file's or `nodata`); float rasters without one get NaN.
+//! - `mask`: a raster on the same grid; where it is 0 or nodata the input is
+//!   read as nodata (GDAL's mask convention: 0 = not valid). A land mask
+//!   drawn from a coastline keeps the land and makes the sea an outlet where
+//!   the sea is not a constant height (bathymetry, tides, a lake's level).
 //!
 //! The wrapper changes nothing else: size, type, georeferencing, blocks and
 //! path are the inner source's, so tiling and error messages are as for the
@@ -19,16 +24,18 @@
 use crate::error::{Error, Result};
 use crate::raster::{AnyGrid, Cell, DType, Grid, RasterInfo, RasterSource, Window};
 
-/// `inner` with nodata `nodata` (if given) and the cells `<= sea_level` (if
-/// given) read as nodata. Errors name the file and the fix: a nodata value
-/// its cells cannot hold, or a sea level on an integer raster without a
-/// nodata value.
+/// `inner` with nodata `nodata` (if given), and the cells `<= sea_level` (if
+/// given) and those where `mask` is 0 or nodata (if given) read as nodata.
+/// Errors name the file and the fix: a nodata value its cells cannot hold,
+/// a sea level or mask on an integer raster without a nodata value, a mask
+/// of another size or grid.
 pub fn reassign<'a>(
     inner: Box<dyn RasterSource + 'a>,
     nodata: Option<f64>,
     sea_level: Option<f64>,
+    mask: Option<Box<dyn RasterSource + 'a>>,
 ) -> Result<Box<dyn RasterSource + 'a>> {
-    if nodata.is_none() && sea_level.is_none() {
+    if nodata.is_none() && sea_level.is_none() && mask.is_none() {
         return Ok(inner);
     }
     let mut info = inner.info().clone();
@@ -53,10 +60,39 @@ pub fn reassign<'a>(
                 "{path}: --sea-level {z} is not a finite elevation"
             )));
         }
+    }
+    let what = match (sea_level.is_some(), mask.is_some()) {
+        (true, true) => Some("--sea-level and --mask need"),
+        (true, false) => Some("--sea-level needs"),
+        (false, true) => Some("--mask needs"),
+        _ => None,
+    };
+    if let Some(what) = what {
         if !info.dtype.is_float() && info.georef.nodata.is_none() {
             return Err(Error::invalid(format!(
-                "{path}: --sea-level needs a nodata value to write into the sea's {} cells and the file has none; add --nodata V with a value the data does not use",
+                "{path}: {what} a nodata value to write into the masked {} cells and the file has none; add --nodata V with a value the data does not use",
                 info.dtype.name()
+            )));
+        }
+    }
+    if let Some(m) = &mask {
+        let mi = m.info();
+        let mpath = mi.path.display();
+        if (mi.width, mi.height) != (info.width, info.height) {
+            return Err(Error::invalid(format!(
+                "{mpath}: the mask is {}x{} cells and {path} is {}x{}; give a mask on the input's grid (e.g. gdalwarp -te/-ts to it)",
+                mi.width, mi.height, info.width, info.height
+            )));
+        }
+        let (a, b) = (&mi.georef, &info.georef);
+        let off = a
+            .transform
+            .iter()
+            .zip(&b.transform)
+            .any(|(x, y)| (x - y).abs() > 1e-9 * x.abs().max(y.abs()).max(1e-6));
+        if a.georeferenced && b.georeferenced && off {
+            return Err(Error::invalid(format!(
+                "{mpath}: the mask's grid (origin and cell size) is not {path}'s; give a mask on the input's grid (e.g. gdalwarp -te/-ts to it)"
             )));
         }
     }
@@ -64,6 +100,7 @@ pub fn reassign<'a>(
         inner,
         info,
         sea_level,
+        mask,
     }))
 }
 
@@ -83,6 +120,7 @@ struct Reassigned<'a> {
     inner: Box<dyn RasterSource + 'a>,
     info: RasterInfo,
     sea_level: Option<f64>,
+    mask: Option<Box<dyn RasterSource + 'a>>,
 }
 
 /// A borrowed source as an owned one, for [`reassign`] over a source the
@@ -104,11 +142,22 @@ impl RasterSource for Borrowed<'_> {
     }
 }
 
-/// Cells `<= z` of `g` set to `nodata` (NaN when None: float rasters only).
-fn mask_sea<T: Cell>(g: &mut Grid<T>, z: f64, nodata: Option<f64>) {
+/// Cells of `g` set to `nodata` (NaN when None: float rasters only) where
+/// they are `<= z` (if given) or `mask` (same cells) is 0 or nodata.
+fn mask_cells<T: Cell>(
+    g: &mut Grid<T>,
+    z: Option<f64>,
+    mask: Option<&Grid<f64>>,
+    nodata: Option<f64>,
+) {
     let fill = T::from_f64(nodata.unwrap_or(f64::NAN));
-    for v in g.data_mut() {
-        if v.to_f64() <= z {
+    let z = z.unwrap_or(f64::NEG_INFINITY);
+    for (i, v) in g.data_mut().iter_mut().enumerate() {
+        let off = mask.is_some_and(|m| {
+            let x = m.data()[i];
+            x == 0.0 || x.is_nan()
+        });
+        if off || v.to_f64() <= z {
             *v = fill;
         }
     }
@@ -121,9 +170,13 @@ impl RasterSource for Reassigned<'_> {
 
     fn read_native(&self, win: Window) -> Result<AnyGrid> {
         let mut g = self.inner.read_native(win)?;
-        if let Some(z) = self.sea_level {
+        let m: Option<Grid<f64>> = match &self.mask {
+            Some(m) => Some(crate::raster::read_window(m.as_ref(), win)?),
+            None => None,
+        };
+        if self.sea_level.is_some() || m.is_some() {
             let nd = self.info.georef.nodata;
-            crate::dispatch_any!(&mut g, x => mask_sea(x, z, nd));
+            crate::dispatch_any!(&mut g, x => mask_cells(x, self.sea_level, m.as_ref(), nd));
         }
         Ok(g)
     }
@@ -152,11 +205,11 @@ mod tests {
     fn nodata_is_assigned_or_replaced() {
         let g = AnyGrid::I16(Grid::from_vec(3, 1, vec![-9999i16, 5, -32768]).unwrap());
         // assigned where the file has none
-        let r = reassign(src(g.clone(), None), Some(-9999.0), None).unwrap();
+        let r = reassign(src(g.clone(), None), Some(-9999.0), None, None).unwrap();
         let f: Grid<f32> = read_window(r.as_ref(), Window::full(3, 1)).unwrap();
         assert!(f.get(0, 0).is_nan() && f.get(1, 0) == 5.0 && f.get(2, 0) == -32768.0);
         // replaced: the old value becomes data
-        let r = reassign(src(g, Some(-32768.0)), Some(-9999.0), None).unwrap();
+        let r = reassign(src(g, Some(-32768.0)), Some(-9999.0), None, None).unwrap();
         let f: Grid<f32> = read_window(r.as_ref(), Window::full(3, 1)).unwrap();
         assert!(f.get(0, 0).is_nan() && f.get(2, 0) == -32768.0);
     }
@@ -164,31 +217,53 @@ mod tests {
     #[test]
     fn sea_at_or_below_the_level_is_nodata() {
         let g = AnyGrid::I16(Grid::from_vec(4, 1, vec![0i16, 1, -3, -32768]).unwrap());
-        let r = reassign(src(g, Some(-32768.0)), None, Some(0.0)).unwrap();
+        let r = reassign(src(g, Some(-32768.0)), None, Some(0.0), None).unwrap();
         match r.read_native(Window::full(4, 1)).unwrap() {
             AnyGrid::I16(n) => assert_eq!(n.data(), &[-32768, 1, -32768, -32768]),
             other => panic!("{other:?}"),
         }
         let f = AnyGrid::F32(Grid::from_vec(3, 1, vec![0.5f32, 0.0, f32::NAN]).unwrap());
-        let r = reassign(src(f, None), None, Some(0.0)).unwrap();
+        let r = reassign(src(f, None), None, Some(0.0), None).unwrap();
         let v: Grid<f32> = read_window(r.as_ref(), Window::full(3, 1)).unwrap();
         assert!(v.get(0, 0) == 0.5 && v.get(1, 0).is_nan() && v.get(2, 0).is_nan());
     }
 
     #[test]
+    fn masked_cells_are_nodata() {
+        let g = AnyGrid::F32(Grid::from_vec(4, 1, vec![5.0f32, 6.0, 7.0, 8.0]).unwrap());
+        let m = AnyGrid::U8(Grid::from_vec(4, 1, vec![1u8, 0, 255, 9]).unwrap());
+        let mut mask = src(m, Some(255.0));
+        let r = reassign(src(g.clone(), None), None, None, Some(mask)).unwrap();
+        let v: Grid<f32> = read_window(r.as_ref(), Window::full(4, 1)).unwrap();
+        assert!(
+            v.get(0, 0) == 5.0
+                && v.get(1, 0).is_nan()
+                && v.get(2, 0).is_nan()
+                && v.get(3, 0) == 8.0
+        );
+        // another size is refused, naming both
+        mask = src(AnyGrid::U8(Grid::new(3, 1, 1u8)), None);
+        let e = reassign(src(g, None), None, None, Some(mask))
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains("3x1") && e.contains("4x1"), "{e}");
+    }
+
+    #[test]
     fn impossible_requests_name_the_file_and_the_fix() {
         let g = AnyGrid::U8(Grid::from_vec(1, 1, vec![3u8]).unwrap());
-        let e = reassign(src(g.clone(), None), Some(-1.0), None)
+        let e = reassign(src(g.clone(), None), Some(-1.0), None, None)
             .err()
             .unwrap()
             .to_string();
         assert!(e.contains("t.tif") && e.contains("0..=255"), "{e}");
-        let e = reassign(src(g.clone(), None), Some(2.5), None)
+        let e = reassign(src(g.clone(), None), Some(2.5), None, None)
             .err()
             .unwrap()
             .to_string();
         assert!(e.contains("2.5"), "{e}");
-        let e = reassign(src(g, None), None, Some(0.0))
+        let e = reassign(src(g, None), None, Some(0.0), None)
             .err()
             .unwrap()
             .to_string();

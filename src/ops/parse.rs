@@ -385,6 +385,8 @@ pub struct InputOptions {
     pub nodata: Option<f64>,
     /// Cells at or below this elevation are nodata (the sea is an outlet).
     pub sea_level: Option<f64>,
+    /// A raster on the input's grid: where it is 0 or nodata, the input is nodata.
+    pub mask: Option<std::path::PathBuf>,
 }
 
 impl Default for InputOptions {
@@ -395,6 +397,7 @@ impl Default for InputOptions {
             png_offset: 0.0,
             nodata: None,
             sea_level: None,
+            mask: None,
         }
     }
 }
@@ -408,6 +411,7 @@ impl InputOptions {
             png_offset: self.png_offset,
             nodata: self.nodata,
             sea_level: self.sea_level,
+            mask: self.mask.clone(),
         }
     }
 }

@@ -207,3 +207,44 @@ fn nodata_is_assigned_or_replaced_and_impossible_requests_fail() {
         }
     }
 }
+
+#[test]
+fn a_mask_on_the_grid_masks_as_the_sea_level_does() {
+    let dem = data("srtm/N43E007.hgt");
+    let d = tempfile::tempdir().unwrap();
+    // The mask: nodata exactly on the sea (the filled DEM read with --sea-level 0).
+    let mask = d.path().join("land.tif");
+    ok(orogen().args(["fill", s(&dem), "--sea-level", "0", "-o", s(&mask), "-q"]));
+    let by_level = d.path().join("level.tif");
+    let by_mask = d.path().join("mask.tif");
+    ok(orogen().args([
+        "flow",
+        s(&dem),
+        "--sea-level",
+        "0",
+        "-o",
+        s(&by_level),
+        "-q",
+    ]));
+    ok(orogen().args([
+        "flow",
+        s(&dem),
+        "--mask",
+        s(&mask),
+        "-o",
+        s(&by_mask),
+        "-q",
+        "--tile",
+        "257",
+    ]));
+    assert!(
+        same_bits(&grid(&by_level), &grid(&by_mask)),
+        "--mask differs from --sea-level"
+    );
+    // a mask of another grid is refused, naming both sizes; nothing written
+    let small = data("whitebox_DEM.tif");
+    let bad = d.path().join("bad.tif");
+    let e = fails(orogen().args(["flow", s(&dem), "--mask", s(&small), "-o", s(&bad)]));
+    assert!(e.contains("237x188") && e.contains("1201x1201"), "{e}");
+    assert!(!bad.exists());
+}
