@@ -625,6 +625,71 @@ def make_case_fixtures():
     print(f"wrote {len(manifest['files'])} cases, {total} bytes, to {out_dir}")
 
 
+def scaled_variants():
+    """(file name, band, writer) of tests/data/gdal/scaled: bands with GDAL's
+    scale and offset (GDAL_METADATA), which a reader must apply."""
+    w, h = 41, 23
+    raw = (np.arange(w * h).reshape(h, w) * 37 % 9000).astype(np.float64) + 5000
+    gt = [700000.0, 25.0, 0.0, 4100000.0, 0.0, -25.0]
+
+    def make(gtype, co, scales, nodata=None):
+        def write(path):
+            from osgeo import osr
+            d = gdal.GetDriverByName("GTiff").Create(path, w, h, len(scales), gtype, co)
+            d.SetGeoTransform(gt)
+            r = osr.SpatialReference()
+            r.ImportFromEPSG(32633)
+            d.SetProjection(r.ExportToWkt())
+            for k, (scale, offset) in enumerate(scales):
+                b = d.GetRasterBand(k + 1)
+                a = raw.copy() + 11 * k
+                if nodata is not None:
+                    a[2:6, 3:9] = nodata
+                    b.SetNoDataValue(nodata)
+                b.WriteArray(a)
+                if scale is not None:
+                    b.SetScale(scale)
+                if offset is not None:
+                    b.SetOffset(offset)
+            d = None
+        return write
+
+    tiled = ["TILED=YES", "BLOCKXSIZE=16", "BLOCKYSIZE=16"]
+    yield "u16_scale_offset_nodata.tif", 1, make(gdal.GDT_UInt16, tiled + ["COMPRESS=DEFLATE"], [(0.1, -500.0)], 65535)
+    yield "i16_scale_only_strips.tif", 1, make(gdal.GDT_Int16, ["BLOCKYSIZE=5"], [(0.5, None)])
+    yield "i32_offset_only.tif", 1, make(gdal.GDT_Int32, [], [(None, -1000.0)])
+    yield "u16_2band_second.tif", 2, make(gdal.GDT_UInt16, ["INTERLEAVE=PIXEL"], [(0.25, 10.0), (0.02, -100.0)])
+
+
+def make_scaled_fixtures():
+    """Each scaled variant, and GDAL's unscaled reading of the band
+    (`gdal_translate -unscale`, Float64, raw nodata cells as NaN) as the reference."""
+    out_dir = empty_fixture_dir("scaled")
+    manifest = {"files": []}
+    for fname, band, make in scaled_variants():
+        path = os.path.join(out_dir, fname)
+        make(path)
+        d = gdal.Open(path)
+        b = d.GetRasterBand(band)
+        raw = b.ReadAsArray()
+        nd = b.GetNoDataValue()
+        u = gdal.Translate("/vsimem/u.tif", path, bandList=[band], unscale=True, outputType=gdal.GDT_Float64)
+        ref = u.GetRasterBand(1).ReadAsArray().astype(np.float64)
+        u = None
+        gdal.Unlink("/vsimem/u.tif")
+        if nd is not None:
+            ref[raw == nd] = np.nan
+        name = fname[:-4] + f".b{band}.bin"
+        ref.astype("<f8").tofile(os.path.join(out_dir, name))
+        manifest["files"].append({"file": fname, "band": band, "reference": name,
+                                  "width": d.RasterXSize, "height": d.RasterYSize,
+                                  "scale": b.GetScale(), "offset": b.GetOffset(),
+                                  "raw_dtype": str(raw.dtype), "raw_nodata": nd})
+    with open(os.path.join(out_dir, "manifest.json"), "w") as f:
+        json.dump(manifest, f, indent=1)
+    print(f"wrote {len(manifest['files'])} scaled files to {out_dir}")
+
+
 def make_fixtures():
     out_dir = os.path.join(ROOT, "tests", "data", "gdal")
     os.makedirs(out_dir, exist_ok=True)
@@ -732,6 +797,8 @@ if __name__ == "__main__":
         make_band_fixtures()
     elif "--case-fixtures" in sys.argv[1:]:
         make_case_fixtures()
+    elif "--scaled-fixtures" in sys.argv[1:]:
+        make_scaled_fixtures()
     elif "--cases" in sys.argv[1:]:
         compare_cases()
         print(f"{passed} passed, {failed} failed")

@@ -6,6 +6,7 @@
 #   tools/gdal_variants.sh --band-fixtures   (re)write the multi-band / photometric ones in tests/data/gdal/bands/
 #   tools/gdal_variants.sh --cases           compare only the mask/alpha/sparse/float16/LERC/georef cases
 #   tools/gdal_variants.sh --case-fixtures   (re)write masks, alpha, sparse, float16, georeferencing in tests/data/gdal/cases/
+#   tools/gdal_variants.sh --scaled-fixtures (re)write bands with scale/offset and GDAL's unscaled values in tests/data/gdal/scaled/
 #
 # orogen is driven through its CLI (`orogen info FILE --json`, `orogen export IN -o OUT
 # [--compress ..] [--predictor ..] [--block ..] [--bigtiff ..]`): set $OROGEN to a built

@@ -6,8 +6,8 @@ fuzz_target!(|data: &[u8]| {
     fuzz_common::serial_rayon();
     let p = fuzz_common::file("height.png", data);
     let opts = orogen::io::OpenOptions {
-        png_scale: 0.5,
-        png_offset: -10.0,
+        png_scale: Some(0.5),
+        png_offset: Some(-10.0),
         ..Default::default()
     };
     if let Ok(src) = orogen::io::open_raster(&p, &opts) {

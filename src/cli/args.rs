@@ -90,6 +90,13 @@ pub(crate) struct OutFmt {
     /// average otherwise), average or nearest.
     #[arg(long, default_value = "auto")]
     pub(crate) overviews: String,
+    /// PNG heightmap output: metres per PNG unit (default: the data's range
+    /// over 0..65535). Recorded in the file and a .aux.xml sidecar.
+    #[arg(long, value_name = "M")]
+    pub(crate) png_out_scale: Option<f64>,
+    /// PNG heightmap output: elevation of PNG value 0 (default: the data's minimum).
+    #[arg(long, value_name = "Z", allow_negative_numbers = true)]
+    pub(crate) png_out_offset: Option<f64>,
 }
 
 /// A value parser for a library enum (clap derives no parser for a
@@ -157,12 +164,14 @@ pub(crate) struct InputArgs {
     /// the file has several).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u16).range(1..))]
     pub(crate) band: u16,
-    /// PNG heightmaps: metres per PNG unit.
-    #[arg(long, default_value_t = 1.0)]
-    pub(crate) png_scale: f64,
-    /// PNG heightmaps: elevation of PNG value 0.
-    #[arg(long, default_value_t = 0.0)]
-    pub(crate) png_offset: f64,
+    /// PNG heightmap input: metres per PNG unit (default: the mapping the
+    /// file records, as orogen writes it, else 1).
+    #[arg(long, allow_negative_numbers = true)]
+    pub(crate) png_scale: Option<f64>,
+    /// PNG heightmap input: elevation of PNG value 0 (default: the recorded
+    /// one, else 0).
+    #[arg(long, allow_negative_numbers = true)]
+    pub(crate) png_offset: Option<f64>,
     /// The input's nodata value: replaces the file's (cells of the old value
     /// become data, as GDAL's -a_nodata) or assigns one to a file without
     /// it (`nan` for NaN).
@@ -241,6 +250,8 @@ impl OutFmt {
             overwrite: self.overwrite,
             cog: self.cog,
             overviews: self.overviews.clone(),
+            png_out_scale: self.png_out_scale,
+            png_out_offset: self.png_out_offset,
         }
     }
 }

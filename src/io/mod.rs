@@ -13,6 +13,7 @@ pub mod mosaic;
 pub mod open;
 pub mod png;
 pub mod reassign;
+pub mod scaling;
 pub mod vector;
 
 pub use open::{

@@ -13,10 +13,11 @@ use std::path::{Path, PathBuf};
 /// How to interpret inputs that carry no elevation units of their own.
 #[derive(Debug, Clone)]
 pub struct OpenOptions {
-    /// PNG heightmaps: elevation = offset + value * scale.
-    pub png_scale: f64,
-    /// PNG heightmaps: elevation offset.
-    pub png_offset: f64,
+    /// PNG heightmaps: elevation = offset + value * scale. Neither given:
+    /// the mapping the file records (orogen's writes), else the samples.
+    pub png_scale: Option<f64>,
+    /// PNG heightmaps: elevation of value 0 (None with a scale: 0).
+    pub png_offset: Option<f64>,
     /// The band read from a multi-band GeoTIFF (1-based); every other
     /// format has one band.
     pub band: usize,
@@ -34,8 +35,8 @@ pub struct OpenOptions {
 impl Default for OpenOptions {
     fn default() -> Self {
         OpenOptions {
-            png_scale: 1.0,
-            png_offset: 0.0,
+            png_scale: None,
+            png_offset: None,
             band: 1,
             nodata: None,
             sea_level: None,
@@ -120,28 +121,46 @@ pub fn open_raster(path: &Path, opts: &OpenOptions) -> Result<Box<dyn RasterSour
             opts.band
         )));
     }
+    let mut scaling = None;
     let src: Box<dyn RasterSource> = match format {
-        Format::GeoTiff => Box::new(GeoTiffReader::open_with(
-            path,
-            &ReaderOptions {
-                band: opts.band,
-                ..Default::default()
-            },
-        )?),
+        Format::GeoTiff => {
+            let r = GeoTiffReader::open_with(
+                path,
+                &ReaderOptions {
+                    band: opts.band,
+                    ..Default::default()
+                },
+            )?;
+            scaling = r.file_scaling();
+            Box::new(r)
+        }
         Format::Hgt => Box::new(super::hgt::read_hgt(path)?),
         Format::Ascii => Box::new(super::ascii::read_ascii(path)?),
-        Format::Png => Box::new(super::png::read_png_heightmap(
-            path,
-            opts.png_scale,
-            opts.png_offset,
-        )?),
+        Format::Png => {
+            let given = (opts.png_scale.is_some() || opts.png_offset.is_some()).then(|| {
+                crate::raster::Scaling {
+                    scale: opts.png_scale.unwrap_or(1.0),
+                    offset: opts.png_offset.unwrap_or(0.0),
+                }
+            });
+            Box::new(super::png::read_png(path, given)?)
+        }
         Format::Store => Box::new(TileStore::open(path)?),
     };
     let mask = match &opts.mask {
         Some(m) => Some(open_raster(m, &OpenOptions::default())?),
         None => None,
     };
-    super::reassign::reassign(src, opts.nodata, opts.sea_level, mask)
+    match scaling.filter(|s| !s.is_identity()) {
+        // The nodata value is the raw cells' (as GDAL compares it), the sea
+        // level an elevation: reassign the one, scale, then mask the other.
+        Some(s) => {
+            let raw = super::reassign::reassign(src, opts.nodata, None, None)?;
+            let scaled = super::scaling::unscale(raw, s);
+            super::reassign::reassign(scaled, None, opts.sea_level, mask)
+        }
+        None => super::reassign::reassign(src, opts.nodata, opts.sea_level, mask),
+    }
 }
 
 /// Open one input or a mosaic of several (directories expand to the rasters
@@ -176,6 +195,10 @@ pub struct OutputOptions {
     /// Outputs kept in memory instead of written (the paths they claim);
     /// `None`: every output is written.
     pub memory: Option<crate::store::sink::MemoryOutputs>,
+    /// PNG heightmap outputs: metres per unit and elevation of 0 (None: from
+    /// the data's range, [`crate::io::png::output_scaling`]).
+    pub png_scale: Option<f64>,
+    pub png_offset: Option<f64>,
 }
 
 /// How a Cloud-Optimized GeoTIFF's overviews are made.
@@ -299,11 +322,14 @@ pub fn create_sink(
             oo.store,
             provenance,
         )?),
-        "png" => whole(Box::new(move |g, geo| {
-            let g = g.to_typed::<f32>(geo.nodata);
-            let (lo, hi) = crate::io::png::finite_range(&g);
-            crate::io::png::write_png16(&p, &g, lo, hi).map(|_| ())
-        }))?,
+        "png" => {
+            let (scale, offset) = (oo.png_scale, oo.png_offset);
+            whole(Box::new(move |g, geo| {
+                let g = g.to_typed::<f32>(geo.nodata);
+                let m = crate::io::png::output_scaling(&g, scale, offset);
+                crate::io::png::write_png16_mapped(&p, &g, m)
+            }))?
+        }
         "asc" => whole(Box::new(move |g, geo| {
             crate::io::ascii::write_ascii(&p, &g, geo)
         }))?,

@@ -1,8 +1,13 @@
 //! Greyscale PNG heightmaps (8- or 16-bit, optionally with alpha), the format
 //! of game engines and of many terrain-synthesis papers' data sets.
 //!
-//! A sample `v` means the elevation `offset + v * scale`; the mapping is not
-//! stored in the file, so the caller supplies it. Alpha 0 marks nodata. PNG
+//! A sample `v` means the elevation `offset + v * scale`. PNG has no field
+//! for it; orogen's writes record it twice, in `tEXt` chunks
+//! (`height_scale`, `height_offset`) and in a GDAL PAM sidecar
+//! (`<file>.aux.xml`, band 1 `<Scale>`/`<Offset>`, which `gdalinfo` reports
+//! and `gdal_translate -unscale` applies), and reads take it from there
+//! unless the caller gives one (`--png-scale`/`--png-offset`). Alpha 0
+//! marks nodata. PNG
 //! carries no georeference: the result uses pixel coordinates
 //! ([`GeoRef::pixel`]). Decoding uses the `png` crate with its allocation
 //! limit set from the file size (deflate expands at most ~1032:1, RFC 1951),
@@ -10,7 +15,7 @@
 
 use super::ascii::tmp_path;
 use crate::error::{Error, IoContext, Result};
-use crate::raster::{AnyGrid, GeoRef, Grid, MemRaster};
+use crate::raster::{AnyGrid, GeoRef, Grid, MemRaster, Scaling};
 use std::io::{BufReader, Write};
 use std::path::Path;
 
@@ -36,7 +41,21 @@ fn png_err(path: &Path, e: ::png::DecodingError) -> Error {
 /// Colour PNGs are rejected (they are not heightmaps unless encoded, e.g.
 /// Terrain-RGB, which this reader does not decode).
 pub fn read_png_heightmap(path: impl AsRef<Path>, scale: f64, offset: f64) -> Result<MemRaster> {
-    let path = path.as_ref();
+    read_png(path.as_ref(), Some(Scaling { scale, offset }))
+}
+
+/// Read a greyscale PNG heightmap with the mapping `mapping`, or, when
+/// None, the one the file records ([`recorded_scaling`]: orogen's `tEXt`
+/// chunks, else a GDAL `.aux.xml` sidecar), else the samples as they are.
+pub fn read_png(path: &Path, mapping: Option<Scaling>) -> Result<MemRaster> {
+    let mapping = match mapping {
+        Some(m) => m,
+        None => recorded_scaling(path)?.unwrap_or(Scaling {
+            scale: 1.0,
+            offset: 0.0,
+        }),
+    };
+    let (scale, offset) = (mapping.scale, mapping.offset);
     if !scale.is_finite() || !offset.is_finite() {
         return Err(Error::invalid(format!(
             "{}: PNG scale and offset must be finite (got {scale}, {offset})",
@@ -135,7 +154,11 @@ pub fn read_png_heightmap(path: impl AsRef<Path>, scale: f64, offset: f64) -> Re
 /// 0..=65535 (values outside are clamped). NaN cells make the file grey+alpha
 /// with alpha 0 there. Returns `(scale, offset)` such that
 /// `elevation ≈ offset + v * scale`, to pass to [`read_png_heightmap`]; the
-/// quantisation error is at most `scale / 2`. Written atomically.
+/// quantisation error is at most `scale / 2`. The mapping is recorded in
+/// the file ([`SCALE_KEY`], [`OFFSET_KEY`] `tEXt` chunks, read back by
+/// [`read_png`]) and in a GDAL PAM sidecar `<path>.aux.xml` (band Scale and
+/// Offset, so `gdalinfo` reports them and `gdal_translate -unscale` gives
+/// metres). Written atomically.
 pub fn write_png16(
     path: impl AsRef<Path>,
     grid: &Grid<f32>,
@@ -149,6 +172,60 @@ pub fn write_png16(
             path.display()
         )));
     }
+    let m = Scaling {
+        scale: (max - min) / 65535.0,
+        offset: min,
+    };
+    encode_to(path, grid, m, false)?;
+    Ok((m.scale, m.offset))
+}
+
+/// `tEXt` keyword of the metres per PNG unit of orogen's heightmaps.
+pub const SCALE_KEY: &str = "height_scale";
+/// `tEXt` keyword of the elevation of PNG value 0.
+pub const OFFSET_KEY: &str = "height_offset";
+
+/// The mapping an output PNG is written with: `given` (either part may be
+/// left to the data: the offset to its minimum, the scale to fit its maximum
+/// into 65535 units), else the finite range of `grid` ([`finite_range`]).
+pub fn output_scaling(
+    grid: &Grid<f32>,
+    scale: Option<f64>,
+    offset: Option<f64>,
+) -> Scaling {
+    let (lo, hi) = finite_range(grid);
+    let offset = offset.unwrap_or(lo);
+    let scale = scale.unwrap_or_else(|| {
+        let s = (hi - offset) / 65535.0;
+        if s > 0.0 && s.is_finite() {
+            s
+        } else {
+            (hi - lo) / 65535.0
+        }
+    });
+    Scaling { scale, offset }
+}
+
+/// Write `grid` as a 16-bit greyscale PNG with sample `v` meaning
+/// `offset + v * scale` (see [`write_png16`] for what is recorded). A cell
+/// the mapping cannot hold (below `offset` or above `offset + 65535 *
+/// scale` by more than half a unit) is an error naming the range and the
+/// fix; nothing is written then.
+pub fn write_png16_mapped(path: &Path, grid: &Grid<f32>, m: Scaling) -> Result<()> {
+    encode_to(path, grid, m, true)
+}
+
+/// Quantise `grid` with `m` and write it (with its records); `strict`: a
+/// cell outside the mapping's range is an error, else it is clamped.
+fn encode_to(path: &Path, grid: &Grid<f32>, m: Scaling, strict: bool) -> Result<()> {
+    if !(m.scale.is_finite() && m.scale > 0.0 && m.offset.is_finite()) {
+        return Err(Error::invalid(format!(
+            "{}: a PNG heightmap needs a finite scale > 0 and a finite offset (got scale {}, offset {})",
+            path.display(),
+            m.scale,
+            m.offset
+        )));
+    }
     let (w, h) = (grid.width(), grid.height());
     let (Ok(w32), Ok(h32)) = (u32::try_from(w), u32::try_from(h)) else {
         return Err(Error::invalid(format!(
@@ -159,7 +236,19 @@ pub fn write_png16(
     if w == 0 || h == 0 {
         return Err(Error::invalid(format!("{}: empty grid", path.display())));
     }
-    let scale = (max - min) / 65535.0;
+    let (lo, hi) = finite_range(grid);
+    let top = m.offset + 65535.0 * m.scale;
+    let half = 0.5 * m.scale;
+    if strict && grid.data().iter().any(|v| v.is_finite()) && (lo < m.offset - half || hi > top + half) {
+        return Err(Error::invalid(format!(
+            "{}: the values {lo}..{hi} do not fit the PNG mapping (offset {}, scale {}: {}..{top}); give an offset ≤ {lo} and a scale ≥ {:e} (--png-out-offset, --png-out-scale), or leave them to the data",
+            path.display(),
+            m.offset,
+            m.scale,
+            m.offset,
+            (hi - m.offset.min(lo)) / 65535.0
+        )));
+    }
     let alpha = grid.data().iter().any(|v| v.is_nan());
     let chans = if alpha { 2 } else { 1 };
     let mut data = Vec::with_capacity(w * h * 2 * chans);
@@ -167,7 +256,9 @@ pub fn write_png16(
         let (q, a) = if v.is_nan() {
             (0u16, 0u16)
         } else {
-            let q = ((v as f64 - min) / scale).round().clamp(0.0, 65535.0) as u16;
+            let q = ((v as f64 - m.offset) / m.scale)
+                .round()
+                .clamp(0.0, 65535.0) as u16;
             (q, 65535u16)
         };
         data.extend_from_slice(&q.to_be_bytes());
@@ -175,11 +266,92 @@ pub fn write_png16(
             data.extend_from_slice(&a.to_be_bytes());
         }
     }
+    let text = [
+        (SCALE_KEY, format!("{:?}", m.scale)),
+        (OFFSET_KEY, format!("{:?}", m.offset)),
+    ];
     let mut encoded = Vec::new();
-    encode_png(&mut encoded, w32, h32, alpha_color(alpha), &data)
+    encode_png_text(&mut encoded, w32, h32, alpha_color(alpha), &data, &text)
         .map_err(|e| Error::io(path, std::io::Error::other(e.to_string())))?;
     write_atomic(path, &encoded)?;
-    Ok((scale, min))
+    write_atomic(&aux_path(path), pam_sidecar(m).as_bytes())
+}
+
+/// The GDAL PAM sidecar of `path` (`<path>.aux.xml`).
+pub fn aux_path(path: &Path) -> std::path::PathBuf {
+    let mut p = path.as_os_str().to_owned();
+    p.push(".aux.xml");
+    p.into()
+}
+
+/// A PAM dataset whose band 1 has scale and offset `m` (GDAL's
+/// `PAMRasterBand` `<Offset>`, `<Scale>`).
+fn pam_sidecar(m: Scaling) -> String {
+    format!(
+        "<PAMDataset>\n  <PAMRasterBand band=\"1\">\n    <Offset>{:?}</Offset>\n    <Scale>{:?}</Scale>\n  </PAMRasterBand>\n</PAMDataset>\n",
+        m.offset, m.scale
+    )
+}
+
+/// The mapping a PNG records: its [`SCALE_KEY`]/[`OFFSET_KEY`] `tEXt`
+/// chunks (those before the image data, where orogen writes them), else
+/// band 1's Scale/Offset in a GDAL `.aux.xml` sidecar beside it; None when
+/// neither is there. A recorded value that is not a finite number is an
+/// error naming the file.
+pub fn recorded_scaling(path: &Path) -> Result<Option<Scaling>> {
+    let f = std::fs::File::open(path).at(path)?;
+    let dec = ::png::Decoder::new(BufReader::new(f));
+    let reader = dec.read_info().map_err(|e| png_err(path, e))?;
+    let (mut scale, mut offset) = (None, None);
+    for t in &reader.info().uncompressed_latin1_text {
+        let slot = match t.keyword.as_str() {
+            SCALE_KEY => &mut scale,
+            OFFSET_KEY => &mut offset,
+            _ => continue,
+        };
+        let v = t.text.trim().parse::<f64>().ok().filter(|v| v.is_finite());
+        *slot = Some(v.ok_or_else(|| {
+            Error::corrupt(
+                path,
+                format!(
+                    "tEXt {} holds {:?}, not a number; pass --png-scale and --png-offset",
+                    t.keyword, t.text
+                ),
+            )
+        })?);
+    }
+    if scale.is_some() || offset.is_some() {
+        return Ok(Some(Scaling {
+            scale: scale.unwrap_or(1.0),
+            offset: offset.unwrap_or(0.0),
+        }));
+    }
+    let aux = aux_path(path);
+    match std::fs::read_to_string(&aux) {
+        Ok(xml) => Ok(pam_band1(&xml)),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+        Err(e) => Err(Error::io(&aux, e)),
+    }
+}
+
+/// Band 1's `<Scale>` and `<Offset>` in a PAM sidecar's XML.
+fn pam_band1(xml: &str) -> Option<Scaling> {
+    let start = xml
+        .find("<PAMRasterBand band=\"1\"")
+        .or_else(|| xml.find("<PAMRasterBand band='1'"))?;
+    let band = &xml[start..];
+    let band = &band[..band.find("</PAMRasterBand>").unwrap_or(band.len())];
+    let value = |tag: &str| -> Option<f64> {
+        let open = format!("<{tag}>");
+        let i = band.find(&open)? + open.len();
+        let j = band[i..].find('<')? + i;
+        band[i..j].trim().parse::<f64>().ok().filter(|v| v.is_finite())
+    };
+    let (scale, offset) = (value("Scale"), value("Offset"));
+    (scale.is_some() || offset.is_some()).then(|| Scaling {
+        scale: scale.unwrap_or(1.0),
+        offset: offset.unwrap_or(0.0),
+    })
 }
 
 fn alpha_color(alpha: bool) -> ::png::ColorType {
@@ -198,12 +370,27 @@ pub(crate) fn encode_png(
     color: ::png::ColorType,
     data: &[u8],
 ) -> std::result::Result<(), ::png::EncodingError> {
+    encode_png_text(out, w, h, color, data, &[])
+}
+
+/// [`encode_png`] with `tEXt` chunks (keyword, text) before the image data.
+pub(crate) fn encode_png_text(
+    out: &mut Vec<u8>,
+    w: u32,
+    h: u32,
+    color: ::png::ColorType,
+    data: &[u8],
+    text: &[(&str, String)],
+) -> std::result::Result<(), ::png::EncodingError> {
     let mut enc = ::png::Encoder::new(out, w, h);
     enc.set_color(color);
     enc.set_depth(match color {
         ::png::ColorType::Grayscale | ::png::ColorType::GrayscaleAlpha => ::png::BitDepth::Sixteen,
         _ => ::png::BitDepth::Eight,
     });
+    for (k, v) in text {
+        enc.add_text_chunk(k.to_string(), v.clone())?;
+    }
     let mut wr = enc.write_header()?;
     wr.write_image_data(data)?;
     wr.finish()

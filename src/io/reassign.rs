@@ -140,6 +140,9 @@ impl RasterSource for Borrowed<'_> {
     fn unused_georef(&self) -> Option<&str> {
         self.0.unused_georef()
     }
+    fn scaling(&self) -> Option<crate::raster::Scaling> {
+        self.0.scaling()
+    }
 }
 
 /// Cells of `g` set to `nodata` (NaN when None: float rasters only) where
@@ -187,6 +190,10 @@ impl RasterSource for Reassigned<'_> {
 
     fn unused_georef(&self) -> Option<&str> {
         self.inner.unused_georef()
+    }
+
+    fn scaling(&self) -> Option<crate::raster::Scaling> {
+        self.inner.scaling()
     }
 }
 

@@ -55,6 +55,9 @@ pub struct Description {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub unused_georef: Option<String>,
     pub block: (usize, usize),
+    /// The band's scale and offset, applied on read (`raw * scale + offset`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub scaling: Option<crate::raster::Scaling>,
     /// Cell size in metres at the middle row (east-west, north-south).
     pub cell_size_m: (f64, f64),
     pub stats: Option<crate::exec::stats::StatsSummary>,
@@ -114,6 +117,7 @@ pub fn describe(src: &dyn RasterSource, stats: bool, cfg: &EngineConfig) -> Resu
         georeferenced: g.georeferenced,
         unused_georef: src.unused_georef().map(str::to_string),
         block: info.block,
+        scaling: src.scaling(),
         cell_size_m: g.cell_size_m(info.height as i64 / 2),
         stats,
     })
@@ -132,6 +136,13 @@ pub fn describe_text(d: &Description) -> String {
     let _ = writeln!(s, "  block       {} x {}", d.block.0, d.block.1);
     if let Some(u) = &d.unused_georef {
         let _ = writeln!(s, "  not used    {u}");
+    }
+    if let Some(sc) = &d.scaling {
+        let _ = writeln!(
+            s,
+            "  scaling     raw * {} + {} (the band's scale and offset, applied on read)",
+            sc.scale, sc.offset
+        );
     }
     if d.georeferenced {
         let crs = match d.epsg {

@@ -279,6 +279,11 @@ pub struct FormatOptions {
     /// COG overview resampling: auto (by what each output holds: nearest
     /// for classes, codes and angles, average otherwise), average or nearest.
     pub overviews: String,
+    /// PNG heightmap outputs: metres per PNG unit (None: the data's range
+    /// over 0..65535).
+    pub png_out_scale: Option<f64>,
+    /// PNG heightmap outputs: elevation of PNG value 0 (None: the data's minimum).
+    pub png_out_offset: Option<f64>,
 }
 
 impl Default for FormatOptions {
@@ -293,6 +298,8 @@ impl Default for FormatOptions {
             overwrite: false,
             cog: false,
             overviews: "auto".into(),
+            png_out_scale: None,
+            png_out_offset: None,
         }
     }
 }
@@ -360,11 +367,24 @@ impl FormatOptions {
         } else {
             None
         };
+        for (flag, v) in [
+            ("--png-out-scale", self.png_out_scale),
+            ("--png-out-offset", self.png_out_offset),
+        ] {
+            if v.is_some_and(|v| !v.is_finite() || (flag == "--png-out-scale" && v <= 0.0)) {
+                return bad(format!(
+                    "{flag} {}: give a finite number (a scale > 0)",
+                    v.unwrap_or(f64::NAN)
+                ));
+            }
+        }
         Ok(OutputOptions {
             tiff,
             store,
             cog,
             memory: None,
+            png_scale: self.png_out_scale,
+            png_offset: self.png_out_offset,
         })
     }
 }
@@ -377,10 +397,10 @@ impl FormatOptions {
 pub struct InputOptions {
     /// The band read from a multi-band GeoTIFF (1-based).
     pub band: usize,
-    /// Metres per PNG unit.
-    pub png_scale: f64,
-    /// Elevation of PNG value 0.
-    pub png_offset: f64,
+    /// Metres per PNG unit (None: the mapping the PNG records, else 1).
+    pub png_scale: Option<f64>,
+    /// Elevation of PNG value 0 (None: the recorded one, else 0).
+    pub png_offset: Option<f64>,
     /// The input's nodata value (replaces the file's, or assigns one).
     pub nodata: Option<f64>,
     /// Cells at or below this elevation are nodata (the sea is an outlet).
@@ -393,8 +413,8 @@ impl Default for InputOptions {
     fn default() -> Self {
         InputOptions {
             band: 1,
-            png_scale: 1.0,
-            png_offset: 0.0,
+            png_scale: None,
+            png_offset: None,
             nodata: None,
             sea_level: None,
             mask: None,

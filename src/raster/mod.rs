@@ -17,7 +17,8 @@ pub use dtype::{Cell, DType, OutputKind};
 pub use georef::{Crs, GeoKeys, GeoRef, RasterType};
 pub use grid::{AnyGrid, Grid, IntoAny};
 pub use source::{
-    read_view, read_window, read_window_native, MemRaster, RasterInfo, RasterSource, SliceRaster,
+    read_view, read_window, read_window_native, MemRaster, RasterInfo, RasterSource, Scaling,
+    SliceRaster,
 };
 pub use tiling::{
     cross_tile_pairs, perimeter_cells, perimeter_index, perimeter_len, TileId, TileLayout, TileView,

@@ -42,6 +42,26 @@ pub trait RasterSource: Send + Sync {
     fn unused_georef(&self) -> Option<&str> {
         None
     }
+    /// The scale and offset applied to the file's raw cells on read
+    /// (`raw * scale + offset`, GDAL's band Scale/Offset); `None` when the
+    /// cells are read as stored.
+    fn scaling(&self) -> Option<Scaling> {
+        None
+    }
+}
+
+/// A band's scale and offset: a cell means `raw * scale + offset`.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Scaling {
+    pub scale: f64,
+    pub offset: f64,
+}
+
+impl Scaling {
+    /// True when applying it changes nothing (scale 1, offset 0).
+    pub fn is_identity(&self) -> bool {
+        self.scale == 1.0 && self.offset == 0.0
+    }
 }
 
 /// Read any window of `src` converted to `T`. Cells outside the raster are

@@ -13,3 +13,4 @@ mod geotiff_write;
 mod hgt;
 mod mosaic;
 mod png;
+mod scaling;

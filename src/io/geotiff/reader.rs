@@ -85,6 +85,9 @@ pub struct GeoTiffReader {
     band: (usize, usize),
     /// Georeferencing in the file that is not used (GCPs, RPCs).
     unused_georef: Option<String>,
+    /// The read band's scale and offset in GDAL_METADATA (not applied
+    /// here: [`super::super::scaling::unscale`] does).
+    file_scaling: Option<crate::raster::Scaling>,
     /// float16 samples, presented as float32.
     half: bool,
     /// LERC compression (its additional layer) and every block's offset and
@@ -544,6 +547,8 @@ impl GeoTiffReader {
         let (mut georef, tiepoints) = read_georef(&mut dec, path, dtype)?;
         let gcps = tiepoints > 1;
         let unused_georef = unused_georef(&mut dec, path, tiepoints)?;
+        let file_scaling = tag_ascii(&mut dec, path, 42112)?
+            .and_then(|xml| crate::io::scaling::from_gdal_metadata(&xml, opts.band));
         if gcps && !georef.georeferenced {
             // The GeoKeys are the ground control points' CRS, not a CRS of
             // the grid (GDAL reports the dataset without one).
@@ -626,6 +631,7 @@ impl GeoTiffReader {
             },
             band: (opts.band, samples),
             unused_georef,
+            file_scaling,
             half,
             lerc,
             old_lzw,
@@ -640,6 +646,12 @@ impl GeoTiffReader {
             pool: Mutex::new(vec![dec]),
             cache: Mutex::new(BlockCache::new(opts.cache_bytes)),
         })
+    }
+
+    /// The read band's scale and offset as GDAL_METADATA records them
+    /// (`raw * scale + offset`); the reader returns raw cells.
+    pub fn file_scaling(&self) -> Option<crate::raster::Scaling> {
+        self.file_scaling
     }
 
     /// The file path.
