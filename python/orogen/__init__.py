@@ -409,17 +409,19 @@ def _doc(f):
 
 
 @_doc
-def fill(dem, *, transform=None, crs=None, nodata=None, sea_level=None, mask=None, output=None, memory=None, tile=None, threads=0, format=None, progress=None):
+def fill(dem, *, sinks=None, transform=None, crs=None, nodata=None, sea_level=None, mask=None, output=None, memory=None, tile=None, threads=0, format=None, progress=None):
     """Fill the depressions of ``dem`` (``orogen fill``): Priority-Flood
     (Barnes, Lehman & Mulla 2014), exact across tiles (Barnes 2016). Nodata
-    cells and the edge are outlets.
+    cells and the edge are outlets, and so are the declared ``sinks`` (a
+    path: a raster on the DEM's grid, non-zero = sink, or a CSV/GeoJSON of
+    points): an endorheic basin drains into its sink.
 
     >>> import numpy as np, orogen
     >>> dem = np.full((5, 5), 10.0, dtype=np.float32); dem[2, 2] = 2.0
     >>> float(orogen.fill(dem)[2, 2])
     10.0
     """
-    return _raster_op("fill", dem, {}, transform=transform, crs=crs, nodata=nodata, sea_level=sea_level, mask=mask, output=output,
+    return _raster_op("fill", dem, {"sinks": None if sinks is None else str(sinks)}, transform=transform, crs=crs, nodata=nodata, sea_level=sea_level, mask=mask, output=output,
                       memory=memory, tile=tile, threads=threads, format=format, progress=progress)
 
 
@@ -450,14 +452,15 @@ def breach(dem, *, method="breach", max_depth=None, max_length=None, dist=50, fi
 
 
 @_doc
-def flow(dem, *, method="d8", seed=0, transform=None, crs=None, nodata=None, sea_level=None, mask=None, output=None, memory=None, tile=None,
+def flow(dem, *, method="d8", seed=0, sinks=None, transform=None, crs=None, nodata=None, sea_level=None, mask=None, output=None, memory=None, tile=None,
          threads=0, format=None, progress=None):
     """D8 flow directions of a filled DEM (``orogen flow``) as ESRI codes
     (1 E, 2 SE, 4 S, 8 SW, 16 W, 32 NW, 64 N, 128 NE; 0 no flow, 255
     nodata), uint8; flats drained per Barnes, Lehman & Mulla 2014, exact
     across tiles. ``method="rho8"``: Fairfield & Leymarie 1991, seeded by
-    ``seed``."""
-    return _raster_op("flow", dem, {"method": method, "seed": seed}, transform=transform, crs=crs, nodata=nodata, sea_level=sea_level, mask=mask,
+    ``seed``. ``sinks``: the declared sinks given to :func:`fill` (D8 only):
+    their cells get no flow (0) and the flats around them drain into them."""
+    return _raster_op("flow", dem, {"method": method, "seed": seed, "sinks": None if sinks is None else str(sinks)}, transform=transform, crs=crs, nodata=nodata, sea_level=sea_level, mask=mask,
                       output=output, memory=memory, tile=tile, threads=threads, format=format, progress=progress)
 
 

@@ -48,7 +48,7 @@ class Raster:
 def open(path: PathLike) -> Raster: ...
 def defaults(op: str) -> Dict[str, Any]: ...
 def fill(
-    dem: DemInput, *, transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., sea_level: Optional[float] = ..., mask: Optional[Union[PathLike, Raster]] = ...,
+    dem: DemInput, *, sinks: Optional[PathLike] = ..., transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., sea_level: Optional[float] = ..., mask: Optional[Union[PathLike, Raster]] = ...,
     output: Optional[PathLike] = ..., memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
     format: Optional[Mapping[str, Any]] = ..., progress: Progress = ...,
 ) -> Any: ...
@@ -66,7 +66,7 @@ def breach(
 ) -> Any: ...
 def flow(
     dem: DemInput, *, method: str = ..., seed: int = ...,
-    transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., sea_level: Optional[float] = ..., mask: Optional[Union[PathLike, Raster]] = ...,
+    sinks: Optional[PathLike] = ..., transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., sea_level: Optional[float] = ..., mask: Optional[Union[PathLike, Raster]] = ...,
     output: Optional[PathLike] = ..., memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
     format: Optional[Mapping[str, Any]] = ..., progress: Progress = ...,
 ) -> Any: ...

@@ -119,7 +119,10 @@ fn need_halo<T>(v: &TileView<T>, step: &str) -> Result<()> {
 
 // ---------------------------------------------------------------- fill ----
 
-/// Global depression filling across tiles (Barnes 2016); see the module docs.
+/// Global depression filling across tiles (Barnes 2016); see the module
+/// docs. Input 0: the DEM; input 1 (optional): declared sinks (non-zero =
+/// sink, [`crate::io::sinks`]), outlets like the DEM's edge: seeds of the
+/// flood at their own elevation, never raised.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct TiledFill;
 
@@ -160,9 +163,18 @@ struct TileFlood {
     h: usize,
 }
 
-/// Flood one tile from its perimeter and true outlets; spill pairs go to
-/// `on_spill`.
-fn flood_tile(v: &TileView<f32>, on_spill: impl FnMut(u32, u32, f32)) -> Result<TileFlood> {
+/// A declared sink's cell in a sink raster read as f32 ([`crate::io::sinks`]).
+pub(crate) fn is_sink(v: f32) -> bool {
+    v != 0.0 && !v.is_nan()
+}
+
+/// Flood one tile from its perimeter and true outlets (and the declared
+/// sinks of `sinks`, non-zero cells); spill pairs go to `on_spill`.
+fn flood_tile(
+    v: &TileView<f32>,
+    sinks: Option<&TileView<f32>>,
+    on_spill: impl FnMut(u32, u32, f32),
+) -> Result<TileFlood> {
     need_halo(v, "fill")?;
     let (w, h) = (v.core.w, v.core.h);
     if w.checked_mul(h).is_none_or(|n| n > super::fill::MAX_CELLS) {
@@ -187,7 +199,8 @@ fn flood_tile(v: &TileView<f32>, on_spill: impl FnMut(u32, u32, f32)) -> Result<
                 continue;
             }
             let perim = edge_row || x == 0 || x + 1 == w;
-            let outlet = (0..8).any(|d| !valid(v.at(x as i64 + DX[d], y as i64 + DY[d])));
+            let outlet = (0..8).any(|d| !valid(v.at(x as i64 + DX[d], y as i64 + DY[d])))
+                || sinks.is_some_and(|s| is_sink(s.at(x as i64, y as i64)));
             if outlet {
                 labels[i] = 1;
                 seeds.push(i);
@@ -235,7 +248,7 @@ impl GlobalStep for TiledFill {
             .first()
             .ok_or_else(|| Error::invalid("fill needs one input (the DEM)"))?;
         let mut spill: HashMap<(u32, u32), f32> = HashMap::new();
-        let f = flood_tile(v, |a, b, e| {
+        let f = flood_tile(v, inputs.get(1), |a, b, e| {
             let key = if a < b { (a, b) } else { (b, a) };
             spill
                 .entry(key)
@@ -397,7 +410,7 @@ impl GlobalStep for TiledFill {
         let v = inputs
             .first()
             .ok_or_else(|| Error::invalid("fill needs one input (the DEM)"))?;
-        let f = flood_tile(v, |_, _, _| {})?;
+        let f = flood_tile(v, inputs.get(1), |_, _, _| {})?;
         if f.count as usize != slice.len() {
             return Err(Error::invalid(
                 "fill apply: slice does not belong to this tile",

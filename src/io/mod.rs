@@ -14,6 +14,7 @@ pub mod open;
 pub mod png;
 pub mod reassign;
 pub mod scaling;
+pub mod sinks;
 pub mod vector;
 
 pub use open::{

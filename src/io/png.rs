@@ -188,11 +188,7 @@ pub const OFFSET_KEY: &str = "height_offset";
 /// The mapping an output PNG is written with: `given` (either part may be
 /// left to the data: the offset to its minimum, the scale to fit its maximum
 /// into 65535 units), else the finite range of `grid` ([`finite_range`]).
-pub fn output_scaling(
-    grid: &Grid<f32>,
-    scale: Option<f64>,
-    offset: Option<f64>,
-) -> Scaling {
+pub fn output_scaling(grid: &Grid<f32>, scale: Option<f64>, offset: Option<f64>) -> Scaling {
     let (lo, hi) = finite_range(grid);
     let offset = offset.unwrap_or(lo);
     let scale = scale.unwrap_or_else(|| {
@@ -239,7 +235,10 @@ fn encode_to(path: &Path, grid: &Grid<f32>, m: Scaling, strict: bool) -> Result<
     let (lo, hi) = finite_range(grid);
     let top = m.offset + 65535.0 * m.scale;
     let half = 0.5 * m.scale;
-    if strict && grid.data().iter().any(|v| v.is_finite()) && (lo < m.offset - half || hi > top + half) {
+    if strict
+        && grid.data().iter().any(|v| v.is_finite())
+        && (lo < m.offset - half || hi > top + half)
+    {
         return Err(Error::invalid(format!(
             "{}: the values {lo}..{hi} do not fit the PNG mapping (offset {}, scale {}: {}..{top}); give an offset ≤ {lo} and a scale ≥ {:e} (--png-out-offset, --png-out-scale), or leave them to the data",
             path.display(),
@@ -345,7 +344,11 @@ fn pam_band1(xml: &str) -> Option<Scaling> {
         let open = format!("<{tag}>");
         let i = band.find(&open)? + open.len();
         let j = band[i..].find('<')? + i;
-        band[i..j].trim().parse::<f64>().ok().filter(|v| v.is_finite())
+        band[i..j]
+            .trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
     };
     let (scale, offset) = (value("Scale"), value("Offset"));
     (scale.is_some() || offset.is_some()).then(|| Scaling {

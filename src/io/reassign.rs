@@ -76,25 +76,7 @@ pub fn reassign<'a>(
         }
     }
     if let Some(m) = &mask {
-        let mi = m.info();
-        let mpath = mi.path.display();
-        if (mi.width, mi.height) != (info.width, info.height) {
-            return Err(Error::invalid(format!(
-                "{mpath}: the mask is {}x{} cells and {path} is {}x{}; give a mask on the input's grid (e.g. gdalwarp -te/-ts to it)",
-                mi.width, mi.height, info.width, info.height
-            )));
-        }
-        let (a, b) = (&mi.georef, &info.georef);
-        let off = a
-            .transform
-            .iter()
-            .zip(&b.transform)
-            .any(|(x, y)| (x - y).abs() > 1e-9 * x.abs().max(y.abs()).max(1e-6));
-        if a.georeferenced && b.georeferenced && off {
-            return Err(Error::invalid(format!(
-                "{mpath}: the mask's grid (origin and cell size) is not {path}'s; give a mask on the input's grid (e.g. gdalwarp -te/-ts to it)"
-            )));
-        }
+        same_grid(m.info(), &info, "mask")?;
     }
     Ok(Box::new(Reassigned {
         inner,
@@ -102,6 +84,31 @@ pub fn reassign<'a>(
         sea_level,
         mask,
     }))
+}
+
+/// `side` (a `what`: "mask", "sink raster") is on `dem`'s grid: the same
+/// size and, when both are georeferenced, the same origin and cell size;
+/// else an error naming both files and the fix.
+pub(crate) fn same_grid(side: &RasterInfo, dem: &RasterInfo, what: &str) -> Result<()> {
+    let (mpath, path) = (side.path.display(), dem.path.display());
+    if (side.width, side.height) != (dem.width, dem.height) {
+        return Err(Error::invalid(format!(
+            "{mpath}: the {what} is {}x{} cells and {path} is {}x{}; give a {what} on the input's grid (e.g. gdalwarp -te/-ts to it)",
+            side.width, side.height, dem.width, dem.height
+        )));
+    }
+    let (a, b) = (&side.georef, &dem.georef);
+    let off = a
+        .transform
+        .iter()
+        .zip(&b.transform)
+        .any(|(x, y)| (x - y).abs() > 1e-9 * x.abs().max(y.abs()).max(1e-6));
+    if a.georeferenced && b.georeferenced && off {
+        return Err(Error::invalid(format!(
+            "{mpath}: the {what}'s grid (origin and cell size) is not {path}'s; give a {what} on the input's grid (e.g. gdalwarp -te/-ts to it)"
+        )));
+    }
+    Ok(())
 }
 
 /// The value `v` as the cells of `dtype` hold it (f32: rounded to f32, so

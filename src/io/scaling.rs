@@ -180,7 +180,10 @@ mod tests {
         );
         assert_eq!(from_gdal_metadata(xml, 3), None);
         assert_eq!(
-            from_gdal_metadata(r#"<GDALMetadata><Item name="STATISTICS_MAXIMUM" sample="0">3</Item></GDALMetadata>"#, 1),
+            from_gdal_metadata(
+                r#"<GDALMetadata><Item name="STATISTICS_MAXIMUM" sample="0">3</Item></GDALMetadata>"#,
+                1
+            ),
             None
         );
         assert_eq!(from_gdal_metadata("<GDALMetadata>", 1), None);

@@ -1,16 +1,21 @@
 //! `orogen fill`: fill depressions (Priority-Flood, Barnes, Lehman & Mulla
-//! 2014; exact across tiles after Barnes 2016). Nodata cells and the DEM's
-//! edge are outlets.
+//! 2014; exact across tiles after Barnes 2016). Nodata cells, the DEM's
+//! edge and declared sinks (`sinks`, [`crate::io::sinks`]) are outlets.
 
 use super::Target;
 use crate::error::Result;
 use crate::exec::EngineConfig;
 use crate::raster::RasterSource;
 
-/// Options of `orogen fill` (none yet: the fill is parameter-free).
+/// Options of `orogen fill`.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
-pub struct FillOptions {}
+pub struct FillOptions {
+    /// Declared sinks: a raster on the DEM's grid (non-zero = sink) or a
+    /// points file (CSV, GeoJSON), outlets like the edge: an endorheic
+    /// basin drains into its sink instead of filling to its spill point.
+    pub sinks: Option<std::path::PathBuf>,
+}
 
 /// Fill the depressions of `dem` into `target` (f32; nodata from
 /// [`crate::exec::output::elevation_nodata`]), exact across tiles.
@@ -29,9 +34,15 @@ pub struct FillOptions {}
 /// ```
 pub fn run(
     dem: &dyn RasterSource,
-    _opts: &FillOptions,
+    opts: &FillOptions,
     target: &Target,
     cfg: &EngineConfig,
 ) -> Result<()> {
-    target.run_global(&crate::hydro::tiled::TiledFill, &[dem], cfg)
+    match &opts.sinks {
+        None => target.run_global(&crate::hydro::tiled::TiledFill, &[dem], cfg),
+        Some(p) => {
+            let sinks = crate::io::sinks::open_sinks(p, dem.info())?;
+            target.run_global(&crate::hydro::tiled::TiledFill, &[dem, sinks.as_ref()], cfg)
+        }
+    }
 }

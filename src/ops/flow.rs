@@ -37,6 +37,10 @@ pub struct FlowOptions {
     pub method: FlowRouting,
     /// Rho8 seed (same seed, same directions, whatever the tiling).
     pub seed: u64,
+    /// Declared sinks (as for [`crate::ops::fill::FillOptions::sinks`]: give
+    /// the fill's): their cells get no flow (0) and the flats the fill left
+    /// around them drain into them. D8 only.
+    pub sinks: Option<std::path::PathBuf>,
 }
 
 /// Flow directions of the filled `dem` into `target` (u8, nodata
@@ -75,6 +79,21 @@ pub fn run(
     target: &Target,
     cfg: &EngineConfig,
 ) -> Result<()> {
+    if let Some(p) = &opts.sinks {
+        if opts.method != FlowRouting::D8 {
+            return Err(Error::invalid(format!(
+                "{}: declared sinks are routed by D8 only; drop --sinks or use --method d8",
+                p.display()
+            )));
+        }
+        let sinks = crate::io::sinks::open_sinks(p, dem.info())?;
+        let lowered = crate::io::sinks::lowered_at_sinks(dem, sinks.as_ref())?;
+        return target.run_global(
+            &crate::hydro::tiled::TiledD8,
+            &[&lowered, sinks.as_ref()],
+            cfg,
+        );
+    }
     match opts.method {
         FlowRouting::D8 => target.run_global(&crate::hydro::tiled::TiledD8, &[dem], cfg),
         FlowRouting::Rho8 => {

@@ -15,6 +15,7 @@ mod cli_breach;
 mod cli_fill_nodata;
 mod cli_fill_watersheds;
 mod cli_sea_level;
+mod cli_sinks;
 mod divergent;
 mod divergent_tiled;
 mod fill_nodata;

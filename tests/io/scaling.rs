@@ -44,7 +44,11 @@ fn scaled_geotiff_bands_read_as_gdal_unscales_them() {
         let src = open_raster(&dir().join(name), &opts).unwrap();
         let s = src.info();
         let wide = e["raw_dtype"] == "int32";
-        assert_eq!(s.dtype, if wide { DType::F64 } else { DType::F32 }, "{name}");
+        assert_eq!(
+            s.dtype,
+            if wide { DType::F64 } else { DType::F32 },
+            "{name}"
+        );
         assert_eq!(
             src.scaling(),
             Some(Scaling {
@@ -167,10 +171,19 @@ fn png_mapping_is_recorded_in_text_and_sidecar_and_read_back() {
         .iter()
         .map(|c| (c.keyword.clone(), c.text.clone()))
         .collect();
-    assert!(text.contains(&("height_scale".into(), "0.25".into())), "{text:?}");
-    assert!(text.contains(&("height_offset".into(), "-200.0".into())), "{text:?}");
+    assert!(
+        text.contains(&("height_scale".into(), "0.25".into())),
+        "{text:?}"
+    );
+    assert!(
+        text.contains(&("height_offset".into(), "-200.0".into())),
+        "{text:?}"
+    );
     let aux = std::fs::read_to_string(t.path().join("h.png.aux.xml")).unwrap();
-    assert!(aux.contains("<Scale>0.25</Scale>") && aux.contains("<Offset>-200.0</Offset>"), "{aux}");
+    assert!(
+        aux.contains("<Scale>0.25</Scale>") && aux.contains("<Offset>-200.0</Offset>"),
+        "{aux}"
+    );
     assert_eq!(recorded_scaling(&p).unwrap(), Some(m));
     // Read back without a mapping: metres (the ramp's values are multiples
     // of 0.25 from -200, so exact), the void as NaN.
@@ -179,7 +192,16 @@ fn png_mapping_is_recorded_in_text_and_sidecar_and_read_back() {
         assert!(g == w as f64 || (g.is_nan() && w.is_nan()), "{g} {w}");
     }
     // A given mapping overrides the recorded one.
-    let raw = read_all(&read_png(&p, Some(Scaling { scale: 1.0, offset: 0.0 })).unwrap());
+    let raw = read_all(
+        &read_png(
+            &p,
+            Some(Scaling {
+                scale: 1.0,
+                offset: 0.0,
+            }),
+        )
+        .unwrap(),
+    );
     assert_eq!(raw[0], (-120.5 + 200.0) / 0.25);
     // Without tEXt, the sidecar alone gives the mapping (a PNG scaled by
     // `gdal_edit -scale`).
@@ -231,12 +253,17 @@ fn png_output_mapping_is_honoured_and_a_misfit_refused() {
     // The data reach 1.5 + 13.25 * 22 + 0.75 * 8 ≈ 178.5 m: above what
     // 0.001 m steps from 0 can hold (65.535 m), and below the offset 0.
     let bad = t.path().join("bad.png");
-    let e = fails(orogen()
-        .args(["export"])
-        .arg(&src)
-        .arg("-o")
-        .arg(&bad)
-        .args(["--png-out-scale", "0.001", "--png-out-offset", "0"]));
-    assert!(e.contains("do not fit the PNG mapping") && e.contains("--png-out-scale"), "{e}");
+    let e = fails(
+        orogen()
+            .args(["export"])
+            .arg(&src)
+            .arg("-o")
+            .arg(&bad)
+            .args(["--png-out-scale", "0.001", "--png-out-offset", "0"]),
+    );
+    assert!(
+        e.contains("do not fit the PNG mapping") && e.contains("--png-out-scale"),
+        "{e}"
+    );
     assert!(!bad.exists() && !t.path().join("bad.png.aux.xml").exists());
 }

@@ -59,7 +59,10 @@ const FAR: u32 = u32::MAX;
 
 /// D8 flow directions with flats resolved exactly across tiles (equal to
 /// [`super::d8_directions`] bit for bit). Input: a filled DEM (f32, NaN =
-/// nodata), halo 2; output: ESRI codes (u8, [`NODATA_DIR`] for nodata).
+/// nodata), halo 2, and optionally the declared sinks (input 1, non-zero =
+/// sink; the DEM lowered there by [`crate::io::sinks::lowered_at_sinks`]),
+/// whose cells get [`NO_FLOW`]; output: ESRI codes (u8, [`NODATA_DIR`] for
+/// nodata).
 ///
 /// Steepest descent is local (halo 1, plus 1 to know the halo cells' own
 /// codes); flats use the tiled distance solver of this module. Within a flat
@@ -658,6 +661,15 @@ impl GlobalStep for TiledD8 {
                             }
                         }
                     }
+                }
+                // A declared sink (input 1, on a surface lowered there by
+                // `io::sinks::lowered_at_sinks`) ends its flow.
+                if code != NODATA_DIR
+                    && inputs
+                        .get(1)
+                        .is_some_and(|s| super::tiled::is_sink(s.at(x as i64, y as i64)))
+                {
+                    code = NO_FLOW;
                 }
                 o.set(x, y, code);
             }
