@@ -744,6 +744,12 @@ fn cli_peaks_below_sea_level_unknown_edge() {
         .unwrap()
         .pruned(20.0);
     assert_eq!(n, want.peaks.len());
+    let lowered = shifted(&g, dz as f32);
+    let by_oracle = bottleneck_oracle(lowered.data(), g.width(), g.height(), SEA)
+        .iter()
+        .filter(|a| a.0 .3 >= 20.0)
+        .count();
+    assert_eq!(n, by_oracle, "peaks ≥ 20 m: CLI vs oracle");
     // The crop's edge cuts through its mountains: most tops meet the sea
     // high up, at the edge, so fewer peaks reach 20 m than under unknown.
     assert!(n > 0 && n < up.len(), "{n} peaks ≥ 20 m");
