@@ -33,7 +33,9 @@ pub struct OrostatsArgs {
     /// Peaks with at least this prominence.
     #[arg(long, default_value_t = 30.0)]
     min_prominence: f64,
-    /// Edge and nodata convention: sea-level or unknown.
+    /// Edge and nodata convention: sea-level (the edge and nodata are sea at 0;
+    /// land below 0 that reaches them meets the sea at its own level) or
+    /// unknown (the outside is ignored).
     #[arg(long, default_value = "sea-level")]
     edge: String,
     /// Skip disks with a smaller fraction of valid cells.
@@ -197,7 +199,9 @@ pub struct RidgesArgs {
     /// Ridges of peaks with at least this prominence.
     #[arg(long, default_value_t = 30.0)]
     min_prominence: f64,
-    /// Edge and nodata convention of the divide tree: sea-level or unknown.
+    /// Edge and nodata convention of the divide tree: sea-level (the edge and
+    /// nodata are sea at 0; land below 0 that reaches them meets the sea at its
+    /// own level) or unknown (the outside is ignored).
     #[arg(long, default_value = "sea-level")]
     edge: String,
     /// PPA profile half-length, cells.

@@ -21,7 +21,8 @@ pub const PEAKS_BYTES_PER_CELL: u64 = 28;
 pub struct PeaksOptions {
     /// Keep peaks with at least this prominence (DEM units, usually metres).
     pub min_prominence: f64,
-    /// Edge and nodata convention (`sea-level` or `unknown`).
+    /// Edge and nodata convention (`sea-level` or `unknown`; see
+    /// [`EdgeConvention`] for the rule below sea level).
     #[serde(with = "edge_text")]
     pub edge: EdgeConvention,
     /// Skip isolation (distance to higher ground).

@@ -26,6 +26,13 @@
 //! Edges here run from a peak to its *prominence parent* (the highest peak of
 //! the component that absorbed it), not to the ridge-adjacent peak of
 //! Kirmse's divide tree; both trees give the same prominences.
+//!
+//! The sea ([`EdgeConvention::SeaLevel`]) is one more union-find node that
+//! wins every merge: it joins when the level drops to 0, taking every
+//! component that touched the edge or nodata above 0, and then every region
+//! at z ≤ 0 that touches them, at that region's level. A peak beaten by the
+//! sea gets elevation − the level of that merge (0, or z < 0 for land below
+//! sea level), never a negative prominence.
 
 use super::regions::{Regions, N8};
 use crate::error::{Error, Result};
@@ -36,11 +43,27 @@ use std::path::Path;
 /// What lies beyond the DEM edge and in nodata (NaN) cells.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 pub enum EdgeConvention {
-    /// Kirmse & de Ferranti: the edge and nodata are sea at elevation 0. The
-    /// sea joins the sweep when the level drops to 0 (before cells at 0) and
-    /// counts as higher than any peak, so the highest peak of each "island"
-    /// (and any peak whose only way to higher ground is through the sea) has
-    /// no key saddle and prominence = its elevation.
+    /// Kirmse & de Ferranti 2017: the edge and nodata are sea at elevation
+    /// 0, and the sea counts as higher than any peak. Read on the superlevel
+    /// sets {z ≥ c}: the sea belongs to them for c ≤ 0, so a component meets
+    /// it at level min(0, L), L the highest level at which the component
+    /// touches the edge or nodata. A peak whose component meets the sea
+    /// before it meets higher ground (an island top) has no key saddle and
+    /// prominence = elevation − min(0, L); the others keep elevation − key
+    /// col. Prominence is ≥ 0 for any elevation sign.
+    ///
+    /// Above sea level this is exactly Kirmse's rule (L ≥ 0: prominence =
+    /// elevation). It departs from their tool, which never sees land below
+    /// sea level touching the edge, where land below 0 reaches the edge or
+    /// nodata (the Dead Sea at −430 m, polders, coastal DEM artefacts): the
+    /// sea is met at L, not at 0, so an island top at −350 m whose land
+    /// reaches the edge at −420 m has prominence 70 (not −350, which a
+    /// threshold would drop), and a hill of 50 m whose land reaches the edge
+    /// only through a basin at −30 m has 80. A summit at or below 0 that
+    /// itself touches the edge or nodata is a peak of prominence 0 (the
+    /// outside never makes a region a non-peak); a region with no valid
+    /// neighbour is a peak only above 0. The sea joins the sweep when the
+    /// level drops to 0 (before cells at 0), also when no cell is ≥ 0.
     #[default]
     SeaLevel,
     /// Nothing is assumed about the outside: the sweep sees only valid cells.
@@ -65,18 +88,19 @@ pub struct Isolation {
     pub bearing_deg: f64,
 }
 
-/// A peak: a flat region strictly higher than all its neighbours. Under
-/// [`EdgeConvention::SeaLevel`] the edge and nodata count as neighbours at 0
-/// (an all-flat DEM at 100 m is one island peak); under `Unknown` they are
-/// ignored and a peak needs at least one valid neighbour (an all-flat DEM has
-/// no peak).
+/// A peak: a flat region strictly higher than all its valid neighbours,
+/// with at least one valid neighbour; the edge and nodata never count as
+/// higher. Under [`EdgeConvention::SeaLevel`] a region with no valid
+/// neighbour above 0 is an island peak too (an all-flat DEM at 100 m is one
+/// peak; at 0 or −100 m it has none, as under `Unknown`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Peak {
     /// Representative cell (first cell of the summit plateau in row-major order).
     pub col: u32,
     pub row: u32,
     pub elevation: f32,
-    /// Elevation − key saddle elevation (see [`EdgeConvention`] without one).
+    /// Elevation − key saddle elevation; without one, see [`EdgeConvention`]
+    /// (≥ 0 in either convention).
     pub prominence: f64,
     /// Index into [`DivideTree::saddles`] of the key saddle.
     pub key_saddle: Option<usize>,
@@ -89,7 +113,12 @@ pub struct Peak {
 }
 
 impl Peak {
-    /// Prominence / elevation (None for elevations ≤ 0).
+    /// Prominence / elevation (Jurgalski's dominance), None for elevations
+    /// ≤ 0: the ratio measures the share of the height above sea level that
+    /// is the peak's own, and a summit at or below sea level has no such
+    /// height (the ratio would be negative or infinite). It exceeds 1 when
+    /// the key col, or the level where an island top meets the sea, is below
+    /// 0.
     pub fn dominance(&self) -> Option<f64> {
         (self.elevation > 0.0).then(|| self.prominence / self.elevation as f64)
     }
@@ -251,7 +280,9 @@ pub fn build(dem: &Grid<f32>, convention: EdgeConvention) -> Result<(DivideTree,
             let t = top[r as usize] as usize;
             let p = &mut peaks[t];
             if wtop == SEA_TOP {
-                p.prominence = p.elevation as f64;
+                // The component reaches the sea here: at 0 (the sea event) or
+                // at `level` < 0 where land below sea level meets the outside.
+                p.prominence = p.elevation as f64 - level as f64;
             } else if let Some(s) = &saddle {
                 p.prominence = p.elevation as f64 - s.elevation as f64;
                 p.key_saddle = Some(saddles.len());
@@ -264,8 +295,9 @@ pub fn build(dem: &Grid<f32>, convention: EdgeConvention) -> Result<(DivideTree,
         root
     }
 
-    // The sea joins: every finished component touching the edge or nodata is
-    // absorbed by the sea; their top peaks become island summits.
+    // The sea joins at level 0: every finished component touching the edge
+    // or nodata is absorbed by the sea; their top peaks become island
+    // summits of prominence elevation − 0.
     #[allow(clippy::too_many_arguments)]
     fn sea_event(
         reg: &Regions,
@@ -310,6 +342,7 @@ pub fn build(dem: &Grid<f32>, convention: EdgeConvention) -> Result<(DivideTree,
         roots.clear();
         let mut pit = true;
         let mut any_valid = false;
+        let mut higher = false;
         for &c in reg.cells_of(r) {
             let (x, y) = ((c as usize % w) as i64, (c as usize / w) as i64);
             for (dx, dy) in N8 {
@@ -335,6 +368,7 @@ pub fn build(dem: &Grid<f32>, convention: EdgeConvention) -> Result<(DivideTree,
                     pit = false;
                 } else if nz > z {
                     any_valid = true;
+                    higher = true;
                     let s = uf.find(reg.label[ny as usize * w + nx as usize]);
                     if !roots.contains(&s) {
                         roots.push(s);
@@ -347,13 +381,37 @@ pub fn build(dem: &Grid<f32>, convention: EdgeConvention) -> Result<(DivideTree,
         if pit {
             crit.pits.push((col, row));
         }
-        if roots.is_empty() && !any_valid && convention == EdgeConvention::Unknown {
-            // The region has no valid neighbour (the whole DEM is flat, or a
-            // plateau enclosed by nodata) and the outside is unknown: nothing
-            // shows it is higher than anything, so it is not a peak. (Under
-            // SeaLevel it is an island above the sea, so a peak.)
+        // A region with no higher valid neighbour is a peak if it has a
+        // (lower) valid neighbour, or, under SeaLevel, if it lies above the
+        // sea (z > 0: an island, even with no valid neighbour at all). The
+        // outside never makes a region a non-peak: below 0 it is met at the
+        // region's own level (see `EdgeConvention::SeaLevel`).
+        let is_peak = !higher && (any_valid || (convention == EdgeConvention::SeaLevel && z > 0.0));
+        if roots.is_empty() && !is_peak {
+            // No valid neighbour (the whole DEM is flat, or a plateau
+            // enclosed by nodata) and nothing shows it is higher than
+            // anything: not a peak.
             top[r] = SEA_TOP;
             lowest[r] = z;
+        } else if is_peak && !roots.is_empty() {
+            // A summit at or below 0 touching the edge or nodata (the only
+            // root is the sea): it meets the sea at its own level, so its
+            // prominence is 0.
+            debug_assert!(sea_active && z <= 0.0 && roots.len() == 1);
+            crit.peaks.push((col, row));
+            peaks.push(Peak {
+                col,
+                row,
+                elevation: z,
+                prominence: 0.0,
+                key_saddle: None,
+                parent: None,
+                on_edge: reg.touches_outside[r],
+                isolation: None,
+            });
+            top[r] = SEA_TOP;
+            lowest[r] = z;
+            uf.sets.union_into(roots[0], r as u32);
         } else if roots.is_empty() {
             top[r] = peaks.len() as u32;
             lowest[r] = z;

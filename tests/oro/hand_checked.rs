@@ -150,7 +150,10 @@ fn plateau_summit_representative_and_pit() {
 
 #[test]
 fn sea_level_with_negative_heights() {
-    // Interior cells do not touch the edge; the sea enters through the -3 ring.
+    // Interior cells do not touch the edge; the sea enters through the -3 ring:
+    // the island top at 4 meets it at -3 (its land first touches the edge
+    // there), so its prominence is 4 - (-3) = 7, not 4; the peak at 2 keeps
+    // its real col at -1.
     let g = grid(
         5,
         &[
@@ -163,7 +166,7 @@ fn sea_level_with_negative_heights() {
     assert_eq!(
         summary(&t),
         vec![
-            (1, 1, 4.0, 4.0, None, None),
+            (1, 1, 4.0, 7.0, None, None),
             (3, 1, 2.0, 3.0, Some(-1.0), Some(0))
         ]
     );

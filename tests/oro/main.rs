@@ -6,6 +6,7 @@
 mod common;
 
 mod analysis;
+mod below_sea_level;
 mod brute_force;
 mod cli_analysis;
 mod hand_checked;

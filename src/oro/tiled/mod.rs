@@ -35,6 +35,15 @@
 //!    tie and sea rules of `tree.rs`; then all peaks are sorted as the
 //!    in-memory sweep numbers them and the saddles as it pushes them.
 //!
+//!    The sea rule below sea level ([`EdgeConvention::SeaLevel`]): where the
+//!    sea wins, at the sea node (z = 0) or at a region z ≤ 0 joined to the
+//!    sea's component, a loser's prominence is its elevation − z, in the map
+//!    (closed tops) and in the reduce alike. A region with no higher valid
+//!    neighbour that joins only the sea is a summit of prominence 0; whether
+//!    a region has a higher neighbour in another tile is known only from the
+//!    halo, so every piece reports it (`TreeNode::higher`, or-ed over the
+//!    pieces of a region as `outside` and `any_valid` are).
+//!
 //! With a prominence threshold ([`pruned_tree_tiled`]) the map drops final
 //! peaks below it when pruning cannot need them, and does not turn a closed
 //! top into a node when it is beaten at a saddle below the threshold: on the

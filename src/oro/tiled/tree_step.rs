@@ -43,6 +43,10 @@ pub struct TreeNode {
     pub outside: bool,
     /// The region has a valid neighbour of another elevation.
     pub any_valid: bool,
+    /// The region has a higher valid neighbour (in any tile): a region
+    /// without one is a peak even when the sea is all it joins.
+    #[serde(default)]
+    pub higher: bool,
 }
 
 /// A peak whose key saddle, parent and prominence are known.
@@ -109,6 +113,8 @@ pub(super) struct Piece {
     pub(super) open: bool,
     pub(super) outside: bool,
     pub(super) any_valid: bool,
+    /// A higher valid neighbour (core or halo).
+    pub(super) higher: bool,
 }
 
 impl TreeStep<'_> {
@@ -210,6 +216,7 @@ impl GlobalStep for TreeStep<'_> {
                 open: false,
                 outside: false,
                 any_valid: false,
+                higher: false,
             };
             let mut open_id: Option<u64> = None;
             grow(&mut cells, first, w, |(x, y), (nx, ny)| {
@@ -221,6 +228,9 @@ impl GlobalStep for TreeStep<'_> {
                 }
                 if nz != z {
                     p.any_valid = true;
+                }
+                if nz > z {
+                    p.higher = true;
                 }
                 if in_core {
                     let nb = ny as usize * w + nx as usize;
@@ -284,6 +294,7 @@ impl GlobalStep for TreeStep<'_> {
                 low: p.z,
                 outside: p.outside,
                 any_valid: p.any_valid,
+                higher: p.higher,
             });
             (out.nodes.len() - 1) as u32
         };
@@ -318,6 +329,7 @@ impl GlobalStep for TreeStep<'_> {
                 low: 0.0,
                 outside: false,
                 any_valid: false,
+                higher: false,
             });
             let sea_node = (out.nodes.len() - 1) as u32;
             let mut rs: Vec<u32> = Vec::new();
@@ -445,6 +457,11 @@ impl GlobalStep for TreeStep<'_> {
                 last = NONE;
             } else {
                 let sea_in = roots.iter().any(|&r| comp[r as usize].top == SEA_TOP);
+                if sea_in && !px.open && !px.higher && px.any_valid {
+                    // A summit at or below 0 touching the outside, all in
+                    // this tile: a peak of prominence 0 (as in `tree.rs`).
+                    finalize(px, 0.0, None, None, &mut out);
+                }
                 relevant.clear();
                 for &r in &roots {
                     let c = &comp[r as usize];
@@ -463,7 +480,8 @@ impl GlobalStep for TreeStep<'_> {
                             .min_prominence
                             .is_some_and(|m| (pk.z as f64 - z as f64) < m);
                         if sea_in {
-                            finalize(pk, pk.z as f64, None, None, &mut out);
+                            // Meets the sea at this level (≤ 0).
+                            finalize(pk, pk.z as f64 - z as f64, None, None, &mut out);
                         } else if !(beaten && small) {
                             relevant.push(node_of(pk, &mut out));
                         }
@@ -563,6 +581,7 @@ impl GlobalStep for TreeStep<'_> {
                         m.low = m.low.min(n.low);
                         m.outside |= n.outside;
                         m.any_valid |= n.any_valid;
+                        m.higher |= n.higher;
                     }
                     None => {
                         index.insert(n.id, nodes.len() as u32);
@@ -654,6 +673,18 @@ impl GlobalStep for TreeStep<'_> {
                 };
                 continue;
             }
+            if !is_sea && conv == EdgeConvention::SeaLevel && !m.higher && m.any_valid {
+                // Joins only the sea (at or below 0) and has no higher
+                // neighbour: a summit of prominence 0 (as in `tree.rs`).
+                peaks.push(FinalPeak {
+                    id: m.id,
+                    z: m.z,
+                    prominence: 0.0,
+                    saddle: None,
+                    parent: None,
+                    on_edge: m.outside,
+                });
+            }
             let wtop = if is_sea {
                 SEA_TOP
             } else {
@@ -676,7 +707,8 @@ impl GlobalStep for TreeStep<'_> {
                 );
                 let p = &mut peaks[t as usize];
                 match wid {
-                    None => p.prominence = pz as f64,
+                    // The sea wins at the sea node (z = 0) or below it.
+                    None => p.prominence = pz as f64 - m.z as f64,
                     Some(wid) => {
                         p.prominence = pz as f64 - m.z as f64;
                         p.saddle = Some((m.id, m.z));
