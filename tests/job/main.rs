@@ -7,3 +7,4 @@ mod common;
 mod group_steps;
 mod library;
 mod run_file;
+mod step_paths;

@@ -31,7 +31,13 @@
 //! distances as text (`units = "percent"`, `radius = "10km"`), a list where
 //! the CLI takes a comma-separated one (`metric = ["slope",
 //! "tpi:radius=500m"]`). A string `"@name"` is the path of the input or step
-//! called `name` (an extra dependency). The equivalent command line of a
+//! called `name` (an extra dependency). Paths in `args`: a file the step
+//! writes beside its output (`raster`, `stats`, `preview`, `geojson`,
+//! `edited_tree`, ... of `plan::SIDE_OUTPUTS`) goes under `output_dir`; a
+//! file it reads (`sinks`, `weights`, `mask`, `points`, ... of
+//! `plan::INPUT_PATHS`) is taken from this file's folder, like `[inputs]`,
+//! and must exist (or be written by a step) before the first step runs;
+//! absolute paths are kept. The equivalent command line of a
 //! step (strings and numbers as `--key value`, `true` as a flag, arrays
 //! joined with commas) is what the log and report show.
 //!
@@ -133,6 +139,20 @@ pub fn prepare(path: &Path, opts: &JobOptions) -> Result<Job> {
                     format!(
                         "input {} does not exist (and no step writes it)",
                         p.display()
+                    ),
+                )));
+            }
+        }
+        for (k, v) in &s.args {
+            let Some(file) = v.as_str().filter(|_| plan::is_input_path(&s.command, k)) else {
+                continue;
+            };
+            let p = PathBuf::from(file);
+            if !p.exists() && !produced.contains(&&p) {
+                return Err(in_file(commands::step_error(
+                    s,
+                    format!(
+                        "option {k}: {file} does not exist (and no step writes it); paths in args are relative to the job file's folder"
                     ),
                 )));
             }

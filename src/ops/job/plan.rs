@@ -245,6 +245,7 @@ pub fn plan(
         let mut args = BTreeMap::new();
         for (k, v) in &s.args {
             let key = k.replace('_', "-");
+            let v = &rebased(&words.join(" "), k, v, &base, &output_dir);
             let mut value = |v: &toml::Value| -> Result<Option<String>> {
                 Ok(match v {
                     toml::Value::String(t) => match t.strip_prefix('@') {
@@ -418,6 +419,102 @@ fn topo_order(path: &Path, steps: &[Planned]) -> Result<Vec<usize>> {
         }
     }
     Ok(order)
+}
+
+/// Step options that name files a step writes beside its output, per
+/// command: a relative path goes under the job's `output_dir`, like the
+/// step's `output`.
+const SIDE_OUTPUTS: &[(&str, &[&str])] = &[
+    ("basins", &["metrics"]),
+    ("streams", &["raster", "stats", "csv", "nodes"]),
+    ("orostats", &["profile"]),
+    ("erode", &["water", "sediment", "preview", "scratch"]),
+    ("synth tectonic", &["intermediates", "preview"]),
+    ("synth rivers", &["network", "preview"]),
+    ("synth optimise", &["previews"]),
+    ("synth divide-tree", &["geojson"]),
+    ("synth from-tree", &["edited_tree", "preview"]),
+    ("synth orometric", &["tree_out", "preview"]),
+];
+
+/// Step options that name files a step reads, per command (`mask`: every
+/// command): a relative path is taken from the job file's folder, like the
+/// job's `[inputs]`.
+const INPUT_PATHS: &[(&str, &[&str])] = &[
+    ("fill", &["sinks"]),
+    ("flow", &["sinks"]),
+    ("accumulate", &["weights"]),
+    ("basins", &["points", "acc", "dem"]),
+    ("viewshed", &["points"]),
+    ("hydro-index", &["dem", "acc", "dirs", "streams"]),
+    ("streams", &["dem"]),
+    ("erode", &["params", "uplift_map", "fixed_points"]),
+    ("synth tectonic", &["map"]),
+    ("synth rivers", &["coast"]),
+    ("synth optimise", &["source", "guide", "sinks"]),
+    (
+        "synth divide-tree",
+        &[
+            "profile",
+            "density_map",
+            "elevation_map",
+            "fixed_peaks",
+            "type_map",
+            "paste",
+        ],
+    ),
+    ("synth from-tree", &["edits"]),
+    (
+        "synth orometric",
+        &[
+            "density_map",
+            "elevation_map",
+            "fixed_peaks",
+            "type_map",
+            "paste",
+        ],
+    ),
+];
+
+/// True if option `key` of `command` names a file the step reads.
+pub(super) fn is_input_path(command: &str, key: &str) -> bool {
+    let key = key.replace('-', "_");
+    key == "mask"
+        || INPUT_PATHS
+            .iter()
+            .any(|(c, keys)| *c == command && keys.contains(&key.as_str()))
+}
+
+/// `v`, the value of option `key` of a step running `command`, with a
+/// relative path rebased: a side output under `output_dir`, an input path
+/// under the job file's folder `base` (see [`SIDE_OUTPUTS`],
+/// [`INPUT_PATHS`]). `@name` references and absolute paths are kept.
+fn rebased(
+    command: &str,
+    key: &str,
+    v: &toml::Value,
+    base: &Path,
+    output_dir: &Path,
+) -> toml::Value {
+    let key = key.replace('-', "_");
+    let listed = |table: &[(&str, &[&str])]| {
+        table
+            .iter()
+            .any(|(c, keys)| *c == command && keys.contains(&key.as_str()))
+    };
+    let root = if listed(SIDE_OUTPUTS) {
+        output_dir
+    } else if is_input_path(command, &key) {
+        base
+    } else {
+        return v.clone();
+    };
+    match v {
+        toml::Value::String(t) if !t.starts_with('@') && Path::new(t).is_relative() => {
+            toml::Value::String(root.join(t).display().to_string())
+        }
+        v => v.clone(),
+    }
 }
 
 /// What the job remembers between runs (`output_dir/.orogen-job.json`).
