@@ -3,7 +3,8 @@
 # (default ../shared/data/bigtujunga_srtm30m_utm11.tif, 30 m, EPSG:32611):
 #   GRASS r.slope.aspect pcurvature/tcurvature and r.param.scale profc/planc
 #     vs orogen profile_curvature / tangential_curvature / plan_curvature;
-#   GRASS r.geomorphon (search 10, skip 0, flat 1) vs orogen geomorphon;
+#   GRASS r.geomorphon (search 10, skip 0, flat 1) vs orogen geomorphon (rule=grass
+#     and the paper's rule);
 #   SAGA Topographic Openness (line tracing, 8 sectors), Sky View Factor,
 #     TPI (circle) vs orogen openness / openness_neg / sky_view / tpi:shape=disk.
 # Prints agreement rates, max/mean |differences| and correlations per pair
@@ -51,6 +52,7 @@ for th in 1 0; do
   timed "orogen_t$th:sky_view" o --threads $th -m sky_view:radius=${R}c
   timed "orogen_t$th:tpi" o --threads $th -m tpi:radius=${R}c:shape=disk
 done
+o -m geomorphon:radius=${R}c:flat=1:rule=grass
 # GRASS, in a temporary location made from the DEM.
 cat > "$tmp/grass.sh" <<G
 set -e

@@ -13,7 +13,8 @@ use super::curvature::FromQuadric;
 use super::horizon::DIRS;
 use super::local_stats::windowed_stat;
 use super::param::{
-    CURV_T, FLAT_T, RADIUS_GEOMORPHON, RADIUS_LARGE, RADIUS_QUADRIC, RADIUS_SMALL, SLOPE_T,
+    CURV_T, FLAT_T, GEOMORPHON_RULE, RADIUS_GEOMORPHON, RADIUS_LARGE, RADIUS_QUADRIC, RADIUS_SMALL,
+    SLOPE_T,
 };
 use super::registry::{metric_def, Metric, MetricDef, MetricKind, Needs, ScratchClass};
 use super::spec::Resolved;
@@ -84,10 +85,9 @@ pub fn geomorphon_class(plus: usize, minus: usize) -> u8 {
 /// elevation angles (degrees) met along it: with zenith `φ = 90° − max` and
 /// nadir `ψ = 90° + min` (Jasiewicz & Stepinski 2013, sec. 2.1),
 /// `Δ = ψ − φ = max + min`; '+' (the surroundings rise) if `Δ > t`,
-/// '−' (they fall) if `Δ < −t`, '0' otherwise. This is the paper's rule;
-/// GRASS r.geomorphon's current code uses a variant (a line is non-flat when
-/// `|max|` or `|min|` exceeds `t`, signed by the larger of the two), so
-/// patterns may differ from GRASS near the threshold.
+/// '−' (they fall) if `Δ < −t`, '0' otherwise. This is the paper's rule
+/// and the default; GRASS r.geomorphon's code uses a variant,
+/// [`ternary_grass`] (`rule=grass`).
 pub fn ternary(max_deg: f64, min_deg: f64, flat_deg: f64) -> u32 {
     let d = max_deg + min_deg;
     if d > flat_deg {
@@ -99,20 +99,50 @@ pub fn ternary(max_deg: f64, min_deg: f64, flat_deg: f64) -> u32 {
     }
 }
 
+/// Ternary element of one line of sight by GRASS r.geomorphon 8's rule
+/// (`comparison=anglev1`, its default; `pattern.c`): with `max`, `min` the
+/// largest and smallest elevation angles (degrees) met along the line, the
+/// line is non-flat when `|max| > t` or `|min| > t`, and then '+' when
+/// `|min| < |max|`, '−' when `|min| > |max|`, '0' on a tie. Unlike the
+/// paper's rule ([`ternary`]), a line rising 3° and falling 2.5° is '+'
+/// there and '0' here.
+pub fn ternary_grass(max_deg: f64, min_deg: f64, flat_deg: f64) -> u32 {
+    let (a, b) = (max_deg.abs(), min_deg.abs());
+    if a > flat_deg || b > flat_deg {
+        if b < a {
+            T_PLUS
+        } else if b > a {
+            T_MINUS
+        } else {
+            T_FLAT
+        }
+    } else {
+        T_FLAT
+    }
+}
+
 /// Geomorphons of every core cell of `view`: lines of sight along the 8
 /// [`GEOMORPHON_DIRS`] visit the cells at whole steps whose centres lie
 /// within `cutoff_m` metres (at most `steps` cells per axis, ≤ the halo;
-/// distances from the centre row's true cell sizes, as `horizon`; a cell at
-/// exactly `cutoff_m` is included, where GRASS stops before it). Nodata
+/// distances from the centre row's true cell sizes, as `horizon`). Nodata
 /// cells and cells beyond the raster are skipped; a line without any valid
 /// cell is '0'. Writes the class (1..=10) to `class` and the pattern code
 /// `Σ digit_i 3^i` (digits [`T_FLAT`], [`T_PLUS`], [`T_MINUS`]) to `pattern`.
 /// A nodata centre is nodata.
+///
+/// `grass`: GRASS r.geomorphon 8's rules (its `pattern.c` and `main.c`,
+/// `skip=0 dist=0`) instead of the paper's: [`ternary_grass`]; a cell at
+/// exactly `cutoff_m` is left out (GRASS walks while the distance is below
+/// the search distance; the paper's rule here includes it); a line whose
+/// first cell is nodata or beyond the raster is '0'; and the outermost
+/// ring of the raster is nodata (GRASS leaves cells within `skip + 1` of
+/// the edge out, "on borders forms usually are unnatural").
 pub fn geomorphon(
     view: &TileView<f32>,
     steps: usize,
     cutoff_m: f64,
     flat_deg: f64,
+    grass: bool,
     mut class: Option<&mut Grid<f32>>,
     mut pattern: Option<&mut Grid<f32>>,
 ) {
@@ -120,28 +150,40 @@ pub fn geomorphon(
     let h = view.halo;
     let gw = view.grid.width();
     let data = view.grid.data();
+    let (rw, rh) = (view.raster_width as i64, view.raster_height as i64);
     let limit = cutoff_m * (1.0 + 1e-12);
+    let strict = cutoff_m * (1.0 - 1e-12);
     for y in 0..view.core.h {
-        let (ew, ns) = view.georef.cell_size_m(view.core.y + y as i64);
+        let gy = view.core.y + y as i64;
+        let (ew, ns) = view.georef.cell_size_m(gy);
         let mut plan = [(0isize, 0.0f64, 0usize); 8];
         for (p, &(dx, dy)) in plan.iter_mut().zip(&GEOMORPHON_DIRS) {
             let d = ((dx as f64 * ew).powi(2) + (dy as f64 * ns).powi(2)).sqrt();
             let mut k = steps;
-            while k > 0 && k as f64 * d > limit {
-                k -= 1;
+            if grass {
+                while k > 0 && k as f64 * d >= strict {
+                    k -= 1;
+                }
+            } else {
+                while k > 0 && k as f64 * d > limit {
+                    k -= 1;
+                }
             }
             *p = (dy as isize * gw as isize + dx as isize, d, k);
         }
         for x in 0..view.core.w {
             let c = (y + h) * gw + x + h;
+            let gx = view.core.x + x as i64;
             let z0 = data[c] as f64;
-            let (cl, code) = if z0.is_nan() {
+            let ring = grass && (gx == 0 || gy == 0 || gx + 1 == rw || gy + 1 == rh);
+            let (cl, code) = if z0.is_nan() || ring {
                 (f32::NAN, f32::NAN)
             } else {
                 let (mut plus, mut minus, mut code, mut pow) = (0usize, 0usize, 0u32, 1u32);
                 for &(off, d, k) in &plan {
                     let (mut hi, mut lo) = (f64::NEG_INFINITY, f64::INFINITY);
                     let mut i = c as isize;
+                    let first_void = grass && data[(c as isize + off) as usize].is_nan();
                     for s in 1..=k {
                         i += off;
                         let z = data[i as usize] as f64;
@@ -151,8 +193,10 @@ pub fn geomorphon(
                             lo = lo.min(t);
                         }
                     }
-                    let t = if hi == f64::NEG_INFINITY {
+                    let t = if hi == f64::NEG_INFINITY || first_void {
                         T_FLAT
+                    } else if grass {
+                        ternary_grass(hi.atan().to_degrees(), lo.atan().to_degrees(), flat_deg)
                     } else {
                         ternary(hi.atan().to_degrees(), lo.atan().to_degrees(), flat_deg)
                     };
@@ -283,11 +327,12 @@ pub fn dikau_class(profile: f64, plan: f64, t: f64) -> f32 {
 pub struct Geomorphon(MetricDef);
 
 /// The rays and flatness of a geomorphon metric.
-fn geomorphon_key(m: &Resolved) -> (usize, u64, u64) {
+fn geomorphon_key(m: &Resolved) -> (usize, u64, u64, bool) {
     (
         m.radius_cells,
         m.radius_m.to_bits(),
         m.spec.threshold.unwrap_or(1.0).to_bits(),
+        m.spec.grass,
     )
 }
 
@@ -303,7 +348,16 @@ impl Metric for Geomorphon {
         let (r, rm) = (m.radius_cells, m.radius_m);
         let flat = m.spec.threshold.unwrap_or(1.0);
         t.grouped(
-            ("geomorphon", key.0, key.1, key.2),
+            (
+                if key.3 {
+                    "geomorphon_grass"
+                } else {
+                    "geomorphon"
+                },
+                key.0,
+                key.1,
+                key.2,
+            ),
             m,
             |n| {
                 matches!(
@@ -322,7 +376,7 @@ impl Metric for Geomorphon {
                         _ => p = Some(g),
                     }
                 }
-                geomorphon(view, r, rm, flat, c, p);
+                geomorphon(view, r, rm, flat, key.3, c, p);
                 grids
             },
             o,
@@ -343,7 +397,15 @@ impl Metric for GeomorphonCanonical {
     }
     fn run(&self, t: &mut Tile<'_>, m: &Resolved, o: &mut Grid<f32>) -> Result<()> {
         let flat = m.spec.threshold.unwrap_or(1.0);
-        geomorphon(t.view, m.radius_cells, m.radius_m, flat, None, Some(o));
+        geomorphon(
+            t.view,
+            m.radius_cells,
+            m.radius_m,
+            flat,
+            m.spec.grass,
+            None,
+            Some(o),
+        );
         for v in o.data_mut() {
             if !v.is_nan() {
                 *v = canonical_code(*v as u32) as f32;
@@ -402,7 +464,7 @@ impl Metric for WeissLandform {
 pub static GEOMORPHON: Geomorphon = Geomorphon(metric_def!(
         Geomorphon,
         "geomorphon",
-        &[RADIUS_GEOMORPHON, FLAT_T],
+        &[RADIUS_GEOMORPHON, FLAT_T, GEOMORPHON_RULE],
         "class 1..10",
         "geomorphon landform: 1 flat, 2 peak, 3 ridge, 4 shoulder, 5 spur, 6 slope, 7 hollow, 8 footslope, 9 valley, 10 pit",
         "Jasiewicz & Stepinski 2013, Geomorphology 182 (classes numbered as GRASS r.geomorphon)";
@@ -415,7 +477,7 @@ pub static GEOMORPHON: Geomorphon = Geomorphon(metric_def!(
 pub static GEOMORPHON_PATTERN: Geomorphon = Geomorphon(metric_def!(
         GeomorphonPattern,
         "geomorphon_pattern",
-        &[RADIUS_GEOMORPHON, FLAT_T],
+        &[RADIUS_GEOMORPHON, FLAT_T, GEOMORPHON_RULE],
         "0..6560",
         "geomorphon ternary pattern sum d_i 3^i, i = N,NE,..,NW clockwise; d = 0 flat, 1 '+', 2 '-' (not canonicalised)",
         "Jasiewicz & Stepinski 2013, Geomorphology 182";
@@ -428,7 +490,7 @@ pub static GEOMORPHON_PATTERN: Geomorphon = Geomorphon(metric_def!(
 pub static GEOMORPHON_CANONICAL: GeomorphonCanonical = GeomorphonCanonical(metric_def!(
         GeomorphonCanonical,
         "geomorphon_canonical",
-        &[RADIUS_GEOMORPHON, FLAT_T],
+        &[RADIUS_GEOMORPHON, FLAT_T, GEOMORPHON_RULE],
         "0..6560",
         "geomorphon_pattern reduced to its smallest code over 8 rotations and their mirrors (498 values)",
         "Jasiewicz & Stepinski 2013, Geomorphology 182, sec. 2.2";

@@ -31,6 +31,8 @@ pub enum ParamKind {
     Feature,
     /// Window radii in cells separated by '/', e.g. `1/2/4`.
     Scales,
+    /// The geomorphon line rule: `paper` or `grass`.
+    Rule,
 }
 
 /// One parameter of a metric, as the registry describes it.
@@ -96,6 +98,12 @@ pub const FLAT_T: ParamDef = ParamDef {
     kind: ParamKind::Threshold,
     default: "1",
     range: "flatness threshold t in degrees, >= 0",
+};
+pub const GEOMORPHON_RULE: ParamDef = ParamDef {
+    name: "rule",
+    kind: ParamKind::Rule,
+    default: "paper",
+    range: "paper (Jasiewicz & Stepinski 2013: a line is '+' when max + min elevation angle > t, '-' when < -t) or grass (GRASS r.geomorphon 8: a line is non-flat when |max| or |min| > t, signed by the larger; lines stop before the lookup distance, a line whose first cell is nodata is flat, the edge ring is nodata)",
 };
 pub const RADIUS_SMALL: ParamDef = ParamDef {
     name: "radius",

@@ -43,6 +43,9 @@ pub struct MetricSpec {
     /// Window radii in cells (fuzzy landforms).
     #[serde(default)]
     pub scales: Option<Vec<usize>>,
+    /// Geomorphons by GRASS r.geomorphon's rules instead of the paper's.
+    #[serde(default)]
+    pub grass: bool,
 }
 
 impl MetricSpec {
@@ -71,6 +74,7 @@ impl MetricSpec {
             exponent: None,
             feature: None,
             scales: None,
+            grass: false,
         }
     }
 
@@ -144,6 +148,9 @@ impl MetricSpec {
         }
         if let Some(a) = self.azimuth.filter(|&a| a != 0.0) {
             s.push_str(&format!("_a{a}"));
+        }
+        if self.grass {
+            s.push_str("_grass");
         }
         if let Some(e) = self.exponent.filter(|&e| e != 0.5) {
             s.push_str(&format!("_s{e}"));
@@ -233,6 +240,13 @@ impl MetricSpec {
                     .position(|n| *n == value.trim())
                     .ok_or_else(|| format!("'{value}' is not a feature"))?;
                 self.feature = Some(f as u8);
+            }
+            ParamKind::Rule => {
+                self.grass = match value.trim() {
+                    "paper" => false,
+                    "grass" => true,
+                    _ => return Err(format!("'{value}' is not paper or grass")),
+                }
             }
             ParamKind::Scales => {
                 let mut v = Vec::new();
