@@ -285,7 +285,9 @@ fn new_metrics_through_the_cli() {
         }
     }
     let frac = cs * CELL * CELL * lattice * b;
-    for (sign, name, class) in [(-1.0, "dome", 12.0), (1.0, "bowl", 7.0)] {
+    // Shary: the dome is divergent and accelerating, elliptic with
+    // kv < kh (class 11); the bowl convergent, decelerating, kv > kh (2).
+    for (sign, name, class) in [(-1.0, "dome", 11.0), (1.0, "bowl", 2.0)] {
         let (dem, z) = surface(d, name, |e, n| 500.0 + sign * b * (e * e + n * n));
         let m = eight(&dem, &d.join(name));
         let slope_at = |x: usize, y: usize| {

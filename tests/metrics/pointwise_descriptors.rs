@@ -310,63 +310,109 @@ fn hillslope_asymmetry_brute_force() {
 
 // ---------- Shary ----------
 
+/// Shary's twelve types as sign tuples (kh, kv, K, E, H), 0 = not used by
+/// the type: written out here from the definition (kh, kv alike: K and E;
+/// opposite: H), independently of `metrics::shary`.
+const SHARY_TYPES: [(i8, i8, i8, i8, i8); 12] = [
+    (-1, -1, 1, -1, 0),
+    (-1, -1, 1, 1, 0),
+    (-1, -1, -1, -1, 0),
+    (-1, -1, -1, 1, 0),
+    (-1, 1, 0, 0, -1),
+    (-1, 1, 0, 0, 1),
+    (1, -1, 0, 0, -1),
+    (1, -1, 0, 0, 1),
+    (1, 1, -1, -1, 0),
+    (1, 1, -1, 1, 0),
+    (1, 1, 1, -1, 0),
+    (1, 1, 1, 1, 0),
+];
+
+/// Closed-form curvatures (convex positive) of z(e, n) from its first and
+/// second derivatives p, q, r = z_ee, s = z_en, t = z_nn.
+fn curvatures(p: f64, q: f64, r: f64, s: f64, t: f64) -> (f64, f64, f64, f64) {
+    let g = p * p + q * q;
+    let kv = -(r * p * p + 2.0 * s * p * q + t * q * q) / (g * (1.0 + g).powf(1.5));
+    let kh = -(r * q * q - 2.0 * s * p * q + t * p * p) / (g * (1.0 + g).sqrt());
+    let k = (r * t - s * s) / (1.0 + g).powi(2);
+    let h =
+        -((1.0 + q * q) * r - 2.0 * p * q * s + (1.0 + p * p) * t) / (2.0 * (1.0 + g).powf(1.5));
+    (kh, kv, k, h)
+}
+
 #[test]
 fn shary_classes_on_analytic_surfaces() {
+    // Quadratic surfaces z = a e² + b n² + c e n + d e + f n (the Evans/Wood
+    // 3 x 3 fit is exact on them), each cell's type from the closed-form
+    // curvatures and SHARY_TYPES; cells where a sign is within rounding of
+    // zero are left out.
     let (w, h) = (25, 25);
     let c = 12.0;
-    let rr = 400.0; // sphere radius (m)
-    let cap: Vec<f32> = (0..w * h)
-        .map(|i| {
-            let (x, y) = (((i % w) as f64 - c) * CELL, ((i / w) as f64 - c) * CELL);
-            (rr * rr - x * x - y * y).sqrt() as f32
-        })
-        .collect();
-    let bowl: Vec<f32> = cap.iter().map(|z| 1000.0 - z).collect();
-    let saddle: Vec<f32> = (0..w * h)
-        .map(|i| {
-            let (x, y) = (((i % w) as f64 - c) * CELL, ((i / w) as f64 - c) * CELL);
-            ((x * x - y * y) / 200.0) as f32
-        })
-        .collect();
-    let plane: Vec<f32> = (0..w * h).map(|i| (0.25 * (i % w) as f64) as f32).collect();
-    let classes = |d: &[f32], spec: &str| run1(&source(d, w, h), spec);
-    for spec in ["shary_landform", "shary_landform:radius=2c"] {
-        let dome = classes(&cap, spec);
-        let pit = classes(&bowl, spec);
-        let sad = classes(&saddle, spec);
-        let pl = classes(&plane, spec);
+    let surfaces: [(&str, [f64; 5]); 7] = [
+        ("elliptic dome", [-0.002, -0.0005, 0.0, 0.0, 0.0]),
+        ("elliptic bowl", [0.002, 0.0005, 0.0, 0.0, 0.0]),
+        ("tilted saddle", [0.005, -0.005, 0.0, 0.3, 0.1]),
+        ("ridge on a slope", [-0.002, 0.0, 0.0, 0.0, 0.05]),
+        ("valley on a slope", [0.002, 0.0, 0.0, 0.0, 0.05]),
+        ("twisted slope", [0.001, -0.003, 0.002, 0.1, 0.05]),
+        ("round dome", [-0.002, -0.002, 0.0, 0.0, 0.0]),
+    ];
+    let mut seen = std::collections::BTreeSet::new();
+    for (name, [a, b, cc, d, f]) in surfaces {
+        let z: Vec<f32> = (0..w * h)
+            .map(|i| {
+                let (e, n) = (((i % w) as f64 - c) * CELL, (c - (i / w) as f64) * CELL);
+                (1000.0 + a * e * e + b * n * n + cc * e * n + d * e + f * n) as f32
+            })
+            .collect();
+        let got = run1(&source(&z, w, h), "shary_landform");
         for y in 2..h - 2 {
             for x in 2..w - 2 {
+                let (e, n) = ((x as f64 - c) * CELL, (c - y as f64) * CELL);
+                let (p, q) = (2.0 * a * e + cc * n + d, 2.0 * b * n + cc * e + f);
+                let (kh, kv, k, hh) = curvatures(p, q, 2.0 * a, cc, 2.0 * b);
+                let ee = 0.5 * (kv - kh);
+                let sig = |v: f64, scale: f64| -> Option<i8> {
+                    if v.is_nan() || v.abs() <= 1e-6 * scale {
+                        None
+                    } else {
+                        Some(if v > 0.0 { 1 } else { -1 })
+                    }
+                };
+                let scale = kh.abs().max(kv.abs()).max(1e-12);
+                let (Some(sh), Some(sv)) = (sig(kh, scale), sig(kv, scale)) else {
+                    continue;
+                };
+                let (sk, se, shh) = (sig(k, scale * scale), sig(ee, scale), sig(hh, scale));
+                let want = SHARY_TYPES.iter().position(|&(a1, a2, a3, a4, a5)| {
+                    a1 == sh
+                        && a2 == sv
+                        && (a3 == 0 || Some(a3) == sk)
+                        && (a4 == 0 || Some(a4) == se)
+                        && (a5 == 0 || Some(a5) == shh)
+                });
+                let Some(want) = want else {
+                    continue; // a needed sign within rounding of zero
+                };
                 let i = y * w + x;
-                let apex = x == 12 && y == 12;
-                // The apex has no gradient: kh, kv are 0 there (class 0).
                 assert_eq!(
-                    dome[i],
-                    if apex { 0.0 } else { 12.0 },
-                    "{spec} dome ({x},{y})"
+                    got[i],
+                    (want + 1) as f32,
+                    "{name} ({x},{y}): kh {kh} kv {kv} K {k} E {ee} H {hh}"
                 );
-                assert_eq!(pit[i], if apex { 0.0 } else { 7.0 }, "{spec} pit ({x},{y})");
-                assert!(
-                    (0.0..=6.0).contains(&sad[i])
-                        // H = 0 on the diagonals |x| = |y| (class 0 there).
-                        && (x.abs_diff(12) == y.abs_diff(12) || sad[i] >= 1.0),
-                    "{spec} saddle ({x},{y}) {}",
-                    sad[i]
-                );
-                assert_eq!(pl[i], 0.0);
+                seen.insert(want + 1);
             }
         }
-        // The saddle's four quadrants between the axes: kh and kv differ in
-        // sign off the diagonals, so several hyperbolic classes occur.
-        let mut seen: Vec<i32> = sad
-            .iter()
-            .filter(|v| !v.is_nan())
-            .map(|&v| v as i32)
-            .collect();
-        seen.sort_unstable();
-        seen.dedup();
-        assert!(seen.len() >= 2, "{seen:?}");
     }
+    // Kinds of point the surfaces hold: elliptic and saddle points of both
+    // groups and both mixed groups.
+    assert!(seen.len() >= 8, "{seen:?}");
+    // The paraboloid dome of revolution: kv < kh off the apex (class 11);
+    // a sphere would be umbilic (E = 0).
+    let plane: Vec<f32> = (0..w * h).map(|i| (0.25 * (i % w) as f64) as f32).collect();
+    assert!(run1(&source(&plane, w, h), "shary_landform")
+        .iter()
+        .all(|&v| v == 0.0 || v.is_nan()));
 }
 
 #[test]
