@@ -5,16 +5,20 @@
 //! a histogram and, for CSV/GeoJSON outputs, their first rows or feature
 //! counts.
 //!
-//! Previews and histograms come from a block-mean downsampling of the raster
-//! ([`crate::tiles::render::downsample_mean`], at most 512 pixels a side), so
-//! the histogram is that of the preview's cells, not of every cell; the
-//! minimum and maximum are exact.
+//! Previews and histograms come from a downsampling of the raster by what
+//! it holds ([`crate::tiles::render::downsample`], at most 512 pixels a
+//! side: block means, circular means of angles, centre cells of class
+//! codes), so the histogram is that of the preview's cells, not of every
+//! cell; the minimum and maximum are exact. Class codes (D8 directions,
+//! labels, landforms) get a class palette, bars per class and a legend;
+//! angles (aspect) a hue wheel; heavy-tailed non-negative outputs (flow
+//! accumulation: median below a thousandth of the maximum) a log scale.
 
 use crate::error::{Error, Result};
 use crate::io::{open_raster, OpenOptions};
 use crate::raster::{AnyGrid, MemRaster};
 use crate::store::scratch::ScratchDir;
-use crate::tiles::render::{downsample_mean, render_preview, RenderKind, RenderOptions};
+use crate::tiles::render::{downsample, render_preview, RenderKind, RenderOptions};
 use base64::Engine as _;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -45,6 +49,37 @@ pub struct StepOutcome {
     /// Render rasters as elevation (hillshade + hypsometric colours) rather
     /// than a plain colour ramp.
     pub elevation: bool,
+    /// What the step's raster outputs hold (a `metric` step's files: each
+    /// metric's own kind, looked up by file name): class codes are previewed
+    /// with a class palette and per-class bars, angles with a colour wheel.
+    pub kind: crate::raster::OutputKind,
+    /// The classes' names, for the legend (D8 directions of `flow`).
+    pub classes: Option<&'static [(u32, &'static str)]>,
+}
+
+/// The names of the ESRI D8 codes (`orogen flow`), for legends.
+pub const D8_CLASSES: &[(u32, &str)] = &[
+    (0, "no flow"),
+    (1, "E"),
+    (2, "SE"),
+    (4, "S"),
+    (8, "SW"),
+    (16, "W"),
+    (32, "NW"),
+    (64, "N"),
+    (128, "NE"),
+];
+
+/// The kind of a metric output file (`NAME_...tif` of `orogen metric`):
+/// the registry's kind of the longest metric name the stem starts with.
+fn metric_file_kind(p: &Path) -> Option<crate::raster::OutputKind> {
+    let stem = p.file_stem()?.to_str()?;
+    crate::metrics::registry::METRICS
+        .iter()
+        .map(|m| m.def())
+        .filter(|d| stem == d.name || stem.starts_with(&format!("{}_", d.name)))
+        .max_by_key(|d| d.name.len())
+        .map(|d| d.output)
 }
 
 /// Escape text for HTML.
@@ -138,24 +173,240 @@ pub fn fmt_num(v: f64) -> String {
     }
 }
 
-fn raster_section(p: &Path, elevation: bool, tmp: &Path) -> Result<String> {
+/// A distinct colour for class `v` (a D8 code, a label, a landform):
+/// twelve well separated hues for small codes, a hash of the value beyond.
+fn class_colour(v: f32) -> [u8; 3] {
+    const PALETTE: [[u8; 3]; 12] = [
+        [31, 119, 180],
+        [255, 127, 14],
+        [44, 160, 44],
+        [214, 39, 40],
+        [148, 103, 189],
+        [140, 86, 75],
+        [227, 119, 194],
+        [127, 127, 127],
+        [188, 189, 34],
+        [23, 190, 207],
+        [255, 215, 0],
+        [0, 0, 128],
+    ];
+    let k = v as i64;
+    if (0..12).contains(&k) {
+        return PALETTE[k as usize];
+    }
+    if k > 0 && k <= 128 && (k as u64).is_power_of_two() {
+        return PALETTE[(k as u64).trailing_zeros() as usize + 1];
+    }
+    let mut x = (v.to_bits() as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    x ^= x >> 29;
+    [
+        (x >> 8) as u8 | 32,
+        (x >> 16) as u8 | 32,
+        (x >> 24) as u8 | 32,
+    ]
+}
+
+/// A hue wheel colour for an angle in degrees (0 = north red, 120 green,
+/// 240 blue), full saturation.
+fn wheel_colour(deg: f32) -> [u8; 3] {
+    let h = (deg as f64).rem_euclid(360.0) / 60.0;
+    let x = 1.0 - (h % 2.0 - 1.0).abs();
+    let (r, g, b) = match h as u32 {
+        0 => (1.0, x, 0.0),
+        1 => (x, 1.0, 0.0),
+        2 => (0.0, 1.0, x),
+        3 => (0.0, x, 1.0),
+        4 => (x, 0.0, 1.0),
+        _ => (1.0, 0.0, x),
+    };
+    [(r * 255.0) as u8, (g * 255.0) as u8, (b * 255.0) as u8]
+}
+
+/// An RGBA PNG of `g` coloured by `colour` (nodata transparent).
+fn coloured_png(g: &crate::raster::Grid<f32>, colour: impl Fn(f32) -> [u8; 3]) -> Result<Vec<u8>> {
+    let mut rgba = Vec::with_capacity(g.data().len() * 4);
+    for &v in g.data() {
+        if v.is_nan() {
+            rgba.extend_from_slice(&[0, 0, 0, 0]);
+        } else {
+            let c = colour(v);
+            rgba.extend_from_slice(&[c[0], c[1], c[2], 255]);
+        }
+    }
+    let mut out = Vec::new();
+    crate::io::png::encode_png(
+        &mut out,
+        g.width() as u32,
+        g.height() as u32,
+        ::png::ColorType::Rgba,
+        &rgba,
+    )
+    .map_err(|e| Error::invalid(format!("preview PNG: {e}")))?;
+    Ok(out)
+}
+
+/// Inline SVG bars, one per class of `values` (at most 40, the most common),
+/// with a legend of the classes' colours and names.
+fn class_bars_svg(values: &[f32], names: Option<&[(u32, &str)]>) -> String {
+    let mut counts: std::collections::BTreeMap<u32, u64> = Default::default();
+    for &v in values {
+        if v.is_finite() {
+            *counts.entry(v.to_bits()).or_default() += 1;
+        }
+    }
+    let mut classes: Vec<(f32, u64)> = counts
+        .into_iter()
+        .map(|(b, c)| (f32::from_bits(b), c))
+        .collect();
+    let total_classes = classes.len();
+    if classes.len() > 40 {
+        classes.sort_by_key(|c| std::cmp::Reverse(c.1));
+        classes.truncate(40);
+    }
+    classes.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let max = classes.iter().map(|c| c.1).max().unwrap_or(1).max(1) as f64;
+    let (w, h) = (320.0, 90.0);
+    let bw = w / classes.len().max(1) as f64;
+    let mut s = format!(
+        "<svg xmlns='http://www.w3.org/2000/svg' width='{w}' height='{}' role='img'>",
+        h + 16.0
+    );
+    for (i, &(v, c)) in classes.iter().enumerate() {
+        let bh = (c as f64 / max) * h;
+        let [r, g, b] = class_colour(v);
+        let name = names
+            .and_then(|n| n.iter().find(|(k, _)| *k as f32 == v))
+            .map(|(_, n)| format!(" {n}"))
+            .unwrap_or_default();
+        let _ = write!(
+            s,
+            "<rect x='{:.1}' y='{:.1}' width='{:.1}' height='{bh:.1}' fill='rgb({r},{g},{b})'><title>{}{}: {c}</title></rect>",
+            i as f64 * bw,
+            h - bh,
+            (bw - 1.0).max(1.0),
+            fmt_num(v as f64),
+            esc(&name)
+        );
+    }
+    let _ = write!(
+        s,
+        "<text x='0' y='{}' font-size='11'>{} classes{}</text></svg>",
+        h + 13.0,
+        total_classes,
+        if total_classes > 40 {
+            " (the 40 most common shown)"
+        } else {
+            ""
+        }
+    );
+    if total_classes <= 16 {
+        s.push_str("<p class='legend'>");
+        for &(v, _) in &classes {
+            let [r, g, b] = class_colour(v);
+            let name = names
+                .and_then(|n| n.iter().find(|(k, _)| *k as f32 == v))
+                .map(|(_, n)| n.to_string())
+                .unwrap_or_else(|| fmt_num(v as f64));
+            let _ = write!(
+                s,
+                "<span style='display:inline-block;width:10px;height:10px;background:rgb({r},{g},{b})'></span> {} ",
+                esc(&name)
+            );
+        }
+        s.push_str("</p>");
+    }
+    s
+}
+
+/// True if a non-negative quantity is heavy-tailed (flow accumulation,
+/// drainage areas): its median is below a thousandth of its maximum. Such
+/// outputs are previewed as log10(1 + v), else one colour would hide every
+/// river.
+fn heavy_tailed(values: &[f32], lo: f64, hi: f64) -> bool {
+    if !(lo >= 0.0 && hi > 0.0) {
+        return false;
+    }
+    let mut v: Vec<f32> = values.iter().copied().filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return false;
+    }
+    let mid = v.len() / 2;
+    let (_, m, _) = v.select_nth_unstable_by(mid, |a, b| a.total_cmp(b));
+    (*m as f64) < hi / 1000.0
+}
+
+fn raster_section(
+    p: &Path,
+    elevation: bool,
+    kind: crate::raster::OutputKind,
+    classes: Option<&[(u32, &str)]>,
+    tmp: &Path,
+) -> Result<String> {
+    use crate::raster::OutputKind;
     let src = open_raster(p, &OpenOptions::default())?;
     let info = src.info().clone();
     let factor = info.width.max(info.height).div_ceil(512).max(1);
-    // One pass over the raster: the block means serve both the histogram and
-    // the preview (rendered from an in-memory raster with cells `factor` times
-    // larger, and the exact value range).
-    let (small, lo, hi) = downsample_mean(src.as_ref(), factor)?;
+    // One pass over the raster: the block values serve both the histogram
+    // and the preview (rendered from an in-memory raster with cells `factor`
+    // times larger, and the exact value range); blocks by the output's kind.
+    let (small, lo, hi) = downsample(src.as_ref(), factor, kind)?;
+    let title = esc(&p.display().to_string());
+    let head = format!(
+        "<div class='out'><h3>{title}</h3><p>{} x {} {} · min {} · max {}",
+        info.width,
+        info.height,
+        info.dtype,
+        fmt_num(lo),
+        fmt_num(hi)
+    );
+    let img = |bytes: &[u8], note: &str, chart: String| {
+        let b64 = base64::engine::general_purpose::STANDARD.encode(bytes);
+        format!("{head}{note}</p><img src='data:image/png;base64,{b64}' alt='preview of {title}'>{chart}</div>")
+    };
+    match kind {
+        OutputKind::Categorical => {
+            let png = coloured_png(&small, class_colour)?;
+            let chart = class_bars_svg(small.data(), classes);
+            return Ok(img(&png, " · classes (block centre cells)", chart));
+        }
+        OutputKind::Angle => {
+            let png = coloured_png(&small, wheel_colour)?;
+            let hist = histogram_svg(small.data(), 0.0, 360.0);
+            return Ok(img(
+                &png,
+                " · angle: hue wheel (0° red, 120° green, 240° blue), circular block means",
+                hist,
+            ));
+        }
+        OutputKind::Continuous => {}
+    }
+    let log = !elevation && heavy_tailed(small.data(), lo, hi);
+    let shown = if log {
+        small.map(|v| {
+            if v.is_nan() {
+                v
+            } else {
+                (1.0 + v as f64).log10() as f32
+            }
+        })
+    } else {
+        small
+    };
+    let (slo, shi) = if log {
+        ((1.0 + lo).log10(), (1.0 + hi).log10())
+    } else {
+        (lo, hi)
+    };
     let mut georef = info.georef.clone();
     for k in [1, 2, 4, 5] {
         georef.transform[k] *= factor as f64;
     }
     georef.nodata = None;
-    let hist = histogram_svg(small.data(), lo, hi);
-    let preview_src = MemRaster::new(AnyGrid::F32(small), georef, p);
+    let hist = histogram_svg(shown.data(), slo, shi);
+    let preview_src = MemRaster::new(AnyGrid::F32(shown), georef, p);
     let png = tmp.join("preview.png");
     let opts = RenderOptions {
-        range: (lo <= hi).then_some((lo, hi)),
+        range: (slo <= shi).then_some((slo, shi)),
         cell_size_m: (!info.georef.georeferenced).then_some(factor as f64),
         kind: if elevation {
             RenderKind::Elevation
@@ -169,21 +420,12 @@ fn raster_section(p: &Path, elevation: bool, tmp: &Path) -> Result<String> {
     };
     render_preview(&preview_src, &png, &opts)?;
     let bytes = std::fs::read(&png).map_err(|e| Error::io(&png, e))?;
-    let b64 = base64::engine::general_purpose::STANDARD.encode(bytes);
-    let mut s = String::new();
-    let _ = write!(
-        s,
-        "<div class='out'><h3>{}</h3><p>{} x {} {} · min {} · max {}</p><img src='data:image/png;base64,{b64}' alt='preview of {}'>{}</div>",
-        esc(&p.display().to_string()),
-        info.width,
-        info.height,
-        info.dtype,
-        fmt_num(lo),
-        fmt_num(hi),
-        esc(&p.display().to_string()),
-        hist
-    );
-    Ok(s)
+    let note = if log {
+        " · log scale: colours and histogram of log10(1 + value)"
+    } else {
+        ""
+    };
+    Ok(img(&bytes, note, hist))
 }
 
 fn csv_section(p: &Path) -> Result<String> {
@@ -539,7 +781,10 @@ pub fn write_report(title: &str, steps: &[StepOutcome], path: &Path) -> Result<(
                 .unwrap_or("")
                 .to_ascii_lowercase();
             let part = if is_raster(&f) {
-                raster_section(&f, s.elevation, tmpdir.path())
+                let kind = metric_file_kind(&f)
+                    .filter(|_| s.command_line.split_whitespace().nth(1) == Some("metric"))
+                    .unwrap_or(s.kind);
+                raster_section(&f, s.elevation, kind, s.classes, tmpdir.path())
             } else if ext == "csv" {
                 special_csv_section(&f).and_then(|o| match o {
                     Some(html) => Ok(html),

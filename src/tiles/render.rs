@@ -27,7 +27,7 @@ use crate::error::{Error, Result};
 use crate::io::png::{encode_png, write_atomic};
 use crate::metrics::neighbourhood::EdgeMode;
 use crate::metrics::terrain::{hillshade_grid, Hillshade};
-use crate::raster::{read_window, GeoRef, Grid, RasterSource, Window};
+use crate::raster::{read_window, GeoRef, Grid, OutputKind, RasterSource, Window};
 use std::path::Path;
 
 /// Most source cells read at once while downsampling (16 MiB of f32).
@@ -109,6 +109,20 @@ pub struct RenderInfo {
 /// source in bands of `factor` rows and chunks of at most [`CHUNK_CELLS`]
 /// cells; memory is the output plus one chunk.
 pub fn downsample_mean(src: &dyn RasterSource, factor: usize) -> Result<(Grid<f32>, f64, f64)> {
+    downsample(src, factor, OutputKind::Continuous)
+}
+
+/// [`downsample_mean`] by what the raster holds: the block mean of a
+/// continuous quantity, the circular mean of an angle in degrees (the
+/// direction of the summed unit vectors, in [0, 360); a block averaging
+/// 350° and 10° is 0°, not 180°), and for class codes the block's centre
+/// cell (nearest; a mean of D8 codes 1 and 128 is no code). Min and max
+/// are exact for every kind.
+pub fn downsample(
+    src: &dyn RasterSource,
+    factor: usize,
+    kind: OutputKind,
+) -> Result<(Grid<f32>, f64, f64)> {
     if factor == 0 {
         return Err(Error::invalid("downsampling factor must be at least 1"));
     }
@@ -123,12 +137,17 @@ pub fn downsample_mean(src: &dyn RasterSource, factor: usize) -> Result<(Grid<f3
     let blocks_per_chunk = (CHUNK_CELLS / (factor * factor)).max(1);
     let chunk_w = (blocks_per_chunk * factor).min(w);
     let rows_per_read = (CHUNK_CELLS / chunk_w).max(1);
+    // Sums: the values (continuous), cos and sin (angle); the centre cell (classes).
     let mut sum = vec![0f64; ow];
+    let mut sum2 = vec![0f64; ow];
     let mut cnt = vec![0u64; ow];
+    let centre = factor / 2;
     for by in 0..oh {
         let y0 = by * factor;
         let y_end = (y0 + factor).min(h);
+        let cy = (y0 + centre).min(y_end - 1);
         sum.iter_mut().for_each(|s| *s = 0.0);
+        sum2.iter_mut().for_each(|s| *s = 0.0);
         cnt.iter_mut().for_each(|c| *c = 0);
         let mut x0 = 0;
         while x0 < w {
@@ -139,6 +158,7 @@ pub fn downsample_mean(src: &dyn RasterSource, factor: usize) -> Result<(Grid<f3
                 let win = Window::new(x0 as i64, yy as i64, cw, rh);
                 let g: Grid<f32> = read_window(src, win)?;
                 for y in 0..rh {
+                    let at_centre = yy + y == cy;
                     for (x, &v) in g.row(y).iter().enumerate() {
                         if v.is_nan() {
                             continue;
@@ -146,19 +166,42 @@ pub fn downsample_mean(src: &dyn RasterSource, factor: usize) -> Result<(Grid<f3
                         let v = v as f64;
                         lo = lo.min(v);
                         hi = hi.max(v);
-                        let b = (x0 + x) / factor;
-                        sum[b] += v;
-                        cnt[b] += 1;
+                        let gx = x0 + x;
+                        let b = gx / factor;
+                        match kind {
+                            OutputKind::Continuous => {
+                                sum[b] += v;
+                                cnt[b] += 1;
+                            }
+                            OutputKind::Angle => {
+                                let r = v.to_radians();
+                                sum[b] += r.cos();
+                                sum2[b] += r.sin();
+                                cnt[b] += 1;
+                            }
+                            OutputKind::Categorical => {
+                                let cx = (b * factor + centre).min(w - 1);
+                                if at_centre && gx == cx {
+                                    sum[b] = v;
+                                    cnt[b] = 1;
+                                }
+                            }
+                        }
                     }
                 }
                 yy += rh;
             }
             x0 += cw;
         }
-        for (o, (s, c)) in out.row_mut(by).iter_mut().zip(sum.iter().zip(&cnt)) {
-            if *c > 0 {
-                *o = (s / *c as f64) as f32;
+        for (bx, o) in out.row_mut(by).iter_mut().enumerate() {
+            if cnt[bx] == 0 {
+                continue;
             }
+            *o = match kind {
+                OutputKind::Continuous => (sum[bx] / cnt[bx] as f64) as f32,
+                OutputKind::Angle => sum2[bx].atan2(sum[bx]).to_degrees().rem_euclid(360.0) as f32,
+                OutputKind::Categorical => sum[bx] as f32,
+            };
         }
     }
     if lo > hi {
@@ -500,6 +543,36 @@ fn draw_legend(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn downsampling_follows_the_kind() {
+        use crate::raster::{AnyGrid, MemRaster};
+        // One 4 x 2 block pair: left block angles 350 and 10 (mean 0, not
+        // 180), codes 1 and 128 (a code of the block, not their mean 64.5).
+        let ang = Grid::from_vec(
+            4,
+            2,
+            vec![350.0f32, 10.0, 90.0, 90.0, 350.0, 10.0, 90.0, 180.0],
+        )
+        .unwrap();
+        let src = MemRaster::new(AnyGrid::F32(ang), GeoRef::pixel(), "a");
+        let (g, lo, hi) = downsample(&src, 2, OutputKind::Angle).unwrap();
+        assert!(
+            g.get(0, 0).abs() < 1e-4 || (g.get(0, 0) - 360.0).abs() < 1e-4,
+            "{}",
+            g.get(0, 0)
+        );
+        assert!((g.get(1, 0) - 108.434_95).abs() < 1e-3, "{}", g.get(1, 0));
+        assert_eq!((lo, hi), (10.0, 350.0));
+        let (m, _, _) = downsample(&src, 2, OutputKind::Continuous).unwrap();
+        assert_eq!(m.get(0, 0), 180.0);
+        let codes =
+            Grid::from_vec(4, 2, vec![1.0f32, 128.0, 4.0, 4.0, 1.0, 1.0, 8.0, 8.0]).unwrap();
+        let src = MemRaster::new(AnyGrid::F32(codes), GeoRef::pixel(), "c");
+        let (g, _, _) = downsample(&src, 2, OutputKind::Categorical).unwrap();
+        // The centre cell of a 2 x 2 block is its (1, 1) cell.
+        assert_eq!((g.get(0, 0), g.get(1, 0)), (1.0, 8.0));
+    }
 
     #[test]
     fn ramp_ends_and_interpolation() {

@@ -6,5 +6,6 @@
 mod common;
 mod group_steps;
 mod library;
+mod report_previews;
 mod run_file;
 mod step_paths;

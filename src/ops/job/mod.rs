@@ -123,6 +123,17 @@ const ELEVATION_COMMANDS: [&str; 9] = [
     "convert",
 ];
 
+/// What the raster outputs of a step running `command` hold, for the
+/// report's previews (a `metric` step's files are looked up per metric).
+fn output_kind(command: &str) -> crate::raster::OutputKind {
+    use crate::raster::OutputKind;
+    match command {
+        "flow" | "watersheds" | "basins" | "streams" => OutputKind::Categorical,
+        "aspect" => OutputKind::Angle,
+        _ => OutputKind::Continuous,
+    }
+}
+
 /// Read and check the job file at `path` (see [`load`]) and type every
 /// step (see the module doc): an unknown key, a wrong value or a missing
 /// input is refused here, before any step runs.
@@ -242,6 +253,8 @@ pub fn run(job: &Job, opts: &JobOptions, notify: Notify<'_>) -> Result<JobReport
             extra_outputs: vec![],
             elevation: ELEVATION_COMMANDS
                 .contains(&s.command.split_whitespace().next().unwrap_or("")),
+            kind: output_kind(&s.command),
+            classes: (s.command == "flow").then_some(crate::report::D8_CLASSES),
         })
         .collect();
     let mut failure = None;
