@@ -290,3 +290,60 @@ fn sparse_mosaics_are_refused_unless_asked() {
     let near = [vrt_data("t_a.tif"), vrt_data("t_b.tif")];
     assert!(open_inputs(&near, &OpenOptions::default()).is_ok());
 }
+
+#[test]
+fn a_vrt_of_srtm_hgt_tiles_reads_the_later_tile_on_the_shared_column() {
+    // gdalbuildvrt srtm.vrt ../srtm/N43E006.hgt ../srtm/N43E007.hgt
+    let v = open(&vrt_data("srtm.vrt"));
+    let i = v.info();
+    assert_eq!((i.width, i.height), (2401, 1201));
+    assert!(i.georef.crs.geographic && i.georef.crs.epsg == Some(4326));
+    let w = open(&vrt_data("../srtm/N43E006.hgt"));
+    let e = open(&vrt_data("../srtm/N43E007.hgt"));
+    let win = Window::new(1150, 300, 100, 200);
+    let got = v.read_native(win).unwrap();
+    let gw = w.read_native(Window::new(1150, 300, 51, 200)).unwrap();
+    let ge = e.read_native(Window::new(0, 300, 50, 200)).unwrap();
+    let nd = -32768.0;
+    for y in 0..200 {
+        for x in 0..100 {
+            let g = got.get_f64(x, y);
+            // Column 1200 is both tiles' edge: N43E007, later, paints over
+            // it unless it holds nodata there.
+            let want = if x >= 50 && ge.get_f64(x - 50, y) != nd {
+                ge.get_f64(x - 50, y)
+            } else if x <= 50 {
+                gw.get_f64(x, y)
+            } else {
+                nd
+            };
+            assert_eq!(g, want, "({x}, {y})");
+        }
+    }
+}
+
+#[test]
+fn a_vrt_of_a_vrt_without_rectangles_reads_its_source_whole() {
+    // SrcRect absent: the whole source; DstRect absent: the whole VRT.
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("outer.vrt");
+    std::fs::write(
+        &p,
+        format!(
+            "<?xml version=\"1.0\"?>\n<VRTDataset rasterXSize=\"301\" rasterYSize=\"203\">\n\
+             <VRTRasterBand dataType=\"Float32\" band=\"1\"><SimpleSource>\
+             <SourceFilename relativeToVRT=\"0\">{}</SourceFilename><SourceBand>1</SourceBand>\
+             </SimpleSource></VRTRasterBand></VRTDataset>\n",
+            vrt_data("mosaic.vrt").display()
+        ),
+    )
+    .unwrap();
+    let v = open(&p);
+    assert_eq!(v.info().dtype, orogen::raster::DType::F32);
+    assert!(!v.info().georef.georeferenced);
+    let orig = whole(open(&original()).as_ref());
+    let got = whole(v.as_ref());
+    for (x, y) in [(0, 0), (139, 89), (140, 90), (300, 202), (200, 17)] {
+        assert_eq!(got.get_f64(x, y), orig.get_f64(x, y), "({x}, {y})");
+    }
+}
