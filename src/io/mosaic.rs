@@ -391,7 +391,8 @@ pub fn check_sparse(
     Err(Error::invalid(format!(
         "{what}: its {} sources span {} x {} cells (x {} to {}, y {} to {} in {units}) but cover only \
          {covered:.1} % of that extent: {:.1} % would be nodata, more than the {:.0} % orogen accepts \
-         unasked; pass --allow-sparse to build the mosaic anyway, or mosaic tiles nearer each other",
+         unasked; pass --allow-sparse (job key allow_sparse) to build the mosaic anyway, or mosaic \
+         tiles nearer each other",
         rects.len(),
         info.width,
         info.height,

@@ -478,9 +478,13 @@ impl Vrt {
             match name {
                 "SourceFilename" => {
                     if text.starts_with("/vsi") {
-                        return Err(refuse(
+                        return Err(Error::unsupported(
                             path,
-                            format!("the GDAL virtual file {text}; extract the files and rebuild the VRT with gdalbuildvrt, or"),
+                            format!(
+                                "its source {text} is a GDAL virtual file (/vsizip/, /vsicurl/, ...), which \
+                                 orogen does not read; extract or download the files and rebuild the VRT \
+                                 over them with gdalbuildvrt"
+                            ),
                         ));
                     }
                     let relative = c

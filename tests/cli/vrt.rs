@@ -136,3 +136,33 @@ fn sparse_mosaics_need_allow_sparse() {
         "{help}"
     );
 }
+
+#[test]
+fn a_job_step_takes_allow_sparse() {
+    let dir = tempfile::tempdir().unwrap();
+    let job = |allow: bool| {
+        format!(
+            "report = false\noutput_dir = \"{}\"\n[inputs]\ndem = \"{}\"\n[[step]]\nname = \"s\"\n\
+             run = \"slope\"\ninput = \"dem\"\noutput = \"s.tif\"\nargs = {{ allow_sparse = {allow} }}\n",
+            dir.path().join("out").display(),
+            data("vrt/sparse.vrt").display()
+        )
+    };
+    let p = dir.path().join("job.toml");
+    std::fs::write(&p, job(false)).unwrap();
+    let o = orogen().arg("run").arg(&p).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("allow_sparse") && err.contains("21.1 %"),
+        "{err}"
+    );
+    assert!(!dir.path().join("out/s.tif").exists());
+    std::fs::write(&p, job(true)).unwrap();
+    let said = ok(orogen().arg("run").arg(&p));
+    assert!(
+        said.contains("--allow-sparse"),
+        "the step's command line: {said}"
+    );
+    assert!(dir.path().join("out/s.tif").exists());
+}
