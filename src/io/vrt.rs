@@ -720,6 +720,50 @@ mod tests {
     }
 
     #[test]
+    fn at_most_open_sources_stay_open() {
+        // Twelve copies of one tile side by side: a read of them all keeps
+        // OPEN_SOURCES opened, the last used.
+        let tile = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/vrt/t_a.tif");
+        let n = OPEN_SOURCES + 4;
+        let mut xml = format!(
+            "<VRTDataset rasterXSize=\"{}\" rasterYSize=\"90\"><VRTRasterBand dataType=\"Int16\" band=\"1\">",
+            140 * n
+        );
+        for i in 0..n {
+            xml += &format!(
+                "<SimpleSource><SourceFilename>{}</SourceFilename><SourceBand>1</SourceBand>\
+                 <SrcRect xOff=\"0\" yOff=\"0\" xSize=\"140\" ySize=\"90\"/>\
+                 <DstRect xOff=\"{}\" yOff=\"0\" xSize=\"140\" ySize=\"90\"/></SimpleSource>",
+                tile.display(),
+                140 * i
+            );
+        }
+        xml += "</VRTRasterBand></VRTDataset>";
+        let dir = std::env::temp_dir().join(format!("orogen-vrt-lru-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("row.vrt");
+        std::fs::write(&p, xml).unwrap();
+        let v = Vrt::open(&p, 1).unwrap();
+        let g = v.read_native(Window::full(140 * n, 90)).unwrap();
+        assert_eq!(g.get_f64(5, 7), g.get_f64(140 * (n - 1) + 5, 7));
+        let open: Vec<usize> = v.open.lock().unwrap().iter().map(|e| e.0).collect();
+        assert_eq!(open, (n - OPEN_SOURCES..n).collect::<Vec<_>>());
+        // A window over one tile opens only it.
+        let v = Vrt::open(&p, 1).unwrap();
+        v.read_native(Window::new(300, 10, 20, 20)).unwrap();
+        assert_eq!(
+            v.open
+                .lock()
+                .unwrap()
+                .iter()
+                .map(|e| e.0)
+                .collect::<Vec<_>>(),
+            vec![2]
+        );
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
     fn sniffing() {
         assert!(looks_like_vrt(b"<VRTDataset rasterXSize"));
         assert!(looks_like_vrt(

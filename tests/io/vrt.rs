@@ -4,7 +4,8 @@
 //! read as nodata, a later source over an earlier one with its NODATA
 //! transparent, absolute source paths, streaming (a window reads only the
 //! sources it overlaps), the refusals (resampling, scaling, warped, bands,
-//! missing files) and sparse mosaics refused unless asked.
+//! missing files), mangled VRTs (errors, no panic) and sparse mosaics
+//! refused unless asked.
 
 use orogen::io::mosaic::Coverage;
 use orogen::io::vrt::Vrt;
@@ -346,4 +347,50 @@ fn a_vrt_of_a_vrt_without_rectangles_reads_its_source_whole() {
     for (x, y) in [(0, 0), (139, 89), (140, 90), (300, 202), (200, 17)] {
         assert_eq!(got.get_f64(x, y), orig.get_f64(x, y), "({x}, {y})");
     }
+}
+
+#[test]
+fn mangled_vrts_give_errors_not_panics() {
+    // Deterministic mutations of a real VRT (digits, brackets, element
+    // names, truncations): opening and reading a bounded window either
+    // works or fails with an error.
+    use orogen::oro::stats::SplitMix64;
+    let dir = tempfile::tempdir().unwrap();
+    let base = std::fs::read_to_string(vrt_data("overlap.vrt"))
+        .unwrap()
+        .replace(
+            "relativeToVRT=\"1\">",
+            &format!("relativeToVRT=\"0\">{}", vrt_data("").display()),
+        );
+    let alphabet: &[u8] = b"0123456789-.e[]\",<>/ \n";
+    let mut rng = SplitMix64(7);
+    let p = dir.path().join("m.vrt");
+    let (mut opened, mut read) = (0, 0);
+    for _ in 0..600 {
+        let mut b = base.clone().into_bytes();
+        for _ in 0..1 + rng.below(4) {
+            if b.is_empty() {
+                break;
+            }
+            let i = rng.below(b.len() as u64) as usize;
+            match rng.below(4) {
+                0 => b[i] = alphabet[rng.below(alphabet.len() as u64) as usize],
+                1 => b.truncate(i),
+                2 => {
+                    b.remove(i);
+                }
+                _ => b.insert(i, b"9"[0]),
+            }
+        }
+        std::fs::write(&p, &b).unwrap();
+        if let Ok(v) = Vrt::open(&p, 1) {
+            opened += 1;
+            let i = v.info();
+            let win = Window::new(90, 50, i.width.min(64), i.height.min(64));
+            if v.read_native(win).is_ok() {
+                read += 1;
+            }
+        }
+    }
+    assert!(opened > 50 && read > 50, "{opened} opened, {read} read");
 }
