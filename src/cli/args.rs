@@ -152,7 +152,7 @@ pub(crate) fn run_one<O>(
 
 #[derive(Args, Clone)]
 pub(crate) struct In {
-    /// Input raster: GeoTIFF, .hgt, .asc, PNG heightmap or tile store.
+    /// Input raster: GeoTIFF, .hgt, .asc, PNG heightmap, GDAL .vrt mosaic or tile store.
     pub(crate) input: PathBuf,
     #[command(flatten)]
     pub(crate) reading: InputArgs,
@@ -186,6 +186,11 @@ pub(crate) struct InputArgs {
     /// nodata the input is read as nodata, an outlet.
     #[arg(long, value_name = "FILE")]
     pub(crate) mask: Option<PathBuf>,
+    /// Build a mosaic (several inputs, a folder, a GDAL .vrt) even when its
+    /// files cover less than half of its extent; without it such a mosaic,
+    /// mostly nodata, is refused.
+    #[arg(long)]
+    pub(crate) allow_sparse: bool,
 }
 
 impl InputArgs {
@@ -197,6 +202,7 @@ impl InputArgs {
             nodata: self.nodata,
             sea_level: self.sea_level,
             mask: self.mask.clone(),
+            allow_sparse: self.allow_sparse,
         }
         .open_options()
     }

@@ -1,5 +1,5 @@
 //! Readers and writers: GeoTIFF (streamed, no GDAL), SRTM .hgt, ESRI ASCII,
-//! PNG heightmaps, mosaics of several files, previews, points from CSV and
+//! PNG heightmaps, mosaics of several files, GDAL VRT mosaics (`vrt`), previews, points from CSV and
 //! GeoJSON files (`vector`), the coordinates of GeoJSON outputs and the `crs`
 //! member of GeoJSON inputs (`geojson`); plus opening any of them by path.
 
@@ -16,6 +16,7 @@ pub mod reassign;
 pub mod scaling;
 pub mod sinks;
 pub mod vector;
+pub mod vrt;
 
 pub use open::{
     create_sink, create_sink_like, detect, is_store_path, open_inputs, open_raster, Format,

@@ -302,6 +302,109 @@ impl RasterSource for Mosaic {
     }
 }
 
+/// A mosaic whose sources leave more than this fraction of its extent
+/// uncovered is refused unless `--allow-sparse` is given (50 %).
+pub const MAX_EMPTY_FRACTION: f64 = 0.5;
+
+/// How much of a mosaic's extent its sources cover, from their rectangles
+/// alone (no cell is read).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Coverage {
+    /// Cells of the extent.
+    pub total_cells: u128,
+    /// Cells inside at least one source rectangle.
+    pub covered_cells: u128,
+}
+
+impl Coverage {
+    /// The coverage of a `width` x `height` extent by `rects` (clipped to
+    /// it; overlaps counted once): a sweep over the rectangles' column
+    /// edges, merging the row intervals of those spanning each slab.
+    pub fn of(width: usize, height: usize, rects: &[Window]) -> Coverage {
+        let full = Window::full(width, height);
+        let clipped: Vec<Window> = rects.iter().filter_map(|r| r.intersect(&full)).collect();
+        let mut xs: Vec<i64> = clipped.iter().flat_map(|r| [r.x, r.x_end()]).collect();
+        xs.sort_unstable();
+        xs.dedup();
+        let mut covered = 0u128;
+        let mut spans: Vec<(i64, i64)> = Vec::new();
+        for k in 1..xs.len() {
+            let (a, b) = (xs[k - 1], xs[k]);
+            spans.clear();
+            spans.extend(
+                clipped
+                    .iter()
+                    .filter(|r| r.x <= a && r.x_end() >= b)
+                    .map(|r| (r.y, r.y_end())),
+            );
+            spans.sort_unstable();
+            let (mut len, mut end) = (0i64, i64::MIN);
+            for &(y0, y1) in &spans {
+                let start = y0.max(end);
+                if y1 > start {
+                    len += y1 - start;
+                }
+                end = end.max(y1);
+            }
+            covered += (b - a) as u128 * len as u128;
+        }
+        Coverage {
+            total_cells: width as u128 * height as u128,
+            covered_cells: covered,
+        }
+    }
+
+    /// The fraction of the extent no source covers.
+    pub fn empty_fraction(&self) -> f64 {
+        if self.total_cells == 0 {
+            return 0.0;
+        }
+        1.0 - self.covered_cells as f64 / self.total_cells as f64
+    }
+}
+
+/// Refuse a mosaic (`info`: its extent; `rects`: its sources' extents in
+/// its cells) that leaves more than [`MAX_EMPTY_FRACTION`] of its extent
+/// uncovered, unless `allow_sparse`. `what` names the mosaic ("the mosaic
+/// of 2 files in DIR", "VRT.vrt").
+pub fn check_sparse(
+    what: &str,
+    info: &RasterInfo,
+    rects: &[Window],
+    allow_sparse: bool,
+) -> Result<()> {
+    let c = Coverage::of(info.width, info.height, rects);
+    if allow_sparse || c.empty_fraction() <= MAX_EMPTY_FRACTION {
+        return Ok(());
+    }
+    let g = &info.georef;
+    let (xa, ya) = g.pixel_to_map(0.0, 0.0);
+    let (xb, yb) = g.pixel_to_map(info.width as f64, info.height as f64);
+    let units = if !g.georeferenced {
+        "pixel coordinates"
+    } else if g.crs.geographic {
+        "degrees"
+    } else {
+        "map units"
+    };
+    let covered = 100.0 * c.covered_cells as f64 / c.total_cells as f64;
+    Err(Error::invalid(format!(
+        "{what}: its {} sources span {} x {} cells (x {} to {}, y {} to {} in {units}) but cover only \
+         {covered:.1} % of that extent: {:.1} % would be nodata, more than the {:.0} % orogen accepts \
+         unasked; pass --allow-sparse (job key allow_sparse) to build the mosaic anyway, or mosaic \
+         tiles nearer each other",
+        rects.len(),
+        info.width,
+        info.height,
+        xa.min(xb),
+        xa.max(xb),
+        ya.min(yb),
+        ya.max(yb),
+        100.0 - covered,
+        100.0 * MAX_EMPTY_FRACTION,
+    )))
+}
+
 /// Raster file extensions a directory expands to.
 const RASTER_EXTS: [&str; 5] = ["hgt", "tif", "tiff", "asc", "png"];
 
@@ -350,5 +453,19 @@ mod tests {
         assert_eq!(default_nodata(I16), -32768.0);
         assert_eq!(default_nodata(U8), 255.0);
         assert!(default_nodata(F32).is_nan());
+    }
+
+    #[test]
+    fn coverage_counts_overlaps_once() {
+        let r = |x, y, w, h| Window::new(x, y, w, h);
+        let c = Coverage::of(10, 10, &[r(0, 0, 5, 5), r(3, 3, 5, 5), r(8, 8, 5, 5)]);
+        // 25 + 25 - 4 (overlap) + 4 (clipped to the extent).
+        assert_eq!(c.covered_cells, 50);
+        assert_eq!(c.empty_fraction(), 0.5);
+        assert_eq!(
+            Coverage::of(4, 4, &[r(0, 0, 4, 4), r(0, 0, 4, 4)]).covered_cells,
+            16
+        );
+        assert_eq!(Coverage::of(4, 4, &[]).covered_cells, 0);
     }
 }

@@ -30,6 +30,10 @@ pub struct OpenOptions {
     /// A raster on the input's grid: where it is 0 or nodata the input is
     /// read as nodata ([`super::reassign`]).
     pub mask: Option<PathBuf>,
+    /// Build a mosaic (several inputs, a folder, a `.vrt`) even when its
+    /// sources leave more than [`MAX_EMPTY_FRACTION`](super::mosaic::MAX_EMPTY_FRACTION)
+    /// of its extent uncovered (refused otherwise).
+    pub allow_sparse: bool,
 }
 
 impl Default for OpenOptions {
@@ -41,6 +45,7 @@ impl Default for OpenOptions {
             nodata: None,
             sea_level: None,
             mask: None,
+            allow_sparse: false,
         }
     }
 }
@@ -53,6 +58,7 @@ pub enum Format {
     Ascii,
     Png,
     Store,
+    Vrt,
 }
 
 impl Format {
@@ -64,6 +70,7 @@ impl Format {
             Format::Ascii => "ascii-grid",
             Format::Png => "png",
             Format::Store => "tile-store",
+            Format::Vrt => "vrt",
         }
     }
 }
@@ -79,10 +86,18 @@ pub fn detect(path: &Path) -> Result<Format> {
             "a directory that is not a tile store (no manifest.json); to mosaic the files in a folder, use `orogen ingest DIR -o OUT.tiles`",
         ));
     }
-    let mut magic = [0u8; 8];
-    let n = std::fs::File::open(path)
-        .and_then(|mut f| f.read(&mut magic))
-        .at(path)?;
+    let mut magic = [0u8; 512];
+    let mut n = 0;
+    {
+        let mut f = std::fs::File::open(path).at(path)?;
+        while n < magic.len() {
+            let k = f.read(&mut magic[n..]).at(path)?;
+            if k == 0 {
+                break;
+            }
+            n += k;
+        }
+    }
     let m = &magic[..n];
     if m.starts_with(b"II*\0")
         || m.starts_with(b"MM\0*")
@@ -94,6 +109,9 @@ pub fn detect(path: &Path) -> Result<Format> {
     if m.starts_with(b"\x89PNG\r\n\x1a\n") {
         return Ok(Format::Png);
     }
+    if super::vrt::looks_like_vrt(m) {
+        return Ok(Format::Vrt);
+    }
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
@@ -104,9 +122,13 @@ pub fn detect(path: &Path) -> Result<Format> {
         "asc" => Ok(Format::Ascii),
         "tif" | "tiff" => Err(Error::corrupt(path, "not a TIFF file (wrong magic bytes)")),
         "png" => Err(Error::corrupt(path, "not a PNG file (wrong signature)")),
+        "vrt" => Err(Error::corrupt(
+            path,
+            "not a GDAL VRT (no <VRTDataset> element at the start)",
+        )),
         _ => Err(Error::unsupported(
             path,
-            "unknown raster format; orogen reads GeoTIFF (.tif), SRTM .hgt, ESRI ASCII (.asc), 16-bit PNG heightmaps and tile stores (.tiles)",
+            "unknown raster format; orogen reads GeoTIFF (.tif), SRTM .hgt, ESRI ASCII (.asc), 16-bit PNG heightmaps, GDAL VRT mosaics (.vrt) and tile stores (.tiles)",
         )),
     }
 }
@@ -114,7 +136,7 @@ pub fn detect(path: &Path) -> Result<Format> {
 /// Open one raster of any supported format.
 pub fn open_raster(path: &Path, opts: &OpenOptions) -> Result<Box<dyn RasterSource>> {
     let format = detect(path)?;
-    if opts.band != 1 && format != Format::GeoTiff {
+    if opts.band != 1 && !matches!(format, Format::GeoTiff | Format::Vrt) {
         return Err(Error::invalid(format!(
             "{}: band {} asked for, the file has 1 band: choose --band 1",
             path.display(),
@@ -146,6 +168,17 @@ pub fn open_raster(path: &Path, opts: &OpenOptions) -> Result<Box<dyn RasterSour
             Box::new(super::png::read_png(path, given)?)
         }
         Format::Store => Box::new(TileStore::open(path)?),
+        Format::Vrt => {
+            let v = super::vrt::Vrt::open(path, opts.band)?;
+            let rects: Vec<_> = v.extents().into_iter().map(|(_, w)| w).collect();
+            super::mosaic::check_sparse(
+                &path.display().to_string(),
+                v.info(),
+                &rects,
+                opts.allow_sparse,
+            )?;
+            Box::new(v)
+        }
     };
     let mask = match &opts.mask {
         Some(m) => Some(open_raster(m, &OpenOptions::default())?),
@@ -164,7 +197,9 @@ pub fn open_raster(path: &Path, opts: &OpenOptions) -> Result<Box<dyn RasterSour
 }
 
 /// Open one input or a mosaic of several (directories expand to the rasters
-/// they contain, sorted by name).
+/// they contain, sorted by name). A mosaic whose inputs leave more than
+/// [`MAX_EMPTY_FRACTION`](super::mosaic::MAX_EMPTY_FRACTION) of its extent
+/// uncovered is refused unless `opts.allow_sparse`.
 pub fn open_inputs(paths: &[PathBuf], opts: &OpenOptions) -> Result<Box<dyn RasterSource>> {
     let files = super::mosaic::expand_inputs(paths)?;
     if files.is_empty() {
@@ -179,7 +214,18 @@ pub fn open_inputs(paths: &[PathBuf], opts: &OpenOptions) -> Result<Box<dyn Rast
     for f in &files {
         sources.push(open_raster(f, opts)?);
     }
-    Ok(Box::new(super::mosaic::Mosaic::new(sources)?))
+    let m = super::mosaic::Mosaic::new(sources)?;
+    let rects: Vec<_> = m.extents().into_iter().map(|(_, w)| w).collect();
+    let what = match paths {
+        [one] => format!(
+            "the mosaic of the {} files in {}",
+            files.len(),
+            one.display()
+        ),
+        _ => format!("the mosaic of {} files", files.len()),
+    };
+    super::mosaic::check_sparse(&what, m.info(), &rects, opts.allow_sparse)?;
+    Ok(Box::new(m))
 }
 
 /// Output settings shared by all commands that write rasters.

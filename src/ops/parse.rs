@@ -391,7 +391,8 @@ impl FormatOptions {
 
 /// How raster inputs are read: the band of a multi-band GeoTIFF
 /// (`--band`), the PNG heightmap scaling (`--png-scale --png-offset`), the
-/// nodata value (`--nodata`) and the sea masked as nodata (`--sea-level`).
+/// nodata value (`--nodata`), the sea masked as nodata (`--sea-level`), a
+/// mask (`--mask`) and whether a sparse mosaic is built (`--allow-sparse`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct InputOptions {
@@ -407,6 +408,9 @@ pub struct InputOptions {
     pub sea_level: Option<f64>,
     /// A raster on the input's grid: where it is 0 or nodata, the input is nodata.
     pub mask: Option<std::path::PathBuf>,
+    /// Build a mosaic (several inputs, a folder, a `.vrt`) whose sources
+    /// leave more than half of its extent uncovered (refused otherwise).
+    pub allow_sparse: bool,
 }
 
 impl Default for InputOptions {
@@ -418,6 +422,7 @@ impl Default for InputOptions {
             nodata: None,
             sea_level: None,
             mask: None,
+            allow_sparse: false,
         }
     }
 }
@@ -432,6 +437,7 @@ impl InputOptions {
             nodata: self.nodata,
             sea_level: self.sea_level,
             mask: self.mask.clone(),
+            allow_sparse: self.allow_sparse,
         }
     }
 }

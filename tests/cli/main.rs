@@ -6,6 +6,7 @@ mod common;
 use common::cli::{data, fails, ok, orogen};
 
 mod geojson_crs;
+mod vrt;
 
 #[test]
 fn demo_writes_everything_it_lists() {

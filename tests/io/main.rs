@@ -1,6 +1,6 @@
 //! Readers and writers of raster formats: GeoTIFF read against GDAL's
-//! fixtures, GeoTIFF and COG writing, ESRI ASCII, SRTM .hgt, PNG heightmaps
-//! and mosaics.
+//! fixtures, GeoTIFF and COG writing, ESRI ASCII, SRTM .hgt, PNG heightmaps,
+//! mosaics and GDAL VRT mosaics.
 
 #[path = "../common/mod.rs"]
 mod common;
@@ -14,3 +14,4 @@ mod hgt;
 mod mosaic;
 mod png;
 mod scaling;
+mod vrt;
