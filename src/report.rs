@@ -245,6 +245,15 @@ fn coloured_png(g: &crate::raster::Grid<f32>, colour: impl Fn(f32) -> [u8; 3]) -
     Ok(out)
 }
 
+/// A class code as text: integers without decimals.
+fn class_label(v: f32) -> String {
+    if v.fract() == 0.0 && v.abs() < 1e9 {
+        format!("{}", v as i64)
+    } else {
+        fmt_num(v as f64)
+    }
+}
+
 /// Inline SVG bars, one per class of `values` (at most 40, the most common),
 /// with a legend of the classes' colours and names.
 fn class_bars_svg(values: &[f32], names: Option<&[(u32, &str)]>) -> String {
@@ -284,7 +293,7 @@ fn class_bars_svg(values: &[f32], names: Option<&[(u32, &str)]>) -> String {
             i as f64 * bw,
             h - bh,
             (bw - 1.0).max(1.0),
-            fmt_num(v as f64),
+            class_label(v),
             esc(&name)
         );
     }
@@ -306,7 +315,7 @@ fn class_bars_svg(values: &[f32], names: Option<&[(u32, &str)]>) -> String {
             let name = names
                 .and_then(|n| n.iter().find(|(k, _)| *k as f32 == v))
                 .map(|(_, n)| n.to_string())
-                .unwrap_or_else(|| fmt_num(v as f64));
+                .unwrap_or_else(|| class_label(v));
             let _ = write!(
                 s,
                 "<span style='display:inline-block;width:10px;height:10px;background:rgb({r},{g},{b})'></span> {} ",
