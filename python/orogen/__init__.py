@@ -232,17 +232,18 @@ class _Input:
     to give the result back in the input's kind."""
 
     def __init__(self, dem: Any, transform: Any, crs: Any, nodata: Optional[float],
-                 sea_level: Optional[float] = None, mask: Any = None):
+                 sea_level: Optional[float] = None, mask: Any = None, allow_sparse: bool = False):
         self.template = None
         self.georef: Optional[Dict[str, Any]] = None
         if isinstance(dem, (Raster, str, os.PathLike)):
             self.value: Any = dem.path if isinstance(dem, Raster) else os.fspath(dem)
             self.kind = "path"
             # A file's reading options, as the CLI's --nodata / --sea-level.
-            if nodata is not None or sea_level is not None or mask is not None:
+            if nodata is not None or sea_level is not None or mask is not None or allow_sparse:
                 self.georef = {"nodata": None if nodata is None else float(nodata),
                                "sea_level": None if sea_level is None else float(sea_level),
-                               "mask": None if mask is None else _mask_path(mask)}
+                               "mask": None if mask is None else _mask_path(mask),
+                               "allow_sparse": bool(allow_sparse)}
             return
         g: Dict[str, Any] = {}
         if _is_dataarray(dem):
@@ -338,8 +339,9 @@ def _raster_op(
     threads: int,
     format: Optional[Dict[str, Any]],
     progress: Any = None,
+    allow_sparse: bool = False,
 ) -> Any:
-    inp = _Input(dem, transform, crs, nodata, sea_level, mask)
+    inp = _Input(dem, transform, crs, nodata, sea_level, mask, allow_sparse)
     run = _run_settings(memory, tile, threads)
     fmt = _json(format or {})
     cb = _progress(progress)
@@ -409,7 +411,7 @@ def _doc(f):
 
 
 @_doc
-def fill(dem, *, sinks=None, transform=None, crs=None, nodata=None, sea_level=None, mask=None, output=None, memory=None, tile=None, threads=0, format=None, progress=None):
+def fill(dem, *, sinks=None, transform=None, crs=None, nodata=None, sea_level=None, mask=None, allow_sparse=False, output=None, memory=None, tile=None, threads=0, format=None, progress=None):
     """Fill the depressions of ``dem`` (``orogen fill``): Priority-Flood
     (Barnes, Lehman & Mulla 2014), exact across tiles (Barnes 2016). Nodata
     cells and the edge are outlets, and so are the declared ``sinks`` (a
@@ -421,24 +423,24 @@ def fill(dem, *, sinks=None, transform=None, crs=None, nodata=None, sea_level=No
     >>> float(orogen.fill(dem)[2, 2])
     10.0
     """
-    return _raster_op("fill", dem, {"sinks": None if sinks is None else str(sinks)}, transform=transform, crs=crs, nodata=nodata, sea_level=sea_level, mask=mask, output=output,
+    return _raster_op("fill", dem, {"sinks": None if sinks is None else str(sinks)}, transform=transform, crs=crs, nodata=nodata, sea_level=sea_level, mask=mask, allow_sparse=allow_sparse, output=output,
                       memory=memory, tile=tile, threads=threads, format=format, progress=progress)
 
 
 @_doc
-def fill_epsilon(dem, *, transform=None, crs=None, nodata=None, sea_level=None, mask=None, output=None, memory=None, tile=None, threads=0,
+def fill_epsilon(dem, *, transform=None, crs=None, nodata=None, sea_level=None, mask=None, allow_sparse=False, output=None, memory=None, tile=None, threads=0,
                  format=None, progress=None):
     """Fill to a strictly draining surface (``orogen fill-epsilon``): each
     flat cell rises k ULPs above its fill level, k its distance to the
     flat's exit (Barnes, Lehman & Mulla 2014, epsilon variant), exact
     across tiles."""
-    return _raster_op("fill_epsilon", dem, {}, transform=transform, crs=crs, nodata=nodata, sea_level=sea_level, mask=mask, output=output,
+    return _raster_op("fill_epsilon", dem, {}, transform=transform, crs=crs, nodata=nodata, sea_level=sea_level, mask=mask, allow_sparse=allow_sparse, output=output,
                       memory=memory, tile=tile, threads=threads, format=format, progress=progress)
 
 
 @_doc
 def breach(dem, *, method="breach", max_depth=None, max_length=None, dist=50, fill_remaining=False, epsilon=False,
-           transform=None, crs=None, nodata=None, sea_level=None, mask=None, output=None, memory=None, tile=None, threads=0, format=None, progress=None):
+           transform=None, crs=None, nodata=None, sea_level=None, mask=None, allow_sparse=False, output=None, memory=None, tile=None, threads=0, format=None, progress=None):
     """Breach depressions (``orogen breach``): ``method`` ``"breach"``
     (flood-order, every depression carved), ``"hybrid"`` (Lindsay 2016
     selective breaching within ``max_depth`` / ``max_length``, else fill) or
@@ -447,12 +449,12 @@ def breach(dem, *, method="breach", max_depth=None, max_length=None, dist=50, fi
     carves strictly descending channels."""
     opts = {"method": method, "max_depth": max_depth, "max_length": max_length, "dist": dist,
             "fill_remaining": fill_remaining, "epsilon": epsilon}
-    return _raster_op("breach", dem, opts, transform=transform, crs=crs, nodata=nodata, sea_level=sea_level, mask=mask, output=output,
+    return _raster_op("breach", dem, opts, transform=transform, crs=crs, nodata=nodata, sea_level=sea_level, mask=mask, allow_sparse=allow_sparse, output=output,
                       memory=memory, tile=tile, threads=threads, format=format, progress=progress)
 
 
 @_doc
-def flow(dem, *, method="d8", seed=0, sinks=None, transform=None, crs=None, nodata=None, sea_level=None, mask=None, output=None, memory=None, tile=None,
+def flow(dem, *, method="d8", seed=0, sinks=None, transform=None, crs=None, nodata=None, sea_level=None, mask=None, allow_sparse=False, output=None, memory=None, tile=None,
          threads=0, format=None, progress=None):
     """D8 flow directions of a filled DEM (``orogen flow``) as ESRI codes
     (1 E, 2 SE, 4 S, 8 SW, 16 W, 32 NW, 64 N, 128 NE; 0 no flow, 255
@@ -460,12 +462,12 @@ def flow(dem, *, method="d8", seed=0, sinks=None, transform=None, crs=None, noda
     across tiles. ``method="rho8"``: Fairfield & Leymarie 1991, seeded by
     ``seed``. ``sinks``: the declared sinks given to :func:`fill` (D8 only):
     their cells get no flow (0) and the flats around them drain into them."""
-    return _raster_op("flow", dem, {"method": method, "seed": seed, "sinks": None if sinks is None else str(sinks)}, transform=transform, crs=crs, nodata=nodata, sea_level=sea_level, mask=mask,
+    return _raster_op("flow", dem, {"method": method, "seed": seed, "sinks": None if sinks is None else str(sinks)}, transform=transform, crs=crs, nodata=nodata, sea_level=sea_level, mask=mask, allow_sparse=allow_sparse,
                       output=output, memory=memory, tile=tile, threads=threads, format=format, progress=progress)
 
 
 @_doc
-def accumulate(src, *, method="d8", exponent=4.0, weights=None, units="cells", transform=None, crs=None, nodata=None, sea_level=None, mask=None,
+def accumulate(src, *, method="d8", exponent=4.0, weights=None, units="cells", transform=None, crs=None, nodata=None, sea_level=None, mask=None, allow_sparse=False,
                output=None, memory=None, tile=None, threads=0, format=None, progress=None):
     """Flow accumulation in cells (``orogen accumulate``), float64, nodata
     NaN. ``method="d8"`` takes D8 directions (from :func:`flow`; exact
@@ -478,62 +480,62 @@ def accumulate(src, *, method="d8", exponent=4.0, weights=None, units="cells", t
     contour width √(cell area)); these need georeferencing."""
     opts = {"method": method, "exponent": exponent,
             "weights": os.fspath(weights) if weights is not None else None, "units": units}
-    return _raster_op("accumulate", src, opts, transform=transform, crs=crs, nodata=nodata, sea_level=sea_level, mask=mask, output=output,
+    return _raster_op("accumulate", src, opts, transform=transform, crs=crs, nodata=nodata, sea_level=sea_level, mask=mask, allow_sparse=allow_sparse, output=output,
                       memory=memory, tile=tile, threads=threads, format=format, progress=progress)
 
 
 @_doc
-def watersheds(dirs, *, transform=None, crs=None, nodata=None, sea_level=None, mask=None, output=None, memory=None, tile=None, threads=0,
+def watersheds(dirs, *, transform=None, crs=None, nodata=None, sea_level=None, mask=None, allow_sparse=False, output=None, memory=None, tile=None, threads=0,
                format=None, progress=None):
     """Watershed labels of D8 directions (``orogen watersheds``): every cell
     gets the row-major index + 1 of the cell where its D8 path leaves the
     DEM (uint32, 0 nodata), exact across tiles."""
-    return _raster_op("watersheds", dirs, {}, transform=transform, crs=crs, nodata=nodata, sea_level=sea_level, mask=mask, output=output,
+    return _raster_op("watersheds", dirs, {}, transform=transform, crs=crs, nodata=nodata, sea_level=sea_level, mask=mask, allow_sparse=allow_sparse, output=output,
                       memory=memory, tile=tile, threads=threads, format=format, progress=progress)
 
 
 @_doc
-def slope(dem, *, units="degrees", z_factor=1.0, compute_edges=False, transform=None, crs=None, nodata=None, sea_level=None, mask=None,
+def slope(dem, *, units="degrees", z_factor=1.0, compute_edges=False, transform=None, crs=None, nodata=None, sea_level=None, mask=None, allow_sparse=False,
           output=None, memory=None, tile=None, threads=0, format=None, progress=None):
     """Slope (``orogen slope``) by Horn's (1981) 3x3 gradient, as ``gdaldem
     slope``: ``units`` ``"degrees"`` or ``"percent"``; edge cells are
     nodata unless ``compute_edges``."""
     opts = {"units": units, "z_factor": z_factor, "compute_edges": compute_edges}
-    return _raster_op("slope", dem, opts, transform=transform, crs=crs, nodata=nodata, sea_level=sea_level, mask=mask, output=output,
+    return _raster_op("slope", dem, opts, transform=transform, crs=crs, nodata=nodata, sea_level=sea_level, mask=mask, allow_sparse=allow_sparse, output=output,
                       memory=memory, tile=tile, threads=threads, format=format, progress=progress)
 
 
 @_doc
-def aspect(dem, *, zero_for_flat=False, compute_edges=False, transform=None, crs=None, nodata=None, sea_level=None, mask=None, output=None,
+def aspect(dem, *, zero_for_flat=False, compute_edges=False, transform=None, crs=None, nodata=None, sea_level=None, mask=None, allow_sparse=False, output=None,
            memory=None, tile=None, threads=0, format=None, progress=None):
     """Aspect in degrees clockwise from north (``orogen aspect``), Horn
     (1981) as ``gdaldem aspect``; flat cells are nodata unless
     ``zero_for_flat``."""
     opts = {"zero_for_flat": zero_for_flat, "compute_edges": compute_edges}
-    return _raster_op("aspect", dem, opts, transform=transform, crs=crs, nodata=nodata, sea_level=sea_level, mask=mask, output=output,
+    return _raster_op("aspect", dem, opts, transform=transform, crs=crs, nodata=nodata, sea_level=sea_level, mask=mask, allow_sparse=allow_sparse, output=output,
                       memory=memory, tile=tile, threads=threads, format=format, progress=progress)
 
 
 @_doc
 def hillshade(dem, *, azimuth=315.0, altitude=45.0, z_factor=1.0, compute_edges=False, transform=None, crs=None,
-              nodata=None, sea_level=None, mask=None, output=None, memory=None, tile=None, threads=0, format=None, progress=None):
+              nodata=None, sea_level=None, mask=None, allow_sparse=False, output=None, memory=None, tile=None, threads=0, format=None, progress=None):
     """Hillshade 1..255 (0 nodata), uint8 (``orogen hillshade``), Horn (1981)
     as ``gdaldem hillshade``."""
     opts = {"azimuth": azimuth, "altitude": altitude, "z_factor": z_factor, "compute_edges": compute_edges}
-    return _raster_op("hillshade", dem, opts, transform=transform, crs=crs, nodata=nodata, sea_level=sea_level, mask=mask, output=output,
+    return _raster_op("hillshade", dem, opts, transform=transform, crs=crs, nodata=nodata, sea_level=sea_level, mask=mask, allow_sparse=allow_sparse, output=output,
                       memory=memory, tile=tile, threads=threads, format=format, progress=progress)
 
 
-def export(dem, output, *, transform=None, crs=None, nodata=None, sea_level=None, mask=None, memory=None, tile=None, threads=0, format=None, progress=None):
+def export(dem, output, *, transform=None, crs=None, nodata=None, sea_level=None, mask=None, allow_sparse=False, memory=None, tile=None, threads=0, format=None, progress=None):
     """Write ``dem`` (an array, DataArray or raster path) to ``output``
     (``orogen export`` / ``ingest``: ``.tif``, ``.tiles``, ``.png``, ``.asc``
     by extension) in its native type, tile by tile; returns a
     :class:`Raster` on it."""
-    return _raster_op("export", dem, {}, transform=transform, crs=crs, nodata=nodata, sea_level=sea_level, mask=mask, output=output,
+    return _raster_op("export", dem, {}, transform=transform, crs=crs, nodata=nodata, sea_level=sea_level, mask=mask, allow_sparse=allow_sparse, output=output,
                       memory=memory, tile=tile, threads=threads, format=format, progress=progress)
 
 
-def metrics(dem, metric: Union[str, Sequence[str]], *, transform=None, crs=None, nodata=None, sea_level=None, mask=None, output=None,
+def metrics(dem, metric: Union[str, Sequence[str]], *, transform=None, crs=None, nodata=None, sea_level=None, mask=None, allow_sparse=False, output=None,
             memory=None, tile=None, threads=0, format=None, file_format="tif", progress=None):
     """Terrain metrics (``orogen metric --metric``): ``metric`` a list of
     specs such as ``["tpi:radius=500m", "openness:radius=1km"]`` (or one
@@ -544,7 +546,7 @@ def metrics(dem, metric: Union[str, Sequence[str]], *, transform=None, crs=None,
     ``"tif"`` or ``"tiles"``) and the dict maps to :class:`Raster`\\ s.
     """
     spec = metric if isinstance(metric, str) else ",".join(metric)
-    inp = _Input(dem, transform, crs, nodata, sea_level, mask)
+    inp = _Input(dem, transform, crs, nodata, sea_level, mask, allow_sparse)
     run = _run_settings(memory, tile, threads)
     opts = _json({"metric": spec, "format": file_format})
     fmt = _json(format or {})
@@ -576,7 +578,7 @@ def _parse_table(text: str) -> Dict[str, np.ndarray]:
 
 
 def peaks(dem, *, min_prominence=30.0, edge="sea-level", no_isolation=False, tiled=False, line_parents=False,
-          transform=None, crs=None, nodata=None, sea_level=None, mask=None, output=None, memory=None, tile=None, threads=0,
+          transform=None, crs=None, nodata=None, sea_level=None, mask=None, allow_sparse=False, output=None, memory=None, tile=None, threads=0,
           as_dataframe=False, progress=None, geojson_crs="wgs84"):
     """Peaks with prominence, key saddles, parents, isolation and the divide
     tree (``orogen peaks``; Kirmse & de Ferranti 2017), in memory when the
@@ -594,7 +596,7 @@ def peaks(dem, *, min_prominence=30.0, edge="sea-level", no_isolation=False, til
     unless ``geojson_crs="native"`` (the DEM's CRS with a ``crs`` member),
     as ``--geojson-crs`` of the CLI.
     """
-    inp = _Input(dem, transform, crs, nodata, sea_level, mask)
+    inp = _Input(dem, transform, crs, nodata, sea_level, mask, allow_sparse)
     run = _run_settings(memory, tile, threads)
     opts = _json({"min_prominence": float(min_prominence), "edge": edge, "no_isolation": no_isolation,
                   "tiled": tiled, "line_parents": line_parents, "tile": tile, "geojson_crs": geojson_crs})
@@ -609,7 +611,7 @@ def peaks(dem, *, min_prominence=30.0, edge="sea-level", no_isolation=False, til
 
 
 def erode(dem, model="hydraulic", steps=None, *, water=False, sediment=False, set=None, transform=None, crs=None,
-          nodata=None, sea_level=None, mask=None, output=None, memory=None, tile=None, threads=0, format=None, progress=None, **params):
+          nodata=None, sea_level=None, mask=None, allow_sparse=False, output=None, memory=None, tile=None, threads=0, format=None, progress=None, **params):
     """Erode ``dem`` (``orogen erode``): ``model`` ``"hydraulic"`` (virtual
     pipes, Mei, Decaudin & Hu 2007), ``"thermal"`` (talus, Musgrave, Kolb &
     Mace 1989), ``"diffusion"`` (hillslope diffusion) — tiled with halo
@@ -633,7 +635,7 @@ def erode(dem, model="hydraulic", steps=None, *, water=False, sediment=False, se
     >>> bool(smooth[16, 16] < cone[16, 16])   # the summit is worn down
     True
     """
-    inp = _Input(dem, transform, crs, nodata, sea_level, mask)
+    inp = _Input(dem, transform, crs, nodata, sea_level, mask, allow_sparse)
     opts: Dict[str, Any] = {"model": model}
     if steps is not None:
         opts["steps"] = int(steps)

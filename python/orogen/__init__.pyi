@@ -48,71 +48,71 @@ class Raster:
 def open(path: PathLike) -> Raster: ...
 def defaults(op: str) -> Dict[str, Any]: ...
 def fill(
-    dem: DemInput, *, sinks: Optional[PathLike] = ..., transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., sea_level: Optional[float] = ..., mask: Optional[Union[PathLike, Raster]] = ...,
+    dem: DemInput, *, sinks: Optional[PathLike] = ..., transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., sea_level: Optional[float] = ..., mask: Optional[Union[PathLike, Raster]] = ..., allow_sparse: bool = ...,
     output: Optional[PathLike] = ..., memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
     format: Optional[Mapping[str, Any]] = ..., progress: Progress = ...,
 ) -> Any: ...
 def fill_epsilon(
-    dem: DemInput, *, transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., sea_level: Optional[float] = ..., mask: Optional[Union[PathLike, Raster]] = ...,
+    dem: DemInput, *, transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., sea_level: Optional[float] = ..., mask: Optional[Union[PathLike, Raster]] = ..., allow_sparse: bool = ...,
     output: Optional[PathLike] = ..., memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
     format: Optional[Mapping[str, Any]] = ..., progress: Progress = ...,
 ) -> Any: ...
 def breach(
     dem: DemInput, *, method: str = ..., max_depth: Optional[float] = ..., max_length: Optional[int] = ...,
     dist: int = ..., fill_remaining: bool = ..., epsilon: bool = ...,
-    transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., sea_level: Optional[float] = ..., mask: Optional[Union[PathLike, Raster]] = ...,
+    transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., sea_level: Optional[float] = ..., mask: Optional[Union[PathLike, Raster]] = ..., allow_sparse: bool = ...,
     output: Optional[PathLike] = ..., memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
     format: Optional[Mapping[str, Any]] = ..., progress: Progress = ...,
 ) -> Any: ...
 def flow(
     dem: DemInput, *, method: str = ..., seed: int = ...,
-    sinks: Optional[PathLike] = ..., transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., sea_level: Optional[float] = ..., mask: Optional[Union[PathLike, Raster]] = ...,
+    sinks: Optional[PathLike] = ..., transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., sea_level: Optional[float] = ..., mask: Optional[Union[PathLike, Raster]] = ..., allow_sparse: bool = ...,
     output: Optional[PathLike] = ..., memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
     format: Optional[Mapping[str, Any]] = ..., progress: Progress = ...,
 ) -> Any: ...
 def accumulate(
     src: DemInput, *, method: str = ..., exponent: float = ..., weights: Optional[PathLike] = ...,
-    units: str = ..., transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., sea_level: Optional[float] = ..., mask: Optional[Union[PathLike, Raster]] = ...,
+    units: str = ..., transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., sea_level: Optional[float] = ..., mask: Optional[Union[PathLike, Raster]] = ..., allow_sparse: bool = ...,
     output: Optional[PathLike] = ..., memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
     format: Optional[Mapping[str, Any]] = ..., progress: Progress = ...,
 ) -> Any: ...
 def watersheds(
-    dirs: DemInput, *, transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., sea_level: Optional[float] = ..., mask: Optional[Union[PathLike, Raster]] = ...,
+    dirs: DemInput, *, transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., sea_level: Optional[float] = ..., mask: Optional[Union[PathLike, Raster]] = ..., allow_sparse: bool = ...,
     output: Optional[PathLike] = ..., memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
     format: Optional[Mapping[str, Any]] = ..., progress: Progress = ...,
 ) -> Any: ...
 def slope(
     dem: DemInput, *, units: str = ..., z_factor: float = ..., compute_edges: bool = ...,
-    transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., sea_level: Optional[float] = ..., mask: Optional[Union[PathLike, Raster]] = ...,
+    transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., sea_level: Optional[float] = ..., mask: Optional[Union[PathLike, Raster]] = ..., allow_sparse: bool = ...,
     output: Optional[PathLike] = ..., memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
     format: Optional[Mapping[str, Any]] = ..., progress: Progress = ...,
 ) -> Any: ...
 def aspect(
     dem: DemInput, *, zero_for_flat: bool = ..., compute_edges: bool = ...,
-    transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., sea_level: Optional[float] = ..., mask: Optional[Union[PathLike, Raster]] = ...,
+    transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., sea_level: Optional[float] = ..., mask: Optional[Union[PathLike, Raster]] = ..., allow_sparse: bool = ...,
     output: Optional[PathLike] = ..., memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
     format: Optional[Mapping[str, Any]] = ..., progress: Progress = ...,
 ) -> Any: ...
 def hillshade(
     dem: DemInput, *, azimuth: float = ..., altitude: float = ..., z_factor: float = ..., compute_edges: bool = ...,
-    transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., sea_level: Optional[float] = ..., mask: Optional[Union[PathLike, Raster]] = ...,
+    transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., sea_level: Optional[float] = ..., mask: Optional[Union[PathLike, Raster]] = ..., allow_sparse: bool = ...,
     output: Optional[PathLike] = ..., memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
     format: Optional[Mapping[str, Any]] = ..., progress: Progress = ...,
 ) -> Any: ...
 def export(
-    dem: DemInput, output: PathLike, *, transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., sea_level: Optional[float] = ..., mask: Optional[Union[PathLike, Raster]] = ...,
+    dem: DemInput, output: PathLike, *, transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., sea_level: Optional[float] = ..., mask: Optional[Union[PathLike, Raster]] = ..., allow_sparse: bool = ...,
     memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
     format: Optional[Mapping[str, Any]] = ..., progress: Progress = ...,
 ) -> Raster: ...
 def metrics(
     dem: DemInput, metric: Union[str, Sequence[str]], *,
-    transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., sea_level: Optional[float] = ..., mask: Optional[Union[PathLike, Raster]] = ...,
+    transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., sea_level: Optional[float] = ..., mask: Optional[Union[PathLike, Raster]] = ..., allow_sparse: bool = ...,
     output: Optional[PathLike] = ..., memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
     format: Optional[Mapping[str, Any]] = ..., file_format: str = ..., progress: Progress = ...,
 ) -> Dict[str, Any]: ...
 def peaks(
     dem: DemInput, *, min_prominence: float = ..., edge: str = ..., no_isolation: bool = ..., tiled: bool = ...,
-    line_parents: bool = ..., transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., sea_level: Optional[float] = ..., mask: Optional[Union[PathLike, Raster]] = ...,
+    line_parents: bool = ..., transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., sea_level: Optional[float] = ..., mask: Optional[Union[PathLike, Raster]] = ..., allow_sparse: bool = ...,
     output: Optional[PathLike] = ..., memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
     as_dataframe: bool = ..., progress: Progress = ..., geojson_crs: str = ...,
 ) -> Any: ...
@@ -120,7 +120,7 @@ def peaks(
 def erode(
     dem: DemInput, model: str = ..., steps: Optional[int] = ..., *, water: Union[bool, PathLike] = ...,
     sediment: Union[bool, PathLike] = ..., set: Optional[Mapping[str, Any]] = ...,
-    transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., sea_level: Optional[float] = ..., mask: Optional[Union[PathLike, Raster]] = ...,
+    transform: Transform = ..., crs: CrsLike = ..., nodata: Optional[float] = ..., sea_level: Optional[float] = ..., mask: Optional[Union[PathLike, Raster]] = ..., allow_sparse: bool = ...,
     output: Optional[PathLike] = ..., memory: Optional[str] = ..., tile: Optional[int] = ..., threads: int = ...,
     format: Optional[Mapping[str, Any]] = ..., progress: Progress = ..., **params: Any,
 ) -> Any: ...

@@ -252,10 +252,19 @@ fn with_source<R>(
         });
     }
     let path: PathBuf = input.extract()?;
+    let allow_sparse = match georef
+        .map(|d| d.get_item("allow_sparse"))
+        .transpose()?
+        .flatten()
+    {
+        Some(v) => v.extract::<Option<bool>>()?.unwrap_or(false),
+        None => false,
+    };
     let opts = orogen::io::OpenOptions {
         nodata: key("nodata")?,
         sea_level,
         mask,
+        allow_sparse,
         ..Default::default()
     };
     let src = orogen::io::open_raster(&path, &opts).map_err(to_py)?;

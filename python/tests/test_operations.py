@@ -347,3 +347,36 @@ def test_sea_level_and_nodata_are_the_clis(cli, tmp_path):
     # an integer array without nodata cannot take a sea level
     with pytest.raises(orogen.InvalidInputError, match="--nodata"):
         orogen.fill(z.astype(np.int16), transform=r.transform, crs=r.crs, sea_level=0)
+
+
+def test_sinks_and_sparse_mosaics_are_the_clis(cli, tmp_path):
+    """``sinks=`` of :func:`orogen.fill` and :func:`orogen.flow` give the
+    CLI's bytes (the deepest depression of the Big Tujunga crop declared a
+    sink stays unfilled); a sparse VRT mosaic is refused unless
+    ``allow_sparse=True``, as the CLI's --allow-sparse."""
+    dem = ROOT / "tests" / "data" / "bigtujunga_crop.tif"
+    plain = orogen.fill(dem)
+    z = orogen.open(dem).read().astype(np.float64)
+    deepest = np.unravel_index(np.nanargmax(plain - z), z.shape)
+    assert plain[deepest] - z[deepest] > 1.0
+    t = orogen.open(dem).transform  # GDAL order: x0, dx, 0, y0, 0, dy
+    x = t[0] + (deepest[1] + 0.5) * t[1]
+    y = t[3] + (deepest[0] + 0.5) * t[5]
+    sinks = tmp_path / "sinks.csv"
+    sinks.write_text(f"x,y\n{x},{y}\n")
+    out = tmp_path / "cli.tif"
+    run_cli(cli, "fill", dem, "--sinks", sinks, "-o", out)
+    got = orogen.fill(dem, sinks=sinks)
+    same(got, orogen.open(out).read())
+    assert got[deepest] == z[deepest]
+    d8 = tmp_path / "d8.tif"
+    run_cli(cli, "flow", out, "--sinks", sinks, "-o", d8)
+    flow = orogen.flow(out, sinks=sinks)
+    same(flow, orogen.open(d8).read())
+    assert flow[deepest] == 0
+    sparse = ROOT / "tests" / "data" / "vrt" / "sparse.vrt"
+    with pytest.raises(orogen.InvalidInputError, match="allow-sparse"):
+        orogen.slope(sparse)
+    sp = tmp_path / "sp.tif"
+    run_cli(cli, "slope", sparse, "--allow-sparse", "-o", sp)
+    same(orogen.slope(sparse, allow_sparse=True), orogen.open(sp).read())
