@@ -333,18 +333,17 @@ pub fn recorded_scaling(path: &Path) -> Result<Option<Scaling>> {
     }
 }
 
-/// Band 1's `<Scale>` and `<Offset>` in a PAM sidecar's XML.
+/// Band 1's `<Scale>` and `<Offset>` in a PAM sidecar's XML (None when it
+/// has neither or is not XML).
 fn pam_band1(xml: &str) -> Option<Scaling> {
-    let start = xml
-        .find("<PAMRasterBand band=\"1\"")
-        .or_else(|| xml.find("<PAMRasterBand band='1'"))?;
-    let band = &xml[start..];
-    let band = &band[..band.find("</PAMRasterBand>").unwrap_or(band.len())];
+    let doc = roxmltree::Document::parse(xml).ok()?;
+    let band = doc
+        .descendants()
+        .find(|n| n.has_tag_name("PAMRasterBand") && n.attribute("band") == Some("1"))?;
     let value = |tag: &str| -> Option<f64> {
-        let open = format!("<{tag}>");
-        let i = band.find(&open)? + open.len();
-        let j = band[i..].find('<')? + i;
-        band[i..j]
+        band.children()
+            .find(|n| n.has_tag_name(tag))?
+            .text()?
             .trim()
             .parse::<f64>()
             .ok()

@@ -24,62 +24,31 @@ use crate::raster::{AnyGrid, Cell, DType, Grid, RasterInfo, RasterSource, Window
 
 /// The scale and offset of band `band` (1-based) in the text of a
 /// GDAL_METADATA tag, or None when it names neither (a missing one is 1 or
-/// 0). Items without a `sample` attribute are dataset metadata, not a
-/// band's, and are ignored, as GDAL does.
+/// 0) or the text is not XML. Items without a `sample` attribute are
+/// dataset metadata, not a band's, and are ignored, as GDAL does.
 pub fn from_gdal_metadata(xml: &str, band: usize) -> Option<Scaling> {
     let want = band.checked_sub(1)?.to_string();
+    let doc = roxmltree::Document::parse(xml.trim_end_matches('\0')).ok()?;
     let (mut scale, mut offset) = (None, None);
-    let mut rest = xml;
-    while let Some(start) = rest.find("<Item") {
-        let after = &rest[start + 5..];
-        let Some(close) = after.find('>') else { break };
-        let attrs = &after[..close];
-        let body = &after[close + 1..];
-        let Some(end) = body.find("</Item>") else {
-            break;
-        };
-        let value = body[..end].trim();
-        rest = &body[end..];
-        if attr(attrs, "sample") != Some(want.as_str()) {
+    for item in doc.descendants().filter(|n| n.has_tag_name("Item")) {
+        if item.attribute("sample") != Some(want.as_str()) {
             continue;
         }
-        let role = attr(attrs, "role").or_else(|| attr(attrs, "name"));
-        let v = value.parse::<f64>().ok().filter(|v| v.is_finite());
-        match role.map(|r| r.to_ascii_lowercase()) {
-            Some(r) if r == "scale" => scale = v.or(scale),
-            Some(r) if r == "offset" => offset = v.or(offset),
+        let role = item.attribute("role").or_else(|| item.attribute("name"));
+        let v = item
+            .text()
+            .and_then(|t| t.trim().parse::<f64>().ok())
+            .filter(|v| v.is_finite());
+        match role.map(|r| r.to_ascii_lowercase()).as_deref() {
+            Some("scale") => scale = v.or(scale),
+            Some("offset") => offset = v.or(offset),
             _ => {}
         }
     }
-    if scale.is_none() && offset.is_none() {
-        return None;
-    }
-    Some(Scaling {
+    (scale.is_some() || offset.is_some()).then(|| Scaling {
         scale: scale.unwrap_or(1.0),
         offset: offset.unwrap_or(0.0),
     })
-}
-
-/// The value of attribute `name` in the attribute text of an XML tag
-/// (`name="v"` or `name='v'`).
-fn attr<'a>(attrs: &'a str, name: &str) -> Option<&'a str> {
-    let mut rest = attrs;
-    while let Some(i) = rest.find(name) {
-        let before_ok = i == 0 || rest.as_bytes()[i - 1].is_ascii_whitespace();
-        let tail = rest[i + name.len()..].trim_start();
-        if before_ok {
-            if let Some(tail) = tail.strip_prefix('=') {
-                let tail = tail.trim_start();
-                let q = tail.chars().next()?;
-                if q == '"' || q == '\'' {
-                    let v = &tail[1..];
-                    return v.find(q).map(|e| &v[..e]);
-                }
-            }
-        }
-        rest = &rest[i + name.len()..];
-    }
-    None
 }
 
 /// `inner` with `scaling` applied on read (identity: `inner` unchanged).
@@ -187,6 +156,7 @@ mod tests {
             None
         );
         assert_eq!(from_gdal_metadata("<GDALMetadata>", 1), None);
+        assert_eq!(from_gdal_metadata("not xml", 1), None);
     }
 
     #[test]

@@ -112,49 +112,6 @@ impl RasterSource for RasterSinks {
     }
 }
 
-/// `dem` with every valid sink cell of `sinks` (same grid) lowered to the
-/// next f32 below its elevation, read as f32: the surface D8 routes on
-/// when sinks are declared. A sink cell is then lower than the flat its
-/// fill left around it, so the flat drains into it (Barnes, Lehman & Mulla
-/// 2014's low edges), while steepest descent elsewhere is unchanged (one
-/// ULP moves no drop past another but exact ties). Cell by cell, so tiled
-/// and whole-raster runs see the same surface.
-pub fn lowered_at_sinks<'a>(
-    dem: &'a dyn RasterSource,
-    sinks: &'a dyn RasterSource,
-) -> Result<Lowered<'a>> {
-    super::reassign::same_grid(sinks.info(), dem.info(), "sink raster")?;
-    let mut info = dem.info().clone();
-    info.dtype = DType::F32;
-    if info.georef.nodata.is_some() {
-        info.georef.nodata = Some(f64::NAN);
-    }
-    Ok(Lowered { dem, sinks, info })
-}
-
-/// See [`lowered_at_sinks`].
-pub struct Lowered<'a> {
-    dem: &'a dyn RasterSource,
-    sinks: &'a dyn RasterSource,
-    info: RasterInfo,
-}
-
-impl RasterSource for Lowered<'_> {
-    fn info(&self) -> &RasterInfo {
-        &self.info
-    }
-    fn read_native(&self, win: Window) -> Result<AnyGrid> {
-        let mut z: Grid<f32> = crate::raster::read_window(self.dem, win)?;
-        let s: Grid<u8> = crate::raster::read_window(self.sinks, win)?;
-        for (v, &k) in z.data_mut().iter_mut().zip(s.data()) {
-            if k != 0 && v.is_finite() {
-                *v = v.next_down();
-            }
-        }
-        Ok(AnyGrid::F32(z))
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -176,10 +133,6 @@ mod tests {
         let part: Grid<u8> = read_window(s.as_ref(), Window::new(1, 0, 3, 4)).unwrap();
         assert_eq!(part.get(1, 1), 1);
         assert_eq!(part.data().iter().filter(|&&v| v == 1).count(), 1);
-        let low = lowered_at_sinks(&dem, s.as_ref()).unwrap();
-        let z: Grid<f32> = read_window(&low, Window::new(0, 0, 6, 4)).unwrap();
-        assert_eq!(z.data()[8], 1.0f32.next_down());
-        assert_eq!(z.data()[7], 1.0);
         std::fs::write(&csv, "x,y\n125,585\n").unwrap();
         let e = open_sinks(&csv, dem.info()).err().unwrap().to_string();
         assert!(e.contains("lies outside"), "{e}");

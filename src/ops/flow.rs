@@ -87,12 +87,7 @@ pub fn run(
             )));
         }
         let sinks = crate::io::sinks::open_sinks(p, dem.info())?;
-        let lowered = crate::io::sinks::lowered_at_sinks(dem, sinks.as_ref())?;
-        return target.run_global(
-            &crate::hydro::tiled::TiledD8,
-            &[&lowered, sinks.as_ref()],
-            cfg,
-        );
+        return target.run_global(&crate::hydro::tiled::TiledD8, &[dem, sinks.as_ref()], cfg);
     }
     match opts.method {
         FlowRouting::D8 => target.run_global(&crate::hydro::tiled::TiledD8, &[dem], cfg),

@@ -52,6 +52,7 @@ use crate::raster::neighbours::CellGeometry;
 use crate::raster::{perimeter_cells, perimeter_index, perimeter_len};
 use crate::raster::{DType, Grid, TileId, TileLayout, TileView};
 use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
@@ -60,8 +61,8 @@ const FAR: u32 = u32::MAX;
 /// D8 flow directions with flats resolved exactly across tiles (equal to
 /// [`super::d8_directions`] bit for bit). Input: a filled DEM (f32, NaN =
 /// nodata), halo 2, and optionally the declared sinks (input 1, non-zero =
-/// sink; the DEM lowered there by [`crate::io::sinks::lowered_at_sinks`]),
-/// whose cells get [`NO_FLOW`]; output: ESRI codes (u8, [`NODATA_DIR`] for
+/// sink; the DEM is routed lowered there, see `dem_view`), whose cells get
+/// [`NO_FLOW`]; output: ESRI codes (u8, [`NODATA_DIR`] for
 /// nodata).
 ///
 /// Steepest descent is local (halo 1, plus 1 to know the halo cells' own
@@ -367,10 +368,27 @@ impl D8Prep {
 }
 
 /// Input view of a flats step.
-fn first_view<'a>(inputs: &'a [TileView<f32>], what: &str) -> Result<&'a TileView<f32>> {
-    inputs
+/// The filled DEM a flats step routes on: input 0, or, when input 1 holds
+/// declared sinks ([`crate::io::sinks`], non-zero = sink), a copy with every
+/// valid sink cell lowered to the next f32 below its elevation. A sink is
+/// then lower than the flat its fill left around it, so that flat drains
+/// into it (its cells are low edges), while steepest descent elsewhere is
+/// unchanged but for exact ties; halo cells are lowered alike, so every
+/// tile sees the same surface.
+fn dem_view<'a>(inputs: &'a [TileView<f32>], what: &str) -> Result<Cow<'a, TileView<f32>>> {
+    let v = inputs
         .first()
-        .ok_or_else(|| Error::invalid(format!("{what} needs one input (the filled DEM)")))
+        .ok_or_else(|| Error::invalid(format!("{what} needs one input (the filled DEM)")))?;
+    let Some(sinks) = inputs.get(1) else {
+        return Ok(Cow::Borrowed(v));
+    };
+    let mut low = v.clone();
+    for (z, &k) in low.grid.data_mut().iter_mut().zip(sinks.grid.data()) {
+        if super::tiled::is_sink(k) && z.is_finite() {
+            *z = z.next_down();
+        }
+    }
+    Ok(Cow::Owned(low))
 }
 
 /// The reduce shared by both steps.
@@ -585,7 +603,7 @@ macro_rules! flat_passes {
         }
 
         fn map(&self, inputs: &[TileView<f32>]) -> Result<FlatSummary> {
-            Ok(D8Prep::new(first_view(inputs, $name)?, $away)?.summary())
+            Ok(D8Prep::new(&*dem_view(inputs, $name)?, $away)?.summary())
         }
 
         fn reduce(&self, layout: &TileLayout, summaries: Vec<FlatSummary>) -> Result<FlatSolution> {
@@ -615,8 +633,8 @@ impl GlobalStep for TiledD8 {
         slice: &FlatSlice,
         out: &mut [Grid<u8>],
     ) -> Result<()> {
-        let v = first_view(inputs, "d8")?;
-        let p = D8Prep::new(v, true)?;
+        let v = dem_view(inputs, "d8")?;
+        let p = D8Prep::new(&v, true)?;
         let (w, h, gw, hl) = (p.w, p.h, p.gw, p.hl);
         let (t, a) = p.global(slice, true)?;
         let mask =
@@ -662,8 +680,7 @@ impl GlobalStep for TiledD8 {
                         }
                     }
                 }
-                // A declared sink (input 1, on a surface lowered there by
-                // `io::sinks::lowered_at_sinks`) ends its flow.
+                // A declared sink (input 1, lowered by `dem_view`) ends its flow.
                 if code != NODATA_DIR
                     && inputs
                         .get(1)
@@ -698,8 +715,8 @@ impl GlobalStep for TiledEpsilon {
         slice: &FlatSlice,
         out: &mut [Grid<f32>],
     ) -> Result<()> {
-        let v = first_view(inputs, "fill-epsilon")?;
-        let p = D8Prep::new(v, false)?;
+        let v = dem_view(inputs, "fill-epsilon")?;
+        let p = D8Prep::new(&v, false)?;
         let (w, h, gw, hl) = (p.w, p.h, p.gw, p.hl);
         let (t, _) = p.global(slice, false)?;
         let z = v.grid.data();

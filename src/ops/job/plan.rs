@@ -476,13 +476,17 @@ const INPUT_PATHS: &[(&str, &[&str])] = &[
     ),
 ];
 
+/// True if `table` lists option `key` (`_` or `-` form) of `command`.
+fn listed(table: &[(&str, &[&str])], command: &str, key: &str) -> bool {
+    let key = key.replace('-', "_");
+    table
+        .iter()
+        .any(|(c, keys)| *c == command && keys.contains(&key.as_str()))
+}
+
 /// True if option `key` of `command` names a file the step reads.
 pub(super) fn is_input_path(command: &str, key: &str) -> bool {
-    let key = key.replace('-', "_");
-    key == "mask"
-        || INPUT_PATHS
-            .iter()
-            .any(|(c, keys)| *c == command && keys.contains(&key.as_str()))
+    key == "mask" || listed(INPUT_PATHS, command, key)
 }
 
 /// `v`, the value of option `key` of a step running `command`, with a
@@ -496,15 +500,9 @@ fn rebased(
     base: &Path,
     output_dir: &Path,
 ) -> toml::Value {
-    let key = key.replace('-', "_");
-    let listed = |table: &[(&str, &[&str])]| {
-        table
-            .iter()
-            .any(|(c, keys)| *c == command && keys.contains(&key.as_str()))
-    };
-    let root = if listed(SIDE_OUTPUTS) {
+    let root = if listed(SIDE_OUTPUTS, command, key) {
         output_dir
-    } else if is_input_path(command, &key) {
+    } else if is_input_path(command, key) {
         base
     } else {
         return v.clone();
