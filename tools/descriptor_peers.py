@@ -126,9 +126,9 @@ cmp("profile_curvature vs r.param.scale profc", "profile_curvature.tif", "g_prof
     note="(Wood quadric on 3x3)", max_abs=1e-12)
 cmp("plan_curvature vs r.param.scale planc", "plan_curvature.tif", "g_planc.tif",
     lambda v: -v, "(r.param.scale planc is concave-positive: sign flipped)", max_abs=1e-12)
-# rule=grass: r.geomorphon 8's line rule, cut-off and edge ring (99.84 % of
-# the cells of bigtujunga_srtm30m_utm11); the paper's rule (the default)
-# differs near the flatness threshold (92.1 %).
+# rule=grass: r.geomorphon 8's line rule, cut-off and edge ring (100.00 % of
+# the cells compared on bigtujunga_srtm30m_utm11); the paper's rule (the
+# default) differs near the flatness threshold (92.6 %).
 agree("geomorphon rule=grass vs r.geomorphon", f"geomorphon_r{R}c_grass.tif", "g_gm.tif", min_agreement=0.99)
 agree("geomorphon (paper's rule) vs r.geomorphon", f"geomorphon_r{R}c.tif", "g_gm.tif", min_agreement=0.91)
 # SAGA interpolates along its rays, orogen samples whole cells: r 0.992, p99 3.3 deg.
