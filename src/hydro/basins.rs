@@ -691,14 +691,7 @@ pub fn locate_points(
     let (w, h) = (info.width, info.height);
     let mut out = Vec::with_capacity(pts.len());
     for (i, p) in pts.iter().enumerate() {
-        let (col, row) = info.georef.map_to_pixel(p.x, p.y).ok_or_else(|| {
-            Error::invalid(format!(
-                "{}: its transform cannot be inverted",
-                info.path.display()
-            ))
-        })?;
-        let (cx, cy) = (col.floor(), row.floor());
-        if !(cx >= 0.0 && cy >= 0.0 && cx < w as f64 && cy < h as f64) {
+        let Some((cx, cy)) = info.georef.cell_at(p.x, p.y, w, h) else {
             return Err(Error::invalid(format!(
                 "pour point {} ({}, {}) lies outside {} ({w}x{h} cells)",
                 p.name.clone().unwrap_or_else(|| (i + 1).to_string()),
@@ -706,8 +699,8 @@ pub fn locate_points(
                 p.y,
                 info.path.display()
             )));
-        }
-        let (mut x, mut y) = (cx as usize, cy as usize);
+        };
+        let (mut x, mut y) = (cx, cy);
         if snap_radius > 0 {
             let a = acc.ok_or_else(|| {
                 Error::invalid("snapping pour points needs the flow accumulation raster")

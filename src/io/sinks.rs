@@ -32,13 +32,7 @@ pub fn open_sinks(path: &Path, dem: &RasterInfo) -> Result<Box<dyn RasterSource>
         )?;
         let mut cells = Vec::with_capacity(pts.len());
         for (i, p) in pts.iter().enumerate() {
-            let inside = dem
-                .georef
-                .map_to_pixel(p.x, p.y)
-                .map(|(c, r)| (c.floor(), r.floor()))
-                .filter(|&(c, r)| {
-                    c >= 0.0 && r >= 0.0 && c < dem.width as f64 && r < dem.height as f64
-                });
+            let inside = dem.georef.cell_at(p.x, p.y, dem.width, dem.height);
             let Some((c, r)) = inside else {
                 return Err(Error::invalid(format!(
                     "{}: sink {} ({}, {}) lies outside {} ({}x{} cells); give points on the DEM",
@@ -51,7 +45,7 @@ pub fn open_sinks(path: &Path, dem: &RasterInfo) -> Result<Box<dyn RasterSource>
                     dem.height
                 )));
             };
-            cells.push(r as usize * dem.width + c as usize);
+            cells.push(r * dem.width + c);
         }
         cells.sort_unstable();
         cells.dedup();

@@ -145,6 +145,15 @@ impl GeoRef {
         let dy = y - t[3];
         Some(((dx * t[5] - dy * t[2]) / det, (dy * t[1] - dx * t[4]) / det))
     }
+    /// The cell (col, row) of a `width` x `height` raster whose area holds
+    /// the map point (x, y) (the floor of its pixel coordinates); None when
+    /// it lies outside the raster or the transform is singular.
+    pub fn cell_at(&self, x: f64, y: f64, width: usize, height: usize) -> Option<(usize, usize)> {
+        let (c, r) = self.map_to_pixel(x, y)?;
+        let (c, r) = (c.floor(), r.floor());
+        (c >= 0.0 && r >= 0.0 && c < width as f64 && r < height as f64)
+            .then_some((c as usize, r as usize))
+    }
     /// The georeference of a window whose top-left cell is (x, y) of this raster.
     pub fn shifted(&self, x: i64, y: i64) -> GeoRef {
         let (x0, y0) = self.pixel_to_map(x as f64, y as f64);
